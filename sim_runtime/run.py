@@ -1,0 +1,86 @@
+"""Process entry: one executor for every node, worlds paced by their real_time_factor."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Sequence
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+
+from sim_runtime.errors import InputError
+from sim_runtime.world_node import SimWorldNode
+
+
+def make_executor():
+    """The executor every process and test uses.
+
+    rclpy's EventsExecutor is 4-5x faster than SingleThreadedExecutor and, unlike it, does
+    not rebuild a wait set over every entity on each spin (178 ms vs 0.3 ms per spin with
+    2000 subscriptions, measured here), which a world with hundreds of robots needs.
+    """
+    return EventsExecutor()
+
+
+def drain(executor, timeout_sec: float = 1.0) -> bool:
+    """Run every callback already queued on ``executor``; True unless the timeout hit.
+
+    The events executor handles work in arrival order, so a no-op task queued now
+    completes only after everything queued before it.
+    """
+    marker = executor.create_task(lambda: None)
+    executor.spin_until_future_complete(marker, timeout_sec=timeout_sec)
+    return marker.done()
+
+
+def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None = None) -> int:
+    """Initialise rclpy, build the nodes, spin them in one executor until shutdown.
+
+    Worlds with ``real_time_factor`` > 0 step on a steady timer; at 0 they step as fast as the
+    CPU allows, handling every queued callback between steps. Bad input found while building
+    the nodes is printed as one clear line and the process exits with status 2.
+    """
+    rclpy.init(args=args)
+    nodes: list[Node] = []
+    try:
+        try:
+            nodes = list(make_nodes())
+        except InputError as error:
+            print(f"error: {error}", file=sys.stderr)
+            return 2
+        executor = make_executor()
+        for node in nodes:
+            executor.add_node(node)
+        worlds = [node for node in nodes if isinstance(node, SimWorldNode)]
+        for world in worlds:
+            if world.live_view:
+                from sim_runtime.rerun_view.live import attach_live_view
+
+                attach_live_view(world)
+        fast = [world for world in worlds if world.real_time_factor == 0.0]
+        for world in worlds:
+            if world not in fast:
+                world.start_pacing()
+        if fast:
+            while rclpy.ok():
+                stepped = False
+                for world in fast:
+                    if world.ready_to_step():
+                        world.step()
+                        stepped = True
+                if stepped:
+                    drain(executor)
+                else:
+                    executor.spin_once(timeout_sec=0.01)
+        else:
+            executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0

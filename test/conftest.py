@@ -1,0 +1,58 @@
+"""Launch-free test harness: rclpy once per session, one fresh executor per test.
+
+DDS traffic must stay on this machine, and parallel runs must not see each other, so the
+environment is fixed here before rclpy loads.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
+os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
+
+import rclpy  # noqa: E402  (after the environment above)
+from rclpy.node import Node  # noqa: E402
+
+from sim_runtime.run import make_executor  # noqa: E402
+
+_names = itertools.count()
+
+
+@pytest.fixture(scope="session")
+def ros():
+    """rclpy initialised once for the whole session."""
+    rclpy.init()
+    yield
+    rclpy.shutdown()
+
+
+@pytest.fixture
+def executor(ros):
+    """A fresh executor; every node added to it is destroyed after the test."""
+    ex = make_executor()
+    yield ex
+    for node in list(ex.get_nodes()):
+        ex.remove_node(node)
+        node.destroy_node()
+    ex.shutdown()
+
+
+@pytest.fixture
+def make_node(executor):
+    """Factory of plain nodes (unique names) already added to ``executor``."""
+
+    def factory(name: str = "test_node", **kwargs) -> Node:
+        node = Node(f"{name}_{next(_names)}", **kwargs)
+        executor.add_node(node)
+        return node
+
+    return factory

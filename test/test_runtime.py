@@ -1,0 +1,114 @@
+"""The shared runtime: sim clock and stepping, scheduled publishers, checked parameters, messages."""
+
+import math
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64
+
+from sim_runtime.errors import InputError
+from sim_runtime.msgs import (
+    float32_array,
+    matrix_from_quaternion,
+    quaternion_from_matrix,
+    quaternion_from_yaw,
+    time_from_msg,
+    time_msg,
+    yaw_from_quaternion,
+)
+from sim_runtime.run import drain
+from sim_runtime.testing import Collector, wait_for_match
+from sim_runtime.world_node import SimWorldNode
+
+
+class CounterWorld(SimWorldNode):
+    """A world whose 'model' counts physics steps and publishes at 10 Hz and 30 Hz."""
+
+    def __init__(self, **kwargs):
+        super().__init__("counter_world", physics_rate=100.0, **kwargs)
+        self.physics_steps = 0
+        self.ten_hz: list[float] = []
+        self.thirty_hz: list[float] = []
+        self.every(10.0, lambda: self.ten_hz.append(self.sim_time))
+        self.every(30.0, lambda: self.thirty_hz.append(self.sim_time))
+        self.every(0.0, lambda: pytest.fail("rate 0 must never fire"))
+        self.pub = self.create_publisher(Float64, "value", 10)
+        self.every(50.0, lambda: self.pub.publish(Float64(data=self.sim_time)))
+
+    def physics_step(self):
+        self.physics_steps += 1
+
+
+def test_step_advances_sim_time_and_fires_publishers_at_their_rates(executor):
+    world = CounterWorld()
+    executor.add_node(world)
+    world.step(100)
+    assert world.physics_steps == 100
+    assert world.sim_time == pytest.approx(1.0)
+    assert world.ten_hz == pytest.approx([0.1 * k for k in range(1, 11)])
+    # 30 Hz on a 100 Hz step: fires on the first step at or after each 1/30 s multiple.
+    assert len(world.thirty_hz) == 30
+    expected = [math.ceil(round(k / 30 * 100, 9)) / 100 for k in range(1, 31)]
+    assert world.thirty_hz == pytest.approx(expected)
+
+
+def test_clock_and_stamped_messages_carry_sim_time(executor, make_node):
+    world = CounterWorld()
+    executor.add_node(world)
+    probe = make_node("probe")
+    clocks = Collector(probe, Clock, "/clock", 100)
+    values = Collector(probe, Float64, "value", 10)
+    assert wait_for_match(executor, clocks.subscription)
+    assert wait_for_match(executor, values.subscription)
+    world.step(10)
+    drain(executor)
+    assert [time_from_msg(m.clock) for m in clocks.msgs] == pytest.approx([0.01 * k for k in range(1, 11)])
+    assert [m.data for m in values.msgs] == pytest.approx([0.02, 0.04, 0.06, 0.08, 0.1])
+
+
+def test_parameters_are_checked_with_a_clear_error(ros):
+    with pytest.raises(InputError, match=r"real_time_factor.*-1\.0"):
+        CounterWorld(parameter_overrides=[Parameter("real_time_factor", value=-1.0)])
+    world = CounterWorld(parameter_overrides=[Parameter("seed", value=7)])
+    assert world.rng.integers(1 << 30) == np.random.default_rng(7).integers(1 << 30)
+    world.destroy_node()
+
+
+def test_time_and_quaternion_conversions_round_trip():
+    stamp = time_msg(12.345678901)
+    assert (stamp.sec, stamp.nanosec) == (12, 345678901)
+    assert time_from_msg(stamp) == pytest.approx(12.345678901)
+    for yaw in np.linspace(-3.1, 3.1, 13):
+        assert yaw_from_quaternion(quaternion_from_yaw(yaw)) == pytest.approx(yaw)
+        q = quaternion_from_matrix(matrix_from_quaternion(quaternion_from_yaw(yaw)))
+        assert yaw_from_quaternion(q) == pytest.approx(yaw)
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        rotation, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        rotation *= np.sign(np.linalg.det(rotation))
+        assert matrix_from_quaternion(quaternion_from_matrix(rotation)) == pytest.approx(rotation)
+
+
+def test_float32_array_fills_message_fields_exactly():
+    from sensor_msgs.msg import LaserScan
+
+    values = np.array([0.5, math.inf, 2.25], dtype=np.float64)
+    msg = LaserScan()
+    msg.ranges = float32_array(values)
+    assert list(msg.ranges) == [0.5, math.inf, 2.25]
+
+
+def test_real_time_factor_paces_the_world_against_the_wall_clock(executor):
+    import time
+
+    world = CounterWorld(parameter_overrides=[Parameter("real_time_factor", value=2.0)])
+    executor.add_node(world)
+    world.start_pacing()
+    start = time.monotonic()
+    while time.monotonic() - start < 0.5:
+        executor.spin_once(timeout_sec=0.01)
+    elapsed = time.monotonic() - start
+    # Twice real time, give or take a few timer periods on a loaded machine.
+    assert world.sim_time == pytest.approx(2.0 * elapsed, abs=0.15)
