@@ -1,0 +1,85 @@
+"""Create config files (sensor noise and communication delay), in the MATLAB simulator's format.
+
+Rows ``<sensor> mean std`` for sensor in wall, cliff, odometry, sonar, lidar, camera, and
+``com_delay seconds``; ``%`` comments, blank rows and whitespace as in map files; keywords are
+case-insensitive. Unlisted sensors are noise-free. ``imu`` rows are accepted and ignored with a
+warning (the original accepted them but had no IMU). Unknown rows warn and are skipped; bad values
+raise :class:`InputError` naming file, line and value.
+
+What mean/std mean per sensor (from the seed's user manual): wall – offset of the IR range (m);
+cliff – added to the signal (%); odometry and camera – proportional (0.02 = 2 %); sonar, lidar –
+added to the distance (m).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from create_sim.mapfile import parse_number, read_text_file, split_row
+from sim_runtime.errors import InputError
+
+SENSORS = ("wall", "cliff", "odometry", "sonar", "lidar", "camera")
+
+
+@dataclass
+class NoiseConfig:
+    """Noise (mean, std) per sensor and the command/reading delay; the default is ideal."""
+
+    noise: dict[str, tuple[float, float]] = field(default_factory=dict)
+    com_delay: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in SENSORS:
+            self.noise.setdefault(name, (0.0, 0.0))
+
+    def to_text(self) -> str:
+        """The config in the file format, numbers written exactly (``parse_config`` gives it back)."""
+        rows = ["% SensorName NoiseMean NoiseStandardDev"]
+        rows += [f"{name} {self.noise[name][0]!r} {self.noise[name][1]!r}" for name in SENSORS]
+        rows += ["", f"com_delay {self.com_delay!r}"]
+        return "\n".join(rows) + "\n"
+
+
+def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
+    """Parse config-file text; ``source`` names the file in warnings and errors."""
+    config = NoiseConfig()
+    for number, raw in enumerate(text.splitlines(), start=1):
+        tokens = split_row(raw)
+        if not tokens:
+            continue
+        keyword = tokens[0].lower()
+        args = tokens[1:]
+        if keyword in SENSORS or keyword == "imu":
+            if len(args) != 2:
+                raise InputError.at(source, number,
+                                    f"'{keyword}' needs 2 numbers (mean std), got {len(args)}: "
+                                    f"{' '.join(args)!r}")
+            mean = parse_number(args[0], f"{keyword} mean", source, number)
+            std = parse_number(args[1], f"{keyword} std", source, number)
+            if std < 0.0:
+                raise InputError.at(source, number, f"{keyword} std {args[1]!r} must be >= 0")
+            if keyword == "imu":
+                warnings.warn(f"{source}:{number}: 'imu' noise ignored (the simulated Create has "
+                              "no IMU)", stacklevel=2)
+                continue
+            config.noise[keyword] = (mean, std)
+        elif keyword == "com_delay":
+            if len(args) != 1:
+                raise InputError.at(source, number,
+                                    f"'com_delay' needs 1 number (seconds), got {len(args)}: "
+                                    f"{' '.join(args)!r}")
+            delay = parse_number(args[0], "com_delay", source, number)
+            if delay < 0.0:
+                raise InputError.at(source, number, f"com_delay {args[0]!r} must be >= 0")
+            config.com_delay = delay
+        else:
+            warnings.warn(f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
+                          f"(expected {', '.join(SENSORS)} or com_delay)", stacklevel=2)
+    return config
+
+
+def load_config(path: str | Path) -> NoiseConfig:
+    """Read and parse a config file."""
+    return parse_config(read_text_file(path, "config"), str(path))

@@ -1,0 +1,156 @@
+"""Create map files, in the MATLAB simulator's text format (unchanged).
+
+One element per row; ``%`` starts a comment (whole row or trailing); blank rows, any spaces or
+tabs between fields and around the row are fine; keywords are case-insensitive::
+
+    wall x1 y1 x2 y2            % a wall segment the robot cannot cross
+    line x1 y1 x2 y2            % a painted line the cliff sensors see
+    beacon x y [r g b] id       % a coloured beacon for the camera; id keeps its case
+    virtwall x y theta setting  % virtual-wall emitter facing theta (rad), setting 1, 2 or 3
+
+A row with an unknown keyword is skipped with a warning naming file and line (as the original);
+a known row with a bad value raises :class:`InputError` naming file, line and value.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim_runtime.errors import InputError
+
+_BEACON_RE = re.compile(r"^(\S+)\s+(\S+)\s+\[([^\]]*)\]\s*(.*)$")
+
+
+@dataclass
+class CreateMap:
+    """The map's elements as arrays (world frame, metres and radians)."""
+
+    walls: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    beacon_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    beacon_rgb: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    beacon_ids: list[str] = field(default_factory=list)
+    virtwalls: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+    def to_text(self) -> str:
+        """The map in the file format, numbers written exactly (``parse_map`` gives it back)."""
+        rows = ["% robot_sims Create map: wall/line x1 y1 x2 y2, beacon x y [r g b] id, "
+                "virtwall x y theta setting"]
+        rows += ["wall " + " ".join(repr(float(v)) for v in w) for w in self.walls]
+        rows += ["line " + " ".join(repr(float(v)) for v in w) for w in self.lines]
+        for xy, rgb, beacon_id in zip(self.beacon_xy, self.beacon_rgb, self.beacon_ids, strict=True):
+            rows.append(f"beacon {float(xy[0])!r} {float(xy[1])!r} "
+                        f"[{' '.join(repr(float(c)) for c in rgb)}] {beacon_id}")
+        for x, y, theta, setting in self.virtwalls:
+            rows.append(f"virtwall {float(x)!r} {float(y)!r} {float(theta)!r} {int(setting)}")
+        return "\n".join(rows) + "\n"
+
+
+def split_row(raw: str) -> list[str]:
+    """Tokens of one row: the comment (from the first ``%``) removed, split on any whitespace."""
+    return raw.split("%", 1)[0].split()
+
+
+def parse_number(token: str, what: str, source: str, line: int) -> float:
+    """A finite float, or InputError naming the file, line, field and the offending token."""
+    try:
+        value = float(token)
+    except ValueError:
+        raise InputError.at(source, line, f"{what}: {token!r} is not a number") from None
+    if not math.isfinite(value):
+        raise InputError.at(source, line, f"{what}: {token!r} is not a finite number")
+    return value
+
+
+def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: str,
+             line: int) -> list[float]:
+    if len(tokens) != len(names):
+        raise InputError.at(
+            source, line,
+            f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: "
+            f"{' '.join(tokens)!r}")
+    return [parse_number(t, f"{keyword} {n}", source, line) for t, n in zip(tokens, names, strict=True)]
+
+
+def _beacon(tokens: list[str], source: str, line: int) -> tuple[list[float], list[float], str]:
+    body = " ".join(tokens)
+    match = _BEACON_RE.match(body)
+    if match is None:
+        raise InputError.at(source, line, f"'beacon' needs x y [r g b] id, got {body!r}")
+    x_tok, y_tok, colour, beacon_id = match.groups()
+    xy = [parse_number(x_tok, "beacon x", source, line), parse_number(y_tok, "beacon y", source, line)]
+    colour_tokens = colour.replace(",", " ").split()
+    if len(colour_tokens) != 3:
+        raise InputError.at(source, line, f"beacon colour needs 3 values [r g b], got [{colour}]")
+    rgb = [parse_number(t, f"beacon {n}", source, line) for t, n in zip(colour_tokens, "rgb", strict=True)]
+    for value, name in zip(rgb, "rgb", strict=True):
+        if not 0.0 <= value <= 1.0:
+            raise InputError.at(source, line, f"beacon {name} = {value!r} is outside 0..1")
+    id_tokens = beacon_id.split()
+    if len(id_tokens) != 1:
+        raise InputError.at(source, line, f"beacon id must be one word, got {beacon_id!r}")
+    return xy, rgb, id_tokens[0]
+
+
+def parse_map(text: str, source: str = "<string>") -> CreateMap:
+    """Parse map-file text; ``source`` names the file in warnings and errors."""
+    walls: list[list[float]] = []
+    lines: list[list[float]] = []
+    beacon_xy: list[list[float]] = []
+    beacon_rgb: list[list[float]] = []
+    beacon_ids: list[str] = []
+    virtwalls: list[list[float]] = []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        tokens = split_row(raw)
+        if not tokens:
+            continue
+        keyword = tokens[0].lower()
+        args = tokens[1:]
+        if keyword == "wall":
+            walls.append(_numbers(args, ("x1", "y1", "x2", "y2"), keyword, source, number))
+        elif keyword == "line":
+            lines.append(_numbers(args, ("x1", "y1", "x2", "y2"), keyword, source, number))
+        elif keyword == "beacon":
+            xy, rgb, beacon_id = _beacon(args, source, number)
+            beacon_xy.append(xy)
+            beacon_rgb.append(rgb)
+            beacon_ids.append(beacon_id)
+        elif keyword == "virtwall":
+            x, y, theta, setting = _numbers(args, ("x", "y", "theta", "setting"), keyword, source,
+                                            number)
+            if setting not in (1.0, 2.0, 3.0):
+                raise InputError.at(source, number,
+                                    f"virtwall setting {args[3]!r} must be 1, 2 or 3")
+            virtwalls.append([x, y, theta, setting])
+        else:
+            warnings.warn(f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
+                          "(expected wall, line, beacon or virtwall)", stacklevel=2)
+    return CreateMap(
+        walls=np.array(walls, dtype=np.float64).reshape(-1, 4),
+        lines=np.array(lines, dtype=np.float64).reshape(-1, 4),
+        beacon_xy=np.array(beacon_xy, dtype=np.float64).reshape(-1, 2),
+        beacon_rgb=np.array(beacon_rgb, dtype=np.float64).reshape(-1, 3),
+        beacon_ids=beacon_ids,
+        virtwalls=np.array(virtwalls, dtype=np.float64).reshape(-1, 4),
+    )
+
+
+def read_text_file(path: str | Path, kind: str) -> str:
+    """A text file's contents, or InputError naming it when it is missing or unreadable."""
+    try:
+        return Path(path).read_text(encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        raise InputError.at(path, None, f"{kind} file not found") from None
+    except OSError as exc:
+        raise InputError.at(path, None, f"cannot read {kind} file: {exc.strerror}") from None
+
+
+def load_map(path: str | Path) -> CreateMap:
+    """Read and parse a map file."""
+    return parse_map(read_text_file(path, "map"), str(path))

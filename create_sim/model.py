@@ -1,0 +1,347 @@
+"""The simulated iRobot Create: a pure model (no ROS), usable from a notebook.
+
+Geometry and constants follow the original MATLAB toolbox (see ``seed-facts/create.md``); the
+original's bugs are fixed (wheel clamping, arc direction, odometry wrap and sign lag, IR false
+positives, shared cliff noise, exact-equality occlusion). Angles are radians, counter-clockwise,
+sensor angles relative to the heading; every noise draw comes from the ``rng`` given.
+
+>>> from create_sim.mapfile import parse_map
+>>> robot = CreateModel(parse_map("wall 1 -1 1 1"))
+>>> robot.set_velocity(0.2, 0.0)
+(0.2, 0.0)
+>>> for _ in range(100):
+...     robot.step(0.01)
+>>> round(float(robot.sonar()[0]), 3)   # front sonar, from the body's edge to the wall
+0.64
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from create_sim.configfile import NoiseConfig
+from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts
+from create_sim.mapfile import CreateMap
+from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
+from sim_runtime.errors import InputError
+
+# A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
+_OCCLUSION_TOL = 1e-4
+
+
+@dataclass(frozen=True)
+class BeaconSighting:
+    """One beacon seen by the camera: distance (m) and bearing (rad, left positive) from it."""
+
+    id: str
+    rgb: tuple[float, float, float]
+    distance: float
+    angle: float
+
+
+class CreateModel:
+    """Kinematics, wall physics and every sensor of one Create in a map."""
+
+    RADIUS = 0.16
+    WHEEL_BASE = 0.258
+    MAX_WHEEL_SPEED = 0.5
+    FRICTION = 0.35  # kinetic friction μ against walls
+    LIDAR_BEAMS = 681
+    LIDAR_FOV = math.radians(240.0)
+    LIDAR_RANGE = (0.02, 4.0)
+    SONAR_RANGE = (0.02, 3.0)
+    CAMERA_RANGE = 6.0
+    CAMERA_HALF_FOV = math.radians(60.0)
+    CAMERA_OFFSET = 0.13
+    IR_RANGE = 0.1
+    IR_MOUNT_ANGLE = -0.225 * math.pi  # on the perimeter, looking straight right
+    VWALL_HALO = 0.45
+    # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
+    VWALL_FIELDS = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
+    BUMP_FRONT_HALF = 0.135 * math.pi
+    CLIFF_FLOOR = 21.5
+    CLIFF_LINE = 1.5
+    # Cliff sensor windows on the perimeter, relative to the heading, order [L, FL, FR, R].
+    CLIFF_WINDOWS = np.array([[0.295, 0.37], [0.04, 0.105], [-0.105, -0.04], [-0.37, -0.295]]) * math.pi
+    BATTERY_VOLTAGE = 17.2
+    BATTERY_CURRENT = -3.0
+    BATTERY_CHARGE = 3.0  # Ah
+    BATTERY_CAPACITY = 3.0  # Ah
+    TEMPERATURE = 25.0  # °C
+
+    def __init__(self, world: CreateMap, noise: NoiseConfig | None = None,
+                 rng: np.random.Generator | None = None,
+                 pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        self.world = world
+        self.noise = noise if noise is not None else NoiseConfig()
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+        self.grid = SegmentGrid.build(world.walls)
+        self._lines = np.ascontiguousarray(world.lines, dtype=np.float64).reshape(-1, 4)
+        self._contact_buf = np.empty((max(self.grid.segs.shape[0], 1), 4))
+        self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
+        self._lidar_offsets = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
+        self._sonar_offsets = np.array([0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi])
+        self._check_pose(*pose)
+        self.initial_pose = (float(pose[0]), float(pose[1]), float(wrap_angle(float(pose[2]))))
+        self.reset()
+
+    # ----------------------------------------------------------------------------- state
+    def reset(self) -> None:
+        """Back to the initial pose, stopped, odometry cleared."""
+        self._pose = np.array(self.initial_pose, dtype=np.float64)
+        self._command = (0.0, 0.0)
+        self._velocity = (0.0, 0.0)
+        self._odom_pose = np.zeros(3)
+        self._odom_totals = np.zeros(2)
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Ground-truth [x, y, θ] in the map frame, θ in [-π, π)."""
+        return self._pose.copy()
+
+    def set_pose(self, x: float, y: float, theta: float) -> None:
+        """Place the robot (odometry keeps counting from where it was); InputError inside a wall."""
+        self._check_pose(x, y, theta)
+        self._pose[:] = (x, y, wrap_angle(float(theta)))
+
+    def clearance(self) -> float:
+        """Gap between the body and the nearest wall (m); inf without walls."""
+        return _clearance(self.grid.segs, float(self._pose[0]), float(self._pose[1])) - self.RADIUS
+
+    def _check_pose(self, x: float, y: float, theta: float) -> None:
+        if not all(math.isfinite(float(v)) for v in (x, y, theta)):
+            raise InputError(f"pose ({x}, {y}, {theta}) is not finite")
+        gap = _clearance(self.grid.segs, float(x), float(y)) - self.RADIUS
+        if gap < -OVERLAP_TOL:
+            raise InputError(f"pose ({x}, {y}, {theta}) puts the robot {-gap:.3f} m inside a wall "
+                             f"(the body is a circle of radius {self.RADIUS} m)")
+
+    # ----------------------------------------------------------------------------- motion
+    def set_velocity(self, v: float, w: float) -> tuple[float, float]:
+        """Command forward speed v (m/s) and turn rate w (rad/s); returns the applied pair.
+
+        Each wheel is clamped to ±MAX_WHEEL_SPEED on its own and (v, w) recomputed from the
+        clamped wheels (the original clamped the left wheel from the right one's value).
+        """
+        v = float(v)
+        w = float(w)
+        if not (math.isfinite(v) and math.isfinite(w)):
+            raise ValueError(f"velocity command ({v}, {w}) is not finite")
+        half = 0.5 * self.WHEEL_BASE
+        limit = self.MAX_WHEEL_SPEED
+        right = min(max(v + w * half, -limit), limit)
+        left = min(max(v - w * half, -limit), limit)
+        self._command = (0.5 * (right + left), (right - left) / self.WHEEL_BASE)
+        return self._command
+
+    @property
+    def command(self) -> tuple[float, float]:
+        """The (clamped) commanded (v, w)."""
+        return self._command
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        """The body's actual (v, w) over the last step (0 when blocked)."""
+        return self._velocity
+
+    def step(self, dt: float) -> None:
+        """Advance the physics by dt seconds at the commanded velocity and update odometry."""
+        x0, y0, th0 = self._pose
+        v, w = self._command
+        x1, y1, th1 = advance(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
+                              float(x0), float(y0), float(th0), v, w, float(dt), self.RADIUS,
+                              self.FRICTION)
+        self._pose[:] = (x1, y1, th1)
+        dx = x1 - x0
+        dy = y1 - y0
+        turn = wrap_angle(th1 - th0)
+        mid = th0 + 0.5 * turn
+        # Signed by the actual motion in this step (no lag behind the previous step's velocity).
+        along = dx * math.cos(mid) + dy * math.sin(mid)
+        dist = math.copysign(math.hypot(dx, dy), along)
+        if dt > 0.0:
+            self._velocity = (along / dt, turn / dt)
+        self._integrate_odometry(dist, turn)
+
+    # ----------------------------------------------------------------------------- odometry
+    def _integrate_odometry(self, dist: float, turn: float) -> None:
+        mean, std = self.noise.noise["odometry"]
+        if dist != 0.0:
+            dist += (mean + std * self._normal()) * abs(dist)
+        if turn != 0.0:
+            turn += (mean + std * self._normal()) * abs(turn)
+        x, y, th = self._odom_pose
+        mid = th + 0.5 * turn
+        self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid),
+                              wrap_angle(th + turn))
+        self._odom_totals += (dist, turn)
+
+    @property
+    def odometry_pose(self) -> np.ndarray:
+        """[x, y, θ] dead-reckoned from the noisy wheel odometry, from (0, 0, 0) at reset."""
+        return self._odom_pose.copy()
+
+    @property
+    def odometry_totals(self) -> tuple[float, float]:
+        """Noisy distance (m, signed) and angle (rad, CCW) summed since reset."""
+        return float(self._odom_totals[0]), float(self._odom_totals[1])
+
+    def _normal(self, size: int | None = None):
+        return self.rng.standard_normal(size)
+
+    def _noise(self, sensor: str, size: int | None = None):
+        """mean + std·N(0, 1) of a sensor's noise; no draw when std is 0 (keeps ideal runs cheap)."""
+        mean, std = self.noise.noise[sensor]
+        if std == 0.0:
+            return mean if size is None else np.full(size, mean)
+        return mean + std * self.rng.standard_normal(size)
+
+    # ----------------------------------------------------------------------------- sensors
+    def _touching(self) -> np.ndarray:
+        """Contact points [cx, cy, d, wall] of walls within the contact skin of the body."""
+        x, y = self._pose[0], self._pose[1]
+        n = grid_contacts(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
+                          float(x), float(y), self.RADIUS + CONTACT_SKIN, self._contact_buf)
+        return self._contact_buf[:n]
+
+    def bumps(self) -> tuple[bool, bool]:
+        """(left, right) bumpers; a hit in front presses both."""
+        contacts = self._touching()
+        x, y, th = self._pose
+        left = right = False
+        for cx, cy, _, _ in contacts:
+            phi = wrap_angle(math.atan2(cy - y, cx - x) - th)
+            if abs(phi) < self.BUMP_FRONT_HALF:
+                return True, True
+            if self.BUMP_FRONT_HALF <= phi < 0.5 * math.pi:
+                left = True
+            elif -0.5 * math.pi < phi <= -self.BUMP_FRONT_HALF:
+                right = True
+        return left, right
+
+    def cliff_signals(self) -> np.ndarray:
+        """Cliff signal strengths (%) [left, front_left, front_right, right]: 21.5 floor, 1.5 line."""
+        x, y, th = self._pose
+        n = circle_crossing_angles(self._lines, float(x), float(y), self.RADIUS, self._crossing_buf)
+        signals = np.full(4, self.CLIFF_FLOOR)
+        if n:
+            rel = (self._crossing_buf[:n] - th + math.pi) % (2.0 * math.pi) - math.pi
+            over = ((rel[None, :] >= self.CLIFF_WINDOWS[:, :1])
+                    & (rel[None, :] <= self.CLIFF_WINDOWS[:, 1:])).any(axis=1)
+            signals[over] = self.CLIFF_LINE
+        return signals + self._noise("cliff", 4)
+
+    def wall_sensor(self) -> bool:
+        """IR wall sensor on the front-right, looking right: a wall within IR range (+ noise)."""
+        reach = self.IR_RANGE + float(self._noise("wall"))
+        if reach <= 0.0:
+            return False
+        x, y, th = self._pose
+        mount = th + self.IR_MOUNT_ANGLE
+        origin = np.array([[x + self.RADIUS * math.cos(mount), y + self.RADIUS * math.sin(mount)]])
+        hit = self.grid.cast_rays(origin, np.array([th - 0.5 * math.pi]), np.array([reach]))
+        return bool(np.isfinite(hit[0]))
+
+    def virtual_wall(self) -> bool:
+        """Whether the front receiver is in any emitter's halo or field, with no wall between."""
+        emitters = self.world.virtwalls
+        if emitters.shape[0] == 0:
+            return False
+        x, y, th = self._pose
+        rx = x + self.RADIUS * math.cos(th)
+        ry = y + self.RADIUS * math.sin(th)
+        dx = rx - emitters[:, 0]
+        dy = ry - emitters[:, 1]
+        dist = np.hypot(dx, dy)
+        reach = np.empty(len(emitters))
+        opening = np.empty(len(emitters))
+        for setting, (field_range, field_angle) in self.VWALL_FIELDS.items():
+            mask = emitters[:, 3] == setting
+            reach[mask] = field_range
+            opening[mask] = field_angle
+        # The field triangle: within half the opening of the beam, short of the chord at its end.
+        off_axis = np.abs((np.arctan2(dy, dx) - emitters[:, 2] + math.pi) % (2.0 * math.pi) - math.pi)
+        along = dx * np.cos(emitters[:, 2]) + dy * np.sin(emitters[:, 2])
+        in_field = (off_axis <= 0.5 * opening) & (along <= reach * np.cos(0.5 * opening))
+        candidates = np.flatnonzero((dist < self.VWALL_HALO) | in_field)
+        if candidates.size == 0:
+            return False
+        return bool(self._unoccluded(rx, ry, emitters[candidates, :2]).any())
+
+    def _unoccluded(self, ox: float, oy: float, targets: np.ndarray) -> np.ndarray:
+        """Which target points have no wall between them and (ox, oy)."""
+        dx = targets[:, 0] - ox
+        dy = targets[:, 1] - oy
+        dist = np.hypot(dx, dy)
+        origins = np.broadcast_to(np.array([ox, oy]), targets.shape)
+        hits = self.grid.cast_rays(origins, np.arctan2(dy, dx), dist)
+        return ~(hits < dist - _OCCLUSION_TOL)
+
+    def sonar(self) -> np.ndarray:
+        """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
+        x, y, th = self._pose
+        lo, hi = self.SONAR_RANGE
+        dist = self.grid.cast(float(x), float(y), th + self._sonar_offsets, hi + self.RADIUS)
+        dist -= self.RADIUS
+        hit = np.isfinite(dist)
+        noisy = np.clip(dist + self._noise("sonar", 4), lo, hi)
+        out = np.where(hit, noisy, np.inf)
+        out[hit & (dist < lo)] = -np.inf
+        return out
+
+    def lidar(self) -> np.ndarray:
+        """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m."""
+        x, y, th = self._pose
+        lo, hi = self.LIDAR_RANGE
+        ox = x + self.RADIUS * math.cos(th)
+        oy = y + self.RADIUS * math.sin(th)
+        dist = self.grid.cast(ox, oy, th + self._lidar_offsets, hi)
+        mean, std = self.noise.noise["lidar"]
+        if mean != 0.0 or std != 0.0:
+            dist = dist + self._noise("lidar", self.LIDAR_BEAMS)
+        return np.clip(dist, lo, hi, where=np.isfinite(dist), out=dist).astype(np.float32)
+
+    def camera(self) -> list[BeaconSighting]:
+        """Beacons within 6 m and ±60° of the camera (0.13 m ahead) with no wall in between."""
+        beacons = self.world.beacon_xy
+        if beacons.shape[0] == 0:
+            return []
+        x, y, th = self._pose
+        cx = x + self.CAMERA_OFFSET * math.cos(th)
+        cy = y + self.CAMERA_OFFSET * math.sin(th)
+        dx = beacons[:, 0] - cx
+        dy = beacons[:, 1] - cy
+        dist = np.hypot(dx, dy)
+        bearing = (np.arctan2(dy, dx) - th + math.pi) % (2.0 * math.pi) - math.pi
+        candidates = np.flatnonzero((dist <= self.CAMERA_RANGE) & (np.abs(bearing) <= self.CAMERA_HALF_FOV))
+        if candidates.size == 0:
+            return []
+        visible = candidates[self._unoccluded(cx, cy, beacons[candidates])]
+        sightings = []
+        for i in visible:
+            # Camera noise is proportional ("percent"), separate draws for distance and angle.
+            d = dist[i] * (1.0 + float(self._noise("camera")))
+            a = bearing[i] * (1.0 + float(self._noise("camera")))
+            rgb = tuple(float(c) for c in self.world.beacon_rgb[i])
+            sightings.append(BeaconSighting(self.world.beacon_ids[i], rgb, float(d), float(a)))
+        return sightings
+
+
+def _clearance(segs: np.ndarray, x: float, y: float) -> float:
+    """Exact distance from (x, y) to the nearest segment (inf without segments)."""
+    if segs.shape[0] == 0:
+        return math.inf
+    p = np.array([x, y])
+    a = segs[:, :2]
+    ab = segs[:, 2:] - a
+    len2 = np.einsum("ij,ij->i", ab, ab)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.clip(np.where(len2 > 0, np.einsum("ij,ij->i", p - a, ab) / len2, 0.0), 0.0, 1.0)
+    closest = a + u[:, None] * ab
+    return float(np.hypot(*(p - closest).T).min())
+
+
+__all__ = ["BeaconSighting", "CreateModel"]

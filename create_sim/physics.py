@@ -1,0 +1,181 @@
+"""Rigid-body motion of the circular Create among wall segments (numba kernel).
+
+Follows the seed's physics engine (driveNormal / drive1Wall / drive2Wall / driveCorner) with its
+known errors fixed:
+
+* Free motion is the exact arc of constant (v, ω), with the lateral offset on the correct side
+  (the original mirrored counter-clockwise arcs).
+* Every wall within reach is a contact (the original kept the two closest). A contact's normal
+  points from its closest point (a wall's side or a corner) to the centre. Contacts that the
+  intended velocity pushes into are "active".
+* One active contact: the robot slides along the contact's tangent; Coulomb-like friction from
+  the seed's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
+  μ·|v_n|/r from the turn rate, never reversing either (the original could *add* speed).
+* Several active contacts (two walls, a corner): slide along the most opposed contact if that
+  motion does not press into any other contact, otherwise stay put (stuck in the corner); the turn
+  rate loses μ·Σ|v_n|/r.
+* Whatever the commands, a step never ends overlapping a wall: motion is cut into sub-steps of at
+  most r/4 (so the centre cannot cross a wall), any penetration is pushed out along the contact
+  normals, and if that fails the move is shortened by bisection towards the previous, valid pose.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from create_sim.geometry import grid_contacts
+
+CONTACT_SKIN = 1e-3  # a wall this close to the body counts as touching (bumps, friction)
+OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
+_PUSH_MARGIN = 1e-8
+_MAX_CONTACTS = 64
+
+
+@numba.njit(cache=True)
+def wrap_angle(a: float) -> float:
+    """Angle wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
+def arc_motion(x, y, th, v, w, dt):
+    """Exact pose after driving at constant (v, ω) for dt (the seed's driveNormal, sign fixed)."""
+    dth = w * dt
+    if abs(dth) < 1e-12:
+        # Straight line (the arc formula's limit); keeps tiny ω numerically exact.
+        mid = th + 0.5 * dth
+        return x + v * dt * math.cos(mid), y + v * dt * math.sin(mid), th + dth
+    radius = v / w
+    # Chord of the arc, at half the turned angle from the initial heading.
+    chord = 2.0 * radius * math.sin(0.5 * dth)
+    mid = th + 0.5 * dth
+    return x + chord * math.cos(mid), y + chord * math.sin(mid), th + dth
+
+
+@numba.njit(cache=True)
+def min_clearance(segs, meta, start, items, px, py, radius, buf):
+    """Smallest centre-to-wall distance among walls within 2r (inf if none)."""
+    n = grid_contacts(segs, meta, start, items, px, py, 2.0 * radius, buf)
+    best = np.inf
+    for i in range(n):
+        if buf[i, 2] < best:
+            best = buf[i, 2]
+    return best
+
+
+@numba.njit(cache=True)
+def _push_out(segs, meta, start, items, px, py, radius, buf):
+    """Move the centre out of penetrating walls along their normals; returns (x, y, ok)."""
+    for _ in range(16):
+        n = grid_contacts(segs, meta, start, items, px, py, radius, buf)
+        inside = False
+        for i in range(n):
+            d = buf[i, 2]
+            if d >= radius - OVERLAP_TOL:
+                continue
+            inside = True
+            # Recompute against the already-moved centre (Gauss–Seidel over contacts).
+            s = int(buf[i, 3])
+            sx1, sy1, sx2, sy2 = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
+            ux = sx2 - sx1
+            uy = sy2 - sy1
+            len2 = ux * ux + uy * uy
+            u = 0.0
+            if len2 > 0.0:
+                u = min(max(((px - sx1) * ux + (py - sy1) * uy) / len2, 0.0), 1.0)
+            cx = sx1 + u * ux
+            cy = sy1 + u * uy
+            d = math.hypot(px - cx, py - cy)
+            if d >= radius or d == 0.0:
+                continue
+            k = (radius + _PUSH_MARGIN - d) / d
+            px += (px - cx) * k
+            py += (py - cy) * k
+        if not inside:
+            return px, py, True
+    return px, py, min_clearance(segs, meta, start, items, px, py, radius, buf) >= radius - OVERLAP_TOL
+
+
+@numba.njit(cache=True)
+def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
+    n = grid_contacts(segs, meta, start, items, x, y, radius + CONTACT_SKIN, buf)
+    hx = math.cos(th)
+    hy = math.sin(th)
+    vx = v * hx
+    vy = v * hy
+    # Contact normals (closest point → centre) and the intended velocity's normal components.
+    normals = np.empty((n, 2))
+    vn = np.empty(n)
+    n_active = 0
+    sum_press = 0.0
+    for i in range(n):
+        d = buf[i, 2]
+        if d > 0.0:
+            normals[i, 0] = (x - buf[i, 0]) / d
+            normals[i, 1] = (y - buf[i, 1]) / d
+        else:
+            normals[i, 0] = hx
+            normals[i, 1] = hy
+        vn[i] = vx * normals[i, 0] + vy * normals[i, 1]
+        if vn[i] < 0.0:
+            n_active += 1
+            sum_press -= vn[i]
+    if n_active == 0:
+        nx_, ny_, nth = arc_motion(x, y, th, v, w, h)
+    else:
+        # Try sliding along contacts from the most opposed one; take the first feasible slide.
+        ux = 0.0
+        uy = 0.0
+        order = np.argsort(vn)
+        for oi in range(n_active):
+            i = order[oi]
+            tx = -normals[i, 1]
+            ty = normals[i, 0]
+            vt = vx * tx + vy * ty
+            slide = max(abs(vt) - mu * (-vn[i]), 0.0)
+            cand_x = math.copysign(slide, vt) * tx
+            cand_y = math.copysign(slide, vt) * ty
+            feasible = True
+            for j in range(n):
+                if cand_x * normals[j, 0] + cand_y * normals[j, 1] < -1e-12:
+                    feasible = False
+                    break
+            if feasible:
+                ux = cand_x
+                uy = cand_y
+                break
+        w_eff = math.copysign(max(abs(w) - mu * sum_press / radius, 0.0), w)
+        nx_ = x + ux * h
+        ny_ = y + uy * h
+        nth = th + w_eff * h
+    px, py, ok = _push_out(segs, meta, start, items, nx_, ny_, radius, buf)
+    if not ok:
+        # Bisection between the valid start and the target: the robot is a circle, so heading
+        # never matters for overlap.
+        lo = 0.0
+        hi = 1.0
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            mx = x + (nx_ - x) * mid
+            my = y + (ny_ - y) * mid
+            if min_clearance(segs, meta, start, items, mx, my, radius, buf) >= radius - OVERLAP_TOL:
+                lo = mid
+            else:
+                hi = mid
+        px = x + (nx_ - x) * lo
+        py = y + (ny_ - y) * lo
+    return px, py, wrap_angle(nth)
+
+
+@numba.njit(cache=True)
+def advance(segs, meta, start, items, x, y, th, v, w, dt, radius, mu):
+    """Pose (x, y, θ) after one physics step of dt at the intended (v, ω)."""
+    buf = np.empty((max(segs.shape[0], 1), 4))
+    n_sub = max(1, int(math.ceil(abs(v) * dt / (0.25 * radius))))
+    h = dt / n_sub
+    for _ in range(n_sub):
+        x, y, th = _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf)
+    return x, y, th
