@@ -1,0 +1,130 @@
+"""``bag_to_rerun BAG [-o OUT.rrd]``: a bag drawn as a Rerun recording on the sim-time timeline.
+
+Every message goes through :class:`~sim_runtime.rerun_view.logger.RerunLogger` (the same drawing
+as the live ``rerun`` view). Topics of types it does not draw, or whose message package is not
+installed, are skipped with a warning. Writes the ``.rrd`` (no viewer is started) and prints the
+command that opens it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import TextIO
+
+import rerun as rr
+
+from sim_runtime.bag.reader import UnknownMessageType, open_bag
+from sim_runtime.errors import InputError
+from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
+
+APPLICATION_ID = "robot_sims"
+
+
+class Progress:
+    """A one-line progress bar on a stream (stderr), redrawn at most ten times a second."""
+
+    def __init__(self, total: int, label: str, stream: TextIO | None = None) -> None:
+        self.total = max(total, 1)
+        self.label = label
+        self.stream = sys.stderr if stream is None else stream
+        self._last = 0.0
+
+    def update(self, done: int, force: bool = False) -> None:
+        now = time.monotonic()
+        if not force and now - self._last < 0.1:
+            return
+        self._last = now
+        frac = min(done / self.total, 1.0)
+        bar = "#" * int(30 * frac)
+        self.stream.write(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{self.total} messages")
+        self.stream.flush()
+
+    def close(self, done: int) -> None:
+        self.update(done, force=True)
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+def default_output(bag_path: str | Path) -> Path:
+    """``<bag>.rrd`` beside the bag folder (or beside the .mcap file)."""
+    path = Path(bag_path).resolve()
+    return path.with_suffix(".rrd") if path.suffix == ".mcap" else path.with_name(path.name + ".rrd")
+
+
+def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progress: bool = True) -> Path:
+    """Convert a bag (folder or .mcap) into a Rerun ``.rrd`` file; returns its path.
+
+    Raises InputError if the bag cannot be opened or the output cannot be written.
+    """
+    bag = open_bag(bag_path)
+    if bag.message_count == 0:
+        raise InputError.at(bag.path, None, "no readable messages (empty, or not an MCAP bag)")
+    out_path = Path(out) if out is not None else default_output(bag_path)
+    if out_path.is_dir():
+        raise InputError(f"output {out_path}: is a folder; give a file name ending in .rrd")
+    if not out_path.parent.is_dir():
+        raise InputError(f"output {out_path}: folder {out_path.parent} does not exist")
+    skipped = {t: kind for t, kind in bag.topics.items() if kind not in SUPPORTED_TYPES}
+    for topic, kind in sorted(skipped.items()):
+        warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped",
+                      stacklevel=2)
+    wanted = [t for t in bag.topics if t not in skipped]
+
+    rec = rr.RecordingStream(APPLICATION_ID, recording_id=None)
+    rec.set_log_time_enabled(False)  # wall-clock at conversion time means nothing: sim_time only
+    logger = RerunLogger(rec, {t: bag.topics[t] for t in wanted})
+    rec.save(out_path, default_blueprint=logger.blueprint())
+    rec.send_recording_name(Path(bag.path).name)
+
+    bar = Progress(sum(bag.topic_counts.get(t, 0) for t in wanted), f"bag_to_rerun {Path(bag.path).name}") \
+        if progress else None
+    done = 0
+    try:
+        for m in bag.messages(topics=wanted):
+            try:
+                msg = m.msg
+            except UnknownMessageType as err:
+                warnings.warn(f"{bag.path}: {err}; topic {m.topic} skipped", stacklevel=2)
+                wanted.remove(m.topic)
+                skipped[m.topic] = m.type
+                continue
+            except Exception as err:  # noqa: BLE001 - one undecodable message must not end the run
+                warnings.warn(f"{bag.path}: topic {m.topic} at log time {m.log_time_ns} ns: cannot "
+                              f"deserialise {m.type} ({err}); message skipped", stacklevel=2)
+                continue
+            if m.topic in skipped:
+                continue
+            logger.log(m.topic, msg, m.log_time_ns)
+            done += 1
+            if bar is not None:
+                bar.update(done)
+    finally:
+        if bar is not None:
+            bar.close(done)
+        rec.flush()
+        rec.disconnect()
+    return out_path
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``bag_to_rerun``."""
+    parser = argparse.ArgumentParser(
+        prog="bag_to_rerun", description="Convert a bag (folder or .mcap) into a Rerun .rrd recording.")
+    parser.add_argument("bag", help="bag folder or .mcap file")
+    parser.add_argument("-o", "--output", help="output .rrd (default: <bag>.rrd beside the bag)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    opts = parser.parse_args(args)
+    try:
+        out = bag_to_rerun(opts.bag, opts.output, progress=not opts.no_progress)
+    except InputError as err:
+        print(f"bag_to_rerun: error: {err}", file=sys.stderr)
+        raise SystemExit(2) from err
+    print(f"wrote {out}\nopen it with:\n  rerun {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,305 @@
+"""bag_to_rerun: synthetic bags of the worlds' topic types → .rrd with the expected entities and data."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+import rerun.chunk as rrc
+import trimesh
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, PoseStamped, Quaternion
+from mcap.writer import Writer
+from nav_msgs.msg import OccupancyGrid, Odometry
+from rclpy.serialization import serialize_message
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Illuminance, JointState, LaserScan, Range
+from std_msgs.msg import String
+from visualization_msgs.msg import Marker, MarkerArray
+
+from sim_runtime.bag.reader import BagWarning
+from sim_runtime.errors import InputError
+from sim_runtime.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli
+from sim_runtime.rerun_view.convert import bag_to_rerun, main
+from sim_runtime.rerun_view.logger import TRACK_SEGMENT_POINTS, type_name
+
+NS = 1_000_000_000
+
+
+def stamp(t: float) -> Time:
+    ns = int(round(t * NS))
+    return Time(sec=ns // NS, nanosec=ns % NS)
+
+
+def write_bag(path: Path, messages: list[tuple[str, object, float]]) -> Path:
+    """A minimal rosbag2-style MCAP (ros2 profile, cdr) holding ``(topic, msg, t)``, t in seconds."""
+    with path.open("wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msg, t in messages:
+            if topic not in channels:
+                schema = writer.register_schema(name=type_name(msg), encoding="ros2msg", data=b"")
+                channels[topic] = writer.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
+            ns = int(round(t * NS))
+            writer.add_message(channels[topic], log_time=ns, data=serialize_message(msg), publish_time=ns)
+        writer.finish()
+    return path
+
+
+def quat(yaw: float) -> Quaternion:
+    return Quaternion(z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+
+
+def create_messages(steps: int = 50, ns: str = "") -> list[tuple[str, object, float]]:
+    """A Create driving a quarter circle: map markers, overhead pose, odom, scan, sonar, bump, cliff."""
+    pre = f"/{ns}" if ns else ""
+    fp = f"{ns}/" if ns else ""
+    walls = Marker(ns="walls", id=0, type=Marker.LINE_LIST, action=Marker.ADD,
+                   points=[Point(x=-2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=2.0)])
+    walls.header.frame_id = "map"
+    walls.scale.x = 0.03
+    walls.color.a = 1.0
+    beacon = Marker(ns="beacons", id=0, type=Marker.SPHERE, action=Marker.ADD, text="7")
+    beacon.header.frame_id = "map"
+    beacon.pose.position.x, beacon.pose.position.y = 1.5, 1.0
+    beacon.scale.x = beacon.scale.y = beacon.scale.z = 0.1
+    beacon.color.r, beacon.color.a = 1.0, 1.0
+    msgs: list[tuple[str, object, float]] = [
+        (f"{pre}/map_markers", MarkerArray(markers=[walls, beacon]), 0.0)]
+    for k in range(steps):
+        t = 0.02 * k
+        yaw = 0.5 * math.pi * k / steps
+        x, y = math.sin(yaw), 1.0 - math.cos(yaw)
+        msgs.append(("/clock", Clock(clock=stamp(t)), t))
+        pose = PoseStamped()
+        pose.header.stamp, pose.header.frame_id = stamp(t), "map"
+        pose.pose.position.x, pose.pose.position.y = x, y
+        pose.pose.orientation = quat(yaw)
+        msgs.append((f"{pre}/overhead_pose", pose, t))
+        odom = Odometry(child_frame_id=f"{fp}base_link")
+        odom.header.stamp, odom.header.frame_id = stamp(t), "odom"
+        odom.pose.pose.position.x, odom.pose.pose.position.y = 1.02 * x, 1.02 * y  # 2 % scale error
+        odom.pose.pose.orientation = quat(yaw)
+        msgs.append((f"{pre}/odom", odom, t))
+        if k % 5 == 0:
+            scan = LaserScan(angle_min=-2 * math.pi / 3, angle_max=2 * math.pi / 3,
+                             angle_increment=4 * math.pi / 3 / 680, range_min=0.02, range_max=4.0)
+            scan.header.stamp, scan.header.frame_id = stamp(t), f"{fp}laser"
+            ranges = np.full(681, 2.0, dtype=np.float32)
+            ranges[:100] = np.inf  # no return
+            scan.ranges = ranges.tolist()
+            msgs.append((f"{pre}/scan", scan, t))
+            sonar = Range(radiation_type=Range.ULTRASOUND, min_range=0.02, max_range=3.0, range=1.25)
+            sonar.header.stamp, sonar.header.frame_id = stamp(t), f"{fp}sonar_front"
+            msgs.append((f"{pre}/sonar/front", sonar, t))
+        bump = Range(radiation_type=Range.INFRARED, min_range=0.0, max_range=0.0,
+                     range=-math.inf if 20 <= k < 30 else math.inf)
+        bump.header.stamp, bump.header.frame_id = stamp(t), f"{fp}bump_left"
+        msgs.append((f"{pre}/bump/left", bump, t))
+        cliff = Illuminance(illuminance=1.5 if k == 40 else 21.5)
+        cliff.header.stamp, cliff.header.frame_id = stamp(t), f"{fp}cliff_left"
+        msgs.append((f"{pre}/cliff/left", cliff, t))
+    return msgs
+
+
+def arm_messages(stl: Path, steps: int = 10) -> list[tuple[str, object, float]]:
+    msgs: list[tuple[str, object, float]] = []
+    for k in range(steps):
+        t = 0.1 * k
+        js = JointState(name=["q1", "q2"], position=[0.1 * k, -0.05 * k], velocity=[1.0, -0.5], effort=[])
+        js.header.stamp = stamp(t)
+        link = Marker(ns="links", id=1, type=Marker.MESH_RESOURCE, action=Marker.ADD,
+                      mesh_resource=f"file://{stl}")
+        link.header.frame_id, link.header.stamp = "world", stamp(t)
+        link.pose.position.z = 0.3
+        link.pose.orientation = quat(0.1 * k)
+        link.scale.x = link.scale.y = link.scale.z = 1.0
+        link.color.g, link.color.a = 0.8, 1.0
+        msgs += [("/joint_states", js, t), ("/robot_markers", MarkerArray(markers=[link]), t)]
+    return msgs
+
+
+def simrobot_messages() -> list[tuple[str, object, float]]:
+    grid = OccupancyGrid()
+    grid.header.frame_id = "map"
+    grid.info.resolution, grid.info.width, grid.info.height = 0.1, 20, 10
+    grid.info.origin.position.x = -1.0
+    cells = np.zeros((10, 20), dtype=np.int8)
+    cells[:, 0] = 100  # a wall along the left edge, 10 cells
+    cells[4:7, 10:13] = 100  # a 3x3 block: 8 border cells, 1 interior
+    grid.data = cells.ravel().tolist()
+    msgs: list[tuple[str, object, float]] = [("/map", grid, 0.0)]
+    for k in range(5):
+        pose = PoseStamped()
+        pose.header.stamp, pose.header.frame_id = stamp(float(k)), "map"
+        pose.pose.position.x = 0.1 * k
+        pose.pose.orientation.w = 1.0
+        msgs.append(("/r1/pose", pose, float(k)))
+    return msgs
+
+
+def load_entities(rrd: Path) -> dict[str, list[pa.RecordBatch]]:
+    """entity path → record batches of its chunks."""
+    out: dict[str, list[pa.RecordBatch]] = {}
+    for chunk in rrc.RrdReader(rrd).stream().to_chunks():
+        out.setdefault(str(chunk.entity_path), []).append(chunk.to_record_batch())
+    return out
+
+
+def column(batches: list[pa.RecordBatch], name: str) -> list:
+    values: list = []
+    for b in batches:
+        if name in b.schema.names:
+            values += b.column(name).to_pylist()
+    return values
+
+
+@pytest.fixture(scope="module")
+def rerun_env(tmp_path_factory) -> dict[str, str]:
+    return private_rerun_env(tmp_path_factory.mktemp("rerun_home"))
+
+
+def test_private_env_has_analytics_disabled(rerun_env, tmp_path):
+    assert rerun_env["HOME"] != str(Path.home())
+    assert rerun_env["XDG_CONFIG_HOME"].startswith(rerun_env["HOME"])
+    assert analytics_disabled(rerun_env)
+
+
+def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_env, capsys):
+    bag = write_bag(tmp_path / "create.mcap", create_messages())
+    out = tmp_path / "create.rrd"
+    main([str(bag), "-o", str(out)])
+    printed = capsys.readouterr()
+    assert f"rerun {out}" in printed.out
+    assert "100.0%" in printed.err  # the progress bar reached the end
+
+    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=rerun_env,
+                            capture_output=True, text=True, timeout=120)
+    assert verify.returncode == 0, verify.stderr
+
+    ents = load_entities(out)
+    walls = column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")
+    assert len(walls[0]) == 2  # LINE_LIST of 4 points = 2 segments
+    assert column(ents["/world/map_markers/beacons/0"], "Points3D:labels") == [["7"]]
+    assert len(column(ents["/world/robots/robot/body"], "LineStrips3D:strips")[0]) == 2  # circle + heading
+
+    poses = column(ents["/world/robots/robot"], "Transform3D:translation")
+    assert len(poses) == 50 + 0  # one transform per ground-truth pose; odom does not move it
+    assert poses[-1][0][0] == pytest.approx(math.sin(0.5 * math.pi * 49 / 50), abs=1e-6)
+
+    track = column(ents["/world/tracks/robot/truth/0"], "LineStrips3D:strips")
+    assert len(track[-1][0]) == 50  # the last strip holds the whole quarter circle
+    assert track[-1][0][-1] == pytest.approx(poses[-1][0], abs=1e-6)
+
+    scans = column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")
+    assert len(scans) == 10 and all(len(s) == 581 for s in scans)  # 681 beams, 100 without return
+    assert scans[0][-1] == pytest.approx([2.0 * math.cos(2 * math.pi / 3), 2.0 * math.sin(2 * math.pi / 3), 0.0],
+                                         abs=1e-5)  # in the laser frame, left-most beam
+    laser_mount = column(ents["/world/robots/robot/laser"], "Transform3D:translation")
+    assert laser_mount == [[pytest.approx([0.16, 0.0, 0.0])]]
+
+    sonar = column(ents["/world/robots/robot/sonar_front/ray"], "LineStrips3D:strips")
+    assert sonar[0][0][1] == pytest.approx([1.25, 0.0, 0.0])
+
+    bump_on = column(ents["/world/robots/robot/bump_left/detection"], "Points3D:positions")
+    assert len(bump_on) == 1  # drawn once when pressed (then cleared), not 50 times
+    events = column(ents["/events/robot"], "TextLog:text")
+    assert events == [["bump_left on (/bump/left)"], ["cliff_left on (/cliff/left)"]]
+
+    errors = column(ents["/plots/robot/odom_error/position_m"], "Scalars:scalars")
+    assert len(errors) == 50
+    assert errors[-1][0] == pytest.approx(0.02 * math.hypot(math.sin(0.5 * math.pi * 49 / 50),
+                                                            1 - math.cos(0.5 * math.pi * 49 / 50)), rel=1e-3)
+
+
+def test_long_track_is_split_into_continuous_segments(tmp_path):
+    bag = write_bag(tmp_path / "long.mcap", create_messages(steps=TRACK_SEGMENT_POINTS + 40))
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "long.rrd", progress=False))
+    first = column(ents["/world/tracks/robot/truth/0"], "LineStrips3D:strips")[-1][0]
+    second = column(ents["/world/tracks/robot/truth/1"], "LineStrips3D:strips")[-1][0]
+    assert len(first) == TRACK_SEGMENT_POINTS
+    assert second[0] == first[-1]  # no gap between segments
+    assert len(first) + len(second) - 1 == TRACK_SEGMENT_POINTS + 40
+
+
+def test_namespaced_robot_is_named_by_its_namespace(tmp_path):
+    bag = write_bag(tmp_path / "ns.mcap", create_messages(steps=10, ns="robot1"))
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "ns.rrd", progress=False))
+    assert "/world/robots/robot1/laser/scan" in ents
+    assert "/world/tracks/robot1/truth/0" in ents
+    assert "/world/robots/robot" not in ents
+
+
+def test_arm_meshes_logged_once_then_only_transforms(tmp_path):
+    stl = tmp_path / "link1.stl"
+    trimesh.creation.box(extents=[0.1, 0.1, 0.3]).export(stl)
+    bag = write_bag(tmp_path / "arm.mcap", arm_messages(stl))
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "arm.rrd", progress=False))
+    link = ents["/world/robot_markers/links/1"]
+    assert len(column(link, "Asset3D:blob")) == 1
+    assert column(link, "Asset3D:media_type") == [["model/stl"]]
+    assert len(column(link, "Transform3D:translation")) == 10
+    q1 = column(ents["/plots/joint_states/position/q1"], "Scalars:scalars")
+    assert [v[0] for v in q1] == pytest.approx([0.1 * k for k in range(10)])
+    assert "/plots/joint_states/effort/q1" not in ents  # empty effort array: nothing plotted
+
+
+def test_occupancy_grid_draws_obstacle_outline_in_world_coordinates(tmp_path):
+    bag = write_bag(tmp_path / "simrobot.mcap", simrobot_messages())
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "simrobot.rrd", progress=False))
+    cells = np.array(column(ents["/world/map/obstacles"], "Points3D:positions")[0])
+    assert len(cells) == 10 + 8  # the block's interior cell is not drawn
+    assert column(ents["/world/map"], "Transform3D:translation") == [[pytest.approx([-1.0, 0.0, 0.0])]]
+    assert "/world/robots/r1" in ents and "/world/tracks/r1/truth/0" in ents
+
+
+def test_unknown_type_is_skipped_with_a_warning(tmp_path):
+    msgs = create_messages(steps=5) + [("/chatter", String(data="hi"), 0.05)]
+    bag = write_bag(tmp_path / "unknown.mcap", sorted(msgs, key=lambda m: m[2]))
+    with pytest.warns(UserWarning, match=r"/chatter of type std_msgs/msg/String is not drawn"):
+        out = bag_to_rerun(bag, tmp_path / "unknown.rrd", progress=False)
+    assert "/world/robots/robot" in load_entities(out)
+
+
+def test_uninstalled_type_is_skipped_with_a_warning(tmp_path):
+    bag = write_bag(tmp_path / "x.mcap", create_messages(steps=3))
+    # Rename a supported type's schema to a package that is not installed.
+    data = bag.read_bytes().replace(b"sensor_msgs/msg/Illuminance", b"nosuch_pkgs/msg/Illuminance")
+    bag.write_bytes(data)
+    with pytest.warns(UserWarning, match="nosuch_pkgs/msg/Illuminance"):
+        out = bag_to_rerun(bag, tmp_path / "x.rrd", progress=False)
+    assert "/world/robots/robot/cliff_left/detection" not in load_entities(out)
+
+
+def test_truncated_bag_converts_what_is_intact(tmp_path, rerun_env):
+    full = write_bag(tmp_path / "full.mcap", create_messages(steps=50))
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(full.read_bytes()[: full.stat().st_size * 2 // 3])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = bag_to_rerun(cut, tmp_path / "cut.rrd", progress=False)
+    assert any("cut.mcap" in str(w.message) for w in caught)
+    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=rerun_env,
+                            capture_output=True, text=True, timeout=120)
+    assert verify.returncode == 0, verify.stderr
+
+
+def test_garbage_file_and_missing_output_folder_are_clear_errors(tmp_path, capsys):
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"this is not an mcap file at all" * 10)
+    with pytest.raises(SystemExit) as exit_info, pytest.warns(BagWarning, match="junk.mcap"):
+        main([str(junk), "-o", str(tmp_path / "j.rrd")])
+    assert exit_info.value.code == 2
+    assert "junk.mcap: no readable messages" in capsys.readouterr().err
+    assert not (tmp_path / "j.rrd").exists()
+    bag = write_bag(tmp_path / "ok.mcap", create_messages(steps=2))
+    with pytest.raises(InputError, match="does not exist"):
+        bag_to_rerun(bag, tmp_path / "no" / "such" / "out.rrd")
+    with pytest.raises(InputError, match="no such bag"):
+        bag_to_rerun(tmp_path / "missing_bag")
