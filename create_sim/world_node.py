@@ -1,0 +1,470 @@
+"""ROS 2 world node for the simulated iRobot Create (design.md §4).
+
+The node is a thin mapping of :class:`create_sim.model.CreateModel` onto topics, parameters and
+services. Physics runs at a fixed 100 Hz whatever ``real_time_factor`` is; every sensor is
+published at its own rate (parameters ``rate.<sensor>``, Hz, 0 = never), stamped with the sim
+time at which it was measured.
+
+Parameters (besides ``real_time_factor`` and ``seed`` from :class:`SimWorldNode`):
+
+``map_file``        map in the seed's text format; default the shipped ``config/create/example.map``;
+                    ``""`` = an empty (open) map.
+``config_file``     noise/com_delay file in the seed's text format; ``""`` = noise-free, no delay.
+``initial_pose``    ``[x, y, theta]`` in ``map`` (m, rad); inside a wall is an error.
+``rate.<sensor>``   publication rate in Hz for ``bump, cliff, wall, virtual_wall, odom,
+                    overhead_pose, sonar, scan, camera, buttons, battery``.
+``cmd_vel_stamped`` subscribe ``TwistStamped`` instead of ``Twist`` on ``cmd_vel``.
+``cmd_vel_timeout`` seconds of sim time without a command after which the robot stops; 0 = hold
+                    the last command forever, as the seed does.
+``frame_prefix``    prefix of the robot's frames; default derived from the namespace
+                    (``/robot1`` → ``robot1/``, so ``robot1/base_link``).
+
+Commands: each wheel is limited to ±0.5 m/s (an over-limit command is clamped per wheel and
+v, ω recomputed, as the seed's keyboard control meant to). A command with a NaN/inf component,
+or a component whose magnitude exceeds :data:`ABSURD_COMMAND` (1000 m/s or rad/s: a unit or
+uninitialised-variable bug, not a request to drive fast), is rejected with a throttled warning
+and leaves the state unchanged.
+
+``com_delay`` (config file) delays both directions by that much sim time: a command takes
+effect ``com_delay`` after it is received, and each sensor message is published ``com_delay``
+after its measurement (its stamp stays the measurement time, so the latency is visible).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
+from nav_msgs.msg import Odometry
+from rclpy.publisher import Publisher
+from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import Marker, MarkerArray
+
+from create_sim.configfile import NoiseConfig, load_config
+from create_sim.mapfile import CreateMap, load_map
+from create_sim.model import CreateModel
+from sim_runtime.errors import InputError
+from sim_runtime.msgs import (
+    all_finite,
+    color_msg,
+    float32_array,
+    pose_msg,
+    yaw_from_quaternion,
+)
+from sim_runtime.paths import config_path
+from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.run import run_nodes
+from sim_runtime.world_node import SimWorldNode
+
+PHYSICS_RATE = 100.0
+"""Fixed physics rate (Hz), independent of ``real_time_factor``."""
+
+ABSURD_COMMAND = 1000.0
+"""|v| (m/s) or |ω| (rad/s) above this is rejected as garbage instead of clamped."""
+
+DEFAULT_RATES: dict[str, float] = {
+    "bump": 50.0,
+    "cliff": 50.0,
+    "wall": 50.0,
+    "virtual_wall": 50.0,
+    "odom": 50.0,
+    "overhead_pose": 50.0,
+    "sonar": 20.0,
+    "scan": 10.0,
+    "camera": 10.0,
+    "buttons": 10.0,
+    "battery": 1.0,
+}
+
+SONAR_NAMES = ("front", "left", "back", "right")  # model.sonar() order
+CLIFF_NAMES = ("left", "front_left", "front_right", "right")  # model.cliff_signals() order
+BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
+
+
+def _frame_prefix(namespace: str) -> str:
+    ns = namespace.strip("/")
+    return f"{ns}/" if ns else ""
+
+
+class CreateWorldNode(SimWorldNode):
+    """The simulated Create: parameters → :class:`CreateModel`, model state → messages."""
+
+    def __init__(self, node_name: str = "create_world", **node_kwargs) -> None:
+        super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
+        self._declare_parameters()
+        self.model = CreateModel(self.world, self.noise, rng=self.rng, pose=self.initial_pose)
+        self.com_delay = float(self.noise.com_delay)
+
+        self._delayed_msgs: deque[tuple[float, Publisher, object]] = deque()
+        self._delayed_cmds: deque[tuple[float, float, float]] = deque()
+        self._last_cmd_time: float | None = None  # sim time the last command took effect
+        self.buttons_state = [0, 0]  # [play, advance]
+
+        self._make_publishers()
+        self._make_inputs()
+        self._publish_map_markers()
+
+    # ---------------------------------------------------------------- parameters
+    def _declare_parameters(self) -> None:
+        map_file = self.declare_checked(
+            "map_file", str(config_path("create/example.map")), lambda v: isinstance(v, str),
+            "map file in the seed's text format ('' = empty map)")
+        config_file = self.declare_checked(
+            "config_file", "", lambda v: isinstance(v, str),
+            "noise/com_delay config file in the seed's text format ('' = noise-free)")
+        pose = self.declare_checked(
+            "initial_pose", [0.0, 0.0, 0.0],
+            lambda v: len(v) == 3 and all_finite(*v),
+            "initial pose [x, y, theta] in the map frame (m, rad)")
+        self.cmd_vel_stamped = self.declare_checked(
+            "cmd_vel_stamped", False, lambda v: isinstance(v, bool),
+            "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel")
+        self.cmd_vel_timeout = self.declare_checked(
+            "cmd_vel_timeout", 0.0, lambda v: math.isfinite(v) and v >= 0.0,
+            "stop after this many sim seconds without cmd_vel (0 = hold the last command)")
+        prefix = self.declare_checked(
+            "frame_prefix", "", lambda v: isinstance(v, str),
+            "prefix of the robot's frames ('' = derived from the namespace)")
+        self.rates = {
+            name: self.declare_checked(
+                f"rate.{name}", default, lambda v: math.isfinite(v) and 0.0 <= v <= PHYSICS_RATE,
+                f"{name} publication rate in Hz (0 = never, at most the physics rate)")
+            for name, default in DEFAULT_RATES.items()
+        }
+        self.prefix = prefix or _frame_prefix(self.get_namespace())
+        self.world = self._load_world(map_file)
+        self.noise = self._load_noise(config_file)
+        self.initial_pose = tuple(float(v) for v in pose)
+
+    @staticmethod
+    def _load_world(path: str) -> CreateMap:
+        if not path:
+            return CreateMap()
+        try:
+            return load_map(path)
+        except OSError as err:
+            raise InputError(f"parameter map_file: cannot read {path!r}: {err.strerror}") from err
+
+    @staticmethod
+    def _load_noise(path: str) -> NoiseConfig:
+        if not path:
+            return NoiseConfig()
+        try:
+            return load_config(path)
+        except OSError as err:
+            raise InputError(f"parameter config_file: cannot read {path!r}: {err.strerror}") from err
+
+    def frame(self, name: str) -> str:
+        """The robot frame ``name`` with this robot's prefix (e.g. ``robot1/laser``)."""
+        return self.prefix + name
+
+    # ---------------------------------------------------------------- topics
+    def _make_publishers(self) -> None:
+        pub = self.create_publisher
+        self.pub_odom = pub(Odometry, "odom", SENSOR_QOS)
+        self.pub_overhead = pub(PoseStamped, "overhead_pose", SENSOR_QOS)
+        self.pub_bump = [pub(Range, f"bump/{side}", SENSOR_QOS) for side in ("left", "right")]
+        self.pub_wall = pub(Range, "wall", SENSOR_QOS)
+        self.pub_virtual_wall = pub(Range, "virtual_wall", SENSOR_QOS)
+        self.pub_cliff = [pub(Illuminance, f"cliff/{n}", SENSOR_QOS) for n in CLIFF_NAMES]
+        self.pub_sonar = [pub(Range, f"sonar/{n}", SENSOR_QOS) for n in SONAR_NAMES]
+        self.pub_scan = pub(LaserScan, "scan", SENSOR_QOS)
+        self.pub_camera = pub(MarkerArray, "camera/beacons", SENSOR_QOS)
+        self.pub_buttons = pub(Joy, "buttons", SENSOR_QOS)
+        self.pub_battery = pub(BatteryState, "battery_state", SENSOR_QOS)
+        self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
+
+        publishers: dict[str, Callable[[], None]] = {
+            "bump": self._publish_bumps,
+            "cliff": self._publish_cliffs,
+            "wall": self._publish_wall,
+            "virtual_wall": self._publish_virtual_wall,
+            "odom": self._publish_odom,
+            "overhead_pose": self._publish_overhead,
+            "sonar": self._publish_sonar,
+            "scan": self._publish_scan,
+            "camera": self._publish_camera,
+            "buttons": self._publish_buttons,
+            "battery": self._publish_battery,
+        }
+        for name, callback in publishers.items():
+            self.every(self.rates[name], callback)
+
+    def _make_inputs(self) -> None:
+        if self.cmd_vel_stamped:
+            self.create_subscription(
+                TwistStamped, "cmd_vel", lambda m: self.command(m.twist.linear.x, m.twist.angular.z),
+                COMMAND_QOS)
+        else:
+            self.create_subscription(
+                Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_QOS)
+        self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_QOS)
+        self.create_service(Trigger, "reset", self._on_reset)
+        self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
+        self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))
+
+    # ---------------------------------------------------------------- commands
+    def command(self, v: float, w: float) -> bool:
+        """Queue a velocity command (m/s, rad/s); it takes effect after ``com_delay``.
+
+        Returns False (and warns, throttled) if the command is rejected.
+        """
+        if not all_finite(v, w) or abs(v) > ABSURD_COMMAND or abs(w) > ABSURD_COMMAND:
+            self.warn_throttled(
+                "cmd_vel", f"rejected cmd_vel v={v!r} w={w!r}: not finite or absurdly large "
+                f"(|value| > {ABSURD_COMMAND:g}); state unchanged")
+            return False
+        self._delayed_cmds.append((self.sim_time + self.com_delay, float(v), float(w)))
+        return True
+
+    def _apply_due_commands(self, now: float) -> None:
+        while self._delayed_cmds and self._delayed_cmds[0][0] <= now + 1e-9:
+            _, v, w = self._delayed_cmds.popleft()
+            self.model.set_velocity(v, w)
+            self._last_cmd_time = now
+        if (self.cmd_vel_timeout > 0.0 and self._last_cmd_time is not None
+                and now - self._last_cmd_time >= self.cmd_vel_timeout - 1e-9):
+            self.model.set_velocity(0.0, 0.0)
+            self._last_cmd_time = None
+
+    def _on_set_pose(self, msg: PoseStamped) -> None:
+        p = msg.pose.position
+        yaw = yaw_from_quaternion(msg.pose.orientation)
+        if msg.header.frame_id not in ("", "map"):
+            self.warn_throttled("set_pose", f"set_pose ignored: frame {msg.header.frame_id!r} is not 'map'")
+            return
+        if not all_finite(p.x, p.y, yaw):
+            self.warn_throttled("set_pose", f"set_pose ignored: non-finite pose ({p.x}, {p.y}, {yaw})")
+            return
+        try:
+            self.model.set_pose(p.x, p.y, yaw)
+        except InputError as err:
+            self.warn_throttled("set_pose", f"set_pose ignored: {err}")
+
+    def _on_reset(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.model.reset()
+        self._delayed_cmds.clear()
+        self._last_cmd_time = None
+        self.buttons_state = [0, 0]
+        response.success = True
+        response.message = "robot back at its initial pose, stopped, odometry cleared"
+        return response
+
+    def _on_button(self, index: int, request: SetBool.Request,
+                   response: SetBool.Response) -> SetBool.Response:
+        # The seed's GUI buttons are toggles that stay down until pressed again (several may be down).
+        self.buttons_state[index] = int(bool(request.data))
+        response.success = True
+        response.message = "pressed" if request.data else "released"
+        return response
+
+    # ---------------------------------------------------------------- stepping
+    def physics_step(self) -> None:
+        """Apply due commands, advance the model one fixed step, release due sensor messages."""
+        now = self.sim_time
+        self._apply_due_commands(now)
+        self.model.step(self.physics_dt)
+        self._flush_delayed(now + self.physics_dt)
+
+    def _flush_delayed(self, now: float) -> None:
+        queue = self._delayed_msgs
+        while queue and queue[0][0] <= now + 1e-9:
+            _, publisher, msg = queue.popleft()
+            publisher.publish(msg)
+
+    def _send(self, publisher: Publisher, msg: object) -> None:
+        if self.com_delay > 0.0:
+            self._delayed_msgs.append((self.sim_time + self.com_delay, publisher, msg))
+        else:
+            publisher.publish(msg)
+
+    # ---------------------------------------------------------------- sensors
+    def _binary_range(self, frame: str, detected: bool, distance: float, fov: float,
+                      radiation: int = Range.INFRARED) -> Range:
+        # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
+        msg = Range(radiation_type=radiation, field_of_view=fov, min_range=distance, max_range=distance,
+                    range=-math.inf if detected else math.inf)
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = self.frame(frame)
+        return msg
+
+    def _publish_bumps(self) -> None:
+        left, right = self.model.bumps()
+        self._send(self.pub_bump[0], self._binary_range("bump_left", left, 0.0, BUMP_FOV))
+        self._send(self.pub_bump[1], self._binary_range("bump_right", right, 0.0, BUMP_FOV))
+
+    def _publish_wall(self) -> None:
+        self._send(self.pub_wall, self._binary_range(
+            "wall_ir", self.model.wall_sensor(), CreateModel.IR_RANGE, 0.0))
+
+    def _publish_virtual_wall(self) -> None:
+        self._send(self.pub_virtual_wall, self._binary_range(
+            "virtual_wall_ir", self.model.virtual_wall(), 0.0, 2 * math.pi))
+
+    def _publish_cliffs(self) -> None:
+        stamp = self.stamp()
+        for name, publisher, value in zip(CLIFF_NAMES, self.pub_cliff, self.model.cliff_signals(), strict=True):
+            msg = Illuminance(illuminance=float(value))
+            msg.header.stamp = stamp
+            msg.header.frame_id = self.frame(f"cliff_{name}")
+            self._send(publisher, msg)
+
+    def _publish_sonar(self) -> None:
+        stamp = self.stamp()
+        lo, hi = CreateModel.SONAR_RANGE
+        for name, publisher, value in zip(SONAR_NAMES, self.pub_sonar, self.model.sonar(), strict=True):
+            msg = Range(radiation_type=Range.ULTRASOUND, field_of_view=0.0, min_range=lo, max_range=hi,
+                        range=float(value))
+            msg.header.stamp = stamp
+            msg.header.frame_id = self.frame(f"sonar_{name}")
+            self._send(publisher, msg)
+
+    def _publish_scan(self) -> None:
+        fov = CreateModel.LIDAR_FOV
+        lo, hi = CreateModel.LIDAR_RANGE
+        msg = LaserScan(angle_min=-fov / 2, angle_max=fov / 2,
+                        angle_increment=fov / (CreateModel.LIDAR_BEAMS - 1),
+                        time_increment=0.0, scan_time=1.0 / self.rates["scan"],
+                        range_min=lo, range_max=hi)
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = self.frame("laser")
+        msg.ranges = float32_array(self.model.lidar())
+        self._send(self.pub_scan, msg)
+
+    def _publish_camera(self) -> None:
+        stamp = self.stamp()
+        frame = self.frame("camera")
+        lifetime = 2.0 / self.rates["camera"]  # sightings vanish in RViz once they stop coming
+        markers = []
+        for i, sighting in enumerate(self.model.camera()):
+            m = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=sighting.id)
+            m.header.stamp = stamp
+            m.header.frame_id = frame
+            m.pose = pose_msg(sighting.distance * math.cos(sighting.angle),
+                              sighting.distance * math.sin(sighting.angle), 0.0)
+            m.scale = Vector3(x=0.1, y=0.1, z=0.1)
+            m.color = color_msg(*sighting.rgb)
+            m.lifetime = _duration(lifetime)
+            markers.append(m)
+        self._send(self.pub_camera, MarkerArray(markers=markers))
+
+    def _publish_odom(self) -> None:
+        x, y, theta = self.model.odometry_pose
+        v, w = self.model.velocity
+        msg = Odometry(child_frame_id=self.frame("base_link"))
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = "odom"
+        msg.pose.pose = pose_msg(float(x), float(y), float(theta))
+        msg.twist.twist.linear.x = float(v)
+        msg.twist.twist.angular.z = float(w)
+        self._send(self.pub_odom, msg)
+
+    def _publish_overhead(self) -> None:
+        x, y, theta = self.model.pose
+        msg = PoseStamped(pose=pose_msg(float(x), float(y), float(theta)))
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = "map"
+        self._send(self.pub_overhead, msg)
+
+    def _publish_buttons(self) -> None:
+        msg = Joy(buttons=list(self.buttons_state))
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = self.frame("base_link")
+        self._send(self.pub_buttons, msg)
+
+    def _publish_battery(self) -> None:
+        m = CreateModel  # the seed's battery readings are constants
+        msg = BatteryState(
+            voltage=m.BATTERY_VOLTAGE, current=m.BATTERY_CURRENT, temperature=m.TEMPERATURE,
+            charge=m.BATTERY_CHARGE, capacity=m.BATTERY_CAPACITY, design_capacity=m.BATTERY_CAPACITY,
+            percentage=1.0, present=True,
+            power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
+            power_supply_health=BatteryState.POWER_SUPPLY_HEALTH_GOOD,
+            power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH)
+        msg.header.stamp = self.stamp()
+        msg.header.frame_id = self.frame("base_link")
+        self._send(self.pub_battery, msg)
+
+    # ---------------------------------------------------------------- map markers
+    def _publish_map_markers(self) -> None:
+        self.pub_map_markers.publish(map_markers(self.world, self.stamp()))
+
+
+def _duration(seconds: float) -> Duration:
+    nanoseconds = round(seconds * 1e9)
+    return Duration(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+def _segment_points(segments: np.ndarray, z: float = 0.0) -> list[Point]:
+    return [Point(x=float(x), y=float(y), z=z) for x, y in segments.reshape(-1, 2)]
+
+
+def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], width: float,
+               stamp) -> Marker:
+    m = Marker(ns=ns, id=0, type=Marker.LINE_LIST, action=Marker.ADD, points=_segment_points(segments))
+    m.header.frame_id = "map"
+    m.header.stamp = stamp
+    m.pose.orientation.w = 1.0
+    m.scale.x = width
+    m.color = color_msg(*rgb)
+    return m
+
+
+def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.ndarray:
+    """Triangle (3, 2) of a virtual wall's main field: emitter, then the two far corners."""
+    # The seed treats any setting other than exactly 1 or 2 (even 2.5) as "long".
+    length, angle = CreateModel.VWALL_FIELDS[setting if setting in (1, 2) else 3]
+    corners = [(x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2))
+               for s in (1, -1)]
+    return np.array([(x, y), *corners])
+
+
+def map_markers(world: CreateMap, stamp) -> MarkerArray:
+    """RViz markers of a map: walls, floor lines, beacons with their ids, virtual-wall halos and fields.
+
+    Namespaces: ``walls`` and ``lines`` (one LINE_LIST each), ``beacons`` (a SPHERE per beacon) and
+    ``beacon_ids`` (a TEXT_VIEW_FACING per beacon, text = id), ``virtual_wall_halos`` and
+    ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids are the row index.
+    """
+    markers = [
+        _line_list("walls", world.walls, (0.1, 0.1, 0.1), 0.03, stamp),
+        _line_list("lines", world.lines, (0.2, 0.2, 0.9), 0.02, stamp),
+    ]
+    beacons = zip(world.beacon_xy, world.beacon_rgb, world.beacon_ids, strict=True)
+    for i, ((bx, by), rgb, beacon_id) in enumerate(beacons):
+        ball = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=beacon_id)
+        ball.pose = pose_msg(float(bx), float(by), 0.0)
+        ball.scale = Vector3(x=0.1, y=0.1, z=0.1)
+        ball.color = color_msg(*(float(c) for c in rgb))
+        label = Marker(ns="beacon_ids", id=i, type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, text=beacon_id)
+        label.pose = pose_msg(float(bx), float(by), 0.2)
+        label.scale.z = 0.15
+        label.color = color_msg(0.0, 0.0, 0.0)
+        markers += [ball, label]
+    circle = np.linspace(0.0, 2 * math.pi, 33)
+    for i, (vx, vy, vtheta, setting) in enumerate(world.virtwalls):
+        r = CreateModel.VWALL_HALO
+        halo = np.column_stack([vx + r * np.cos(circle), vy + r * np.sin(circle)])
+        field = virtual_wall_field(vx, vy, vtheta, setting)
+        for ns, points in (("virtual_wall_halos", halo), ("virtual_wall_fields", np.vstack([field, field[:1]]))):
+            m = Marker(ns=ns, id=i, type=Marker.LINE_STRIP, action=Marker.ADD, points=_segment_points(points))
+            m.pose.orientation.w = 1.0
+            m.scale.x = 0.02
+            m.color = color_msg(0.0, 0.7, 0.0, 0.8)
+            markers.append(m)
+    for m in markers:
+        m.header.frame_id = "map"
+        m.header.stamp = stamp
+    return MarkerArray(markers=markers)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``create_world``."""
+    run_nodes(lambda: [CreateWorldNode()], args)
+
+
