@@ -1,0 +1,205 @@
+"""Serial arm model: DH kinematics, inverse kinematics and dynamics, meshes (no rclpy).
+
+In the spirit of Robotics Toolbox's ``DHRobot``::
+
+    from arm_sim.arm import Arm
+    arm = Arm.from_file("config/arm/irb120.yaml")
+    T = arm.fkine([0, 0.3, 0, 0, 0.5, 0])     # 4x4 world pose of the flange
+    J = arm.jacob0(q)                          # 6 x n geometric Jacobian, world frame
+    sol = arm.ikine(T, q0=None)                # IKResult(q, success, residual, searches)
+    tau = arm.rne(q, qd, qdd)                  # inverse dynamics (Newton–Euler)
+    g = arm.gravload(q)                        # gravity torques
+
+Batched variants take (m, n) arrays: ``fkine_batch``, ``jacob0_batch``, ``ikine_batch``,
+``rne_batch``. Every kernel is a numba function in :mod:`arm_sim.kinematics`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from arm_sim import kinematics as kin
+from arm_sim.robot_config import MeshElement, RobotConfig, load_robot_config
+from arm_sim.stl import load_stl
+from sim_runtime.errors import InputError
+
+PLACEHOLDER_SIZE = 0.05  # edge (m) of the cube drawn for a mesh that failed to load
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Inverse kinematics outcome: ``q`` is a solution only if ``success``."""
+
+    q: np.ndarray
+    success: bool
+    residual: float  # norm of the pose error (m and rad) at q
+    searches: int  # starts used (1 = converged from q0)
+
+
+@dataclass(frozen=True)
+class LoadedElement:
+    """A link element with its mesh: ``triangles`` (F, 3, 3) in metres in the link frame.
+
+    ``placeholder`` is True when the STL could not be loaded (``skip_missing_meshes``): the
+    triangles are then a small cube and ``error`` says why.
+    """
+
+    link: int
+    element: MeshElement
+    triangles: np.ndarray
+    placeholder: bool = False
+    error: str = ""
+
+
+def placeholder_cube(size: float = PLACEHOLDER_SIZE) -> np.ndarray:
+    """Triangles (12, 3, 3) of a cube of edge ``size`` centred on the origin."""
+    corners = (np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)]) - 0.5) * size
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    return corners[np.array(faces)].astype(np.float32)
+
+
+class Arm:
+    """A serial arm built from a :class:`RobotConfig`.
+
+    ``base`` (4x4) overrides the config's base transform (several arms in one world).
+    ``load_meshes`` reads every STL element (errors raise InputError naming the file) unless
+    ``skip_missing_meshes``, which draws a placeholder cube for each unreadable element instead.
+    """
+
+    def __init__(self, config: RobotConfig, *, base: np.ndarray | None = None,
+                 load_meshes: bool = True, skip_missing_meshes: bool = False) -> None:
+        self.config = config
+        self.name = config.name
+        self.n = config.dof
+        self.joint_names = config.joint_names
+        dh = np.zeros((self.n, 5))
+        dh[:, 0] = config.theta
+        dh[:, 1] = config.d
+        dh[:, 2] = config.a
+        dh[:, 3] = config.alpha
+        dh[:, kin.PRISMATIC] = [t == "p" for t in config.joint_types]
+        self.dh = dh
+        self.modified = bool(config.modified_dh)
+        self.base = np.array(config.base if base is None else base, dtype=float)
+        self.qlim = np.ascontiguousarray(config.position_limits, dtype=float)
+        self.lower = np.ascontiguousarray(self.qlim[:, 0])
+        self.upper = np.ascontiguousarray(self.qlim[:, 1])
+        self.velocity_limits = np.array(config.velocity_limits, dtype=float)
+        dyn = config.dynamics
+        self.mass = np.ascontiguousarray(dyn.mass, dtype=float)
+        self.cog = np.ascontiguousarray(dyn.cog, dtype=float)
+        self.inertia_links = np.ascontiguousarray(dyn.inertia, dtype=float)
+        self.gravity = np.ascontiguousarray(dyn.gravity, dtype=float)
+        self.elements: list[LoadedElement] = []
+        if load_meshes:
+            self.elements = load_elements(config, skip_missing_meshes)
+        self.element_links = np.array([e.link for e in self.elements], dtype=np.int64)
+
+    @classmethod
+    def from_file(cls, path: str | os.PathLike[str], **kwargs) -> Arm:
+        """Load a robot config file and build the arm (keyword arguments as the constructor)."""
+        return cls(load_robot_config(path), **kwargs)
+
+    # --- kinematics -------------------------------------------------------------------------
+    def fkine(self, q) -> np.ndarray:
+        """World pose (4x4) of the flange (last DH frame) at joint coordinates q."""
+        return kin.fk(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+
+    def fkine_all(self, q) -> np.ndarray:
+        """World poses (n+1, 4, 4) of frames 0 (base) .. n (flange)."""
+        return kin.fk_all(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+
+    def fkine_batch(self, Q) -> np.ndarray:
+        """Flange poses (m, 4, 4) for configurations Q (m, n)."""
+        return kin.fk_batch(np.ascontiguousarray(Q, dtype=float), self.dh, self.base, self.modified)
+
+    def jacob0(self, q) -> np.ndarray:
+        """Geometric Jacobian (6, n) of the flange in the world frame (v then omega)."""
+        return kin.jacob0(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+
+    def jacob0_batch(self, Q) -> np.ndarray:
+        """Jacobians (m, 6, n) for configurations Q (m, n)."""
+        return kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.dh, self.base, self.modified)
+
+    def ikine(self, T, q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100,
+              seed: int = 0) -> IKResult:
+        """Joint coordinates reaching world pose T (4x4), within joint limits.
+
+        Levenberg–Marquardt from ``q0`` (default: mid-range), then random restarts; success
+        when the pose error norm is below ``tol``. On failure ``success`` is False and ``q``
+        is the best attempt: never use it as a solution.
+        """
+        T = np.ascontiguousarray(T, dtype=float)
+        q0 = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
+        q, ok, res, searches = kin.ikine_lm(T, q0, self.dh, self.base, self.modified, self.lower,
+                                            self.upper, tol, ilimit, slimit, seed)
+        return IKResult(q=q, success=bool(ok), residual=float(res), searches=int(searches))
+
+    def ikine_batch(self, Ts, Q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100,
+                    seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """IK for poses Ts (m, 4, 4): returns (Q (m, n), success (m,), residual (m,))."""
+        Ts = np.ascontiguousarray(Ts, dtype=float)
+        if Q0 is None:
+            Q0 = np.tile(self.mid_range(), (len(Ts), 1))
+        return kin.ikine_lm_batch(Ts, np.ascontiguousarray(Q0, dtype=float), self.dh, self.base,
+                                  self.modified, self.lower, self.upper, tol, ilimit, slimit, seed)
+
+    def mid_range(self) -> np.ndarray:
+        """Middle of every joint's range."""
+        return 0.5 * (self.lower + self.upper)
+
+    def within_limits(self, q) -> bool:
+        """True when every joint coordinate is inside its position limits."""
+        q = np.asarray(q, dtype=float)
+        return bool(np.all((q >= self.lower) & (q <= self.upper)))
+
+    # --- dynamics ---------------------------------------------------------------------------
+    def rne(self, q, qd, qdd, gravity=None) -> np.ndarray:
+        """Joint torques/forces (n,) for positions, velocities, accelerations (Newton–Euler)."""
+        g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
+        return kin.rne(np.asarray(q, dtype=float), np.asarray(qd, dtype=float),
+                       np.asarray(qdd, dtype=float), self.dh, self.base, self.modified,
+                       self.mass, self.cog, self.inertia_links, g)
+
+    def rne_batch(self, Q, QD, QDD, gravity=None) -> np.ndarray:
+        """Inverse dynamics (m, n) for states Q, QD, QDD (m, n)."""
+        g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
+        as_array = np.ascontiguousarray
+        return kin.rne_batch(as_array(Q, dtype=float), as_array(QD, dtype=float),
+                             as_array(QDD, dtype=float), self.dh, self.base, self.modified,
+                             self.mass, self.cog, self.inertia_links, g)
+
+    def gravload(self, q) -> np.ndarray:
+        """Joint torques (n,) that hold the arm still against gravity at q."""
+        zero = np.zeros(self.n)
+        return self.rne(q, zero, zero)
+
+    def inertia(self, q) -> np.ndarray:
+        """Joint-space inertia matrix M(q) (n, n), column k = rne(q, 0, e_k) without gravity."""
+        Q = np.tile(np.asarray(q, dtype=float), (self.n, 1))
+        return self.rne_batch(Q, np.zeros_like(Q), np.eye(self.n), gravity=np.zeros(3)).T
+
+    # --- meshes -----------------------------------------------------------------------------
+    def element_poses(self, q) -> np.ndarray:
+        """World poses (E, 4, 4) of every mesh element at q (its link frame's pose)."""
+        return self.fkine_all(q)[self.element_links]
+
+
+def load_elements(config: RobotConfig, skip_missing_meshes: bool = False) -> list[LoadedElement]:
+    """Load every link element's STL (scaled to metres), or a placeholder if allowed."""
+    loaded = []
+    for link, elements in enumerate(config.links):
+        for element in elements:
+            try:
+                triangles = load_stl(element.mesh) * np.float32(element.scale)
+            except InputError as exc:
+                if not skip_missing_meshes:
+                    raise
+                loaded.append(LoadedElement(link, element, placeholder_cube(), True, str(exc)))
+                continue
+            loaded.append(LoadedElement(link, element, triangles))
+    return loaded

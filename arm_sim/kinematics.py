@@ -1,0 +1,454 @@
+"""Numba kernels for serial-arm kinematics and dynamics from Denavit–Hartenberg parameters.
+
+Pure numpy/numba (no rclpy). The public, friendlier API is :class:`arm_sim.arm.Arm`; these kernels
+take the packed arrays it builds:
+
+- ``dh``: float64 array (n, 5), one row per joint: ``theta`` offset, ``d``, ``a``, ``alpha``,
+  ``prismatic`` (0.0 revolute, 1.0 prismatic). A revolute joint adds q to ``theta``, a prismatic
+  joint adds q to ``d``.
+- ``modified``: False for standard DH (link transform Rz(theta) Tz(d) Tx(a) Rx(alpha)), True for
+  modified/Craig DH (Rx(alpha) Tx(a) Rz(theta) Tz(d), with alpha and a of the previous link).
+- ``base``: 4x4 world-from-frame-0 transform.
+
+Frame k (k = 0..n) is the frame of link k: frame 0 is the base (after ``base``), frame n the flange.
+Standard DH moves joint i (1-based) about/along z of frame i-1, modified DH about/along z of frame i.
+
+Note: the RoboClass notes print the DH matrix with ``c_alpha * s_theta`` in row 1, column 3; the
+correct entry (used here) is ``s_alpha * s_theta``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+PRISMATIC = 4  # column of ``dh`` flagging a prismatic joint
+
+
+@numba.njit(cache=True, inline="always")
+def _link_matrix(out, theta, d, a, alpha, modified):
+    ct = math.cos(theta)
+    st = math.sin(theta)
+    ca = math.cos(alpha)
+    sa = math.sin(alpha)
+    if modified:
+        out[0, 0] = ct
+        out[0, 1] = -st
+        out[0, 2] = 0.0
+        out[0, 3] = a
+        out[1, 0] = st * ca
+        out[1, 1] = ct * ca
+        out[1, 2] = -sa
+        out[1, 3] = -sa * d
+        out[2, 0] = st * sa
+        out[2, 1] = ct * sa
+        out[2, 2] = ca
+        out[2, 3] = ca * d
+    else:
+        out[0, 0] = ct
+        out[0, 1] = -st * ca
+        out[0, 2] = st * sa
+        out[0, 3] = a * ct
+        out[1, 0] = st
+        out[1, 1] = ct * ca
+        out[1, 2] = -ct * sa
+        out[1, 3] = a * st
+        out[2, 0] = 0.0
+        out[2, 1] = sa
+        out[2, 2] = ca
+        out[2, 3] = d
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _joint_matrix(out, q_i, row, modified):
+    if row[PRISMATIC] != 0.0:
+        _link_matrix(out, row[0], row[1] + q_i, row[2], row[3], modified)
+    else:
+        _link_matrix(out, row[0] + q_i, row[1], row[2], row[3], modified)
+
+
+@numba.njit(cache=True, inline="always")
+def _mul_affine(out, A, B):
+    """out = A @ B for homogeneous 4x4 matrices (bottom row [0 0 0 1]); out may not alias A or B."""
+    for r in range(3):
+        a0 = A[r, 0]
+        a1 = A[r, 1]
+        a2 = A[r, 2]
+        for c in range(4):
+            out[r, c] = a0 * B[0, c] + a1 * B[1, c] + a2 * B[2, c]
+        out[r, 3] += A[r, 3]
+    out[3, 0] = 0.0
+    out[3, 1] = 0.0
+    out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@numba.njit(cache=True)
+def fk_all_into(frames, q, dh, base, modified):
+    """Write the world pose of every link frame 0..n into ``frames`` (n+1, 4, 4)."""
+    n = dh.shape[0]
+    A = np.empty((4, 4))
+    frames[0, :, :] = base
+    for i in range(n):
+        _joint_matrix(A, q[i], dh[i], modified)
+        _mul_affine(frames[i + 1], frames[i], A)
+
+
+@numba.njit(cache=True)
+def fk_all(q, dh, base, modified):
+    """World poses of every link frame 0..n, shape (n+1, 4, 4)."""
+    frames = np.empty((dh.shape[0] + 1, 4, 4))
+    fk_all_into(frames, q, dh, base, modified)
+    return frames
+
+
+@numba.njit(cache=True)
+def fk(q, dh, base, modified):
+    """World pose (4x4) of the last frame (the flange)."""
+    A = np.empty((4, 4))
+    T = base.copy()
+    tmp = np.empty((4, 4))
+    for i in range(dh.shape[0]):
+        _joint_matrix(A, q[i], dh[i], modified)
+        _mul_affine(tmp, T, A)
+        T, tmp = tmp, T
+    return T
+
+
+@numba.njit(cache=True)
+def fk_batch(Q, dh, base, modified):
+    """Flange poses for many configurations: Q (m, n) -> (m, 4, 4)."""
+    m = Q.shape[0]
+    out = np.empty((m, 4, 4))
+    for k in range(m):
+        out[k] = fk(Q[k], dh, base, modified)
+    return out
+
+
+@numba.njit(cache=True)
+def _jacobian_from_frames(J, frames, dh, modified):
+    n = dh.shape[0]
+    pe = frames[n, :3, 3]
+    for i in range(n):
+        axis_frame = i + 1 if modified else i
+        z0 = frames[axis_frame, 0, 2]
+        z1 = frames[axis_frame, 1, 2]
+        z2 = frames[axis_frame, 2, 2]
+        if dh[i, PRISMATIC] != 0.0:
+            J[0, i] = z0
+            J[1, i] = z1
+            J[2, i] = z2
+            J[3, i] = 0.0
+            J[4, i] = 0.0
+            J[5, i] = 0.0
+        else:
+            rx = pe[0] - frames[axis_frame, 0, 3]
+            ry = pe[1] - frames[axis_frame, 1, 3]
+            rz = pe[2] - frames[axis_frame, 2, 3]
+            J[0, i] = z1 * rz - z2 * ry
+            J[1, i] = z2 * rx - z0 * rz
+            J[2, i] = z0 * ry - z1 * rx
+            J[3, i] = z0
+            J[4, i] = z1
+            J[5, i] = z2
+
+
+@numba.njit(cache=True)
+def jacob0(q, dh, base, modified):
+    """Geometric Jacobian (6, n) of the flange in the world frame: rows vx vy vz wx wy wz."""
+    frames = fk_all(q, dh, base, modified)
+    J = np.empty((6, dh.shape[0]))
+    _jacobian_from_frames(J, frames, dh, modified)
+    return J
+
+
+@numba.njit(cache=True)
+def jacob0_batch(Q, dh, base, modified):
+    """Jacobians for many configurations: Q (m, n) -> (m, 6, n)."""
+    m = Q.shape[0]
+    n = dh.shape[0]
+    out = np.empty((m, 6, n))
+    frames = np.empty((n + 1, 4, 4))
+    for k in range(m):
+        fk_all_into(frames, Q[k], dh, base, modified)
+        _jacobian_from_frames(out[k], frames, dh, modified)
+    return out
+
+
+@numba.njit(cache=True)
+def _pose_error(e, Tgoal, T):
+    """6-vector from T to Tgoal: position difference and rotation vector of Rgoal R^T (world)."""
+    for r in range(3):
+        e[r] = Tgoal[r, 3] - T[r, 3]
+    # R_err = Rgoal @ R^T
+    Re = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            Re[r, c] = Tgoal[r, 0] * T[c, 0] + Tgoal[r, 1] * T[c, 1] + Tgoal[r, 2] * T[c, 2]
+    lx = Re[2, 1] - Re[1, 2]
+    ly = Re[0, 2] - Re[2, 0]
+    lz = Re[1, 0] - Re[0, 1]
+    ln = math.sqrt(lx * lx + ly * ly + lz * lz)
+    tr = Re[0, 0] + Re[1, 1] + Re[2, 2]
+    if ln < 1e-9:
+        if tr > 0.0:
+            e[3] = 0.5 * lx
+            e[4] = 0.5 * ly
+            e[5] = 0.5 * lz
+        else:
+            # rotation by pi: the axis comes from the diagonal
+            e[3] = 0.5 * math.pi * (Re[0, 0] + 1.0)
+            e[4] = 0.5 * math.pi * (Re[1, 1] + 1.0)
+            e[5] = 0.5 * math.pi * (Re[2, 2] + 1.0)
+    else:
+        s = math.atan2(ln, tr - 1.0) / ln
+        e[3] = s * lx
+        e[4] = s * ly
+        e[5] = s * lz
+
+
+@numba.njit(cache=True)
+def _norm(e):
+    s = 0.0
+    for i in range(e.shape[0]):
+        s += e[i] * e[i]
+    return math.sqrt(s)
+
+
+@numba.njit(cache=True)
+def _solve_spd(A, b):
+    """Solve A x = b for a small symmetric positive definite A (Cholesky, in place on copies)."""
+    n = A.shape[0]
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                L[i, i] = math.sqrt(s) if s > 0.0 else 1e-12
+            else:
+                L[i, j] = s / L[j, j]
+    y = np.empty(n)
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return x
+
+
+@numba.njit(cache=True)
+def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, seed):
+    """Levenberg–Marquardt IK (Sugihara's damping) within joint limits, with random restarts.
+
+    Starts from ``q0`` (clipped to the limits), then from uniform random configurations within
+    the limits. Each search runs at most ``ilimit`` iterations; at most ``slimit`` searches.
+    Returns (q, success, residual, searches): ``residual`` is the norm of the 6-vector pose error
+    (metres and radians mixed, as the tolerance); on failure ``q`` is the best found, never
+    presented as a solution.
+    """
+    n = dh.shape[0]
+    np.random.seed(seed)
+    q = np.empty(n)
+    for i in range(n):
+        q[i] = min(max(q0[i], lower[i]), upper[i])
+    best_q = q.copy()
+    best_res = np.inf
+    frames = np.empty((n + 1, 4, 4))
+    J = np.empty((6, n))
+    e = np.empty(6)
+    A = np.empty((n, n))
+    g = np.empty(n)
+    for search in range(slimit):
+        if search > 0:
+            for i in range(n):
+                q[i] = lower[i] + np.random.random() * (upper[i] - lower[i])
+        for _ in range(ilimit):
+            fk_all_into(frames, q, dh, base, modified)
+            _pose_error(e, Tgoal, frames[n])
+            res = _norm(e)
+            if res < best_res:
+                best_res = res
+                best_q[:] = q
+            if res < tol:
+                return best_q, True, best_res, search + 1
+            _jacobian_from_frames(J, frames, dh, modified)
+            damping = 0.5 * res * res + 1e-6
+            for r in range(n):
+                s = 0.0
+                for k in range(6):
+                    s += J[k, r] * e[k]
+                g[r] = s
+                for c in range(r, n):
+                    s = 0.0
+                    for k in range(6):
+                        s += J[k, r] * J[k, c]
+                    A[r, c] = s
+                    A[c, r] = s
+                A[r, r] += damping
+            dq = _solve_spd(A, g)
+            for i in range(n):
+                q[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
+        # the last step of this search is checked too
+        fk_all_into(frames, q, dh, base, modified)
+        _pose_error(e, Tgoal, frames[n])
+        res = _norm(e)
+        if res < best_res:
+            best_res = res
+            best_q[:] = q
+        if res < tol:
+            return best_q, True, best_res, search + 1
+    return best_q, False, best_res, slimit
+
+
+@numba.njit(cache=True)
+def ikine_lm_batch(Tgoals, Q0, dh, base, modified, lower, upper, tol, ilimit, slimit, seed):
+    """IK for many targets: Tgoals (m, 4, 4), Q0 (m, n) -> (Q, success, residual)."""
+    m = Tgoals.shape[0]
+    n = dh.shape[0]
+    Q = np.empty((m, n))
+    ok = np.empty(m, dtype=np.bool_)
+    res = np.empty(m)
+    for k in range(m):
+        q, s, r, _ = ikine_lm(Tgoals[k], Q0[k], dh, base, modified, lower, upper, tol, ilimit,
+                              slimit, seed + k)
+        Q[k] = q
+        ok[k] = s
+        res[k] = r
+    return Q, ok, res
+
+
+@numba.njit(cache=True, inline="always")
+def _cross(out, a, b):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@numba.njit(cache=True)
+def rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity):
+    """Recursive Newton–Euler inverse dynamics, written in world coordinates.
+
+    ``frames`` from :func:`fk_all` at q. Link i (1-based) has ``mass[i-1]``, centre of gravity
+    ``cog[i-1]`` and inertia ``inertia[i-1]`` (about the centre of gravity) in frame i. ``gravity``
+    is the world gravity vector. Writes the joint torques/forces into ``tau``.
+    One code path serves both DH conventions: every joint acts about a point on its axis that is
+    fixed in the parent link (frame i-1's origin for standard DH, frame i's for modified DH).
+    """
+    n = dh.shape[0]
+    w = np.zeros(3)  # angular velocity of the current link
+    wd = np.zeros(3)
+    # linear acceleration of the previous axis point (base: -gravity stands in for gravity)
+    ap = -gravity.copy()
+    prev_p = frames[0, :3, 3].copy()
+    z = np.empty((n, 3))
+    p = np.empty((n, 3))  # axis points
+    c = np.empty((n, 3))  # centres of gravity (world)
+    F = np.empty((n, 3))
+    N = np.empty((n, 3))
+    tmp = np.empty(3)
+    tmp2 = np.empty(3)
+    d = np.empty(3)
+    Iw = np.empty((3, 3))
+    for i in range(n):
+        af = i + 1 if modified else i
+        for r in range(3):
+            z[i, r] = frames[af, r, 2]
+            p[i, r] = frames[af, r, 3]
+        # acceleration of the new axis point, carried by the parent link
+        for r in range(3):
+            d[r] = p[i, r] - prev_p[r]
+        _cross(tmp, w, d)
+        _cross(tmp2, w, tmp)
+        _cross(tmp, wd, d)
+        for r in range(3):
+            ap[r] += tmp[r] + tmp2[r]
+        zi = z[i]
+        if dh[i, PRISMATIC] == 0.0:
+            _cross(tmp, w, zi)
+            for r in range(3):
+                wd[r] += zi[r] * qdd[i] + tmp[r] * qd[i]
+                w[r] += zi[r] * qd[i]
+        else:
+            # the slide adds Coriolis and its own acceleration to every point of the link
+            _cross(tmp, w, zi)
+            for r in range(3):
+                ap[r] += 2.0 * tmp[r] * qd[i] + zi[r] * qdd[i]
+        # centre of gravity in world coordinates
+        Rf = frames[i + 1, :3, :3]
+        for r in range(3):
+            c[i, r] = frames[i + 1, r, 3] + Rf[r, 0] * cog[i, 0] + Rf[r, 1] * cog[i, 1] + Rf[r, 2] * cog[i, 2]
+            d[r] = c[i, r] - p[i, r]
+        _cross(tmp, w, d)
+        _cross(tmp2, w, tmp)
+        _cross(tmp, wd, d)
+        for r in range(3):
+            F[i, r] = mass[i] * (ap[r] + tmp[r] + tmp2[r])
+        # world inertia Iw = R I R^T; N = Iw wd + w x (Iw w)
+        for r in range(3):
+            for k in range(3):
+                tmp[k] = Rf[r, 0] * inertia[i, 0, k] + Rf[r, 1] * inertia[i, 1, k] + Rf[r, 2] * inertia[i, 2, k]
+            for cc in range(3):
+                Iw[r, cc] = tmp[0] * Rf[cc, 0] + tmp[1] * Rf[cc, 1] + tmp[2] * Rf[cc, 2]
+        for r in range(3):
+            tmp2[r] = Iw[r, 0] * w[0] + Iw[r, 1] * w[1] + Iw[r, 2] * w[2]
+        _cross(tmp, w, tmp2)
+        for r in range(3):
+            N[i, r] = Iw[r, 0] * wd[0] + Iw[r, 1] * wd[1] + Iw[r, 2] * wd[2] + tmp[r]
+        prev_p[:] = p[i]
+    f = np.zeros(3)
+    nn = np.zeros(3)  # moment about the next axis point
+    next_p = np.zeros(3)
+    for i in range(n - 1, -1, -1):
+        # moment about p[i]: own wrench + child's wrench moved from next_p
+        for r in range(3):
+            d[r] = next_p[r] - p[i, r]
+        _cross(tmp, d, f)
+        for r in range(3):
+            nn[r] += tmp[r]
+        for r in range(3):
+            d[r] = c[i, r] - p[i, r]
+        _cross(tmp, d, F[i])
+        for r in range(3):
+            nn[r] += tmp[r] + N[i, r]
+            f[r] += F[i, r]
+            next_p[r] = p[i, r]
+        if dh[i, PRISMATIC] == 0.0:
+            tau[i] = nn[0] * z[i, 0] + nn[1] * z[i, 1] + nn[2] * z[i, 2]
+        else:
+            tau[i] = f[0] * z[i, 0] + f[1] * z[i, 1] + f[2] * z[i, 2]
+
+
+@numba.njit(cache=True)
+def rne(q, qd, qdd, dh, base, modified, mass, cog, inertia, gravity):
+    """Joint torques/forces (n,) for motion (q, qd, qdd) under ``gravity`` (world vector)."""
+    frames = fk_all(q, dh, base, modified)
+    tau = np.empty(dh.shape[0])
+    rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity)
+    return tau
+
+
+@numba.njit(cache=True)
+def rne_batch(Q, QD, QDD, dh, base, modified, mass, cog, inertia, gravity):
+    """Inverse dynamics for many states: Q, QD, QDD (m, n) -> (m, n)."""
+    m = Q.shape[0]
+    n = dh.shape[0]
+    out = np.empty((m, n))
+    frames = np.empty((n + 1, 4, 4))
+    for k in range(m):
+        fk_all_into(frames, Q[k], dh, base, modified)
+        rne_into(out[k], frames, Q[k], QD[k], QDD[k], dh, modified, mass, cog, inertia, gravity)
+    return out

@@ -1,0 +1,358 @@
+"""Robot configuration files (YAML) for serial arms: RoboClass's config fields, checked.
+
+Format (every angle in radians, every length in metres; any number may instead be written as an
+expression string using ``pi`` and ``deg`` = pi/180, e.g. ``-pi/2`` or ``165*deg``)::
+
+    name: IRB120                    # robot name
+    mesh_folder: meshes/irb120      # folder of the STL files, relative to this file
+    dof: 6                          # number of joints (any number >= 1)
+    base:                           # world pose of frame 0: {xyz, rpy} (rpy = roll pitch yaw,
+      xyz: [0, 0, 0]                #   fixed axes X, Y, Z) or a 4x4 matrix (RoboClass's originTr)
+      rpy: [0, 0, 0]
+    joint_types: rrrrrr             # r = revolute, p = prismatic (string or list)
+    joint_names: [joint_1, ...]     # optional, default joint_1 … joint_<dof>
+    modified_dh: false              # optional: true = modified (Craig) DH, default standard DH
+    dh:                             # one value per joint
+      theta: [0, -pi/2, 0, 0, 0, 0] # joint angle offset (the joint angle is q + theta)
+      d: [0.29, 0, 0, 0.30, 0, 0.072]  # link offset (prismatic: q + d)
+      a: [0, 0.27, 0.07, 0, 0, 0]   # link length
+      alpha: [-pi/2, 0, -pi/2, -pi/2, pi/2, 0]  # link twist
+    limits:
+      position: [[-165*deg, 165*deg], ...]   # [min, max] per joint
+      velocity: [250*deg, ...]               # maximum speed per joint (> 0)
+    dynamics:                       # optional (without it efforts are zero)
+      gravity: [0, 0, -9.81]        # world gravity, optional
+      mass: [3.07, ...]             # per link 1..dof (kg)
+      cog: [[0, -0.1, 0], ...]      # centre of gravity in the link's DH frame (m)
+      inertia: [[[..3x3..]], ...]   # inertia about the centre of gravity, link frame (kg m^2)
+    links:                          # STL elements per link; link 0 is the base
+      - link: 0
+        elements:
+          - mesh: IRB120_base.stl   # file in mesh_folder, binary or ASCII STL
+            color: [0.9, 0.4, 0.2]  # RGB or RGBA, 0..1
+            scale: 1.0              # optional: STL units to metres (0.001 for millimetres)
+    view:                           # optional: plot limits and camera (used by the Rerun view)
+      limits: [-0.4, 1.0, -0.8, 1.8, -0.4, 1.0]  # minX maxX minY maxY minZ maxZ
+      azimuth: 40                   # degrees
+      elevation: 10                 # degrees
+
+Each element's mesh is drawn in its link's DH frame (frame k = after joint k; the base in frame 0),
+as RoboClass's STL export convention. Every error names the file, the field and the index.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from sim_runtime.errors import InputError
+
+_CONSTANTS = {"pi": math.pi, "deg": math.pi / 180.0}
+_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+           ast.Div: operator.truediv}
+_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+
+
+@dataclass(frozen=True)
+class MeshElement:
+    """One STL element of a link: absolute mesh path, RGBA colour, scale (STL units -> m)."""
+
+    mesh: Path
+    color: tuple[float, float, float, float]
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class Dynamics:
+    """Rigid-body parameters of links 1..n in their DH frames, and world gravity."""
+
+    mass: np.ndarray  # (n,)
+    cog: np.ndarray  # (n, 3)
+    inertia: np.ndarray  # (n, 3, 3), about the centre of gravity
+    gravity: np.ndarray  # (3,)
+
+
+@dataclass(frozen=True)
+class ViewInfo:
+    """Axis limits [minX maxX minY maxY minZ maxZ] and camera azimuth/elevation in degrees."""
+
+    limits: tuple[float, ...] = (-1.0, 1.0, -1.0, 1.0, 0.0, 1.0)
+    azimuth: float = 40.0
+    elevation: float = 10.0
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """A parsed, checked robot configuration file (see the module docstring for the format)."""
+
+    path: Path
+    name: str
+    mesh_folder: Path
+    dof: int
+    base: np.ndarray  # (4, 4)
+    joint_types: str
+    joint_names: tuple[str, ...]
+    theta: np.ndarray
+    d: np.ndarray
+    a: np.ndarray
+    alpha: np.ndarray
+    modified_dh: bool
+    position_limits: np.ndarray  # (n, 2)
+    velocity_limits: np.ndarray  # (n,)
+    dynamics: Dynamics
+    links: tuple[tuple[MeshElement, ...], ...]  # dof + 1 entries, link 0 = base
+    view: ViewInfo = field(default_factory=ViewInfo)
+
+
+class _Reader:
+    """Field access that turns every problem into an InputError naming file, field and index."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def error(self, where: str, message: str) -> InputError:
+        return InputError.at(self.path, None, f"field '{where}': {message}")
+
+    def number(self, value: Any, where: str) -> float:
+        if isinstance(value, bool):
+            raise self.error(where, f"expected a number, got {value!r}")
+        if isinstance(value, (int, float)):
+            result = float(value)
+        elif isinstance(value, str):
+            try:
+                result = float(_evaluate(ast.parse(value.strip(), mode="eval").body))
+            except (SyntaxError, ValueError, KeyError, ZeroDivisionError):
+                raise self.error(where, f"expected a number or an expression of numbers, pi and "
+                                        f"deg, got {value!r}") from None
+        else:
+            raise self.error(where, f"expected a number, got {value!r}")
+        if not math.isfinite(result):
+            raise self.error(where, f"must be finite, got {value!r}")
+        return result
+
+    def vector(self, value: Any, where: str, length: int | None = None) -> np.ndarray:
+        if not isinstance(value, (list, tuple)):
+            raise self.error(where, f"expected a list of numbers, got {value!r}")
+        if length is not None and len(value) != length:
+            raise self.error(where, f"expected {length} values, got {len(value)}")
+        return np.array([self.number(v, f"{where}[{i}]") for i, v in enumerate(value)])
+
+    def matrix(self, value: Any, where: str, rows: int, cols: int) -> np.ndarray:
+        if not isinstance(value, (list, tuple)) or len(value) != rows:
+            raise self.error(where, f"expected a {rows}x{cols} matrix (list of {rows} rows), got {value!r}")
+        return np.array([self.vector(row, f"{where}[{i}]", cols) for i, row in enumerate(value)])
+
+    def require(self, mapping: dict, key: str, where: str = "") -> Any:
+        if key not in mapping:
+            raise self.error(f"{where}{key}", "missing")
+        return mapping[key]
+
+    def mapping(self, value: Any, where: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.error(where, f"expected a mapping (key: value), got {value!r}")
+        return value
+
+
+def _evaluate(node: ast.AST) -> float:
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) \
+            and not isinstance(node.value, bool):
+        return node.value
+    if isinstance(node, ast.Name):
+        return _CONSTANTS[node.id]
+    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+        return _BINARY[type(node.op)](_evaluate(node.left), _evaluate(node.right))
+    if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
+        return _UNARY[type(node.op)](_evaluate(node.operand))
+    raise ValueError("unsupported expression")
+
+
+def transform_from_xyz_rpy(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
+    """4x4 transform: translation ``xyz`` and rotation Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = math.cos(rpy[0]), math.sin(rpy[0])
+    cp, sp = math.cos(rpy[1]), math.sin(rpy[1])
+    cy, sy = math.cos(rpy[2]), math.sin(rpy[2])
+    T = np.eye(4)
+    T[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                 [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                 [-sp, cp * sr, cp * cr]]
+    T[:3, 3] = xyz
+    return T
+
+
+def read_transform(reader: _Reader, value: Any, where: str) -> np.ndarray:
+    """A pose field: {xyz, rpy} (both optional) or a 4x4 homogeneous matrix."""
+    if isinstance(value, dict):
+        unknown = set(value) - {"xyz", "rpy"}
+        if unknown:
+            raise reader.error(where, f"unknown keys {sorted(unknown)}; use xyz and rpy")
+        xyz = reader.vector(value.get("xyz", [0, 0, 0]), f"{where}.xyz", 3)
+        rpy = reader.vector(value.get("rpy", [0, 0, 0]), f"{where}.rpy", 3)
+        return transform_from_xyz_rpy(xyz, rpy)
+    T = reader.matrix(value, where, 4, 4)
+    if not np.allclose(T[3], [0, 0, 0, 1]) or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6) \
+            or np.linalg.det(T[:3, :3]) < 0:
+        raise reader.error(where, "not a rigid transform (rotation must be orthonormal, last row 0 0 0 1)")
+    return T
+
+
+def read_color(reader: _Reader, value: Any, where: str) -> tuple[float, float, float, float]:
+    """RGB or RGBA in 0..1 -> RGBA tuple."""
+    if not isinstance(value, (list, tuple)) or len(value) not in (3, 4):
+        raise reader.error(where, f"expected [r, g, b] or [r, g, b, a] in 0..1, got {value!r}")
+    rgba = reader.vector(value, where)
+    if ((rgba < 0) | (rgba > 1)).any():
+        raise reader.error(where, f"colour components must be in 0..1, got {value!r}")
+    if len(rgba) == 3:
+        rgba = np.append(rgba, 1.0)
+    return tuple(float(c) for c in rgba)
+
+
+def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
+    """Read and check a robot configuration file; raises InputError naming file, field and index."""
+    path = Path(path).resolve()
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise InputError.at(path, None, f"cannot read robot config: {exc.strerror or exc}") from exc
+    except yaml.YAMLError as exc:
+        line = getattr(getattr(exc, "problem_mark", None), "line", None)
+        raise InputError.at(path, None if line is None else line + 1, f"invalid YAML: {exc}") from exc
+    r = _Reader(path)
+    raw = r.mapping(raw, "<top level>")
+    known = {"name", "mesh_folder", "dof", "base", "joint_types", "joint_names", "modified_dh", "dh",
+             "limits", "dynamics", "links", "view"}
+    unknown = set(raw) - known
+    if unknown:
+        raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(known)}")
+
+    name = str(r.require(raw, "name"))
+    mesh_folder = (path.parent / str(raw.get("mesh_folder", "."))).resolve()
+    dof = r.require(raw, "dof")
+    if isinstance(dof, bool) or not isinstance(dof, int) or dof < 1:
+        raise r.error("dof", f"expected a whole number >= 1, got {dof!r}")
+    base = read_transform(r, raw.get("base", {}), "base")
+
+    types = r.require(raw, "joint_types")
+    types = "".join(types) if isinstance(types, (list, tuple)) else str(types)
+    if len(types) != dof:
+        raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {types!r}")
+    for i, t in enumerate(types):
+        if t not in "rp":
+            raise r.error(f"joint_types[{i}]", f"unknown joint type {t!r}; use 'r' (revolute) or 'p' (prismatic)")
+
+    names = raw.get("joint_names", [f"joint_{i + 1}" for i in range(dof)])
+    if not isinstance(names, (list, tuple)) or len(names) != dof:
+        raise r.error("joint_names", f"expected {dof} names (dof), got {names!r}")
+    names = tuple(str(n) for n in names)
+    if len(set(names)) != dof:
+        raise r.error("joint_names", f"names must be unique, got {list(names)}")
+
+    modified = raw.get("modified_dh", False)
+    if not isinstance(modified, bool):
+        raise r.error("modified_dh", f"expected true or false, got {modified!r}")
+
+    dh = r.mapping(r.require(raw, "dh"), "dh")
+    params = {}
+    for key in ("theta", "d", "a", "alpha"):
+        value = r.require(dh, key, "dh.")
+        if not isinstance(value, (list, tuple)) or len(value) != dof:
+            count = len(value) if isinstance(value, (list, tuple)) else "not a list"
+            raise r.error(f"dh.{key}", f"expected {dof} values (dof), got {count}")
+        params[key] = r.vector(value, f"dh.{key}", dof)
+
+    limits = r.mapping(r.require(raw, "limits"), "limits")
+    position = r.require(limits, "position", "limits.")
+    if not isinstance(position, (list, tuple)) or len(position) != dof:
+        raise r.error("limits.position", f"expected {dof} [min, max] pairs (dof), got {position!r}")
+    position = np.array([r.vector(p, f"limits.position[{i}]", 2) for i, p in enumerate(position)])
+    for i, (lo, hi) in enumerate(position):
+        if not lo < hi:
+            raise r.error(f"limits.position[{i}]", f"min must be below max, got [{lo}, {hi}]")
+    velocity = r.vector(r.require(limits, "velocity", "limits."), "limits.velocity", dof)
+    for i, v in enumerate(velocity):
+        if v <= 0:
+            raise r.error(f"limits.velocity[{i}]", f"must be > 0, got {v}")
+
+    dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
+    links = _read_links(r, r.require(raw, "links"), dof, mesh_folder)
+    view = _read_view(r, raw.get("view"))
+    return RobotConfig(path=path, name=name, mesh_folder=mesh_folder, dof=dof, base=base,
+                       joint_types=types, joint_names=names, theta=params["theta"], d=params["d"],
+                       a=params["a"], alpha=params["alpha"], modified_dh=modified,
+                       position_limits=position, velocity_limits=velocity, dynamics=dynamics,
+                       links=links, view=view)
+
+
+def _read_dynamics(r: _Reader, raw: Any, dof: int) -> Dynamics:
+    if raw is None:
+        return Dynamics(mass=np.zeros(dof), cog=np.zeros((dof, 3)), inertia=np.zeros((dof, 3, 3)),
+                        gravity=np.array([0.0, 0.0, -9.81]))
+    raw = r.mapping(raw, "dynamics")
+    gravity = r.vector(raw.get("gravity", [0.0, 0.0, -9.81]), "dynamics.gravity", 3)
+    mass = r.vector(r.require(raw, "mass", "dynamics."), "dynamics.mass", dof)
+    for i, m in enumerate(mass):
+        if m < 0:
+            raise r.error(f"dynamics.mass[{i}]", f"must be >= 0, got {m}")
+    cog_raw = r.require(raw, "cog", "dynamics.")
+    if not isinstance(cog_raw, (list, tuple)) or len(cog_raw) != dof:
+        raise r.error("dynamics.cog", f"expected {dof} [x, y, z] vectors (dof), got {cog_raw!r}")
+    cog = np.array([r.vector(c, f"dynamics.cog[{i}]", 3) for i, c in enumerate(cog_raw)])
+    inertia_raw = r.require(raw, "inertia", "dynamics.")
+    if not isinstance(inertia_raw, (list, tuple)) or len(inertia_raw) != dof:
+        raise r.error("dynamics.inertia", f"expected {dof} 3x3 matrices (dof), got {inertia_raw!r}")
+    inertia = np.array([r.matrix(m, f"dynamics.inertia[{i}]", 3, 3) for i, m in enumerate(inertia_raw)])
+    for i, m in enumerate(inertia):
+        if not np.allclose(m, m.T) or np.linalg.eigvalsh(m).min() < -1e-12:
+            raise r.error(f"dynamics.inertia[{i}]", f"must be symmetric positive semi-definite, got {m.tolist()}")
+    return Dynamics(mass=mass, cog=cog, inertia=inertia, gravity=gravity)
+
+
+def _read_links(r: _Reader, raw: Any, dof: int, mesh_folder: Path) -> tuple[tuple[MeshElement, ...], ...]:
+    if not isinstance(raw, (list, tuple)):
+        raise r.error("links", f"expected a list of links, got {raw!r}")
+    links: list[tuple[MeshElement, ...] | None] = [None] * (dof + 1)
+    for i, entry in enumerate(raw):
+        where = f"links[{i}]"
+        entry = r.mapping(entry, where)
+        number = r.require(entry, "link", f"{where}.")
+        if isinstance(number, bool) or not isinstance(number, int) or not 0 <= number <= dof:
+            raise r.error(f"{where}.link", f"expected a link number 0..{dof} (0 = base), got {number!r}")
+        if links[number] is not None:
+            raise r.error(f"{where}.link", f"link {number} is listed twice")
+        elements = r.require(entry, "elements", f"{where}.")
+        if not isinstance(elements, (list, tuple)) or not elements:
+            raise r.error(f"{where}.elements", f"expected a non-empty list of elements, got {elements!r}")
+        parsed = []
+        for j, element in enumerate(elements):
+            ewhere = f"{where}.elements[{j}]"
+            element = r.mapping(element, ewhere)
+            mesh = r.require(element, "mesh", f"{ewhere}.")
+            if not isinstance(mesh, str) or not mesh:
+                raise r.error(f"{ewhere}.mesh", f"expected an STL file name, got {mesh!r}")
+            color = read_color(r, element.get("color", [0.7, 0.7, 0.7]), f"{ewhere}.color")
+            scale = r.number(element.get("scale", 1.0), f"{ewhere}.scale")
+            if scale <= 0:
+                raise r.error(f"{ewhere}.scale", f"must be > 0, got {scale}")
+            parsed.append(MeshElement(mesh=(mesh_folder / mesh).resolve(), color=color, scale=scale))
+        links[number] = tuple(parsed)
+    return tuple(link or () for link in links)
+
+
+def _read_view(r: _Reader, raw: Any) -> ViewInfo:
+    if raw is None:
+        return ViewInfo()
+    raw = r.mapping(raw, "view")
+    limits = tuple(r.vector(raw.get("limits", list(ViewInfo.limits)), "view.limits", 6))
+    for axis, k in zip("XYZ", range(0, 6, 2), strict=True):
+        if not limits[k] < limits[k + 1]:
+            raise r.error("view.limits", f"min{axis} must be below max{axis}, got {limits[k]}, {limits[k + 1]}")
+    return ViewInfo(limits=limits, azimuth=r.number(raw.get("azimuth", ViewInfo.azimuth), "view.azimuth"),
+                    elevation=r.number(raw.get("elevation", ViewInfo.elevation), "view.elevation"))

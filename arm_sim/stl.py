@@ -1,0 +1,210 @@
+"""STL mesh loading, binary and ASCII, fast (pure numpy/numba, no rclpy).
+
+:func:`load_stl` returns the triangles as a float32 array (F, 3, 3): face, corner, xyz, in the
+file's own units (STL has none; a robot config's element ``scale`` converts them to metres).
+
+- Binary STL (80-byte header, uint32 count, 50 bytes per facet) is read with one
+  ``numpy.frombuffer``; the file size must match the count exactly.
+- ASCII STL (``solid`` … ``endsolid``) is parsed by a single numba pass over the bytes that picks
+  up every ``vertex x y z``; normals are ignored (recomputed by viewers).
+
+Many exporters write binary files whose header starts with ``solid``: the size check decides.
+Truncated or garbage files raise :class:`sim_runtime.errors.InputError` naming the file (and the
+line for ASCII errors).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from sim_runtime.errors import InputError
+
+_BINARY_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
+_HEADER_BYTES = 84
+
+
+def load_stl(path: str | os.PathLike[str]) -> np.ndarray:
+    """Triangles (F, 3, 3) float32 of the binary or ASCII STL file at ``path``."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError.at(path, None, f"cannot read STL file: {exc.strerror or exc}") from exc
+    return parse_stl(data, path)
+
+
+def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarray:
+    """Triangles (F, 3, 3) float32 of STL file contents ``data`` (``path`` names it in errors)."""
+    size = len(data)
+    if size >= _HEADER_BYTES:
+        count = int(np.frombuffer(data, dtype="<u4", count=1, offset=80)[0])
+        if size == _HEADER_BYTES + count * _BINARY_RECORD.itemsize:
+            if count == 0:
+                raise InputError.at(path, None, "binary STL holds no triangles")
+            records = np.frombuffer(data, dtype=_BINARY_RECORD, count=count, offset=_HEADER_BYTES)
+            triangles = np.ascontiguousarray(records["vertices"])
+            _check_finite(triangles, path)
+            return triangles
+    head = data[:1024]
+    if head.lstrip().startswith(b"solid") and b"\x00" not in head:
+        return _parse_ascii(data, path)
+    if size < _HEADER_BYTES:
+        raise InputError.at(path, None, f"not an STL file: {size} bytes, too short for a binary "
+                                        "header and not ASCII ('solid' …)")
+    expected = _HEADER_BYTES + count * _BINARY_RECORD.itemsize
+    raise InputError.at(path, None, f"truncated or corrupt binary STL: the header announces {count} "
+                                    f"triangles ({expected} bytes) but the file has {size} bytes")
+
+
+def _check_finite(triangles: np.ndarray, path: str | os.PathLike[str]) -> None:
+    if not np.isfinite(triangles).all():
+        face = int(np.argwhere(~np.isfinite(triangles))[0][0])
+        raise InputError.at(path, None, f"triangle {face} has a NaN or infinite coordinate")
+
+
+def _parse_ascii(data: bytes, path: str | os.PathLike[str]) -> np.ndarray:
+    buf = np.frombuffer(data, dtype=np.uint8)
+    # every vertex needs at least "vertex" + 3 one-digit numbers + separators: 12 bytes; np.empty
+    # only reserves address space, so the generous bound costs nothing until written
+    out = np.empty((len(data) // 12 + 3, 3), dtype=np.float32)
+    count, error_at = _ascii_vertices(buf, out)
+
+    def line_of(offset: int) -> int:
+        return data.count(b"\n", 0, offset) + 1
+
+    if error_at >= 0:
+        raise InputError.at(path, line_of(error_at), "expected three numbers after 'vertex'")
+    tail = data.rstrip().rsplit(b"\n", 1)[-1].strip()
+    if not tail.startswith(b"endsolid"):
+        raise InputError.at(path, line_of(len(data.rstrip())),
+                            "truncated ASCII STL: the file does not end with 'endsolid'")
+    if count == 0:
+        raise InputError.at(path, None, "ASCII STL holds no triangles")
+    if count % 3:
+        raise InputError.at(path, None, f"ASCII STL has {count} vertices, not a multiple of 3")
+    triangles = out[:count].reshape(-1, 3, 3).copy()
+    _check_finite(triangles, path)
+    return triangles
+
+
+_VERTEX = np.frombuffer(b"vertex", dtype=np.uint8)
+_POW10 = 10.0 ** np.arange(-60, 61)
+
+
+@numba.njit(cache=True, inline="always")
+def _is_space(c):
+    return c == 32 or c == 9 or c == 10 or c == 13 or c == 11 or c == 12
+
+
+@numba.njit(cache=True)
+def _parse_float(buf, i, pow10):
+    """Parse a float at buf[i:] after skipping blanks; returns (value, next index, ok)."""
+    n = buf.shape[0]
+    while i < n and _is_space(buf[i]):
+        i += 1
+    sign = 1.0
+    if i < n and (buf[i] == 45 or buf[i] == 43):  # - +
+        if buf[i] == 45:
+            sign = -1.0
+        i += 1
+    mant = 0.0
+    digits = 0
+    frac = 0
+    while i < n and 48 <= buf[i] <= 57:
+        mant = mant * 10.0 + (buf[i] - 48)
+        digits += 1
+        i += 1
+    if i < n and buf[i] == 46:  # .
+        i += 1
+        while i < n and 48 <= buf[i] <= 57:
+            mant = mant * 10.0 + (buf[i] - 48)
+            digits += 1
+            frac += 1
+            i += 1
+    if digits == 0:
+        return 0.0, i, False
+    exp = 0
+    if i < n and (buf[i] == 101 or buf[i] == 69):  # e E
+        i += 1
+        esign = 1
+        if i < n and (buf[i] == 45 or buf[i] == 43):
+            if buf[i] == 45:
+                esign = -1
+            i += 1
+        edigits = 0
+        while i < n and 48 <= buf[i] <= 57:
+            exp = exp * 10 + (buf[i] - 48)
+            edigits += 1
+            i += 1
+        if edigits == 0:
+            return 0.0, i, False
+        exp *= esign
+    if i < n and not _is_space(buf[i]):
+        return 0.0, i, False
+    e10 = exp - frac
+    if e10 < -60 or e10 > 60:
+        return sign * mant * 10.0 ** e10, i, True
+    return sign * mant * pow10[e10 + 60], i, True
+
+
+@numba.njit(cache=True)
+def _ascii_vertices_kernel(buf, out, word, pow10):
+    n = buf.shape[0]
+    count = 0
+    i = 0
+    while i < n - 6:
+        if buf[i] == 118 and (i == 0 or _is_space(buf[i - 1])):  # 'v'
+            match = True
+            for k in range(1, 6):
+                if buf[i + k] != word[k]:
+                    match = False
+                    break
+            if match and _is_space(buf[i + 6]):
+                start = i
+                j = i + 6
+                for axis in range(3):
+                    value, j, ok = _parse_float(buf, j, pow10)
+                    if not ok:
+                        return count, start
+                    out[count, axis] = value
+                count += 1
+                i = j
+                continue
+        i += 1
+    return count, -1
+
+
+def _ascii_vertices(buf: np.ndarray, out: np.ndarray) -> tuple[int, int]:
+    """Fill ``out`` with the vertices of ASCII STL bytes; returns (count, error offset or -1)."""
+    count, error_at = _ascii_vertices_kernel(buf, out, _VERTEX, _POW10)
+    return int(count), int(error_at)
+
+
+def write_stl(path: str | os.PathLike[str], triangles: np.ndarray, *, ascii: bool = False,
+              name: str = "mesh") -> None:
+    """Write triangles (F, 3, 3) as a binary (default) or ASCII STL file with facet normals."""
+    tri = np.asarray(triangles, dtype=np.float64)
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
+    path = Path(path)
+    if ascii:
+        rows = np.concatenate([normals[:, None, :], tri], axis=1).reshape(-1, 12)
+        facet = ("  facet normal {:.6e} {:.6e} {:.6e}\n    outer loop\n"
+                 "      vertex {:.6e} {:.6e} {:.6e}\n      vertex {:.6e} {:.6e} {:.6e}\n"
+                 "      vertex {:.6e} {:.6e} {:.6e}\n    endloop\n  endfacet\n")
+        body = "".join(facet.format(*row) for row in rows.tolist())
+        path.write_text(f"solid {name}\n{body}endsolid {name}\n")
+        return
+    records = np.zeros(len(tri), dtype=_BINARY_RECORD)
+    records["normal"] = normals
+    records["vertices"] = tri
+    header = f"binary STL {name}".encode()[:80].ljust(80, b" ")
+    with path.open("wb") as f:
+        f.write(header)
+        f.write(np.uint32(len(tri)).tobytes())
+        f.write(records.tobytes())
