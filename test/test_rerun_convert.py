@@ -8,15 +8,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
 import pytest
-import rerun.chunk as rrc
 import trimesh
-from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, PoseStamped, Quaternion
-from mcap.writer import Writer
 from nav_msgs.msg import OccupancyGrid, Odometry
-from rclpy.serialization import serialize_message
+from rerun_test_helpers import column, load_entities, stamp, write_bag
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Illuminance, JointState, LaserScan, Range
 from std_msgs.msg import String
@@ -26,30 +22,7 @@ from sim_runtime.bag.reader import BagWarning
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli
 from sim_runtime.rerun_view.convert import bag_to_rerun, main
-from sim_runtime.rerun_view.logger import TRACK_SEGMENT_POINTS, type_name
-
-NS = 1_000_000_000
-
-
-def stamp(t: float) -> Time:
-    ns = int(round(t * NS))
-    return Time(sec=ns // NS, nanosec=ns % NS)
-
-
-def write_bag(path: Path, messages: list[tuple[str, object, float]]) -> Path:
-    """A minimal rosbag2-style MCAP (ros2 profile, cdr) holding ``(topic, msg, t)``, t in seconds."""
-    with path.open("wb") as f:
-        writer = Writer(f)
-        writer.start(profile="ros2", library="test")
-        channels: dict[str, int] = {}
-        for topic, msg, t in messages:
-            if topic not in channels:
-                schema = writer.register_schema(name=type_name(msg), encoding="ros2msg", data=b"")
-                channels[topic] = writer.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
-            ns = int(round(t * NS))
-            writer.add_message(channels[topic], log_time=ns, data=serialize_message(msg), publish_time=ns)
-        writer.finish()
-    return path
+from sim_runtime.rerun_view.logger import TRACK_SEGMENT_POINTS
 
 
 def quat(yaw: float) -> Quaternion:
@@ -142,22 +115,6 @@ def simrobot_messages() -> list[tuple[str, object, float]]:
         pose.pose.orientation.w = 1.0
         msgs.append(("/r1/pose", pose, float(k)))
     return msgs
-
-
-def load_entities(rrd: Path) -> dict[str, list[pa.RecordBatch]]:
-    """entity path → record batches of its chunks."""
-    out: dict[str, list[pa.RecordBatch]] = {}
-    for chunk in rrc.RrdReader(rrd).stream().to_chunks():
-        out.setdefault(str(chunk.entity_path), []).append(chunk.to_record_batch())
-    return out
-
-
-def column(batches: list[pa.RecordBatch], name: str) -> list:
-    values: list = []
-    for b in batches:
-        if name in b.schema.names:
-            values += b.column(name).to_pylist()
-    return values
 
 
 @pytest.fixture(scope="module")

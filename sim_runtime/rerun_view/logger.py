@@ -85,8 +85,8 @@ DELETE, DELETEALL = 2, 3
 
 
 def type_name(msg: object) -> str:
-    """``pkg/msg/Type`` of an rclpy message instance."""
-    cls = type(msg)
+    """``pkg/msg/Type`` of an rclpy message instance or class."""
+    cls = msg if isinstance(msg, type) else type(msg)
     return f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
 
