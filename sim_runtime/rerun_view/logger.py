@@ -140,6 +140,12 @@ def robots_in_topics(topics: Iterable[str]) -> list[str]:
     return sorted(names)
 
 
+def robot_color(name: str, names: list[str]) -> tuple[int, int, int]:
+    """A robot's colour (rgb 0–255): by its place in the sorted robot names, so views agree."""
+    index = names.index(name) if name in names else len(names)
+    return ROBOT_COLORS[index % len(ROBOT_COLORS)]
+
+
 @dataclass
 class _Track:
     """A growing track, logged in segments of at most TRACK_SEGMENT_POINTS points."""
@@ -253,7 +259,8 @@ class RerunLogger:
         key = name or "robot"
         robot = self._robots.get(key)
         if robot is None:
-            color = ROBOT_COLORS[len(self._robots) % len(ROBOT_COLORS)]
+            known = robots_in_topics(self.topics)
+            color = robot_color(key, known) if key in known else ROBOT_COLORS[len(self._robots) % len(ROBOT_COLORS)]
             is_create = name in self._create_namespaces
             robot = _Robot(key, color, is_create,
                            _Track(f"world/tracks/{key}/truth", color, 0.01),

@@ -1,0 +1,159 @@
+"""``draw_tracks BAG -o tracks.png``: the map and every robot's track from any bag.
+
+The map is the bag's last ``/map`` (OccupancyGrid, SIMROBOT) or the walls of its ``map_markers``
+(Create) rasterised; tracks are the ground-truth poses (``overhead_pose``/``pose``), or ``odom``
+for a robot without them. Drawing is SIMROBOT's ``draw_tracks`` (the seed's "draw tracks").
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sim_runtime.bag.reader import UnknownMessageType, open_bag
+from sim_runtime.errors import InputError
+from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, robot_color
+
+RASTER_RESOLUTION = 0.01
+"""m per pixel when walls (line segments) are rasterised into an occupancy image."""
+MARGIN = 0.2
+
+
+@dataclass
+class TrackData:
+    """What a bag holds for a tracks picture: occupancy image (row 0 = top, True = obstacle) or
+    None, its resolution (m/px) and world origin (x, y of the image's bottom-left corner), tracks
+    (name → (N, 2) xy in ``map``) and colours (name → rgb 0–1)."""
+
+    image: np.ndarray | None = None
+    resolution: float = RASTER_RESOLUTION
+    origin: tuple[float, float] = (0.0, 0.0)
+    tracks: dict[str, np.ndarray] = field(default_factory=dict)
+    colors: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+
+def _namespace(topic: str) -> str:
+    return topic.strip("/").rpartition("/")[0] or "robot"
+
+
+def tracks_from_bag(bag_path: str | Path) -> TrackData:
+    """Read the map and the robots' tracks from a bag (folder or .mcap)."""
+    bag = open_bag(bag_path)
+    truth = {t for t, kind in bag.topics.items()
+             if t.rpartition("/")[2] in TRUTH_POSE_TOPICS and kind == "geometry_msgs/msg/PoseStamped"}
+    odom = {t for t, kind in bag.topics.items()
+            if t.rpartition("/")[2] == "odom" and kind == "nav_msgs/msg/Odometry"}
+    truth_robots = {_namespace(t) for t in truth}
+    odom = {t for t in odom if _namespace(t) not in truth_robots}  # odometry only where no truth
+    maps = {t for t, kind in bag.topics.items() if kind == "nav_msgs/msg/OccupancyGrid"}
+    markers = {t for t, kind in bag.topics.items()
+               if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"}
+
+    points: dict[str, list[tuple[float, float]]] = {}
+    grid = None
+    walls: list[np.ndarray] = []
+    for m in bag.messages(topics=truth | odom | maps | markers):
+        try:
+            msg = m.msg
+        except UnknownMessageType as err:
+            warnings.warn(f"{bag.path}: {err}; skipped", stacklevel=2)
+            continue
+        if m.topic in maps:
+            grid = msg
+        elif m.topic in markers:
+            walls = [_marker_segments(mk) for mk in msg.markers if mk.ns == "walls" and mk.type == 5]
+        else:
+            pose = msg.pose.pose if m.topic in odom else msg.pose
+            points.setdefault(_namespace(m.topic), []).append((pose.position.x, pose.position.y))
+
+    names = sorted(points)
+    data = TrackData(tracks={n: np.array(points[n], dtype=float) for n in names},
+                     colors={n: tuple(c / 255 for c in robot_color(n, names)) for n in names})
+    if grid is not None:
+        info = grid.info
+        cells = np.asarray(grid.data, dtype=np.int8).reshape(info.height, info.width)
+        data.image = np.flipud(cells >= 50)
+        data.resolution = float(info.resolution)
+        data.origin = (info.origin.position.x, info.origin.position.y)
+    elif walls:
+        data.image, data.origin = _rasterise(np.concatenate(walls), list(data.tracks.values()))
+    return data
+
+
+def _marker_segments(marker) -> np.ndarray:
+    pts = np.array([(p.x, p.y) for p in marker.points], dtype=float).reshape(-1, 2)
+    return pts[: len(pts) // 2 * 2].reshape(-1, 2, 2)
+
+
+def _rasterise(segments: np.ndarray, tracks: list[np.ndarray]) -> tuple[np.ndarray, tuple[float, float]]:
+    from PIL import Image, ImageDraw
+
+    xy = np.concatenate([segments.reshape(-1, 2), *[t for t in tracks if len(t)]])
+    lo, hi = xy.min(axis=0) - MARGIN, xy.max(axis=0) + MARGIN
+    w, h = (np.ceil((hi - lo) / RASTER_RESOLUTION).astype(int) + 1).tolist()
+    img = Image.new("1", (w, h), 0)
+    draw = ImageDraw.Draw(img)
+    width = max(1, round(0.03 / RASTER_RESOLUTION))
+    for (x0, y0), (x1, y1) in segments:
+        # image row 0 is the top (max y)
+        draw.line([((x0 - lo[0]) / RASTER_RESOLUTION, (hi[1] - y0) / RASTER_RESOLUTION),
+                   ((x1 - lo[0]) / RASTER_RESOLUTION, (hi[1] - y1) / RASTER_RESOLUTION)], fill=1, width=width)
+    return np.array(img, dtype=bool), (float(lo[0]), float(hi[1] - (h - 1) * RASTER_RESOLUTION))
+
+
+def _draw(data: TrackData, out_path: Path) -> None:
+    try:
+        from simrobot_sim.tracks import draw_tracks
+    except ImportError:
+        draw_tracks = _draw_tracks_matplotlib
+    draw_tracks(data.image, data.resolution, data.origin, data.tracks, data.colors, out_path)
+
+
+def _draw_tracks_matplotlib(image, resolution, origin, tracks, colors, out_path) -> None:
+    # Stand-in with simrobot_sim.tracks.draw_tracks' signature until that module exists.
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 8))
+    if image is not None:
+        h, w = image.shape
+        ax.imshow(~image, cmap="gray", vmin=0, vmax=1, interpolation="nearest",
+                  extent=(origin[0], origin[0] + w * resolution, origin[1], origin[1] + h * resolution))
+    for name, xy in tracks.items():
+        if len(xy):
+            ax.plot(xy[:, 0], xy[:, 1], "-", color=colors[name], lw=1.5, label=name)
+            ax.plot(*xy[0], "o", color=colors[name])
+            ax.plot(*xy[-1], "s", color=colors[name])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    if tracks:
+        ax.legend(loc="upper right")
+    fig.savefig(out_path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``draw_tracks``."""
+    parser = argparse.ArgumentParser(prog="draw_tracks", description="PNG of the map and every robot's track.")
+    parser.add_argument("bag", help="bag folder or .mcap file")
+    parser.add_argument("-o", "--output", default="tracks.png", help="output PNG (default tracks.png)")
+    opts = parser.parse_args(args)
+    try:
+        data = tracks_from_bag(opts.bag)
+        if not data.tracks:
+            raise InputError.at(opts.bag, None, "no robot poses (overhead_pose, pose or odom) in this bag")
+        _draw(data, Path(opts.output))
+    except InputError as err:
+        print(f"draw_tracks: error: {err}", file=sys.stderr)
+        raise SystemExit(2) from err
+    lengths = ", ".join(f"{n} {np.sum(np.hypot(*np.diff(t, axis=0).T)):.2f} m" for n, t in data.tracks.items())
+    print(f"wrote {opts.output} ({lengths})")
+
