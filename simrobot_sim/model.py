@@ -1,0 +1,491 @@
+"""SIMROBOT world model: many differential-drive robots on a bitmap (pure numpy/numba, no ROS).
+
+Units: the public API speaks metres, radians and rad/s in the world frame (the map's lower-left
+corner is at ``origin``); internally everything is in map cells so the kernels index the matrix
+directly. The matrix ``grid[x, y]`` holds 0 free, 1 wall and the robot ids (2, 3, ... in file
+order), repainted as robots move so sensors see each other, exactly as the seed's Table 1.
+
+Differences from the seed (its quirks, fixed on purpose):
+
+* Lateral velocity (``lb`` != 0) is rotated into the world frame; the seed added it along the
+  heading. ``cmd_vel`` is met exactly in v and omega (the seed's ``1/(lb^2+1)`` factor mixed units).
+* A robot occupies every cell its filled polygon overlaps (the seed painted only the rounded
+  outline, so a thin robot could slip through a diagonal gap and rays could pass through a body).
+* A colliding robot stays at its last free pose (the seed left it overlapping the obstacle).
+  Leaving the map is a collision, not a program crash.
+* Rays spread symmetrically from -beamwidth/2 to +beamwidth/2 (the seed dropped the left edge),
+  start from the exact sensor point (not its rounded cell), never see their own robot, and use an
+  exact grid traversal that cannot slip between cells that touch at a corner.
+* History is a bounded ring of chunks, not an ever-growing array.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from sim_runtime.errors import InputError
+from simrobot_sim import raycast
+from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
+
+_SQRT2 = math.sqrt(2.0)
+#: Side (cells) of the buckets used to find the robots a sensor may see.
+_BUCKET = 32
+
+
+@numba.njit(cache=True)
+def _paint(gflat, cells, n, value):
+    for k in range(n):
+        gflat[cells[k]] = value
+
+
+@numba.njit(cache=True)
+def _outline(verts, v0, v1, x, y, h, vx, vy):
+    c = math.cos(h)
+    s = math.sin(h)
+    m = v1 - v0
+    for k in range(m):
+        px = verts[v0 + k, 0]
+        py = verts[v0 + k, 1]
+        vx[k] = x + c * px - s * py
+        vy[k] = y + s * px + c * py
+    return m
+
+
+@numba.njit(cache=True)
+def _step_robots(grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts, vstart, cells, ncells, dt, hit_by):
+    """One step of every powered, non-crashed robot in id order (later robots see earlier ones'
+    new positions, as the seed's sequential update). Returns nothing; ``hit_by[r]`` > 0 marks a
+    robot crashed into by another this step (applied by the caller after the loop, as the seed)."""
+    nx, ny = grid.shape
+    gflat = grid.reshape(-1)
+    nmax = cells.shape[1]
+    tmp = np.empty(nmax, dtype=np.int64)
+    vx = np.empty(64)
+    vy = np.empty(64)
+    for r in range(pose.shape[0]):
+        if not power[r] or crashed[r]:
+            continue
+        vel[r, 0] += accel[r, 0] * dt
+        vel[r, 1] += accel[r, 1] * dt
+        w1 = vel[r, 0]
+        w2 = vel[r, 1]
+        v = wheel_r[r] * (w1 + w2) * 0.5
+        omega = wheel_r[r] * (w2 - w1) / (2.0 * la[r])
+        v_lat = lb[r] * omega
+        h = pose[r, 2]
+        c = math.cos(h)
+        s = math.sin(h)
+        x = pose[r, 0] + dt * (v * c - v_lat * s)
+        y = pose[r, 1] + dt * (v * s + v_lat * c)
+        hn = h + omega * dt
+        if x == pose[r, 0] and y == pose[r, 1] and hn == h:
+            continue
+        own = r + 2
+        _paint(gflat, cells[r], ncells[r], 0)
+        m = _outline(verts, vstart[r], vstart[r + 1], x, y, hn, vx, vy)
+        n, outside = raycast.polygon_cells(vx[:m], vy[:m], nx, ny, tmp)
+        blocked = outside
+        for k in range(n):
+            value = gflat[tmp[k]]
+            if value != 0:
+                blocked = True
+                if value >= 2 and value != own:
+                    hit_by[value - 2] = own
+        if blocked:
+            _paint(gflat, cells[r], ncells[r], own)
+            crashed[r] = True
+            continue
+        _paint(gflat, tmp, n, own)
+        cells[r, :n] = tmp[:n]
+        ncells[r] = n
+        # heading kept in (-pi, pi]
+        if hn > math.pi:
+            hn -= 2.0 * math.pi
+        elif hn <= -math.pi:
+            hn += 2.0 * math.pi
+        pose[r, 0] = x
+        pose[r, 1] = y
+        pose[r, 2] = hn
+
+
+@numba.njit(cache=True)
+def _sense(
+    grid, clear, pose, radius, srob, spos, saxis, rstart, roff, srange, ids, bucket_start, bucket_items, nbx, nby,
+    out_t, out_v,
+):
+    """Cast every ray of every sensor (fast caster); candidates come from the robot buckets."""
+    n_sensors = srob.shape[0]
+    max_rays = 0
+    for s in range(n_sensors):
+        max_rays = max(max_rays, rstart[s + 1] - rstart[s])
+    dirs = np.empty((max_rays, 2))
+    n_rob = pose.shape[0]
+    cand_x = np.empty(n_rob)
+    cand_y = np.empty(n_rob)
+    cand_r = np.empty(n_rob)
+    cand_id = np.empty(n_rob, dtype=np.int64)
+    rmax = radius.max() if n_rob > 0 else 0.0
+    for s in range(n_sensors):
+        r = srob[s]
+        h = pose[r, 2]
+        c = math.cos(h)
+        sn = math.sin(h)
+        ox = pose[r, 0] + c * spos[s, 0] - sn * spos[s, 1]
+        oy = pose[r, 1] + sn * spos[s, 0] + c * spos[s, 1]
+        a0 = rstart[s]
+        nr = rstart[s + 1] - a0
+        for k in range(nr):
+            a = h + saxis[s] + roff[a0 + k]
+            dirs[k, 0] = math.cos(a)
+            dirs[k, 1] = math.sin(a)
+        reach = srange[s] + rmax
+        bx0 = max(int((ox - reach) // _BUCKET), 0)
+        bx1 = min(int((ox + reach) // _BUCKET), nbx - 1)
+        by0 = max(int((oy - reach) // _BUCKET), 0)
+        by1 = min(int((oy + reach) // _BUCKET), nby - 1)
+        m = 0
+        for bx in range(bx0, bx1 + 1):
+            for by in range(by0, by1 + 1):
+                b = bx * nby + by
+                for q in range(bucket_start[b], bucket_start[b + 1]):
+                    j = bucket_items[q]
+                    if j == r:
+                        continue
+                    cand_x[m] = pose[j, 0]
+                    cand_y[m] = pose[j, 1]
+                    cand_r[m] = radius[j]
+                    cand_id[m] = ids[j]
+                    m += 1
+        raycast.cast_scan_fast(
+            grid, clear, ox, oy, dirs[:nr], srange[s], ids[r], cand_x[:m], cand_y[:m], cand_r[:m], cand_id[:m],
+            out_t[a0:a0 + nr], out_v[a0:a0 + nr],
+        )
+
+
+@numba.njit(cache=True)
+def _nearest(rstart, out_t, out_v, dist, obst):
+    for s in range(rstart.shape[0] - 1):
+        best = np.inf
+        bv = 0
+        for k in range(rstart[s], rstart[s + 1]):
+            if out_t[k] < best:
+                best = out_t[k]
+                bv = out_v[k]
+        dist[s] = best
+        obst[s] = bv
+
+
+def ray_offsets(beamwidth: float, rays: int) -> np.ndarray:
+    """Ray angles relative to the sensor axis, counter-clockwise from the rightmost ray:
+    evenly from -beamwidth/2 to +beamwidth/2 inclusive (one ray: along the axis)."""
+    if rays == 1:
+        return np.zeros(1)
+    return np.linspace(-0.5 * beamwidth, 0.5 * beamwidth, rays)
+
+
+@dataclass(frozen=True)
+class SensorInfo:
+    """Where a sensor's rays live in the flat arrays, and its spec in SI units."""
+
+    robot: int
+    name: str
+    kind: str
+    first_ray: int
+    rays: int
+    range: float
+    beamwidth: float
+    position: tuple[float, float]
+    axis: float
+
+
+class PoseHistory:
+    """Every robot's pose per step in bounded memory: a ring of fixed-size chunks (float32
+    x, y, heading). Memory is ``capacity`` steps x robots x 12 bytes at most."""
+
+    def __init__(self, n_robots: int, capacity: int, chunk: int = 1024) -> None:
+        self.n_robots = n_robots
+        self.chunk = max(1, min(chunk, capacity))
+        self.max_chunks = max(1, math.ceil(capacity / self.chunk))
+        self._chunks: list[np.ndarray] = []
+        self._fill = self.chunk  # forces a new chunk on first append
+        self.dropped = 0
+
+    def append(self, poses: np.ndarray) -> None:
+        """Store one row per robot (``poses`` shape (n_robots, 3), metres/radians)."""
+        if self._fill == self.chunk:
+            if len(self._chunks) == self.max_chunks:
+                oldest = self._chunks.pop(0)
+                self.dropped += self.chunk
+                self._chunks.append(oldest)  # reuse its memory
+            else:
+                self._chunks.append(np.empty((self.chunk, self.n_robots, 3), dtype=np.float32))
+            self._fill = 0
+        self._chunks[-1][self._fill] = poses
+        self._fill += 1
+
+    def __len__(self) -> int:
+        return 0 if not self._chunks else (len(self._chunks) - 1) * self.chunk + self._fill
+
+    def array(self) -> np.ndarray:
+        """All kept rows, oldest first: shape (steps, n_robots, 3)."""
+        if not self._chunks:
+            return np.empty((0, self.n_robots, 3), dtype=np.float32)
+        parts = self._chunks[:-1] + [self._chunks[-1][: self._fill]]
+        return np.concatenate(parts, axis=0)
+
+    def nbytes(self) -> int:
+        """Memory held by the history arrays."""
+        return sum(c.nbytes for c in self._chunks)
+
+
+class SimrobotWorld:
+    """The whole world: matrix, robots, sensors and history. Step it with :meth:`step`."""
+
+    def __init__(self, spec: WorldSpec, *, wide_ids: bool = False) -> None:
+        """Place every robot of ``spec``. More than 254 robots need ``wide_ids=True`` (a uint16
+        matrix; the ROS node keeps the seed's uint8 ids so obstacle numbers fit ``UInt8``)."""
+        n = len(spec.robots)
+        if n > MAX_ROBOTS_UINT8 and not wide_ids:
+            raise InputError(
+                f"{spec.source}: robots: {n} robots, but ids are uint8 as the seed's matrix "
+                f"(2-255): at most {MAX_ROBOTS_UINT8} robots"
+            )
+        if n > 65533:
+            raise InputError(f"{spec.source}: robots: {n} robots is more than 65533")
+        self.spec = spec
+        self.resolution = float(spec.resolution)
+        self.origin = np.array(spec.origin, dtype=float)
+        self.dt = float(spec.dt)
+        self.names = [r.name for r in spec.robots]
+        self.index = {name: i for i, name in enumerate(self.names)}
+        self.ids = np.arange(2, n + 2, dtype=np.int64)
+        dtype = np.uint8 if n <= MAX_ROBOTS_UINT8 else np.uint16
+        self.grid = np.ascontiguousarray(spec.walls, dtype=dtype)
+        self.clear = raycast.clearance_field(spec.walls)
+        nx, ny = self.grid.shape
+        self.nbx = nx // _BUCKET + 1
+        self.nby = ny // _BUCKET + 1
+        res = self.resolution
+        self.pose = np.zeros((n, 3))
+        self.vel = np.zeros((n, 2))
+        self.accel = np.zeros((n, 2))
+        self.wheel_r = np.array([r.R / res for r in spec.robots])
+        self.la = np.array([r.la / res for r in spec.robots])
+        self.lb = np.array([r.lb / res for r in spec.robots])
+        self.power = np.array([r.power for r in spec.robots], dtype=np.bool_)
+        self.crashed = np.zeros(n, dtype=np.bool_)
+        self.colors = np.array([r.color for r in spec.robots], dtype=float).reshape(n, 3)
+        shapes = [np.asarray(r.shape, dtype=float) * r.scale / res for r in spec.robots]
+        if any(len(s) > 64 for s in shapes):
+            raise InputError(f"{spec.source}: robots: a shape has more than 64 vertices")
+        self.vstart = np.zeros(n + 1, dtype=np.int64)
+        self.vstart[1:] = np.cumsum([len(s) for s in shapes])
+        self.verts = np.concatenate(shapes) if shapes else np.zeros((0, 2))
+        # covers every cell the polygon overlaps, whatever the heading
+        self.radius = np.array([np.hypot(s[:, 0], s[:, 1]).max() + _SQRT2 + 1e-6 for s in shapes])
+        side = int(2 * math.ceil(self.radius.max() if n else 1) + 3)
+        self.cells = np.zeros((n, side * side), dtype=np.int64)
+        self.ncells = np.zeros(n, dtype=np.int64)
+        self._build_sensors(spec.robots)
+        for i, robot in enumerate(spec.robots):
+            self._place(i, robot)
+        self.start_pose = self.pose.copy()
+        self.step_count = 0
+        self.history = PoseHistory(n, spec.history_steps)
+        self.history.append(self.poses())
+        self._sensed_at = -1
+
+    # -- construction -----------------------------------------------------------------------
+    def _build_sensors(self, robots: tuple[RobotSpec, ...]) -> None:
+        res = self.resolution
+        infos: list[SensorInfo] = []
+        offsets: list[np.ndarray] = []
+        first = 0
+        for i, robot in enumerate(robots):
+            for s in robot.sensors:
+                infos.append(SensorInfo(i, s.name, s.kind, first, s.rays, s.range, s.beamwidth, s.position, s.axis))
+                offsets.append(ray_offsets(s.beamwidth, s.rays))
+                first += s.rays
+        self.sensors = infos
+        self.sensor_index = {(self.names[s.robot], s.name): k for k, s in enumerate(infos)}
+        self.srob = np.array([s.robot for s in infos], dtype=np.int64)
+        scale = {i: r.scale for i, r in enumerate(robots)}
+        # the sensor sits on the body, so it scales with the robot; its range does not (seed)
+        self.spos = np.array([[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res]
+                              for s in infos]).reshape(-1, 2)
+        self.saxis = np.array([s.axis for s in infos], dtype=float)
+        self.srange = np.array([s.range / res for s in infos], dtype=float)
+        self.rstart = np.zeros(len(infos) + 1, dtype=np.int64)
+        self.rstart[1:] = np.cumsum([s.rays for s in infos])
+        self.roff = np.concatenate(offsets) if offsets else np.zeros(0)
+        self.ray_t = np.full(first, np.inf)
+        self.ray_v = np.zeros(first, dtype=np.int64)
+        self.nearest_t = np.full(len(infos), np.inf)
+        self.nearest_v = np.zeros(len(infos), dtype=np.int64)
+
+    def _place(self, i: int, robot: RobotSpec) -> None:
+        nx, ny = self.grid.shape
+        x, y = (np.array(robot.position) - self.origin) / self.resolution
+        self.pose[i] = (x, y, math.atan2(math.sin(robot.heading), math.cos(robot.heading)))
+        vx, vy = self._outline(i)
+        tmp = np.empty(self.cells.shape[1], dtype=np.int64)
+        n, outside = raycast.polygon_cells(vx, vy, nx, ny, tmp)
+        where = f"{self.spec.source}: robots[{i}] ({robot.name!r}).position {list(robot.position)}"
+        if outside:
+            raise InputError(f"{where}: the robot does not fit inside the map")
+        flat = self.grid.reshape(-1)
+        values = flat[tmp[:n]]
+        if np.any(values == 1):
+            raise InputError(f"{where}: the robot is placed on an obstacle (wall)")
+        others = sorted({int(v) for v in values if v >= 2})
+        if others:
+            other = self.names[others[0] - 2]
+            raise InputError(f"{where}: the robot overlaps robot {other!r} (robots[{others[0] - 2}])")
+        flat[tmp[:n]] = i + 2
+        self.cells[i, :n] = tmp[:n]
+        self.ncells[i] = n
+
+    def _outline(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        v = self.verts[self.vstart[i]:self.vstart[i + 1]]
+        x, y, h = self.pose[i]
+        c, s = math.cos(h), math.sin(h)
+        return x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]
+
+    # -- commands (SI units) ----------------------------------------------------------------
+    def robot(self, name: str) -> int:
+        """Index of the robot called ``name`` (its id is index + 2)."""
+        try:
+            return self.index[name]
+        except KeyError:
+            raise InputError(f"no robot named {name!r}; robots: {', '.join(self.names)}") from None
+
+    def set_wheel_speeds(self, i: int, left: float, right: float) -> None:
+        """The seed's ``setvel``: wheel angular velocities (rad/s). NaN/inf raise InputError."""
+        if not (math.isfinite(left) and math.isfinite(right)):
+            raise InputError(f"robot {self.names[i]!r}: wheel speeds must be finite, got [{left}, {right}]")
+        self.vel[i] = (left, right)
+
+    def set_wheel_accels(self, i: int, left: float, right: float) -> None:
+        """The seed's ``setaccel``: added to the wheel speeds every step (rad/s^2) until changed."""
+        if not (math.isfinite(left) and math.isfinite(right)):
+            raise InputError(f"robot {self.names[i]!r}: wheel accelerations must be finite, got [{left}, {right}]")
+        self.accel[i] = (left, right)
+
+    def wheel_speeds_for(self, i: int, v: float, omega: float) -> tuple[float, float]:
+        """The seed's ``invmodel``: wheel speeds (rad/s) giving forward speed ``v`` (m/s) and yaw
+        rate ``omega`` (rad/s) exactly. With ``lb`` != 0 the body also drifts sideways by
+        ``lb * omega`` (a differential drive cannot avoid it)."""
+        res = self.resolution
+        r = self.wheel_r[i] * res
+        la = self.la[i] * res
+        return (v - la * omega) / r, (v + la * omega) / r
+
+    def set_cmd_vel(self, i: int, v: float, omega: float) -> None:
+        """Forward speed (m/s) and yaw rate (rad/s) through the inverse model."""
+        if not (math.isfinite(v) and math.isfinite(omega)):
+            raise InputError(f"robot {self.names[i]!r}: cmd_vel must be finite, got v={v}, omega={omega}")
+        self.vel[i] = self.wheel_speeds_for(i, v, omega)
+
+    def set_power(self, i: int, on: bool) -> None:
+        """The seed's ``setpower``: an unpowered robot keeps its place."""
+        self.power[i] = bool(on)
+
+    def clear_crash(self, i: int) -> None:
+        """The seed's ``clearcf``: the robot may move again (from its last free pose)."""
+        self.crashed[i] = False
+
+    # -- simulation -------------------------------------------------------------------------
+    def step(self) -> np.ndarray:
+        """Advance one step of ``dt``; returns the indices of robots that crashed in it."""
+        before = self.crashed.copy()
+        hit_by = np.zeros(len(self.names), dtype=np.int64)
+        _step_robots(
+            self.grid, self.pose, self.vel, self.accel, self.wheel_r, self.la, self.lb, self.power, self.crashed,
+            self.verts, self.vstart, self.cells, self.ncells, self.dt, hit_by,
+        )
+        # robot-on-robot crashes both (applied after everyone moved, as the seed)
+        self.crashed |= hit_by > 0
+        self.step_count += 1
+        self.history.append(self.poses())
+        return np.flatnonzero(self.crashed & ~before)
+
+    def sense(self) -> None:
+        """Cast every sensor's rays at the current poses (cached until the next step)."""
+        if self._sensed_at == self.step_count or len(self.sensors) == 0:
+            return
+        n = len(self.names)
+        bx = np.clip((self.pose[:, 0] // _BUCKET).astype(np.int64), 0, self.nbx - 1)
+        by = np.clip((self.pose[:, 1] // _BUCKET).astype(np.int64), 0, self.nby - 1)
+        key = bx * self.nby + by
+        order = np.argsort(key, kind="stable")
+        counts = np.bincount(key, minlength=self.nbx * self.nby)
+        bucket_start = np.zeros(self.nbx * self.nby + 1, dtype=np.int64)
+        np.cumsum(counts, out=bucket_start[1:])
+        _sense(
+            self.grid, self.clear, self.pose, self.radius, self.srob, self.spos, self.saxis, self.rstart, self.roff,
+            self.srange, self.ids[:n], bucket_start, order.astype(np.int64), self.nbx, self.nby, self.ray_t, self.ray_v,
+        )
+        _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
+        self._sensed_at = self.step_count
+
+    def ranges(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Laser reading of sensor ``k``: distances (m, ``inf`` = no hit) of every ray,
+        counter-clockwise from the rightmost, and obstacle numbers (1 wall, id robot, 0 none)."""
+        self.sense()
+        a, b = self.rstart[k], self.rstart[k + 1]
+        return self.ray_t[a:b] * self.resolution, self.ray_v[a:b]
+
+    def nearest(self, k: int) -> tuple[float, int]:
+        """Ultrasonic reading of sensor ``k``: nearest ray's distance (m, ``inf``) and obstacle."""
+        self.sense()
+        return float(self.nearest_t[k] * self.resolution), int(self.nearest_v[k])
+
+    def read(self, robot: str, sensor: str) -> tuple[float, int] | tuple[np.ndarray, np.ndarray]:
+        """Read a sensor by names, as the seed's ``readusonic``/``readlaser``."""
+        try:
+            k = self.sensor_index[(robot, sensor)]
+        except KeyError:
+            raise InputError(f"robot {robot!r} has no sensor {sensor!r}") from None
+        return self.nearest(k) if self.sensors[k].kind == "ultrasonic" else self.ranges(k)
+
+    def sensor_origin(self, k: int) -> tuple[float, float, float]:
+        """World pose (m, m, rad) of sensor ``k``'s frame: position on the robot, axis heading."""
+        s = self.sensors[k]
+        x, y, h = self.pose[s.robot]
+        c, sn = math.cos(h), math.sin(h)
+        px, py = self.spos[k]
+        return (
+            self.origin[0] + (x + c * px - sn * py) * self.resolution,
+            self.origin[1] + (y + sn * px + c * py) * self.resolution,
+            h + s.axis,
+        )
+
+    # -- state (SI units) -------------------------------------------------------------------
+    def poses(self) -> np.ndarray:
+        """World poses (n, 3): x, y in metres, heading in radians (-pi, pi]."""
+        out = self.pose.copy()
+        out[:, :2] = out[:, :2] * self.resolution + self.origin
+        return out
+
+    def body_velocity(self, i: int) -> tuple[float, float, float]:
+        """Forward, lateral (m/s) and yaw rate (rad/s) the robot is moving with (0 when stopped)."""
+        if not self.power[i] or self.crashed[i]:
+            return 0.0, 0.0, 0.0
+        w1, w2 = self.vel[i]
+        r, la, lb = self.wheel_r[i], self.la[i], self.lb[i]
+        omega = r * (w2 - w1) / (2.0 * la)
+        return r * (w1 + w2) * 0.5 * self.resolution, lb * omega * self.resolution, omega
+
+    def outline(self, i: int) -> np.ndarray:
+        """Robot ``i``'s polygon in world metres, shape (vertices, 2)."""
+        vx, vy = self._outline(i)
+        return np.column_stack([vx, vy]) * self.resolution + self.origin
+
+    def tracks(self) -> dict[str, np.ndarray]:
+        """Every robot's kept track: ``{name: (steps, 2)}`` in metres."""
+        h = self.history.array()
+        return {name: h[:, i, :2].astype(float) for i, name in enumerate(self.names)}

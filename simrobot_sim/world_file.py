@@ -1,0 +1,346 @@
+"""SIMROBOT world files (YAML) and bitmap maps → validated specs (pure Python, no ROS)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from PIL import Image
+
+from sim_runtime.errors import InputError
+
+#: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
+OBSTACLE_THRESHOLD = 128
+
+#: The seed's default robot outline (cells at 1 cm, heading east, pivot at 0,0), in metres.
+DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, -0.03))
+
+#: Highest robot count whose ids fit the seed's uint8 matrix (ids 2-255).
+MAX_ROBOTS_UINT8 = 254
+
+SENSOR_TYPES = ("ultrasonic", "laser")
+CONTROLLERS = ("avoid",)
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """One ray-cast sensor; lengths in metres, angles in radians."""
+
+    name: str
+    kind: str
+    position: tuple[float, float] = (0.05, 0.0)
+    axis: float = 0.0
+    beamwidth: float = math.radians(60.0)
+    range: float = 0.30
+    rays: int = 30
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot as written in the world file; lengths in metres, heading in radians."""
+
+    name: str
+    position: tuple[float, float]
+    heading: float = 0.0
+    color: tuple[float, float, float] = (1.0, 1.0, 0.0)
+    shape: tuple[tuple[float, float], ...] = DEFAULT_SHAPE
+    scale: float = 1.0
+    power: bool = True
+    R: float = 0.01
+    la: float = 0.03
+    lb: float = 0.0
+    sensors: tuple[SensorSpec, ...] = ()
+    controller: str | None = None
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    """A loaded world: obstacle matrix ``walls[x, y]`` (x = image column, y = image row counted
+    from the bottom), map geometry and robots in file order (robot ``i`` has id ``i + 2``)."""
+
+    walls: np.ndarray
+    resolution: float = 0.01
+    origin: tuple[float, float] = (0.0, 0.0)
+    dt: float = 1.0
+    steps_limit: float = math.inf
+    lockstep: bool = False
+    lockstep_timeout: float = 5.0
+    history_steps: int = 10000
+    robots: tuple[RobotSpec, ...] = ()
+    source: str = "<memory>"
+    map_path: str = ""
+
+
+def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarray:
+    """Read a black-and-white map image into ``walls[x, y]`` (bool, True = obstacle).
+
+    1-bit images (the seed's BMP): black is an obstacle. Greyscale (8/16-bit, palette with grey
+    entries, or RGB whose three channels are equal): a pixel darker than ``threshold`` (of 255) is
+    an obstacle. Colour images are refused (say which colour means wall by converting first).
+    The image's top row is the map's highest y, its left column x = 0 (the seed's orientation).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError.at(path, None, "map image not found")
+    try:
+        with Image.open(path) as img:
+            img.load()
+            mode = img.mode
+            if mode == "P":
+                img = img.convert("RGBA" if "transparency" in img.info else "RGB")
+                mode = img.mode
+            if mode == "1":
+                grey = np.asarray(img, dtype=np.uint8) * 255
+            elif mode in ("L", "LA"):
+                grey = np.asarray(img.getchannel("L"), dtype=np.uint8)
+            elif mode in ("I;16", "I;16B", "I;16L", "I"):
+                raw = np.asarray(img, dtype=np.float64)
+                grey = np.clip(raw / (65535.0 if raw.max() > 255 else 255.0) * 255.0, 0, 255).astype(np.uint8)
+            elif mode in ("RGB", "RGBA"):
+                rgb = np.asarray(img.convert("RGB"), dtype=np.int16)
+                if np.any(rgb[..., 0] != rgb[..., 1]) or np.any(rgb[..., 1] != rgb[..., 2]):
+                    raise InputError.at(
+                        path, None, f"colour image ({mode}): maps must be black and white or greyscale"
+                    )
+                grey = rgb[..., 0].astype(np.uint8)
+            else:
+                raise InputError.at(path, None, f"unsupported image mode {mode!r}: use a 1-bit or greyscale PNG/BMP")
+    except InputError:
+        raise
+    except Exception as exc:  # PIL raises many types for unreadable files
+        raise InputError.at(path, None, f"cannot read map image: {exc}") from exc
+    if grey.ndim != 2 or grey.size == 0:
+        raise InputError.at(path, None, f"map image has shape {grey.shape}, expected a 2-D image")
+    # image rows run top-down; matrix y runs bottom-up
+    return np.ascontiguousarray((grey < threshold)[::-1].T)
+
+
+def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, allow_inf: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where}: expected a number, got {value!r}")
+    x = float(value)
+    if math.isnan(x) or (math.isinf(x) and not allow_inf):
+        raise InputError(f"{where}: must be finite, got {value!r}")
+    if positive and not x > 0:
+        raise InputError(f"{where}: must be > 0, got {value!r}")
+    if nonneg and x < 0:
+        raise InputError(f"{where}: must be >= 0, got {value!r}")
+    return x
+
+
+def _pair(value: Any, where: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise InputError(f"{where}: expected [x, y], got {value!r}")
+    return (_number(value[0], f"{where}[0]"), _number(value[1], f"{where}[1]"))
+
+
+def _bool(value: Any, where: str) -> bool:
+    if isinstance(value, bool):
+        return value
+    if value in (0, 1):
+        return bool(value)
+    if isinstance(value, str) and value.lower() in ("on", "off"):
+        return value.lower() == "on"
+    raise InputError(f"{where}: expected true/false (or on/off), got {value!r}")
+
+
+def _check_keys(entry: dict, allowed: set[str], where: str) -> None:
+    unknown = sorted(set(entry) - allowed)
+    if unknown:
+        names = ", ".join(map(repr, unknown))
+        raise InputError(f"{where}: unknown field(s) {names}; allowed: {', '.join(sorted(allowed))}")
+
+
+_SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "resolution"}
+_ROBOT_KEYS = {
+    "name", "color", "shape", "scale", "position", "heading", "power", "R", "la", "lb", "sensors", "controller",
+}
+_WORLD_KEYS = {
+    "map", "resolution", "origin", "dt", "steps_limit", "lockstep", "lockstep_timeout", "history_steps", "robots",
+}
+
+
+def _sensor(entry: Any, where: str) -> SensorSpec:
+    if not isinstance(entry, dict):
+        raise InputError(f"{where}: expected a mapping, got {entry!r}")
+    _check_keys(entry, _SENSOR_KEYS, where)
+    if "name" not in entry or not isinstance(entry["name"], str) or not entry["name"]:
+        raise InputError(f"{where}.name: required non-empty string, got {entry.get('name')!r}")
+    name = entry["name"]
+    if not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
+        raise InputError(f"{where}.name: {name!r} must be a ROS name (letters, digits, _; not starting with a digit)")
+    kind = entry.get("type", "ultrasonic")
+    if kind not in SENSOR_TYPES:
+        raise InputError(f"{where}.type: unknown sensor type {kind!r}; expected one of {', '.join(SENSOR_TYPES)}")
+    rays = entry.get("resolution", 30)
+    if isinstance(rays, bool) or not isinstance(rays, int) or rays <= 0:
+        raise InputError(f"{where}.resolution: number of rays must be a positive integer, got {rays!r}")
+    beamwidth = _number(entry.get("beamwidth", 60.0), f"{where}.beamwidth", nonneg=True)
+    if beamwidth > 360.0:
+        raise InputError(f"{where}.beamwidth: at most 360 degrees, got {beamwidth!r}")
+    return SensorSpec(
+        name=name,
+        kind=kind,
+        position=_pair(entry.get("position", [0.05, 0.0]), f"{where}.position"),
+        axis=math.radians(_number(entry.get("axis", 0.0), f"{where}.axis")),
+        beamwidth=math.radians(beamwidth),
+        range=_number(entry.get("range", 0.30), f"{where}.range", positive=True),
+        rays=rays,
+    )
+
+
+def _robot(entry: Any, where: str) -> RobotSpec:
+    if not isinstance(entry, dict):
+        raise InputError(f"{where}: expected a mapping, got {entry!r}")
+    _check_keys(entry, _ROBOT_KEYS, where)
+    name = entry.get("name")
+    if not isinstance(name, str) or not name or not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
+        raise InputError(f"{where}.name: required ROS name (letters, digits, _; no leading digit), got {name!r}")
+    where = f"{where} ({name!r})"
+    if "position" not in entry:
+        raise InputError(f"{where}.position: required [x, y] in metres")
+    color = entry.get("color", [1.0, 1.0, 0.0])
+    if not isinstance(color, (list, tuple)) or len(color) != 3:
+        raise InputError(f"{where}.color: expected [r, g, b] in 0-1, got {color!r}")
+    rgb = tuple(_number(c, f"{where}.color[{i}]") for i, c in enumerate(color))
+    if any(c < 0 or c > 1 for c in rgb):
+        raise InputError(f"{where}.color: components must be in 0-1, got {color!r}")
+    shape_in = entry.get("shape", [list(p) for p in DEFAULT_SHAPE])
+    if not isinstance(shape_in, (list, tuple)) or len(shape_in) < 3:
+        raise InputError(f"{where}.shape: expected at least 3 [x, y] vertices (metres, pivot at 0,0), got {shape_in!r}")
+    shape = tuple(_pair(p, f"{where}.shape[{i}]") for i, p in enumerate(shape_in))
+    xs = [p[0] for p in shape]
+    ys = [p[1] for p in shape]
+    area = 0.5 * abs(sum(xs[i] * ys[(i + 1) % len(xs)] - xs[(i + 1) % len(xs)] * ys[i] for i in range(len(xs))))
+    if area <= 0:
+        raise InputError(f"{where}.shape: polygon has zero area: {shape_in!r}")
+    sensors_in = entry.get("sensors", [])
+    if not isinstance(sensors_in, list):
+        raise InputError(f"{where}.sensors: expected a list, got {sensors_in!r}")
+    sensors = tuple(_sensor(s, f"{where}.sensors[{i}]") for i, s in enumerate(sensors_in))
+    seen: set[str] = set()
+    for i, s in enumerate(sensors):
+        if s.name in seen or s.name in ("cmd_vel", "wheel_cmd", "odom", "pose", "crashed", "set_power", "clear_crash"):
+            raise InputError(f"{where}.sensors[{i}].name: {s.name!r} is used twice or clashes with a robot topic")
+        seen.add(s.name)
+    controller = entry.get("controller")
+    if controller is not None and controller not in CONTROLLERS:
+        known = ", ".join(CONTROLLERS)
+        raise InputError(f"{where}.controller: unknown controller {controller!r}; expected one of {known}")
+    lb = _number(entry.get("lb", 0.0), f"{where}.lb")
+    return RobotSpec(
+        name=name,
+        position=_pair(entry["position"], f"{where}.position"),
+        heading=math.radians(_number(entry.get("heading", 0.0), f"{where}.heading")),
+        color=rgb,  # type: ignore[arg-type]
+        shape=shape,
+        scale=_number(entry.get("scale", 1.0), f"{where}.scale", positive=True),
+        power=_bool(entry.get("power", True), f"{where}.power"),
+        R=_number(entry.get("R", 0.01), f"{where}.R", positive=True),
+        la=_number(entry.get("la", 0.03), f"{where}.la", positive=True),
+        lb=lb,
+        sensors=sensors,
+        controller=controller,
+    )
+
+
+def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
+    """Validate an already-parsed world-file mapping (see :func:`load_world` for the format)."""
+    if not isinstance(data, dict):
+        raise InputError(f"{source}: the world file must be a YAML mapping, got {type(data).__name__}")
+    _check_keys(data, _WORLD_KEYS, source)
+    if "map" not in data or not isinstance(data["map"], str):
+        raise InputError(f"{source}: map: required path of a PNG/BMP image, got {data.get('map')!r}")
+    map_path = Path(data["map"])
+    if not map_path.is_absolute():
+        map_path = base_dir / map_path
+    walls = load_map(map_path)
+    steps = data.get("steps_limit", math.inf)
+    if isinstance(steps, str) and steps.strip().lower() in ("inf", ".inf", "infinity"):
+        steps = math.inf
+    steps = _number(steps, f"{source}: steps_limit", allow_inf=True)
+    if not steps > 0:
+        raise InputError(f"{source}: steps_limit: must be > 0 (or .inf), got {data.get('steps_limit')!r}")
+    if math.isfinite(steps):
+        steps = float(max(1, math.floor(steps + 0.5)))  # MATLAB round: halves away from zero
+    history = data.get("history_steps", 10000)
+    if isinstance(history, bool) or not isinstance(history, int) or history <= 0:
+        raise InputError(f"{source}: history_steps: must be a positive integer, got {history!r}")
+    robots_in = data.get("robots", [])
+    if not isinstance(robots_in, list) or not robots_in:
+        raise InputError(f"{source}: robots: at least one robot is required")
+    robots = tuple(_robot(r, f"{source}: robots[{i}]") for i, r in enumerate(robots_in))
+    names: dict[str, int] = {}
+    for i, r in enumerate(robots):
+        if r.name in names:
+            first = names[r.name]
+            raise InputError(f"{source}: robots[{i}].name: duplicate robot name {r.name!r} (also robots[{first}])")
+        names[r.name] = i
+    return WorldSpec(
+        walls=walls,
+        resolution=_number(data.get("resolution", 0.01), f"{source}: resolution", positive=True),
+        origin=_pair(data.get("origin", [0.0, 0.0]), f"{source}: origin"),
+        dt=_number(data.get("dt", 1.0), f"{source}: dt", positive=True),
+        steps_limit=steps,
+        lockstep=_bool(data.get("lockstep", False), f"{source}: lockstep"),
+        lockstep_timeout=_number(data.get("lockstep_timeout", 5.0), f"{source}: lockstep_timeout", positive=True),
+        history_steps=history,
+        robots=robots,
+        source=source,
+        map_path=str(map_path),
+    )
+
+
+def load_world(path: str | Path) -> WorldSpec:
+    """Load a SIMROBOT world file.
+
+    World file format (YAML; lengths in metres, angles in degrees, wheel speeds in rad/s)::
+
+        map: demo_map.png        # required; 1-bit or greyscale PNG/BMP, relative to this file.
+                                 # Black = obstacle; greyscale pixels darker than 128/255 are
+                                 # obstacles; colour images are refused. Image top row = max y.
+        resolution: 0.01         # metres per map cell (default 0.01: 1 cell = 1 cm, the seed)
+        origin: [0.0, 0.0]       # world position (m) of the map's lower-left corner
+        dt: 1.0                  # seconds per simulation step (default 1.0, the seed)
+        steps_limit: 300         # > 0, decimals rounded, or .inf (default); the world stops there
+        lockstep: false          # true: step k+1 waits for a command from every powered,
+                                 # non-crashed robot (or lockstep_timeout)
+        lockstep_timeout: 5.0    # wall seconds to wait before stepping anyway (with a warning)
+        history_steps: 10000     # poses kept per robot (oldest dropped beyond this)
+        robots:                  # ids are 2, 3, ... in this order (the seed's matrix values)
+          - name: r1             # required, unique, a ROS name: topics live under /r1/
+            position: [0.5, 0.5] # required, pivot position (m)
+            heading: 0           # degrees, 0 = +x (east), counter-clockwise
+            color: [1, 1, 0]     # RGB 0-1 (seed default yellow)
+            shape: [[-0.02, 0.03], [0, 0.04], [0.04, 0], [0, -0.04], [-0.02, -0.03]]
+                                 # polygon (m) around the pivot at 0,0; default = the seed's
+            scale: 1.0           # multiplies shape and sensor positions (not ranges)
+            power: true          # false: the robot does not move until set_power
+            R: 0.01              # wheel radius (m)
+            la: 0.03             # half wheel track (m)
+            lb: 0.0              # pivot offset from the wheel axle (m)
+            controller: avoid    # optional: run this controller in the world's process
+            sensors:
+              - name: sens1      # topic /r1/sens1 (+ /r1/sens1/obstacle for ultrasonic)
+                type: ultrasonic # ultrasonic (nearest ray) or laser (every ray)
+                position: [0.05, 0]  # on the robot (m; x forward, y left)
+                axis: 0          # degrees from the robot's heading
+                beamwidth: 60    # degrees; rays spread evenly from -bw/2 to +bw/2
+                range: 0.30      # metres, > 0
+                resolution: 30   # number of rays, > 0
+
+    Every error names the file, the robot (index and name) and the field.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError.at(path, None, "world file not found")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        line = exc.problem_mark.line + 1 if getattr(exc, "problem_mark", None) else None
+        raise InputError.at(path, line, f"invalid YAML: {exc}") from exc
+    return parse_world(data, str(path), path.parent)
