@@ -28,9 +28,10 @@ import numpy as np
 
 from create_sim.geometry import grid_contacts
 
-CONTACT_SKIN = 1e-3  # a wall this close to the body counts as touching (bumps, friction)
+CONTACT_SKIN = 1e-3  # a wall this close to the body presses a bumper
 OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
-_PUSH_MARGIN = 1e-8
+_PUSH_MARGIN = 1e-8  # push-out leaves the body this far from the wall...
+_TOUCH = 1e-6  # ...which the next step sees as touching (friction, sliding)
 _MAX_CONTACTS = 64
 
 
@@ -101,7 +102,7 @@ def _push_out(segs, meta, start, items, px, py, radius, buf):
 
 @numba.njit(cache=True)
 def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
-    n = grid_contacts(segs, meta, start, items, x, y, radius + CONTACT_SKIN, buf)
+    n = grid_contacts(segs, meta, start, items, x, y, radius + _TOUCH, buf)
     hx = math.cos(th)
     hy = math.sin(th)
     vx = v * hx
