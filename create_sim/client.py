@@ -1,0 +1,459 @@
+"""Toolbox-style client: port a MATLAB Create control program line by line.
+
+Each method is the snake_case twin of a function of the MATLAB Toolbox for the iRobot Create
+(``SetFwdVelAngVelCreate(serPort, v, w)`` → ``robot.set_fwd_vel_ang_vel(v, w)``), talking to any
+robot that speaks the ``create_world`` topics (design.md §4)::
+
+    from create_sim.client import CreateRobot
+
+    robot = CreateRobot()                       # RoombaInit: a node + background spinner
+    robot.travel_dist(0.2, 0.5)                 # drive 0.5 m forward at 0.2 m/s, blocking
+    robot.turn_angle(0.2, 90)                   # turn 90° counter-clockwise, blocking
+    bump_right, bump_left, *_, bump_front = robot.bumps_wheel_drops()
+    print(robot.read_sonar(2), robot.overhead_localization())
+    robot.close()
+
+Readings are the latest message on each topic (the first call waits for one). Time is the
+robot's sim time, taken from message stamps, so blocking calls behave the same at any
+``real_time_factor``.
+
+Differences from the toolbox, all on purpose: no-return sonar/LIDAR values are ``None``/``inf``
+(REP-117) instead of the range limit; ``turn_angle`` turns the angle asked for (the toolbox
+wrapped 360° to 0 and did nothing); a negative ``speed`` is treated as its magnitude and raised
+to the minimum; cliff booleans are ``False`` (there are no cliffs) and ``all_sensors_read``
+reports them as booleans, not signal strengths; ``read_sonar()`` without an argument reads the
+front sonar, as the toolbox documented.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import warnings
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from visualization_msgs.msg import MarkerArray
+
+from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
+from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+
+MAX_WHEEL_SPEED = 0.5  # m/s
+WHEEL_BASE = 0.258  # m
+TRAVEL_SPEED_RANGE = (0.025, 0.5)  # m/s, travelDist
+TURN_SPEED_RANGE = (0.025, 0.2)  # rad/s, turnAngle
+RADIUS_RANGE = (0.001, 2.0)  # m, SetFwdVelRadiusRoomba
+SONAR_NUMBERS = {1: "right", 2: "front", 3: "left", 4: "back"}  # the toolbox's ReadSonar numbering
+CLIFF_NAMES = ("left", "front_left", "front_right", "right")
+
+
+class AllSensors(NamedTuple):
+    """``AllSensorsReadRoomba``'s 23 outputs, in its order."""
+
+    bump_right: bool
+    bump_left: bool
+    bump_front: bool
+    wall: bool
+    virt_wall: bool
+    cliff_left: bool
+    cliff_right: bool
+    cliff_front_left: bool
+    cliff_front_right: bool
+    left_current_over: bool
+    right_current_over: bool
+    dirt_left: bool
+    dirt_right: bool
+    button_play: bool
+    button_advance: bool
+    distance: float
+    angle: float
+    voltage: float
+    current: float
+    temperature: float
+    charge: float
+    capacity: float
+    percent_charge: float
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def _clamp(value: float, low: float, high: float) -> float:
+    return min(max(value, low), high)
+
+
+def _check_finite(**values: float) -> None:
+    for name, value in values.items():
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be a finite number, got {value!r}")
+
+
+class CreateRobot:
+    """A Create behind the ``create_world`` topics, with the MATLAB toolbox's functions.
+
+    Standalone (``CreateRobot(namespace="/robot1")``): owns a node and spins it in a background
+    thread; call :meth:`close` (or use ``with``) at the end.
+
+    Hosted (``CreateRobot(node=my_node, spin=...)``): subscribes with your node and, while a call
+    blocks, calls ``spin()`` repeatedly to make progress (default
+    ``rclpy.spin_once(node, timeout_sec=0.05)``). Tests pass a ``spin`` that steps an in-process
+    world and spins their executor.
+
+    ``timeout`` (wall seconds) bounds how long a call waits without any new message from the
+    robot before raising :class:`TimeoutError`.
+    """
+
+    def __init__(self, namespace: str = "", *, node: Node | None = None,
+                 spin: Callable[[], None] | None = None, stamped: bool = False, timeout: float = 5.0) -> None:
+        self.timeout = timeout
+        self._cond = threading.Condition()
+        self._latest: dict[str, object] = {}
+        self._updates = 0  # messages received, to tell progress from a dead robot
+        self._sim_time = 0.0
+        self._odom_prev: tuple[float, float, float, float] | None = None  # t, x, y, yaw
+        self._travelled = 0.0  # signed odometry distance since start, never reset
+        self._turned = 0.0  # odometry heading change since start, never reset
+        self._distance_mark = 0.0  # _travelled at the last distance_sensor() call
+        self._angle_mark = 0.0
+        self._thread = None
+        self._executor = None
+        if node is None:
+            if not rclpy.ok():
+                rclpy.init()
+            node = Node("create_client", namespace=namespace)
+            self._executor = SingleThreadedExecutor()
+            self._executor.add_node(node)
+            self._thread = threading.Thread(target=self._executor.spin, daemon=True, name="create_client")
+            self._owned_node = True
+        else:
+            self._owned_node = False
+        self.node = node
+        self._spin = spin or (lambda: rclpy.spin_once(node, timeout_sec=0.05))  # hosted mode only
+        self._stamped = stamped
+        self._cmd_pub = node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self._subscribe()
+        if self._thread:
+            self._thread.start()
+
+    def _subscribe(self) -> None:
+        topics: list[tuple[type, str]] = [
+            (Range, "bump/left"), (Range, "bump/right"), (Range, "wall"), (Range, "virtual_wall"),
+            *((Illuminance, f"cliff/{n}") for n in CLIFF_NAMES),
+            *((Range, f"sonar/{n}") for n in SONAR_NUMBERS.values()),
+            (LaserScan, "scan"), (MarkerArray, "camera/beacons"), (PoseStamped, "overhead_pose"),
+            (Joy, "buttons"), (BatteryState, "battery_state"),
+        ]
+        for msg_type, topic in topics:
+            self.node.create_subscription(msg_type, topic, lambda msg, t=topic: self._store(t, msg), SENSOR_QOS)
+        self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_QOS)
+
+    # ------------------------------------------------------------ plumbing
+    def _store(self, topic: str, msg) -> None:
+        with self._cond:
+            self._latest[topic] = msg
+            self._updates += 1
+            if hasattr(msg, "header"):
+                self._sim_time = max(self._sim_time, time_from_msg(msg.header.stamp))
+            self._cond.notify_all()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        t = time_from_msg(msg.header.stamp)
+        p = msg.pose.pose.position
+        yaw = yaw_from_quaternion(msg.pose.pose.orientation)
+        with self._cond:
+            if self._odom_prev is not None:
+                t0, x0, y0, yaw0 = self._odom_prev
+                turn = _wrap(yaw - yaw0)
+                mid = yaw0 + turn / 2
+                step = (p.x - x0) * math.cos(mid) + (p.y - y0) * math.sin(mid)
+                # A jump no wheel could make is a reset of the robot's odometry, not motion.
+                if abs(step) <= 2 * MAX_WHEEL_SPEED * max(t - t0, 0.0) + 0.01:
+                    self._travelled += step
+                    self._turned += turn
+            self._odom_prev = (t, p.x, p.y, yaw)
+        self._store("odom", msg)
+
+    def _wait_until(self, done: Callable[[], bool], what: str) -> None:
+        with self._cond:
+            deadline, seen = time.monotonic() + self.timeout, self._updates
+            while not done():
+                if self._thread:
+                    self._cond.wait(0.05)
+                else:
+                    self._cond.release()
+                    try:
+                        self._spin()
+                    finally:
+                        self._cond.acquire()
+                if self._updates != seen:
+                    deadline, seen = time.monotonic() + self.timeout, self._updates
+                elif time.monotonic() > deadline:
+                    raise TimeoutError(f"{what}: no message from the robot for {self.timeout} s "
+                                       f"(is create_world running in namespace {self.node.get_namespace()!r}?)")
+
+    def _msg(self, topic: str):
+        self._wait_until(lambda: topic in self._latest, f"waiting for {topic}")
+        return self._latest[topic]
+
+    @property
+    def sim_time(self) -> float:
+        """The robot's clock (s): the newest stamp received."""
+        return self._sim_time
+
+    def pause(self, seconds: float) -> None:
+        """Wait ``seconds`` of the robot's sim time (MATLAB ``pause`` for control loops)."""
+        _check_finite(seconds=seconds)
+        self._msg("odom")
+        end = self._sim_time + seconds
+        self._wait_until(lambda: self._sim_time >= end - 1e-9, "pause")
+
+    def close(self) -> None:
+        """Stop the robot and release the node (standalone mode)."""
+        self.set_fwd_vel_ang_vel(0.0, 0.0)
+        if self._executor is not None:
+            self._executor.shutdown()
+            self._thread.join(timeout=2.0)
+        if self._owned_node:
+            self.node.destroy_node()
+
+    def __enter__(self) -> CreateRobot:
+        return self
+
+    def __exit__(self, *_exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ commands
+    def set_fwd_vel_ang_vel(self, fwd_vel: float, ang_vel: float) -> tuple[float, float]:
+        """``SetFwdVelAngVelCreate``: forward (m/s) and angular (rad/s, CCW) velocity.
+
+        Each wheel is limited to ±0.5 m/s (over-limit commands are scaled per wheel, as the robot
+        does). Returns the (v, ω) sent. Does not block.
+        """
+        _check_finite(fwd_vel=fwd_vel, ang_vel=ang_vel)
+        right = _clamp(fwd_vel + ang_vel * WHEEL_BASE / 2, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
+        left = _clamp(fwd_vel - ang_vel * WHEEL_BASE / 2, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
+        return self.set_drive_wheels(right, left)
+
+    def set_fwd_vel_radius(self, fwd_vel: float, radius: float) -> tuple[float, float]:
+        """``SetFwdVelRadiusRoomba``: forward velocity (m/s) on a circle of ``radius`` m (left > 0).
+
+        ``radius = ±inf`` drives straight; other radii are limited to 0.001–2 m in magnitude as on
+        the robot (0 warns and becomes 0.001).
+        """
+        _check_finite(fwd_vel=fwd_vel)
+        if math.isnan(radius):
+            raise ValueError(f"radius must be a number, got {radius!r}")
+        fwd_vel = _clamp(fwd_vel, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
+        if math.isinf(radius):
+            return self.set_fwd_vel_ang_vel(fwd_vel, 0.0)
+        if radius == 0.0:
+            warnings.warn("set_fwd_vel_radius: radius 0 is not allowed, using 0.001 m", stacklevel=2)
+        radius = math.copysign(_clamp(abs(radius), *RADIUS_RANGE), radius)
+        return self.set_fwd_vel_ang_vel(fwd_vel, fwd_vel / radius)
+
+    def set_drive_wheels(self, right_wheel_vel: float, left_wheel_vel: float) -> tuple[float, float]:
+        """``SetDriveWheelsCreate``: wheel velocities (m/s), each clamped to ±0.5. Returns (v, ω)."""
+        _check_finite(right_wheel_vel=right_wheel_vel, left_wheel_vel=left_wheel_vel)
+        right = _clamp(right_wheel_vel, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
+        left = _clamp(left_wheel_vel, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
+        v, w = (right + left) / 2, (right - left) / WHEEL_BASE
+        twist = Twist()
+        twist.linear.x, twist.angular.z = v, w
+        if self._stamped:
+            msg = TwistStamped(twist=twist)
+            msg.header.stamp = self.node.get_clock().now().to_msg()
+            self._cmd_pub.publish(msg)
+        else:
+            self._cmd_pub.publish(twist)
+        return v, w
+
+    def travel_dist(self, speed: float, distance: float) -> float:
+        """``travelDist``: drive ``distance`` m (negative = backwards) at ``|speed|`` m/s, then stop.
+
+        Blocks until odometry reports the distance. ``|speed|`` is kept in 0.025–0.5 m/s. Returns
+        the odometry distance travelled (signed).
+        """
+        _check_finite(speed=speed, distance=distance)
+        speed = _clamp(abs(speed), *TRAVEL_SPEED_RANGE)
+        self._msg("odom")
+        start = self._travelled
+        if distance != 0.0:
+            self.set_fwd_vel_ang_vel(math.copysign(speed, distance), 0.0)
+            try:
+                self._wait_until(lambda: abs(self._travelled - start) >= abs(distance), "travel_dist")
+            finally:
+                self.set_fwd_vel_ang_vel(0.0, 0.0)
+        return self._travelled - start
+
+    def turn_angle(self, speed: float, angle: float) -> float:
+        """``turnAngle``: turn in place by ``angle`` degrees (positive = CCW) at ``|speed|`` rad/s.
+
+        Blocks until odometry reports the turn. ``|speed|`` is kept in 0.025–0.2 rad/s. Unlike the
+        toolbox the angle is not wrapped: 360 turns a full circle. Returns the odometry turn (deg).
+        """
+        _check_finite(speed=speed, angle=angle)
+        speed = _clamp(abs(speed), *TURN_SPEED_RANGE)
+        target = math.radians(angle)
+        self._msg("odom")
+        start = self._turned
+        if target != 0.0:
+            self.set_fwd_vel_ang_vel(0.0, math.copysign(speed, target))
+            try:
+                self._wait_until(lambda: abs(self._turned - start) >= abs(target), "turn_angle")
+            finally:
+                self.set_fwd_vel_ang_vel(0.0, 0.0)
+        return math.degrees(self._turned - start)
+
+    def beep(self) -> None:
+        """``BeepRoomba``: the terminal bell."""
+        print("\a", end="", flush=True)
+
+    def set_leds(self, led: int, color: float, intensity: float) -> None:
+        """``SetLEDsRoomba``: validated like the toolbox; the simulated robot has no LEDs to show."""
+        if led not in (0, 1, 2, 3):
+            raise ValueError(f"led must be 0 (none), 1 (Advance), 2 (Play) or 3 (both), got {led!r}")
+        if not 0 <= color <= 100:
+            raise ValueError(f"color must be 0 (green) to 100 (red), got {color!r}")
+        if not 1 <= intensity <= 100:
+            raise ValueError(f"intensity must be 1 to 100, got {intensity!r}")
+
+    # ------------------------------------------------------------ sensors
+    def _detected(self, topic: str) -> bool:
+        return self._msg(topic).range == -math.inf
+
+    def bumps_wheel_drops(self) -> tuple[bool, bool, bool, bool, bool, bool]:
+        """``BumpsWheelDropsSensorsRoomba``: (bump_right, bump_left, wheel_drop_right,
+        wheel_drop_left, wheel_drop_caster, bump_front). Both bumpers pressed reads as front only."""
+        left, right = self._detected("bump/left"), self._detected("bump/right")
+        front = left and right
+        return (right and not front, left and not front, False, False, False, front)
+
+    def wall_sensor(self) -> bool:
+        """The IR wall sensor (front right, 0.1 m): True when a wall is there."""
+        return self._detected("wall")
+
+    def virtual_wall_sensor(self) -> bool:
+        """``VirtualWallSensorCreate``: True inside a virtual wall's halo or field."""
+        return self._detected("virtual_wall")
+
+    def _cliff_strength(self, name: str) -> float:
+        return float(self._msg(f"cliff/{name}").illuminance)
+
+    def cliff_left_signal_strength(self) -> float:
+        """``CliffLeftSignalStrengthRoomba``: percent (≈21.5 on floor, ≈1.5 over a line)."""
+        return self._cliff_strength("left")
+
+    def cliff_front_left_signal_strength(self) -> float:
+        """``CliffFrontLeftSignalStrengthRoomba``: percent."""
+        return self._cliff_strength("front_left")
+
+    def cliff_front_right_signal_strength(self) -> float:
+        """``CliffFrontRightSignalStrengthRoomba``: percent."""
+        return self._cliff_strength("front_right")
+
+    def cliff_right_signal_strength(self) -> float:
+        """``CliffRightSignalStrengthRoomba``: percent."""
+        return self._cliff_strength("right")
+
+    def cliff_left_sensor(self) -> bool:
+        """``CliffLeftSensorRoomba``: always False (the simulated floor has no cliffs)."""
+        return False
+
+    cliff_front_left_sensor = cliff_front_right_sensor = cliff_right_sensor = cliff_left_sensor
+
+    def read_sonar(self, sonar_num: int = 2) -> float | None:
+        """``ReadSonar``: distance (m) from the body's edge seen by sonar 1 right, 2 front (default),
+        3 left or 4 back; ``None`` when nothing is in range (0.02–3 m)."""
+        if sonar_num not in SONAR_NUMBERS:
+            raise ValueError(f"sonar_num must be 1 (right), 2 (front), 3 (left) or 4 (back), got {sonar_num!r}")
+        value = self._msg(f"sonar/{SONAR_NUMBERS[sonar_num]}").range
+        return float(value) if math.isfinite(value) else None
+
+    def read_sonar_multiple(self, *sonar_nums: int) -> list[float | None]:
+        """``ReadSonarMultiple``: :meth:`read_sonar` for several sonars, default all four in the
+        toolbox's order [right, front, left, back]."""
+        return [self.read_sonar(n) for n in (sonar_nums or tuple(SONAR_NUMBERS))]
+
+    def lidar(self) -> np.ndarray:
+        """``LidarSensorCreate``: 681 ranges (m), index 0 at −120° (right) counter-clockwise to +120°;
+        ``inf`` = no return within 4 m."""
+        return np.asarray(self._msg("scan").ranges, dtype=np.float64)
+
+    def camera(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``CameraSensorCreate``: (angles rad left-positive, distances m, colours N×3 RGB) of the
+        beacons the camera sees; empty arrays when none."""
+        sightings = self.beacons()
+        return (np.array([s[2] for s in sightings]), np.array([s[1] for s in sightings]),
+                np.array([s[3] for s in sightings]).reshape(-1, 3))
+
+    def beacons(self) -> list[tuple[str, float, float, tuple[float, float, float]]]:
+        """Beacons in view as (id, distance m, angle rad, (r, g, b)); ids as written in the map."""
+        out = []
+        for m in self._msg("camera/beacons").markers:
+            if m.action != m.ADD:
+                continue
+            x, y = m.pose.position.x, m.pose.position.y
+            out.append((m.text, math.hypot(x, y), math.atan2(y, x), (m.color.r, m.color.g, m.color.b)))
+        return out
+
+    def read_beacon(self) -> list[tuple[str, float, float, float, float]]:
+        """``ReadBeacon`` (AR-tag variant): (id, X right, Y down, Z depth, rotation) per beacon."""
+        return [(beacon_id, -d * math.sin(a), 0.0, d * math.cos(a), 0.0) for beacon_id, d, a, _ in self.beacons()]
+
+    def overhead_localization(self) -> tuple[float, float, float]:
+        """``OverheadLocalizationCreate``: exact (x, y, θ) in the map frame."""
+        pose = self._msg("overhead_pose").pose
+        return pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation)
+
+    def distance_sensor(self) -> float:
+        """``DistanceSensorRoomba``: odometry distance (m) since the last call."""
+        self._msg("odom")
+        with self._cond:
+            value, self._distance_mark = self._travelled - self._distance_mark, self._travelled
+        return value
+
+    def angle_sensor(self) -> float:
+        """``AngleSensorRoomba``: odometry turn (rad, CCW) since the last call."""
+        self._msg("odom")
+        with self._cond:
+            value, self._angle_mark = self._turned - self._angle_mark, self._turned
+        return value
+
+    def buttons(self) -> tuple[bool, bool]:
+        """``ButtonsSensorRoomba``: (advance, play), in the toolbox's order."""
+        play, advance = self._msg("buttons").buttons[:2]
+        return bool(advance), bool(play)
+
+    def battery_charge(self) -> tuple[float, float, float]:
+        """``BatteryChargeReaderRoomba``: (charge mAh, capacity mAh, percent)."""
+        msg = self._msg("battery_state")
+        return msg.charge * 1000.0, msg.capacity * 1000.0, msg.percentage * 100.0
+
+    def battery_voltage(self) -> float:
+        """``BatteryVoltageRoomba``: volts."""
+        return float(self._msg("battery_state").voltage)
+
+    def current_tester(self) -> float:
+        """``CurrentTesterRoomba``: amperes (negative = discharging)."""
+        return float(self._msg("battery_state").current)
+
+    def all_sensors_read(self) -> AllSensors:
+        """``AllSensorsReadRoomba``: every basic sensor at once (distance and angle since last call)."""
+        bump_right, bump_left, _, _, _, bump_front = self.bumps_wheel_drops()
+        advance, play = self.buttons()
+        charge, capacity, percent = self.battery_charge()
+        battery = self._msg("battery_state")
+        return AllSensors(
+            bump_right, bump_left, bump_front, self.wall_sensor(), self.virtual_wall_sensor(),
+            False, False, False, False, False, False, False, False, play, advance,
+            self.distance_sensor(), self.angle_sensor(), float(battery.voltage), float(battery.current),
+            float(battery.temperature), charge, capacity, percent)

@@ -1,0 +1,183 @@
+"""The toolbox-style client against an in-process create_world."""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import pytest
+from nav_msgs.msg import Odometry
+from rclpy.parameter import Parameter
+from std_srvs.srv import SetBool
+from test_create_node import Rig
+
+from create_sim.client import AllSensors, CreateRobot
+from create_sim.world_node import CreateWorldNode
+from sim_runtime.msgs import time_from_msg
+from sim_runtime.qos import SENSOR_QOS
+from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
+
+
+def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
+    """A client on the probe node; while it blocks, the world steps, and each odometry message is
+    handled before the next step (deterministic however loaded the machine is)."""
+    odom = Collector(rig.probe, Odometry, "odom", SENSOR_QOS)
+
+    def spin() -> None:
+        rig.step()
+        if rig.world.step_count % 2 == 0:  # odom is published at 50 Hz, every other step
+            now = rig.world.sim_time
+            spin_until(rig.executor, lambda: odom.last and time_from_msg(odom.last.header.stamp) >= now - 1e-9)
+
+    robot = CreateRobot(node=rig.probe, spin=spin, **kwargs)
+    for subscription in rig.probe.subscriptions:
+        assert wait_for_match(rig.executor, subscription)
+    return robot
+
+
+@pytest.fixture
+def rig(executor, make_node, tmp_path):
+    return Rig(executor, make_node, tmp_path)
+
+
+@pytest.fixture
+def robot(rig):
+    return hosted_robot(rig)
+
+
+def test_travel_dist_drives_the_distance_and_stops(rig, robot):
+    travelled = robot.travel_dist(0.2, 0.5)
+    assert travelled == pytest.approx(0.5, abs=0.01)
+    x, y, theta = robot.overhead_localization()
+    assert x == pytest.approx(0.5, abs=0.015) and y == pytest.approx(0.0, abs=1e-9)
+    robot.pause(0.1)  # the stop command is on its way to the world
+    assert rig.world.model.command == (0.0, 0.0)
+    assert rig.world.model.pose[0] == pytest.approx(x, abs=0.01)
+    assert robot.travel_dist(-0.3, -0.25) == pytest.approx(-0.25, abs=0.01)  # backwards
+    assert rig.world.model.pose[0] == pytest.approx(0.25, abs=0.02)
+
+
+def test_travel_dist_speed_limits(rig, robot):
+    robot.travel_dist(5.0, 0.1)  # capped at 0.5 m/s (the seed's limit), still stops at 0.1 m
+    assert rig.world.model.pose[0] == pytest.approx(0.1, abs=0.015)
+    robot.pause(0.1)
+    start = rig.world.sim_time
+    robot.travel_dist(-0.001, 0.02)  # a negative tiny speed is raised to 0.025 m/s (seed bug 11)
+    assert rig.world.sim_time - start == pytest.approx(0.02 / 0.025, abs=0.1)
+
+
+def test_turn_angle_turns_the_angle(rig, robot):
+    assert robot.turn_angle(0.2, 90) == pytest.approx(90, abs=1.0)
+    assert math.degrees(robot.overhead_localization()[2]) == pytest.approx(90, abs=1.0)
+    robot.turn_angle(0.2, -45)
+    assert math.degrees(rig.world.model.pose[2]) == pytest.approx(45, abs=1.5)
+    assert rig.world.model.pose[0] == pytest.approx(0.0, abs=1e-9)  # in place
+
+
+def test_turn_angle_360_is_a_full_turn_not_nothing(executor, make_node, tmp_path):
+    # 31 s of sim time: only odometry is needed, so the other sensors stay quiet.
+    quiet = {f"rate.{name}": 0.0 for name in ("scan", "camera", "sonar", "cliff", "wall", "virtual_wall", "bump")}
+    rig = Rig(executor, make_node, tmp_path, **quiet)
+    robot = hosted_robot(rig)
+    assert robot.turn_angle(0.2, 360) == pytest.approx(360, abs=1.0)
+    assert rig.world.sim_time >= 2 * math.pi / 0.2 - 0.1
+
+
+def test_sonar_readings_use_the_toolbox_numbering(executor, make_node, tmp_path):
+    rig = Rig(executor, make_node, tmp_path, initial_pose=[-1.0, -1.0, math.pi / 2])
+    robot = hosted_robot(rig)
+    assert robot.read_sonar() == pytest.approx(2.84)  # default: front
+    assert robot.read_sonar(3) == pytest.approx(0.84)  # left
+    assert robot.read_sonar_multiple() == pytest.approx([2.84, 2.84, 0.84, 0.84])  # right front left back
+    assert robot.read_sonar_multiple(4, 1) == pytest.approx([0.84, 2.84])
+    with pytest.raises(ValueError, match="sonar_num"):
+        robot.read_sonar(5)
+
+
+def test_no_sonar_return_is_none(executor, make_node, tmp_path):
+    rig = Rig(executor, make_node, tmp_path, map_text="wall 0 1 1 1\n")
+    robot = hosted_robot(rig)
+    assert robot.read_sonar(2) is None
+    assert robot.read_sonar(3) == pytest.approx(0.84)
+
+
+def test_bumps_lidar_camera_and_odometry_counters(rig, robot):
+    assert robot.bumps_wheel_drops() == (False, False, False, False, False, False)
+    assert robot.lidar().shape == (681,)
+    assert robot.lidar()[340] == pytest.approx(1.84, abs=1e-4)
+    angles, distances, colours = robot.camera()
+    assert distances == pytest.approx([1.37]) and angles == pytest.approx([0.0], abs=1e-9)
+    assert colours.tolist() == [[1.0, 0.0, 0.0]]
+    assert robot.beacons()[0][0] == "Red1"
+    assert robot.read_beacon()[0][1:4] == pytest.approx((0.0, 0.0, 1.37), abs=1e-9)
+    robot.distance_sensor(), robot.angle_sensor()
+    robot.set_fwd_vel_ang_vel(0.5, 0.0)
+    robot.pause(5.0)  # into the wall at x = 2
+    assert robot.bumps_wheel_drops() == (False, False, False, False, False, True)  # front = both pressed
+    assert robot.distance_sensor() == pytest.approx(1.84, abs=0.02)
+    assert robot.distance_sensor() == pytest.approx(0.0)  # since the last call
+    robot.set_fwd_vel_ang_vel(0.0, 0.0)
+    robot.turn_angle(0.2, 30)
+    assert robot.angle_sensor() == pytest.approx(math.radians(30), abs=0.02)
+    assert robot.wall_sensor() is True  # turned left at the wall: it is now on the IR sensor's right
+    assert robot.virtual_wall_sensor() is False
+    assert robot.cliff_front_left_signal_strength() == pytest.approx(21.5)
+    assert robot.cliff_left_sensor() is False
+
+
+def test_buttons_battery_and_all_sensors(rig, robot):
+    rig.call(SetBool, "press_advance", SetBool.Request(data=True))
+    robot.pause(0.2)
+    assert robot.buttons() == (True, False)  # (advance, play) as ButtonsSensorRoomba
+    assert robot.battery_charge() == pytest.approx((3000.0, 3000.0, 100.0))
+    assert robot.battery_voltage() == pytest.approx(17.2)
+    assert robot.current_tester() == pytest.approx(-3.0)
+    everything = robot.all_sensors_read()
+    assert isinstance(everything, AllSensors) and len(everything) == 23
+    assert everything.button_advance and not everything.button_play
+    assert everything.voltage == pytest.approx(17.2) and everything.temperature == pytest.approx(25.0)
+
+
+def test_velocity_commands(rig, robot):
+    assert robot.set_drive_wheels(0.8, 0.1) == pytest.approx((0.3, 0.4 / 0.258))  # right clamped to 0.5
+    assert robot.set_fwd_vel_ang_vel(0.0, 10.0) == pytest.approx((0.0, 1.0 / 0.258))  # per-wheel limit
+    assert robot.set_fwd_vel_radius(0.2, 0.5) == pytest.approx((0.2, 0.4))
+    assert robot.set_fwd_vel_radius(0.2, math.inf) == pytest.approx((0.2, 0.0))
+    assert robot.set_fwd_vel_radius(0.2, 10.0) == pytest.approx((0.2, 0.1))  # radius capped at 2 m
+    robot.set_fwd_vel_ang_vel(0.1, 0.5)
+    robot.pause(0.1)
+    assert rig.world.model.command == pytest.approx((0.1, 0.5))
+    with pytest.raises(ValueError, match="fwd_vel"):
+        robot.set_fwd_vel_ang_vel(math.nan, 0.0)
+    with pytest.raises(ValueError, match="led"):
+        robot.set_leds(4, 0, 50)
+
+
+def test_reading_without_a_robot_times_out_clearly(executor, make_node):
+    node = make_node("lonely", namespace="nobody")
+    robot = CreateRobot(node=node, spin=lambda: executor.spin_once(timeout_sec=0.05), timeout=0.3)
+    with pytest.raises(TimeoutError, match="nobody"):
+        robot.overhead_localization()
+
+
+def test_standalone_client_with_its_own_spinner_thread(executor):
+    world = CreateWorldNode(namespace="solo", parameter_overrides=[
+        Parameter("map_file", value=""), Parameter("real_time_factor", value=0.0)])
+    executor.add_node(world)
+    stop = threading.Event()
+
+    def run_world():  # a world in its own thread, as another process would be
+        while not stop.is_set():
+            world.step()
+            drain(executor, timeout_sec=0.01)
+
+    robot = CreateRobot(namespace="solo")
+    thread = threading.Thread(target=run_world, daemon=True)
+    thread.start()
+    try:
+        assert robot.travel_dist(0.2, 0.3) == pytest.approx(0.3, abs=0.03)
+        assert world.model.pose[0] == pytest.approx(0.3, abs=0.05)
+    finally:
+        robot.close()
+        stop.set()
+        thread.join()
