@@ -1,0 +1,352 @@
+"""ROS 2 world node for SIMROBOT worlds: many robots on a bitmap map (design.md §5).
+
+``simrobot_world --ros-args -p world_file:=world.yaml`` (format: :func:`simrobot_sim.world_file.load_world`).
+One physics step is the world file's ``dt``; after every step the world publishes, per robot
+under ``/<name>/``: one topic per sensor (``Range`` for ultrasonic — nearest ray, ``+inf`` for no
+hit — plus ``<sensor>/obstacle`` ``UInt8``; ``LaserScan`` for laser — every ray counter-clockwise
+from the rightmost, ``intensities`` = obstacle number), ``odom`` (``<name>/odom`` →
+``<name>/base_link``, from the start pose), ``pose`` (ground truth in ``map``) and, when it
+changes, ``crashed`` (transient local). World-level: ``/map`` (walls, transient local),
+``/robots`` (outlines and colours) and ``/clock``.
+
+Inputs per robot: ``cmd_vel`` (Twist: linear.x, angular.z through the inverse model),
+``wheel_cmd`` (JointState: ``velocity`` = [left, right] rad/s, the seed's setvel), services
+``set_power`` (SetBool) and ``clear_crash`` (Trigger). NaN/inf commands are rejected with a
+throttled warning. A command holds until the next one, as the seed's setvel.
+
+Lockstep (``lockstep: true`` in the world file): after publishing step k the world waits until
+every powered, non-crashed robot has sent a command *for step k* before computing step k+1. A
+command counts for step k when it arrives after step k was published (a JointState stamped with an
+older step's time does not count: it is stale), or when it is stamped with step k's sim time. If
+``lockstep_timeout`` wall seconds pass first, the world warns which robots did not answer and goes
+on. Unanswered step data is re-published every 0.5 s while waiting, so a controller that joined
+late still gets it. A run is then identical whatever the machine's load.
+
+Robots naming a ``controller`` in the world file get that controller node (``avoid``: the seed's
+alg2) in this process, in the same executor.
+"""
+
+from __future__ import annotations
+
+import array
+import math
+import time
+
+import numpy as np
+from geometry_msgs.msg import Point, PoseStamped, Twist
+from nav_msgs.msg import OccupancyGrid, Odometry
+from rclpy.node import Node
+from sensor_msgs.msg import JointState, LaserScan, Range
+from std_msgs.msg import Bool, UInt8
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import Marker, MarkerArray
+
+from sim_runtime.errors import InputError
+from sim_runtime.msgs import color_msg, float32_array, pose_msg, quaternion_from_yaw, time_from_msg
+from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.run import run_nodes
+from sim_runtime.world_node import SimWorldNode
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import WorldSpec, load_world
+
+#: Wall seconds between re-publications of a step's data while lockstep waits.
+REPUBLISH_PERIOD = 0.5
+
+
+class _RobotIO:
+    """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
+
+    __slots__ = ("pubs", "msgs", "odom_pub", "odom", "pose_pub", "pose", "crashed_pub", "subs", "services")
+
+
+class SimrobotWorldNode(SimWorldNode):
+    """A SIMROBOT world on ROS 2: see the module docstring for the interface."""
+
+    def __init__(self, spec: WorldSpec | None = None, **node_kwargs) -> None:
+        """Load ``spec`` or, when None, the world file named by parameter ``world_file``."""
+        if spec is None:
+            # parameters exist only once the node does: peek at world_file through a short-lived node
+            spec = _spec_from_parameter(node_kwargs)
+        self.spec = spec
+        super().__init__("simrobot_world", physics_rate=1.0 / spec.dt, **node_kwargs)
+        if not self.has_parameter("world_file"):
+            self.declare_parameter("world_file", spec.source)
+        self.model = SimrobotWorld(spec)
+        self.lockstep = bool(spec.lockstep)
+        self.lockstep_timeout = float(spec.lockstep_timeout)
+        self.finished = False
+        n = len(self.model.names)
+        self._answered = np.zeros(n, dtype=bool)
+        self._published_wall = time.monotonic()
+        self._republished_wall = self._published_wall
+        self._io = [self._make_robot_io(i) for i in range(n)]
+        self._map_pub = self.create_publisher(OccupancyGrid, "/map", LATCHED_QOS)
+        self._map_pub.publish(self._map_msg())
+        self._robots_pub = self.create_publisher(MarkerArray, "/robots", SENSOR_QOS)
+        self._markers = self._marker_msgs()
+        for i in range(n):
+            self._io[i].crashed_pub.publish(Bool(data=False))
+        self.every(self.physics_rate, self._publish_step)
+        self._publish_step()
+
+    # -- construction -----------------------------------------------------------------------
+    def _make_robot_io(self, i: int) -> _RobotIO:
+        model = self.model
+        name = model.names[i]
+        io = _RobotIO()
+        io.pubs = []
+        io.msgs = []
+        for k, s in enumerate(model.sensors):
+            if s.robot != i:
+                continue
+            frame = f"{name}/{s.name}"
+            if s.kind == "laser":
+                msg = LaserScan()
+                msg.header.frame_id = frame
+                msg.angle_min = -0.5 * s.beamwidth if s.rays > 1 else 0.0
+                msg.angle_max = 0.5 * s.beamwidth if s.rays > 1 else 0.0
+                msg.angle_increment = s.beamwidth / (s.rays - 1) if s.rays > 1 else 0.0
+                msg.range_min = 0.0
+                msg.range_max = float(s.range)
+                msg.scan_time = float(self.spec.dt)
+                pub = self.create_publisher(LaserScan, f"/{name}/{s.name}", SENSOR_QOS)
+                io.pubs.append((k, "laser", pub, None))
+                io.msgs.append((msg, None))
+            else:
+                msg = Range()
+                msg.header.frame_id = frame
+                msg.radiation_type = Range.ULTRASOUND
+                msg.field_of_view = float(s.beamwidth)
+                msg.min_range = 0.0
+                msg.max_range = float(s.range)
+                pub = self.create_publisher(Range, f"/{name}/{s.name}", SENSOR_QOS)
+                obst_pub = self.create_publisher(UInt8, f"/{name}/{s.name}/obstacle", SENSOR_QOS)
+                io.pubs.append((k, "ultrasonic", pub, obst_pub))
+                io.msgs.append((msg, UInt8()))
+        io.odom_pub = self.create_publisher(Odometry, f"/{name}/odom", SENSOR_QOS)
+        io.odom = Odometry()
+        io.odom.header.frame_id = f"{name}/odom"
+        io.odom.child_frame_id = f"{name}/base_link"
+        io.pose_pub = self.create_publisher(PoseStamped, f"/{name}/pose", SENSOR_QOS)
+        io.pose = PoseStamped()
+        io.pose.header.frame_id = "map"
+        io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
+        io.subs = [
+            self.create_subscription(Twist, f"/{name}/cmd_vel", lambda m, i=i: self._on_cmd_vel(i, m), COMMAND_QOS),
+            self.create_subscription(
+                JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
+            ),
+        ]
+        io.services = [
+            self.create_service(SetBool, f"/{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
+            self.create_service(Trigger, f"/{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
+        ]
+        return io
+
+    def _map_msg(self) -> OccupancyGrid:
+        model = self.model
+        msg = OccupancyGrid()
+        msg.header.frame_id = "map"
+        msg.header.stamp = self.stamp()
+        nx, ny = model.grid.shape
+        msg.info.resolution = float(model.resolution)
+        msg.info.width = nx
+        msg.info.height = ny
+        msg.info.origin = pose_msg(model.origin[0], model.origin[1], 0.0)
+        # OccupancyGrid is row-major with rows along y: the transpose of grid[x, y]
+        data = np.where(self.spec.walls.T, 100, 0).astype(np.int8)
+        msg.data = array.array("b", data.tobytes())
+        return msg
+
+    def _marker_msgs(self) -> MarkerArray:
+        model = self.model
+        out = MarkerArray()
+        for i in range(len(model.names)):
+            m = Marker()
+            m.header.frame_id = "map"
+            m.ns = "robots"
+            m.id = i
+            m.type = Marker.LINE_STRIP
+            m.action = Marker.ADD
+            m.scale.x = max(model.resolution, 0.002)
+            m.color = color_msg(*model.colors[i])
+            verts = model.verts[model.vstart[i]:model.vstart[i + 1]] * model.resolution
+            m.points = [Point(x=float(x), y=float(y)) for x, y in np.vstack([verts, verts[:1]])]
+            out.markers.append(m)
+        return out
+
+    # -- commands ---------------------------------------------------------------------------
+    def _counts_for_step(self, stamp) -> bool:
+        t = time_from_msg(stamp)
+        if t == 0.0 and stamp.sec == 0 and stamp.nanosec == 0:
+            return True  # unstamped: counts by arrival
+        return t >= self.sim_time - 0.5 * self.physics_dt
+
+    def _on_cmd_vel(self, i: int, msg: Twist) -> None:
+        v, w = msg.linear.x, msg.angular.z
+        try:
+            self.model.set_cmd_vel(i, v, w)
+        except InputError as err:
+            self.warn_throttled(f"cmd_vel{i}", f"cmd_vel ignored: {err}")
+            return
+        self._answered[i] = True
+
+    def _on_wheel_cmd(self, i: int, msg: JointState) -> None:
+        name = self.model.names[i]
+        if len(msg.velocity) != 2:
+            self.warn_throttled(
+                f"wheel{i}", f"/{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
+            )
+            return
+        try:
+            self.model.set_wheel_speeds(i, float(msg.velocity[0]), float(msg.velocity[1]))
+        except InputError as err:
+            self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {err}")
+            return
+        if self._counts_for_step(msg.header.stamp):
+            self._answered[i] = True
+
+    def _on_set_power(self, i: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.model.set_power(i, request.data)
+        response.success = True
+        response.message = f"{self.model.names[i]} power {'on' if request.data else 'off'}"
+        return response
+
+    def _on_clear_crash(self, i: int, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        was = bool(self.model.crashed[i])
+        self.model.clear_crash(i)
+        if was:
+            self._io[i].crashed_pub.publish(Bool(data=False))
+        response.success = True
+        name = self.model.names[i]
+        response.message = f"{name} crash flag cleared" if was else f"{name} was not crashed"
+        return response
+
+    # -- time -------------------------------------------------------------------------------
+    def ready_to_step(self) -> bool:
+        """False once ``steps_limit`` is reached; in lockstep, also until every powered,
+        non-crashed robot answered the current step or ``lockstep_timeout`` passed."""
+        if self.finished:
+            return False
+        if not self.lockstep:
+            return True
+        model = self.model
+        waiting = model.power & ~model.crashed & ~self._answered
+        if not waiting.any():
+            return True
+        now = time.monotonic()
+        if now - self._published_wall > self.lockstep_timeout:
+            names = ", ".join(model.names[i] for i in np.flatnonzero(waiting)[:10])
+            self.warn_throttled(
+                "lockstep",
+                f"lockstep: no command for step {self.step_count} from {names} after "
+                f"{self.lockstep_timeout} s; stepping on",
+            )
+            return True
+        if now - self._republished_wall > REPUBLISH_PERIOD:
+            self._republished_wall = now
+            self._publish_step()
+        return False
+
+    def physics_step(self) -> None:
+        """Move every robot one ``dt``; announce new crashes."""
+        for i in self.model.step():
+            self._io[i].crashed_pub.publish(Bool(data=True))
+        self._answered[:] = False
+        if self.model.step_count >= self.spec.steps_limit and not self.finished:
+            self.finished = True
+            self.get_logger().info(f"steps_limit {int(self.model.step_count)} reached: the world stops")
+
+    def _publish_step(self) -> None:
+        model = self.model
+        model.sense()
+        stamp = self.stamp()
+        poses = model.poses()
+        start = model.start_pose
+        res = model.resolution
+        for i, io in enumerate(self._io):
+            for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
+                msg.header.stamp = stamp
+                if kind == "laser":
+                    ranges, values = model.ranges(k)
+                    msg.ranges = float32_array(ranges)
+                    msg.intensities = float32_array(values)
+                    pub.publish(msg)
+                else:
+                    dist, value = model.nearest(k)
+                    msg.range = dist
+                    pub.publish(msg)
+                    obst.data = value
+                    obst_pub.publish(obst)
+            x, y, h = poses[i]
+            io.pose.header.stamp = stamp
+            io.pose.pose = pose_msg(x, y, h)
+            io.pose_pub.publish(io.pose)
+            # odometry: the pose in the frame of the start pose (exact wheel odometry)
+            sx, sy, sh = start[i]
+            dx, dy = (model.pose[i, 0] - sx) * res, (model.pose[i, 1] - sy) * res
+            c, s = math.cos(sh), math.sin(sh)
+            odom = io.odom
+            odom.header.stamp = stamp
+            odom.pose.pose = pose_msg(c * dx + s * dy, -s * dx + c * dy, h - sh)
+            v, v_lat, w = model.body_velocity(i)
+            odom.twist.twist.linear.x = v
+            odom.twist.twist.linear.y = v_lat
+            odom.twist.twist.angular.z = w
+            io.odom_pub.publish(odom)
+        for i, m in enumerate(self._markers.markers):
+            m.header.stamp = stamp
+            m.pose.position.x = float(poses[i, 0])
+            m.pose.position.y = float(poses[i, 1])
+            m.pose.orientation = quaternion_from_yaw(poses[i, 2])
+        self._robots_pub.publish(self._markers)
+        self._published_wall = self._republished_wall = time.monotonic()
+
+
+def _spec_from_parameter(node_kwargs: dict) -> WorldSpec:
+    probe = Node("simrobot_world", **node_kwargs)
+    try:
+        path = probe.declare_parameter("world_file", "").value
+    finally:
+        probe.destroy_node()
+    if not path:
+        raise InputError("parameter 'world_file' is required: --ros-args -p world_file:=<world.yaml>")
+    return load_world(path)
+
+
+def spin_steps(executor, world: SimrobotWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
+    """Step ``world`` ``steps`` times as fast as it is ready (lockstep waits for controllers),
+    spinning ``executor`` in between; returns the steps done (fewer once ``steps_limit`` hits)."""
+    from sim_runtime.run import drain
+
+    done = 0
+    while done < steps and not world.finished:
+        if world.ready_to_step():
+            world.step()
+            done += 1
+            drain(executor)
+        else:
+            executor.spin_once(timeout_sec=idle_timeout)
+    return done
+
+
+def make_nodes() -> list[Node]:
+    """The world plus a controller node for every robot whose world-file entry names one."""
+    from simrobot_sim.avoid import AvoidNode
+
+    world = SimrobotWorldNode()
+    nodes: list[Node] = [world]
+    for robot in world.spec.robots:
+        if robot.controller == "avoid":
+            sonar = next((s.name for s in robot.sensors if s.kind == "ultrasonic"), None)
+            if sonar is None:
+                raise InputError(
+                    f"{world.spec.source}: robot {robot.name!r}: controller 'avoid' needs an ultrasonic sensor"
+                )
+            nodes.append(AvoidNode(robot=robot.name, sensor=sonar))
+    return nodes
+
+
+def main(args: list[str] | None = None) -> None:
+    """``simrobot_world --ros-args -p world_file:=<world.yaml>``."""
+    run_nodes(make_nodes, args)
