@@ -255,7 +255,8 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
     """Levenberg–Marquardt IK (Sugihara's damping) within joint limits, with random restarts.
 
     Starts from ``q0`` (clipped to the limits), then from uniform random configurations within
-    the limits. Each search runs at most ``ilimit`` iterations; at most ``slimit`` searches.
+    the limits. Each search runs ``ilimit`` iterations (up to 4 * ``ilimit`` while it keeps
+    converging); at most ``slimit`` searches.
     Returns (q, success, residual, searches): ``residual`` is the norm of the 6-vector pose error
     (metres and radians mixed, as the tolerance); on failure ``q`` is the best found, never
     presented as a solution.
@@ -276,7 +277,10 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
         if search > 0:
             for i in range(n):
                 q[i] = lower[i] + np.random.random() * (upper[i] - lower[i])
-        for _ in range(ilimit):
+        prev_res = np.inf
+        # a search that is still converging (near a singularity convergence turns linear) may run
+        # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit
+        for it in range(4 * ilimit):
             fk_all_into(frames, q, dh, base, modified)
             _pose_error(e, Tgoal, frames[n])
             res = _norm(e)
@@ -285,8 +289,11 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
                 best_q[:] = q
             if res < tol:
                 return best_q, True, best_res, search + 1
+            if it >= ilimit and (res > 1e-2 or res > 0.95 * prev_res):
+                break
+            prev_res = res
             _jacobian_from_frames(J, frames, dh, modified)
-            damping = 0.5 * res * res + 1e-6
+            damping = 0.5 * res * res + 1e-12
             for r in range(n):
                 s = 0.0
                 for k in range(6):
