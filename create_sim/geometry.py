@@ -42,10 +42,11 @@ def ray_segment_distance(ox: float, oy: float, dx: float, dy: float,
         if hi < 0.0:
             return np.inf
         return max(lo, 0.0)
-    t = (ax * sy - ay * sx) / denom
+    inv = 1.0 / denom
+    t = (ax * sy - ay * sx) * inv
     if t < 0.0:
         return np.inf
-    u = (ax * dy - ay * dx) / denom
+    u = (ax * dy - ay * dx) * inv
     if u < -_SEGMENT_PARAM_TOL or u > 1.0 + _SEGMENT_PARAM_TOL:
         return np.inf
     return t
@@ -215,13 +216,20 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
 
 
 @numba.njit(cache=True)
-def grid_cast_fan(segs, meta, start, items, ox, oy, angles, max_range):
-    """Distances of rays from one origin at the given world angles (inf = no hit within range)."""
-    out = np.empty(angles.shape[0])
+def grid_cast_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, max_range):
+    """Distances of rays from one origin at angles heading + offset (inf = no hit within range).
+
+    Offsets come as their cosines and sines so a sensor's fixed fan needs no trigonometry per
+    ray: each direction is the offset rotated by the heading.
+    """
+    out = np.empty(cos_off.shape[0])
     mailbox = np.full(segs.shape[0], -1, dtype=np.int64)
-    for i in range(angles.shape[0]):
-        out[i] = grid_cast(segs, meta, start, items, mailbox, i, ox, oy,
-                           math.cos(angles[i]), math.sin(angles[i]), max_range)
+    ch = math.cos(heading)
+    sh = math.sin(heading)
+    for i in range(cos_off.shape[0]):
+        dx = ch * cos_off[i] - sh * sin_off[i]
+        dy = sh * cos_off[i] + ch * sin_off[i]
+        out[i] = grid_cast(segs, meta, start, items, mailbox, i, ox, oy, dx, dy, max_range)
     return out
 
 
@@ -365,8 +373,14 @@ class SegmentGrid:
 
     def cast(self, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:
         """Distances from (ox, oy) along world ``angles``; inf where nothing is hit within range."""
+        angles = np.asarray(angles, dtype=np.float64)
+        return self.cast_fan(ox, oy, 0.0, np.cos(angles), np.sin(angles), max_range)
+
+    def cast_fan(self, ox: float, oy: float, heading: float, cos_off: np.ndarray,
+                 sin_off: np.ndarray, max_range: float) -> np.ndarray:
+        """Like :meth:`cast` for a sensor's fixed fan: angles heading + offsets (as cos, sin)."""
         return grid_cast_fan(self.segs, self.meta, self.start, self.items, float(ox), float(oy),
-                             np.ascontiguousarray(angles, dtype=np.float64), float(max_range))
+                             float(heading), cos_off, sin_off, float(max_range))
 
 
 def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray,

@@ -82,8 +82,10 @@ class CreateModel:
         self._lines = np.ascontiguousarray(world.lines, dtype=np.float64).reshape(-1, 4)
         self._contact_buf = np.empty((max(self.grid.segs.shape[0], 1), 4))
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
-        self._lidar_offsets = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
-        self._sonar_offsets = np.array([0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi])
+        lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
+        self._lidar_fan = (np.cos(lidar), np.sin(lidar))
+        self._sonar_fan = (np.array([1.0, 0.0, -1.0, 0.0]), np.array([0.0, 1.0, 0.0, -1.0]))
+        self._ir_fan = (np.array([0.0]), np.array([-1.0]))  # looking straight right
         self._check_pose(*pose)
         self.initial_pose = (float(pose[0]), float(pose[1]), float(wrap_angle(float(pose[2]))))
         self.reset()
@@ -241,9 +243,9 @@ class CreateModel:
             return False
         x, y, th = self._pose
         mount = th + self.IR_MOUNT_ANGLE
-        origin = np.array([[x + self.RADIUS * math.cos(mount), y + self.RADIUS * math.sin(mount)]])
-        hit = self.grid.cast_rays(origin, np.array([th - 0.5 * math.pi]), np.array([reach]))
-        return bool(np.isfinite(hit[0]))
+        hit = self.grid.cast_fan(x + self.RADIUS * math.cos(mount), y + self.RADIUS * math.sin(mount),
+                                 th, *self._ir_fan, reach)
+        return bool(hit[0] < math.inf)
 
     def virtual_wall(self) -> bool:
         """Whether the front receiver is in any emitter's halo or field, with no wall between."""
@@ -284,7 +286,7 @@ class CreateModel:
         """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
-        dist = self.grid.cast(float(x), float(y), th + self._sonar_offsets, hi + self.RADIUS)
+        dist = self.grid.cast_fan(x, y, th, *self._sonar_fan, hi + self.RADIUS)
         dist -= self.RADIUS
         hit = np.isfinite(dist)
         noisy = np.clip(dist + self._noise("sonar", 4), lo, hi)
@@ -298,7 +300,7 @@ class CreateModel:
         lo, hi = self.LIDAR_RANGE
         ox = x + self.RADIUS * math.cos(th)
         oy = y + self.RADIUS * math.sin(th)
-        dist = self.grid.cast(ox, oy, th + self._lidar_offsets, hi)
+        dist = self.grid.cast_fan(ox, oy, th, *self._lidar_fan, hi)
         mean, std = self.noise.noise["lidar"]
         if mean != 0.0 or std != 0.0:
             dist = dist + self._noise("lidar", self.LIDAR_BEAMS)

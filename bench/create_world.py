@@ -1,0 +1,253 @@
+"""Benchmark of the Create world: LIDAR casting, the full-sensor model step, the node, cold start.
+
+Run:  ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python bench/create_world.py [--quick]
+
+All figures on one core, on a map of 200 random walls (0.2–2.5 m long) in a 10 m × 10 m square
+(plus 20 lines, 10 beacons and 5 virtual walls so that every sensor has work),
+with a 681-beam scan (the URG-04LX-like LIDAR). Baselines are measured in the same run:
+a numpy rays × segments matrix and a brute-force numba loop (every ray against every wall).
+Goals (issue 2 §5): grid LIDAR ≥ 5 M rays/s, full-sensor model step ≥ 2,000 steps/s, node at
+real_time_factor 0 ≥ 20× real time, cold start (numba cache warm) to first scan ≤ 3 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+from create_sim.configfile import NoiseConfig, load_config  # noqa: E402
+from create_sim.geometry import SegmentGrid, brute_cast_fan, numpy_cast_fan  # noqa: E402
+from create_sim.mapfile import CreateMap  # noqa: E402
+from create_sim.model import CreateModel  # noqa: E402
+from sim_runtime.errors import InputError  # noqa: E402
+
+N_WALLS = 200
+BEAMS = CreateModel.LIDAR_BEAMS
+
+
+def random_segments(rng: np.random.Generator, count: int) -> np.ndarray:
+    start = rng.uniform(-5.0, 5.0, (count, 2))
+    angle = rng.uniform(0.0, 2.0 * math.pi, count)
+    length = rng.uniform(0.2, 2.5, count)
+    end = start + np.column_stack([np.cos(angle), np.sin(angle)]) * length[:, None]
+    return np.column_stack([start, end])
+
+
+def random_map(seed: int = 0) -> CreateMap:
+    """200 walls, plus 20 painted lines, 10 beacons and 5 virtual walls for the other sensors."""
+    rng = np.random.default_rng(seed)
+    return CreateMap(
+        walls=random_segments(rng, N_WALLS),
+        lines=random_segments(rng, 20),
+        beacon_xy=rng.uniform(-5.0, 5.0, (10, 2)),
+        beacon_rgb=rng.uniform(0.0, 1.0, (10, 3)),
+        beacon_ids=[f"b{i}" for i in range(10)],
+        virtwalls=np.column_stack([rng.uniform(-5.0, 5.0, (5, 2)), rng.uniform(-3.0, 3.0, 5),
+                                   rng.integers(1, 4, 5)]).astype(np.float64),
+    )
+
+
+def free_poses(world: CreateMap, count: int, seed: int = 1) -> list[tuple[float, float, float]]:
+    rng = np.random.default_rng(seed)
+    poses: list[tuple[float, float, float]] = []
+    while len(poses) < count:
+        pose = (*rng.uniform(-4.5, 4.5, 2), rng.uniform(-math.pi, math.pi))
+        try:
+            CreateModel(world, pose=pose)
+        except InputError:
+            continue
+        poses.append(pose)
+    return poses
+
+
+def rate(fn, budget: float) -> float:
+    """Calls per second of fn over about ``budget`` seconds (after one warm-up call)."""
+    fn()
+    calls = 0
+    t0 = time.perf_counter()
+    while True:
+        fn()
+        calls += 1
+        elapsed = time.perf_counter() - t0
+        if elapsed >= budget:
+            return calls / elapsed
+
+
+def bench_lidar(world: CreateMap, budget: float) -> dict[str, float]:
+    grid = SegmentGrid.build(world.walls)
+    poses = free_poses(world, 32)
+    offsets = np.linspace(-0.5 * CreateModel.LIDAR_FOV, 0.5 * CreateModel.LIDAR_FOV, BEAMS)
+    rays = [(x + 0.16 * math.cos(t), y + 0.16 * math.sin(t), t + offsets) for x, y, t in poses]
+    counter = iter(range(10**12))
+
+    def scan(caster):
+        def run():
+            ox, oy, angles = rays[next(counter) % len(rays)]
+            caster(ox, oy, angles)
+        return run
+
+    walls = world.walls
+    results = {
+        "numpy rays×walls matrix": rate(scan(lambda x, y, a: numpy_cast_fan(walls, x, y, a, 4.0)),
+                                        budget) * BEAMS,
+        "numba brute force": rate(scan(lambda x, y, a: brute_cast_fan(walls, x, y, a, 4.0)),
+                                  budget) * BEAMS,
+        "numba uniform grid": rate(scan(lambda x, y, a: grid.cast(x, y, a, 4.0)), budget) * BEAMS,
+    }
+    for x, y, angles in rays:  # the benchmark is only worth printing if they agree
+        np.testing.assert_allclose(grid.cast(x, y, angles, 4.0),
+                                   brute_cast_fan(walls, x, y, angles, 4.0), atol=1e-9)
+    robot = CreateModel(world, pose=poses[0])
+    results["CreateModel.lidar() (incl. pose, float32)"] = rate(robot.lidar, budget) * BEAMS
+    return results
+
+
+def bench_model_step(world: CreateMap, noise: NoiseConfig, budget: float) -> float:
+    """Steps/s of one 100 Hz physics step followed by every sensor, driving about the map."""
+    robot = CreateModel(world, noise, rng=np.random.default_rng(0), pose=free_poses(world, 1)[0])
+    steering = np.random.default_rng(1)
+    state = {"n": 0}
+
+    def full_step():
+        n = state["n"] = state["n"] + 1
+        if n % 100 == 0:  # a new random command every simulated second
+            robot.set_velocity(steering.uniform(-0.5, 0.5), steering.uniform(-2.0, 2.0))
+        robot.step(0.01)
+        robot.bumps()
+        robot.cliff_signals()
+        robot.wall_sensor()
+        robot.virtual_wall()
+        robot.sonar()
+        robot.lidar()
+        robot.camera()
+        _ = robot.odometry_pose, robot.pose, robot.velocity
+
+    return rate(full_step, budget)
+
+
+def write_map(world: CreateMap, folder: str) -> str:
+    path = os.path.join(folder, "bench_200_walls.map")
+    Path(path).write_text(world.to_text())
+    return path
+
+
+def bench_node(map_path: str, pose, budget: float) -> float:
+    """Simulated seconds per wall second of the world node at real_time_factor 0, default rates."""
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from create_sim.world_node import CreateWorldNode
+
+    rclpy.init()
+    try:
+        node = CreateWorldNode(parameter_overrides=[
+            Parameter("map_file", value=map_path),
+            Parameter("config_file", value=str(ROOT / "config/create/example_config.txt")),
+            Parameter("initial_pose", value=[float(v) for v in pose]),
+            Parameter("real_time_factor", value=0.0)])
+        node.model.set_velocity(0.3, 0.4)
+        node.step(100)
+        steps = 0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < budget:
+            node.step(100)
+            steps += 100
+        elapsed = time.perf_counter() - t0
+        sim_seconds = steps * node.physics_dt
+        node.destroy_node()
+        return sim_seconds / elapsed
+    finally:
+        rclpy.shutdown()
+
+
+_COLD_START = r"""
+import sys, time
+from rclpy.parameter import Parameter
+import rclpy
+from create_sim.world_node import CreateWorldNode
+from sensor_msgs.msg import LaserScan
+from sim_runtime.qos import SENSOR_QOS
+from sim_runtime.run import make_executor
+
+rclpy.init()
+world = CreateWorldNode(parameter_overrides=[Parameter("map_file", value=sys.argv[1]),
+                                             Parameter("initial_pose", value=[float(v) for v in sys.argv[2:5]]),
+                                             Parameter("real_time_factor", value=0.0)])
+listener = rclpy.create_node("cold_start_listener")
+got = []
+listener.create_subscription(LaserScan, "scan", got.append, SENSOR_QOS)
+executor = make_executor()
+executor.add_node(world)
+executor.add_node(listener)
+while not got:
+    world.step()
+    executor.spin_once(timeout_sec=0.0)
+print("FIRST_SCAN", len(got[0].ranges), flush=True)
+"""
+
+
+def bench_cold_start(map_path: str, pose) -> tuple[float, float]:
+    """Wall seconds from launching a fresh interpreter to receiving its first scan (twice)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    args = [sys.executable, "-c", _COLD_START, map_path, *(str(v) for v in pose)]
+    times = []
+    for _ in range(2):  # the first run also fills the numba cache if it is cold
+        t0 = time.perf_counter()
+        out = subprocess.run(args, env=env, capture_output=True, text=True, timeout=120)
+        times.append(time.perf_counter() - t0)
+        if "FIRST_SCAN 681" not in out.stdout:
+            raise RuntimeError(f"cold-start child failed:\n{out.stdout}\n{out.stderr}")
+    return times[0], times[1]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="shorter timing windows")
+    parser.add_argument("--no-node", action="store_true", help="skip the ROS node and cold start")
+    args = parser.parse_args()
+    budget = 0.3 if args.quick else 1.0
+    world = random_map()
+    noise = load_config(ROOT / "config/create/example_config.txt")
+
+    print(f"LIDAR scan, {BEAMS} beams, {N_WALLS} random walls, one core")
+    lidar = bench_lidar(world, budget)
+    brute = lidar["numba brute force"]
+    for name, rays in lidar.items():
+        print(f"  {name:42s} {rays / 1e6:7.2f} M rays/s   ×{rays / brute:5.2f} vs brute force")
+    grid = lidar["numba uniform grid"]
+    numpy_rate = lidar["numpy rays×walls matrix"]
+    print(f"  grid vs numpy: ×{grid / numpy_rate:.1f}   goal ≥ 5 M rays/s: "
+          f"{'met' if grid >= 5e6 else 'NOT met'}")
+
+    steps = bench_model_step(world, noise, budget)
+    print(f"Full-sensor model step (physics + all 8 sensors, example noise): {steps:8.0f} steps/s "
+          f"  goal ≥ 2,000: {'met' if steps >= 2000 else 'NOT met'}")
+
+    if args.no_node:
+        return
+    pose = free_poses(world, 1)[0]
+    with tempfile.TemporaryDirectory() as folder:
+        map_path = write_map(world, folder)
+        speed = bench_node(map_path, pose, 2 * budget)
+        print(f"create_world node, real_time_factor 0, default rates, node.step(n): "
+              f"{speed:6.1f}× real time   goal ≥ 20×: {'met' if speed >= 20 else 'NOT met'}")
+        first, warm = bench_cold_start(map_path, pose)
+        print(f"Cold start to first scan (fresh interpreter): {first:.2f} s first run, "
+              f"{warm:.2f} s with the numba cache warm   goal ≤ 3 s: "
+              f"{'met' if warm <= 3.0 else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
