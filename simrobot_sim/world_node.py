@@ -16,8 +16,9 @@ throttled warning. A command holds until the next one, as the seed's setvel.
 
 Lockstep (``lockstep: true`` in the world file): after publishing step k the world waits until
 every powered, non-crashed robot has sent a command *for step k* before computing step k+1. A
-command counts for step k when it arrives after step k was published (a JointState stamped with an
-older step's time does not count: it is stale), or when it is stamped with step k's sim time. If
+command counts for step k when it arrives after step k was published (unstamped), or when it is
+stamped with step k's sim time; a ``wheel_cmd`` stamped with an older step's time is stale and
+ignored (``cmd_vel`` has no stamp: it always counts on arrival). If
 ``lockstep_timeout`` wall seconds pass first, the world warns which robots did not answer and goes
 on. Unanswered step data is re-published every 0.5 s while waiting, so a controller that joined
 late still gets it. A run is then identical whatever the machine's load.
@@ -177,10 +178,9 @@ class SimrobotWorldNode(SimWorldNode):
 
     # -- commands ---------------------------------------------------------------------------
     def _counts_for_step(self, stamp) -> bool:
-        t = time_from_msg(stamp)
-        if t == 0.0 and stamp.sec == 0 and stamp.nanosec == 0:
+        if stamp.sec == 0 and stamp.nanosec == 0:
             return True  # unstamped: counts by arrival
-        return t >= self.sim_time - 0.5 * self.physics_dt
+        return time_from_msg(stamp) >= self.sim_time - 0.5 * self.physics_dt
 
     def _on_cmd_vel(self, i: int, msg: Twist) -> None:
         v, w = msg.linear.x, msg.angular.z
@@ -193,6 +193,9 @@ class SimrobotWorldNode(SimWorldNode):
 
     def _on_wheel_cmd(self, i: int, msg: JointState) -> None:
         name = self.model.names[i]
+        if not self._counts_for_step(msg.header.stamp):
+            # an answer to an older step (e.g. to a re-publication) must not override this one
+            return
         if len(msg.velocity) != 2:
             self.warn_throttled(
                 f"wheel{i}", f"/{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
@@ -203,8 +206,7 @@ class SimrobotWorldNode(SimWorldNode):
         except InputError as err:
             self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {err}")
             return
-        if self._counts_for_step(msg.header.stamp):
-            self._answered[i] = True
+        self._answered[i] = True
 
     def _on_set_power(self, i: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.model.set_power(i, request.data)
