@@ -151,11 +151,13 @@ class CreateModel:
 
     def step(self, dt: float) -> None:
         """Advance the physics by dt seconds at the commanded velocity and update odometry."""
-        x0, y0, th0 = self._pose
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt >= 0.0):
+            raise ValueError(f"time step {dt} must be finite and >= 0")
+        x0, y0, th0 = (float(v) for v in self._pose)
         v, w = self._command
         x1, y1, th1 = advance(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                              float(x0), float(y0), float(th0), v, w, float(dt), self.RADIUS,
-                              self.FRICTION)
+                              x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
         self._pose[:] = (x1, y1, th1)
         dx = x1 - x0
         dy = y1 - y0
@@ -165,7 +167,7 @@ class CreateModel:
         along = dx * math.cos(mid) + dy * math.sin(mid)
         dist = math.copysign(math.hypot(dx, dy), along)
         if dt > 0.0:
-            self._velocity = (along / dt, turn / dt)
+            self._velocity = (float(along / dt), float(turn / dt))
         self._integrate_odometry(dist, turn)
 
     # ----------------------------------------------------------------------------- odometry

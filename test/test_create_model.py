@@ -98,6 +98,15 @@ def test_non_finite_command_is_refused_and_state_unchanged(bad):
     assert robot.command == pytest.approx((0.1, 0.2))
 
 
+@pytest.mark.parametrize("dt", [-0.01, math.nan, math.inf])
+def test_bad_time_step_is_refused(dt):
+    robot = CreateModel(world())
+    robot.set_velocity(0.2, 0.0)
+    with pytest.raises(ValueError, match="time step"):
+        robot.step(dt)
+    np.testing.assert_array_equal(robot.pose, [0, 0, 0])
+
+
 def test_stops_at_a_wall_ahead():
     robot = CreateModel(world(walls=[[1, -1, 1, 1]]))
     drive(robot, 0.5, 0.0, 4.0)
