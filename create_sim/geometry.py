@@ -139,25 +139,28 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
     x0 = meta[0]
     y0 = meta[1]
     cell = meta[2]
-    # Clip the ray to the grid's box (slab test).
+    x1 = x0 + nx * cell
+    y1 = y0 + ny * cell
     t_in = 0.0
     t_out = max_range
-    if dx != 0.0:
-        ta = (x0 - ox) / dx
-        tb = (x0 + nx * cell - ox) / dx
-        t_in = max(t_in, min(ta, tb))
-        t_out = min(t_out, max(ta, tb))
-    elif ox < x0 or ox > x0 + nx * cell:
-        return np.inf
-    if dy != 0.0:
-        ta = (y0 - oy) / dy
-        tb = (y0 + ny * cell - oy) / dy
-        t_in = max(t_in, min(ta, tb))
-        t_out = min(t_out, max(ta, tb))
-    elif oy < y0 or oy > y0 + ny * cell:
-        return np.inf
-    if t_in > t_out:
-        return np.inf
+    if not (x0 <= ox <= x1 and y0 <= oy <= y1):
+        # Origin off the grid: clip the ray to the grid's box (slab test).
+        if dx != 0.0:
+            ta = (x0 - ox) / dx
+            tb = (x1 - ox) / dx
+            t_in = max(t_in, min(ta, tb))
+            t_out = min(t_out, max(ta, tb))
+        elif ox < x0 or ox > x1:
+            return np.inf
+        if dy != 0.0:
+            ta = (y0 - oy) / dy
+            tb = (y1 - oy) / dy
+            t_in = max(t_in, min(ta, tb))
+            t_out = min(t_out, max(ta, tb))
+        elif oy < y0 or oy > y1:
+            return np.inf
+        if t_in > t_out:
+            return np.inf
     px = ox + dx * t_in
     py = oy + dy * t_in
     ix = min(max(int((px - x0) / cell), 0), nx - 1)

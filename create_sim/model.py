@@ -86,6 +86,8 @@ class CreateModel:
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
         self._sonar_fan = (np.array([1.0, 0.0, -1.0, 0.0]), np.array([0.0, 1.0, 0.0, -1.0]))
         self._ir_fan = (np.array([0.0]), np.array([-1.0]))  # looking straight right
+        self._normals = np.empty(0)
+        self._normals_used = 0
         self._check_pose(*pose)
         self.initial_pose = (float(pose[0]), float(pose[1]), float(wrap_angle(float(pose[2]))))
         self.reset()
@@ -93,7 +95,7 @@ class CreateModel:
     # ----------------------------------------------------------------------------- state
     def reset(self) -> None:
         """Back to the initial pose, stopped, odometry cleared."""
-        self._pose = np.array(self.initial_pose, dtype=np.float64)
+        self._pose = list(self.initial_pose)  # plain floats: cheaper than numpy scalars per step
         self._command = (0.0, 0.0)
         self._velocity = (0.0, 0.0)
         self._odom_pose = np.zeros(3)
@@ -102,16 +104,16 @@ class CreateModel:
     @property
     def pose(self) -> np.ndarray:
         """Ground-truth [x, y, θ] in the map frame, θ in [-π, π)."""
-        return self._pose.copy()
+        return np.array(self._pose)
 
     def set_pose(self, x: float, y: float, theta: float) -> None:
         """Place the robot (odometry keeps counting from where it was); InputError inside a wall."""
         self._check_pose(x, y, theta)
-        self._pose[:] = (x, y, wrap_angle(float(theta)))
+        self._pose = [float(x), float(y), wrap_angle(float(theta))]
 
     def clearance(self) -> float:
         """Gap between the body and the nearest wall (m); inf without walls."""
-        return _clearance(self.grid.segs, float(self._pose[0]), float(self._pose[1])) - self.RADIUS
+        return _clearance(self.grid.segs, self._pose[0], self._pose[1]) - self.RADIUS
 
     def _check_pose(self, x: float, y: float, theta: float) -> None:
         if not all(math.isfinite(float(v)) for v in (x, y, theta)):
@@ -154,11 +156,11 @@ class CreateModel:
         dt = float(dt)
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"time step {dt} must be finite and >= 0")
-        x0, y0, th0 = (float(v) for v in self._pose)
+        x0, y0, th0 = self._pose
         v, w = self._command
         x1, y1, th1 = advance(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
                               x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
-        self._pose[:] = (x1, y1, th1)
+        self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0
         turn = wrap_angle(th1 - th0)
@@ -174,9 +176,9 @@ class CreateModel:
     def _integrate_odometry(self, dist: float, turn: float) -> None:
         mean, std = self.noise.noise["odometry"]
         if dist != 0.0:
-            dist += (mean + std * self._normal()) * abs(dist)
+            dist += self._noise("odometry") * abs(dist)
         if turn != 0.0:
-            turn += (mean + std * self._normal()) * abs(turn)
+            turn += self._noise("odometry") * abs(turn)
         x, y, th = self._odom_pose
         mid = th + 0.5 * turn
         self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid),
@@ -193,22 +195,30 @@ class CreateModel:
         """Noisy distance (m, signed) and angle (rad, CCW) summed since reset."""
         return float(self._odom_totals[0]), float(self._odom_totals[1])
 
-    def _normal(self, size: int | None = None):
-        return self.rng.standard_normal(size)
+    def _standard_normals(self, size: int) -> np.ndarray:
+        """The next ``size`` N(0, 1) draws of the rng, taken from batches (one rng call per ~4k)."""
+        if self._normals_used + size > self._normals.shape[0]:
+            self._normals = self.rng.standard_normal(max(4096, size))
+            self._normals_used = 0
+        draws = self._normals[self._normals_used:self._normals_used + size]
+        self._normals_used += size
+        return draws
 
     def _noise(self, sensor: str, size: int | None = None):
         """mean + std·N(0, 1) of a sensor's noise; no draw when std is 0 (keeps ideal runs cheap)."""
         mean, std = self.noise.noise[sensor]
+        if size is None:
+            return mean if std == 0.0 else mean + std * float(self._standard_normals(1)[0])
         if std == 0.0:
-            return mean if size is None else np.full(size, mean)
-        return mean + std * self.rng.standard_normal(size)
+            return np.full(size, mean)
+        return mean + std * self._standard_normals(size)
 
     # ----------------------------------------------------------------------------- sensors
     def _touching(self) -> np.ndarray:
         """Contact points [cx, cy, d, wall] of walls within the contact skin of the body."""
-        x, y = self._pose[0], self._pose[1]
+        x, y, _ = self._pose
         n = grid_contacts(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                          float(x), float(y), self.RADIUS + CONTACT_SKIN, self._contact_buf)
+                          x, y, self.RADIUS + CONTACT_SKIN, self._contact_buf)
         return self._contact_buf[:n]
 
     def bumps(self) -> tuple[bool, bool]:
@@ -229,7 +239,7 @@ class CreateModel:
     def cliff_signals(self) -> np.ndarray:
         """Cliff signal strengths (%) [left, front_left, front_right, right]: 21.5 floor, 1.5 line."""
         x, y, th = self._pose
-        n = circle_crossing_angles(self._lines, float(x), float(y), self.RADIUS, self._crossing_buf)
+        n = circle_crossing_angles(self._lines, x, y, self.RADIUS, self._crossing_buf)
         signals = np.full(4, self.CLIFF_FLOOR)
         if n:
             rel = (self._crossing_buf[:n] - th + math.pi) % (2.0 * math.pi) - math.pi
@@ -240,7 +250,7 @@ class CreateModel:
 
     def wall_sensor(self) -> bool:
         """IR wall sensor on the front-right, looking right: a wall within IR range (+ noise)."""
-        reach = self.IR_RANGE + float(self._noise("wall"))
+        reach = self.IR_RANGE + self._noise("wall")
         if reach <= 0.0:
             return False
         x, y, th = self._pose
@@ -327,8 +337,8 @@ class CreateModel:
         sightings = []
         for i in visible:
             # Camera noise is proportional ("percent"), separate draws for distance and angle.
-            d = dist[i] * (1.0 + float(self._noise("camera")))
-            a = bearing[i] * (1.0 + float(self._noise("camera")))
+            d = dist[i] * (1.0 + self._noise("camera"))
+            a = bearing[i] * (1.0 + self._noise("camera"))
             rgb = tuple(float(c) for c in self.world.beacon_rgb[i])
             sightings.append(BeaconSighting(self.world.beacon_ids[i], rgb, float(d), float(a)))
         return sightings
