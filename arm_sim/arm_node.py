@@ -1,0 +1,332 @@
+"""ROS 2 node for simulated serial arms (design.md §6): ``robot_sims arm``.
+
+One world node (it owns ``/clock``; physics at a fixed 100 Hz) holding one or more arms. The arm
+of ``robot_config`` uses the node's namespace directly (``joint_states``, …); arms listed in the
+scene file get their own prefix (``<name>/joint_states``, …). Per arm:
+
+=====================  =================================  =========================================
+topic                  type                               notes
+=====================  =================================  =========================================
+``joint_states``       sensor_msgs/JointState             position, velocity, effort (RNE)
+``robot_markers``      visualization_msgs/MarkerArray     one MESH_RESOURCE per STL element at its
+                                                          FK pose (``file://`` URI), colour with
+                                                          ``alpha``; plus the base axes (RefSystem)
+``end_effector_pose``  geometry_msgs/PoseStamped          flange pose
+``joint_trajectory``   trajectory_msgs/JointTrajectory    in: followed in time (cubic spline through
+                                                          the points), within velocity limits; a
+                                                          new one replaces the old; empty = stop
+``joint_command``      sensor_msgs/JointState             in: position targets (all joints, or the
+                                                          named ones), clamped to the limits
+``target_pose``        geometry_msgs/PoseStamped          in: flange pose, solved by IK then moved
+                                                          to; unreachable → warning, no motion
+=====================  =================================  =========================================
+
+World-level: ``scene_markers`` (MarkerArray, transient local): scene objects and world axes.
+
+Parameters (besides ``real_time_factor``, ``seed``): ``robot_config`` (robot config file: a path,
+or relative to the shipped ``config/``; default ``arm/irb120.yaml``; ``""`` = only the scene's
+arms), ``scene_file`` (scene YAML, same lookup; default none), ``alpha`` (0..1 marker opacity,
+RoboClass's setTransparency), ``frame_id`` (frame of every pose, default ``world``),
+``publish_rate`` (Hz of joint states, markers and end-effector pose, default 50),
+``skip_missing_meshes`` (draw a placeholder cube for an unreadable STL instead of failing).
+
+Commands with NaN/inf, unknown joint names, non-increasing trajectory times or target poses in
+another frame are rejected with a throttled warning and change nothing. Positions beyond the
+joint limits are clamped with a warning. Trajectory ``header.stamp`` is ignored: a trajectory
+starts when it is received.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from geometry_msgs.msg import Point, PoseStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA
+from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import Marker, MarkerArray
+
+from arm_sim.arm import PLACEHOLDER_SIZE, Arm
+from arm_sim.kinematics import quaternions_xyzw
+from arm_sim.motion import JointMotion
+from arm_sim.scene import Scene, load_scene
+from sim_runtime.errors import InputError
+from sim_runtime.msgs import float64_array, matrix_from_quaternion
+from sim_runtime.paths import config_path
+from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS
+from sim_runtime.run import run_nodes
+from sim_runtime.world_node import SimWorldNode
+
+PHYSICS_RATE = 100.0
+AXES_LENGTH = 0.2  # m, RefSystem axes
+
+
+def resolve_config(value: str) -> Path:
+    """A config parameter: an existing path as given, else a shipped file under ``config/``."""
+    path = Path(value).expanduser()
+    if path.is_file():
+        return path.resolve()
+    shipped = config_path(value)
+    if shipped.is_file():
+        return shipped
+    raise InputError(f"file {value!r} not found (neither as a path nor in {config_path('')})")
+
+
+def _color(rgba, alpha: float = 1.0) -> ColorRGBA:
+    return ColorRGBA(r=float(rgba[0]), g=float(rgba[1]), b=float(rgba[2]), a=float(rgba[3]) * alpha)
+
+
+def _axes_marker(frame_id: str, ns: str, pose: np.ndarray, stamp) -> Marker:
+    """RefSystem: x red, y green, z blue lines from the origin of ``pose``."""
+    m = Marker(ns=ns, id=0, type=Marker.LINE_LIST, action=Marker.ADD)
+    m.header.frame_id = frame_id
+    m.header.stamp = stamp
+    _set_pose(m, pose[:3, 3], quaternions_xyzw(pose[None])[0])
+    m.scale.x = 0.01
+    for axis, rgb in enumerate(((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
+        tip = [0.0, 0.0, 0.0]
+        tip[axis] = AXES_LENGTH
+        m.points.extend([Point(), Point(x=tip[0], y=tip[1], z=tip[2])])
+        m.colors.extend([ColorRGBA(r=rgb[0], g=rgb[1], b=rgb[2], a=1.0)] * 2)
+    return m
+
+
+def _set_pose(marker_or_pose, xyz, quat) -> None:
+    pose = marker_or_pose.pose
+    pose.position.x, pose.position.y, pose.position.z = float(xyz[0]), float(xyz[1]), float(xyz[2])
+    o = pose.orientation
+    o.x, o.y, o.z, o.w = float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])
+
+
+class ArmInstance:
+    """One arm in the world: model, motion, and its topics under ``prefix``."""
+
+    def __init__(self, node: ArmNode, arm: Arm, prefix: str) -> None:
+        self.node = node
+        self.arm = arm
+        self.prefix = prefix
+        namespace = node.get_namespace().strip("/")
+        self.label = "/".join(part for part in (namespace, prefix.rstrip("/")) if part) or arm.name
+        self.motion = JointMotion(np.clip(np.zeros(arm.n), arm.lower, arm.upper), arm.lower, arm.upper,
+                                  arm.velocity_limits)
+        self.index = {name: i for i, name in enumerate(arm.joint_names)}
+        frame = node.frame_id
+        self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", COMMAND_QOS)
+        self.marker_pub = node.create_publisher(MarkerArray, prefix + "robot_markers", COMMAND_QOS)
+        self.pose_pub = node.create_publisher(PoseStamped, prefix + "end_effector_pose", COMMAND_QOS)
+        node.create_subscription(JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_QOS)
+        node.create_subscription(JointState, prefix + "joint_command", self.on_joint_command, COMMAND_QOS)
+        node.create_subscription(PoseStamped, prefix + "target_pose", self.on_target_pose, COMMAND_QOS)
+        self.joint_msg = JointState(name=list(arm.joint_names))
+        self.joint_msg.header.frame_id = frame
+        self.pose_msg = PoseStamped()
+        self.pose_msg.header.frame_id = frame
+        self.markers = self._build_markers(node.alpha)
+
+    # --- messages out -----------------------------------------------------------------------
+    def _build_markers(self, alpha: float) -> MarkerArray:
+        """Every element's marker with its static fields; poses are filled at publish time."""
+        markers = []
+        for k, element in enumerate(self.arm.elements):
+            m = Marker(ns=f"{self.label}/meshes", id=k, action=Marker.ADD)
+            m.header.frame_id = self.node.frame_id
+            m.color = _color(element.element.color, alpha)
+            if element.placeholder:
+                m.type = Marker.CUBE
+                m.scale.x = m.scale.y = m.scale.z = PLACEHOLDER_SIZE
+            else:
+                m.type = Marker.MESH_RESOURCE
+                m.mesh_resource = element.element.mesh.as_uri()
+                m.scale.x = m.scale.y = m.scale.z = element.element.scale
+            markers.append(m)
+        self.axes = _axes_marker(self.node.frame_id, f"{self.label}/axes", self.arm.base, self.node.stamp())
+        return MarkerArray(markers=[*markers, self.axes])
+
+    def publish(self) -> None:
+        stamp = self.node.stamp()
+        q, qd, qdd = self.motion.q, self.motion.qd, self.motion.qdd
+        msg = self.joint_msg
+        msg.header.stamp = stamp
+        msg.position = float64_array(q)
+        msg.velocity = float64_array(qd)
+        msg.effort = float64_array(self.arm.rne(q, qd, qdd))
+        self.joint_pub.publish(msg)
+
+        frames = self.arm.fkine_all(q)
+        flange = frames[-1:]
+        quats = quaternions_xyzw(np.concatenate([frames[self.arm.element_links], flange]))
+        self.pose_msg.header.stamp = stamp
+        _set_pose(self.pose_msg, flange[0, :3, 3], quats[-1])
+        self.pose_pub.publish(self.pose_msg)
+
+        positions = frames[self.arm.element_links, :3, 3].tolist()
+        quat_rows = quats[:-1].tolist()
+        for marker, xyz, quat in zip(self.markers.markers, positions, quat_rows, strict=False):
+            marker.header.stamp = stamp
+            _set_pose(marker, xyz, quat)
+        self.axes.header.stamp = stamp
+        self.marker_pub.publish(self.markers)
+
+    # --- commands in ------------------------------------------------------------------------
+    def _reject(self, what: str, why: str) -> None:
+        self.node.warn_throttled(f"{self.label}/{what}", f"{self.prefix}{what} rejected: {why}")
+
+    def _joint_indices(self, names, what: str) -> np.ndarray | None:
+        unknown = [n for n in names if n not in self.index]
+        if unknown or len(set(names)) != len(names):
+            self._reject(what, f"joint names {list(names)} must be distinct names of {list(self.arm.joint_names)}")
+            return None
+        return np.array([self.index[n] for n in names], dtype=np.int64)
+
+    def _clamped(self, q: np.ndarray, what: str) -> np.ndarray:
+        clipped, joints = self.motion.clamp(q)
+        if len(joints):
+            names = [self.arm.joint_names[j] for j in joints]
+            self.node.warn_throttled(f"{self.label}/{what}/clamp",
+                                     f"{self.prefix}{what}: {names} beyond joint limits, clamped")
+        return clipped
+
+    def on_trajectory(self, msg: JointTrajectory) -> None:
+        what = "joint_trajectory"
+        if not msg.points:
+            self.motion.stop()
+            return
+        idx = self._joint_indices(msg.joint_names, what)
+        if idx is None:
+            return
+        times = np.array([p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points])
+        if np.any(np.diff(times) <= 0) or times[0] < 0:
+            self._reject(what, f"time_from_start must increase strictly, got {times.tolist()}")
+            return
+        if any(len(p.positions) != len(idx) for p in msg.points):
+            self._reject(what, f"every point needs {len(idx)} positions, one per joint name")
+            return
+        has_velocities = all(len(p.velocities) == len(idx) for p in msg.points)
+        if not has_velocities and any(len(p.velocities) for p in msg.points):
+            self._reject(what, "velocities must be given for every point or for none")
+            return
+        positions = np.tile(self.motion.goal, (len(times), 1))
+        positions[:, idx] = np.array([p.positions for p in msg.points], dtype=float)
+        velocities = None
+        if has_velocities:
+            velocities = np.zeros_like(positions)
+            velocities[:, idx] = np.array([p.velocities for p in msg.points], dtype=float)
+        if not np.isfinite(positions).all() or (velocities is not None and not np.isfinite(velocities).all()):
+            self._reject(what, "NaN or infinite position/velocity")
+            return
+        positions = self._clamped(positions, what)
+        self.motion.follow(times, positions, velocities)
+
+    def on_joint_command(self, msg: JointState) -> None:
+        what = "joint_command"
+        names = list(msg.name) if msg.name else list(self.arm.joint_names)
+        if len(msg.position) != len(names):
+            self._reject(what, f"expected {len(names)} positions (one per name), got {len(msg.position)}")
+            return
+        idx = self._joint_indices(names, what)
+        if idx is None:
+            return
+        values = np.array(msg.position, dtype=float)
+        if not np.isfinite(values).all():
+            self._reject(what, f"NaN or infinite position {values.tolist()}")
+            return
+        target = self.motion.goal
+        target[idx] = values
+        self.motion.move_to(self._clamped(target, what))
+
+    def on_target_pose(self, msg: PoseStamped) -> None:
+        what = "target_pose"
+        frame = msg.header.frame_id
+        if frame not in ("", self.node.frame_id):
+            self._reject(what, f"frame_id {frame!r}: poses must be in {self.node.frame_id!r}")
+            return
+        p, o = msg.pose.position, msg.pose.orientation
+        values = [p.x, p.y, p.z, o.x, o.y, o.z, o.w]
+        if not all(math.isfinite(v) for v in values):
+            self._reject(what, f"NaN or infinite value in {values}")
+            return
+        if math.sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w) < 1e-9:
+            self._reject(what, "zero quaternion")
+            return
+        target = np.eye(4)
+        target[:3, :3] = matrix_from_quaternion(o)  # normalises a non-unit quaternion
+        target[:3, 3] = [p.x, p.y, p.z]
+        result = self.arm.ikine(target, q0=self.motion.q, seed=int(self.node.rng.integers(2**31)))
+        if not result.success:
+            self.node.warn_throttled(f"{self.label}/{what}/unreachable",
+                                     f"{self.prefix}{what} unreachable (pose error {result.residual:.3g}): "
+                                     f"no motion")
+            return
+        self.motion.move_to(result.q)
+
+
+class ArmNode(SimWorldNode):
+    """The arm world: arms from ``robot_config`` and ``scene_file``, scene objects, axes."""
+
+    def __init__(self, **node_kwargs) -> None:
+        super().__init__("arm", physics_rate=PHYSICS_RATE, **node_kwargs)
+        robot_config = str(self.declare_parameter("robot_config", "arm/irb120.yaml").value)
+        scene_file = str(self.declare_parameter("scene_file", "").value)
+        self.alpha = float(self.declare_checked("alpha", 1.0, lambda v: 0.0 <= v <= 1.0,
+                                                "marker opacity in 0..1 (setTransparency)"))
+        self.frame_id = str(self.declare_checked("frame_id", "world", lambda v: bool(v), "a frame name"))
+        rate = float(self.declare_checked("publish_rate", 50.0, lambda v: math.isfinite(v) and v >= 0,
+                                          "Hz, >= 0"))
+        skip = bool(self.declare_parameter("skip_missing_meshes", False).value)
+        self.scene: Scene | None = load_scene(resolve_config(scene_file)) if scene_file else None
+        self.arms: list[ArmInstance] = []
+        if robot_config:
+            self._add_arm(Arm.from_file(resolve_config(robot_config), skip_missing_meshes=skip), "")
+        for scene_arm in self.scene.arms if self.scene else ():
+            arm = Arm.from_file(scene_arm.config, base=scene_arm.base, skip_missing_meshes=skip)
+            self._add_arm(arm, scene_arm.name + "/")
+        if not self.arms:
+            raise InputError("no arm: set robot_config or list arms in the scene file")
+        self.scene_pub = self.create_publisher(MarkerArray, "scene_markers", LATCHED_QOS)
+        self.scene_pub.publish(self._scene_markers())
+        self.every(rate, self.publish)
+
+    def _add_arm(self, arm: Arm, prefix: str) -> None:
+        for element in arm.elements:
+            if element.placeholder:
+                self.get_logger().warning(f"{element.error}: drawing a placeholder cube")
+        self.arms.append(ArmInstance(self, arm, prefix))
+
+    def _scene_markers(self) -> MarkerArray:
+        markers = [_axes_marker(self.frame_id, "world_axes", np.eye(4), self.stamp())]
+        for k, obj in enumerate(self.scene.objects if self.scene else ()):
+            m = Marker(ns=f"scene/{obj.name}", id=k, type=Marker.MESH_RESOURCE, action=Marker.ADD)
+            m.header.frame_id = self.frame_id
+            m.header.stamp = self.stamp()
+            m.mesh_resource = obj.mesh.as_uri()
+            m.scale.x = m.scale.y = m.scale.z = obj.scale
+            m.color = _color(obj.color, 1.0)
+            _set_pose(m, obj.pose[:3, 3], quaternions_xyzw(obj.pose[None])[0])
+            markers.append(m)
+        return MarkerArray(markers=markers)
+
+    def physics_step(self) -> None:
+        for arm in self.arms:
+            arm.motion.step(self.physics_dt)
+
+    def publish(self) -> None:
+        for arm in self.arms:
+            arm.publish()
+
+    def arm(self, prefix: str = "") -> ArmInstance:
+        """The arm whose topics live under ``prefix`` ('' for robot_config's, else '<name>/')."""
+        for arm in self.arms:
+            if arm.prefix == prefix:
+                return arm
+        raise KeyError(prefix)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``arm``."""
+    run_nodes(lambda: [ArmNode()], args)
+
+
+if __name__ == "__main__":
+    main()
