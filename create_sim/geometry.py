@@ -237,17 +237,6 @@ def grid_cast_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, m
 
 
 @numba.njit(cache=True)
-def grid_cast_rays(segs, meta, start, items, origins, angles, ranges):
-    """Distances of independent rays (origins (n, 2), world angles, own max ranges); inf = no hit."""
-    out = np.empty(angles.shape[0])
-    mailbox = np.full(segs.shape[0], -1, dtype=np.int64)
-    for i in range(angles.shape[0]):
-        out[i] = grid_cast(segs, meta, start, items, mailbox, i, origins[i, 0], origins[i, 1],
-                           math.cos(angles[i]), math.sin(angles[i]), ranges[i])
-    return out
-
-
-@numba.njit(cache=True)
 def circle_crossing_angles(lines, cx, cy, radius, out):
     """World angles (seen from the centre) where segments cross the circle; returns how many.
 
@@ -366,13 +355,6 @@ class SegmentGrid:
                                    int(shape[0]), int(shape[1]))
         meta = np.array([origin[0], origin[1], cell, shape[0], shape[1]], dtype=np.float64)
         return cls(segs, meta, start, items)
-
-    def cast_rays(self, origins: np.ndarray, angles: np.ndarray, ranges: np.ndarray) -> np.ndarray:
-        """Distances of independent rays, each with its own origin and max range."""
-        return grid_cast_rays(self.segs, self.meta, self.start, self.items,
-                              np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 2),
-                              np.ascontiguousarray(angles, dtype=np.float64),
-                              np.ascontiguousarray(ranges, dtype=np.float64))
 
     def cast(self, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:
         """Distances from (ox, oy) along world ``angles``; inf where nothing is hit within range."""

@@ -26,6 +26,7 @@ from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts
 from create_sim.mapfile import CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
+from create_sim.sensing import camera_view, range_fan, virtual_wall_seen
 from sim_runtime.errors import InputError
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
@@ -80,6 +81,11 @@ class CreateModel:
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.grid = SegmentGrid.build(world.walls)
         self._lines = np.ascontiguousarray(world.lines, dtype=np.float64).reshape(-1, 4)
+        self._virtwalls = np.ascontiguousarray(world.virtwalls, dtype=np.float64).reshape(-1, 4)
+        self._vwall_ranges = np.array([self.VWALL_FIELDS[s][0] for s in (1, 2, 3)])
+        self._vwall_angles = np.array([self.VWALL_FIELDS[s][1] for s in (1, 2, 3)])
+        self._beacon_xy = np.ascontiguousarray(world.beacon_xy, dtype=np.float64).reshape(-1, 2)
+        self._beacon_rgb = [tuple(float(c) for c in rgb) for rgb in world.beacon_rgb]
         self._contact_buf = np.empty((max(self.grid.segs.shape[0], 1), 4))
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
@@ -261,86 +267,45 @@ class CreateModel:
 
     def virtual_wall(self) -> bool:
         """Whether the front receiver is in any emitter's halo or field, with no wall between."""
-        emitters = self.world.virtwalls
-        if emitters.shape[0] == 0:
+        if self.world.virtwalls.shape[0] == 0:
             return False
         x, y, th = self._pose
-        rx = x + self.RADIUS * math.cos(th)
-        ry = y + self.RADIUS * math.sin(th)
-        dx = rx - emitters[:, 0]
-        dy = ry - emitters[:, 1]
-        dist = np.hypot(dx, dy)
-        reach = np.empty(len(emitters))
-        opening = np.empty(len(emitters))
-        for setting, (field_range, field_angle) in self.VWALL_FIELDS.items():
-            mask = emitters[:, 3] == setting
-            reach[mask] = field_range
-            opening[mask] = field_angle
-        # The field triangle: within half the opening of the beam, short of the chord at its end.
-        off_axis = np.abs((np.arctan2(dy, dx) - emitters[:, 2] + math.pi) % (2.0 * math.pi) - math.pi)
-        along = dx * np.cos(emitters[:, 2]) + dy * np.sin(emitters[:, 2])
-        in_field = (off_axis <= 0.5 * opening) & (along <= reach * np.cos(0.5 * opening))
-        candidates = np.flatnonzero((dist < self.VWALL_HALO) | in_field)
-        if candidates.size == 0:
-            return False
-        return bool(self._unoccluded(rx, ry, emitters[candidates, :2]).any())
-
-    def _unoccluded(self, ox: float, oy: float, targets: np.ndarray) -> np.ndarray:
-        """Which target points have no wall between them and (ox, oy)."""
-        dx = targets[:, 0] - ox
-        dy = targets[:, 1] - oy
-        dist = np.hypot(dx, dy)
-        origins = np.broadcast_to(np.array([ox, oy]), targets.shape)
-        hits = self.grid.cast_rays(origins, np.arctan2(dy, dx), dist)
-        return ~(hits < dist - _OCCLUSION_TOL)
+        return virtual_wall_seen(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
+                                 x + self.RADIUS * math.cos(th), y + self.RADIUS * math.sin(th),
+                                 self._virtwalls, self.VWALL_HALO, self._vwall_ranges,
+                                 self._vwall_angles, _OCCLUSION_TOL)
 
     def sonar(self) -> np.ndarray:
         """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
-        dist = self.grid.cast_fan(x, y, th, *self._sonar_fan, hi + self.RADIUS)
-        dist -= self.RADIUS
-        hit = np.isfinite(dist)
-        noisy = np.clip(dist + self._noise("sonar", 4), lo, hi)
-        out = np.where(hit, noisy, np.inf)
-        out[hit & (dist < lo)] = -np.inf
-        return out
+        return range_fan(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items, x, y, th,
+                         *self._sonar_fan, self.RADIUS, lo, hi, self._noise("sonar", 4), -np.inf)
 
     def lidar(self) -> np.ndarray:
         """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m."""
         x, y, th = self._pose
         lo, hi = self.LIDAR_RANGE
-        ox = x + self.RADIUS * math.cos(th)
-        oy = y + self.RADIUS * math.sin(th)
-        dist = self.grid.cast_fan(ox, oy, th, *self._lidar_fan, hi)
-        mean, std = self.noise.noise["lidar"]
-        if mean != 0.0 or std != 0.0:
-            dist = dist + self._noise("lidar", self.LIDAR_BEAMS)
-        return np.clip(dist, lo, hi, where=np.isfinite(dist), out=dist).astype(np.float32)
+        scan = range_fan(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
+                         x + self.RADIUS * math.cos(th), y + self.RADIUS * math.sin(th), th,
+                         *self._lidar_fan, 0.0, lo, hi, self._noise("lidar", self.LIDAR_BEAMS), lo)
+        return scan.astype(np.float32)
 
     def camera(self) -> list[BeaconSighting]:
         """Beacons within 6 m and ±60° of the camera (0.13 m ahead) with no wall in between."""
-        beacons = self.world.beacon_xy
-        if beacons.shape[0] == 0:
+        if self._beacon_xy.shape[0] == 0:
             return []
         x, y, th = self._pose
-        cx = x + self.CAMERA_OFFSET * math.cos(th)
-        cy = y + self.CAMERA_OFFSET * math.sin(th)
-        dx = beacons[:, 0] - cx
-        dy = beacons[:, 1] - cy
-        dist = np.hypot(dx, dy)
-        bearing = (np.arctan2(dy, dx) - th + math.pi) % (2.0 * math.pi) - math.pi
-        candidates = np.flatnonzero((dist <= self.CAMERA_RANGE) & (np.abs(bearing) <= self.CAMERA_HALF_FOV))
-        if candidates.size == 0:
-            return []
-        visible = candidates[self._unoccluded(cx, cy, beacons[candidates])]
+        index, dist, bearing = camera_view(
+            self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
+            x + self.CAMERA_OFFSET * math.cos(th), y + self.CAMERA_OFFSET * math.sin(th), th,
+            self._beacon_xy, self.CAMERA_RANGE, self.CAMERA_HALF_FOV, _OCCLUSION_TOL)
         sightings = []
-        for i in visible:
+        for i, d, a in zip(index.tolist(), dist.tolist(), bearing.tolist(), strict=True):
             # Camera noise is proportional ("percent"), separate draws for distance and angle.
-            d = dist[i] * (1.0 + self._noise("camera"))
-            a = bearing[i] * (1.0 + self._noise("camera"))
-            rgb = tuple(float(c) for c in self.world.beacon_rgb[i])
-            sightings.append(BeaconSighting(self.world.beacon_ids[i], rgb, float(d), float(a)))
+            sightings.append(BeaconSighting(self.world.beacon_ids[i], self._beacon_rgb[i],
+                                            d * (1.0 + self._noise("camera")),
+                                            a * (1.0 + self._noise("camera"))))
         return sightings
 
 
