@@ -159,6 +159,7 @@ class BagWriter:
         self._closed = False
         #: set when a write failed: nothing more is written
         self.error: BagWriteError | None = None
+        self._guard(self._open_split)  # even a bag that records nothing is a valid bag
 
     # -- topics and messages -------------------------------------------------------------
 
@@ -172,7 +173,7 @@ class BagWriter:
         self._topics.append(_Topic(name, type_name, qos_yaml, type_hash, definition.text))
         tid = len(self._topics) - 1
         self._missing[tid] = definition.missing
-        if self._writer is not None and self.error is None:
+        if self.error is None:
             self._guard(self._register, tid)
         return tid
 
@@ -184,10 +185,8 @@ class BagWriter:
         """Append one CDR-serialised message; raises BagWriteError if the disk refuses it."""
         if self.error is not None:
             raise self.error
-        if self._writer is None:
-            self._guard(self._open_split)
-        else:
-            stats = self._files[-1]
+        stats = self._files[-1]
+        if stats.message_count:
             if (self._max_size and self._bytes_in_file >= self._max_size) or (
                 self._max_duration
                 and stats.start_ns is not None

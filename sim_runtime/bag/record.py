@@ -1,0 +1,352 @@
+"""``robot_sims record``: record topics into a rosbag2-compatible MCAP bag.
+
+Usage::
+
+    robot_sims record                        # every topic, now and later, into rosbag2_<date-time>/
+    robot_sims record -o run1 /scan /odom    # only these topics, into run1/ (never overwritten)
+    robot_sims record '/robot\\d+/.*' --exclude '.*/image'  # regular expressions
+    robot_sims record --compression lz4 --max-bag-size 100000000 --max-bag-duration 60
+    ros2 run robot_sims record -o run1 --ros-args -r __node:=rec
+
+Stop with Ctrl-C (or SIGTERM): the bag is finished cleanly (MCAP summary, metadata.yaml).
+The bag opens in `ros2 bag info/play`, Foxglove, the `rosbags` library, `robot_sims replay` and
+`robot_sims bag_to_rerun`. If the recorder is killed, the .mcap files hold everything up to
+the last second; `python -m sim_runtime.bag.record --reindex BAG` writes the missing
+metadata.yaml. Topics are matched by exact name or by regular expression (full match);
+topics that appear after the start are picked up within a fraction of a second. Each
+subscription adapts to the publishers' QoS (best effort if any publisher is, transient local
+if all are, so latched maps are recorded). Message times are sim time (from ``/clock``) when a
+clock is published at the start of recording (``--clock auto``, default), else wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import struct
+import sys
+import time
+from collections.abc import Callable, Sequence
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.task import Future
+
+from sim_runtime.bag.reader import UnknownMessageType, message_class
+from sim_runtime.bag.writer import BagWriteError, BagWriter, qos_profiles_yaml
+from sim_runtime.errors import InputError
+
+__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args']
+
+CLOCK_TOPIC = '/clock'
+#: Subscription queue: deep enough to ride out a chunk compression pause at high rates.
+RECORD_DEPTH = 1000
+_PENDING_LIMIT = 100_000
+
+
+def offered_qos_dict(qos: QoSProfile) -> dict[str, Any]:
+    """A publisher's offered QoS as the dict `qos_profiles_yaml` takes (rosbag2 field names)."""
+    return {
+        'history': qos.history.name.lower(),
+        'depth': qos.depth,
+        'reliability': qos.reliability.name.lower(),
+        'durability': qos.durability.name.lower(),
+        'deadline': qos.deadline.nanoseconds,
+        'lifespan': qos.lifespan.nanoseconds,
+        'liveliness': qos.liveliness.name.lower(),
+        'liveliness_lease_duration': qos.liveliness_lease_duration.nanoseconds,
+        'avoid_ros_namespace_conventions': qos.avoid_ros_namespace_conventions,
+    }
+
+
+def adapted_qos(offered: Sequence[QoSProfile]) -> QoSProfile:
+    """Subscription QoS that matches every offering publisher (rosbag2's adaptation)."""
+    best_effort = any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered)
+    latched = bool(offered) and all(
+        q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered
+    )
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=RECORD_DEPTH,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
+
+
+def clock_ns(cdr: bytes) -> int:
+    """Time in a serialised rosgraph_msgs/Clock, in ns (CDR: 4-byte header, int32, uint32)."""
+    sec, nanosec = struct.unpack_from('<iI' if cdr[1] == 1 else '>iI', cdr, 4)
+    return sec * 1_000_000_000 + nanosec
+
+
+def _is_hidden(topic: str) -> bool:
+    return any(part.startswith('_') for part in topic.split('/'))
+
+
+class Recorder(Node):
+    """Subscribes raw to matching topics (including ones appearing later) and writes a bag.
+
+    `topics`: exact names or regular expressions (full match); empty = every topic.
+    `clock`: 'auto' (sim time if /clock has a publisher at the start), 'sim' or 'wall'.
+    After a write failure (disk full) the recorder stops: `error` holds it and `done`
+    (a Future) completes; `close()` finishes the bag either way.
+    """
+
+    def __init__(
+        self,
+        writer: BagWriter,
+        topics: Sequence[str] = (),
+        *,
+        exclude: str | None = None,
+        clock: str = 'auto',
+        discovery_period: float = 0.2,
+        node_name: str = 'recorder',
+        **node_kwargs: Any,
+    ) -> None:
+        super().__init__(node_name, **node_kwargs)
+        if clock not in ('auto', 'sim', 'wall'):
+            raise InputError(f'--clock {clock!r}: expected auto, sim or wall')
+        self.writer = writer
+        self._names = {t if t.startswith('/') else '/' + t for t in topics}
+        try:
+            self._patterns = [re.compile(t) for t in topics]
+            self._exclude = re.compile(exclude) if exclude else None
+        except re.error as exc:
+            raise InputError(f'bad topic regular expression {exc.pattern!r}: {exc}') from None
+        self._clock_mode = clock
+        self._sim: bool | None = None if clock == 'auto' else clock == 'sim'
+        self._sim_ns: int | None = None
+        self._pending: list[tuple[int, bytes]] = []
+        self._clock_sub: Any = None
+        self._subs: dict[str, Any] = {}
+        self._ignored: set[str] = set()
+        self.error: BagWriteError | None = None
+        self.done = Future()
+        self.topic_ids: dict[str, int] = {}
+        self._discover_timer = self.create_timer(discovery_period, self.discover)
+        self._flush_timer = self.create_timer(0.2, self._flush_tick)
+        self.discover()
+
+    # -- topic discovery -----------------------------------------------------------------
+
+    def wanted(self, topic: str) -> bool:
+        """Whether `topic` is to be recorded under the include/exclude rules."""
+        if self._exclude is not None and self._exclude.fullmatch(topic):
+            return False
+        if not self._patterns:
+            return not _is_hidden(topic)
+        return topic in self._names or any(p.fullmatch(topic) for p in self._patterns)
+
+    def discover(self) -> None:
+        """Subscribe to matching topics that have publishers and are not yet recorded."""
+        if self.error is not None:
+            return
+        graph = self.get_topic_names_and_types()
+        names = {name for name, _types in graph}
+        # Decide the time source once the first real data topic shows up (every node has
+        # /rosout and /parameter_events, so they say nothing about a simulation running).
+        if self._sim is None and names - {CLOCK_TOPIC, '/rosout', '/parameter_events'}:
+            self._sim = CLOCK_TOPIC in names and bool(self.get_publishers_info_by_topic(CLOCK_TOPIC))
+            if self._sim:
+                self.get_logger().info('recording with sim time from /clock')
+        for name, types in graph:
+            if name in self._subs or name in self._ignored:
+                continue
+            recorded = self.wanted(name)
+            if not recorded and not (name == CLOCK_TOPIC and self._sim):
+                continue
+            publishers = [
+                p for p in self.get_publishers_info_by_topic(name) if p.node_name != self.get_name()
+                or p.node_namespace != self.get_namespace()
+            ]
+            if not publishers:
+                continue
+            type_name = types[0]
+            if len(types) > 1:
+                self.get_logger().warning(
+                    f'topic {name} has several types {types}; recording {type_name}'
+                )
+            try:
+                msg_type = message_class(type_name, name)
+            except UnknownMessageType as exc:
+                self.get_logger().warning(f'not recording: {exc}')
+                self._ignored.add(name)
+                continue
+            offered = [p.qos_profile for p in publishers]
+            if recorded:
+                tid = self.writer.add_topic(
+                    name,
+                    type_name,
+                    qos_profiles_yaml([offered_qos_dict(q) for q in offered]),
+                    str(publishers[0].topic_type_hash),
+                )
+                missing = self.writer.missing_definitions(tid)
+                if missing:
+                    self.get_logger().warning(
+                        f'topic {name}: no .msg installed for {", ".join(missing)}; '
+                        'recorded with the message definitions that are available'
+                    )
+                self.topic_ids[name] = tid
+            else:
+                tid = -1
+            self._subs[name] = self.create_subscription(
+                msg_type, name, self._callback(name, tid), adapted_qos(offered), raw=True
+            )
+            self.get_logger().info(f'recording {name} [{type_name}]' if recorded else
+                                   f'following {name} for sim time')
+
+    # -- messages ------------------------------------------------------------------------
+
+    def _callback(self, name: str, tid: int) -> Callable[[bytes], None]:
+        write = self._write
+        if name != CLOCK_TOPIC:
+            return lambda data: write(tid, data)
+
+        def on_clock(data: bytes) -> None:
+            self._sim_ns = clock_ns(data)
+            if self._pending:
+                pending, self._pending = self._pending, []
+                for pending_tid, pending_data in pending:
+                    write(pending_tid, pending_data)
+            if tid >= 0:
+                write(tid, data)
+
+        return on_clock
+
+    def _write(self, tid: int, data: bytes) -> None:
+        if self.error is not None:
+            return
+        if self._sim:
+            t = self._sim_ns
+            if t is None:  # sim time not known yet: keep until the first /clock
+                if len(self._pending) < _PENDING_LIMIT:
+                    self._pending.append((tid, data))
+                return
+        else:
+            t = time.time_ns()
+        try:
+            self.writer.write(tid, t, data, t)
+        except BagWriteError as exc:
+            self._fail(exc)
+
+    def _flush_tick(self) -> None:
+        if self.error is not None:
+            return
+        try:
+            self.writer.maybe_flush()
+        except BagWriteError as exc:
+            self._fail(exc)
+
+    def _fail(self, exc: BagWriteError) -> None:
+        self.error = exc
+        self.get_logger().error(f'{exc}; recording stopped')
+        for sub in self._subs.values():
+            self.destroy_subscription(sub)
+        self._subs.clear()
+        if not self.done.done():
+            self.done.set_result(exc)
+
+    def close(self) -> None:
+        """Finish the bag (footer, summary, metadata.yaml); safe to call twice."""
+        self.writer.close()
+        if self.error is None and self.writer.error is not None:
+            self.error = self.writer.error
+
+
+def default_bag_name(now: datetime | None = None) -> str:
+    """`rosbag2_YYYY_MM_DD-HH_MM_SS` (local time), as ros2 bag record names bags."""
+    return (now or datetime.now()).strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
+
+
+def parse_args(argv: Sequence[str]) -> argparse.Namespace:
+    """Our command-line flags (ROS arguments already removed)."""
+    parser = argparse.ArgumentParser(
+        prog='robot_sims record', description='Record topics into a rosbag2 MCAP bag.'
+    )
+    parser.add_argument('topics', nargs='*', help='topic names or regular expressions (default: all)')
+    parser.add_argument('-o', '--output', help='bag folder to create (default rosbag2_<date-time>)')
+    parser.add_argument('-e', '--exclude', help='regular expression of topics not to record')
+    parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
+                        help='MCAP chunk compression (default zstd)')
+    parser.add_argument('-b', '--max-bag-size', type=int, default=0,
+                        help='start a new .mcap split after this many bytes (0 = never)')
+    parser.add_argument('-d', '--max-bag-duration', type=float, default=0.0,
+                        help='start a new .mcap split after this many seconds (0 = never)')
+    parser.add_argument('--clock', choices=('auto', 'sim', 'wall'), default='auto',
+                        help='message times: sim time from /clock, wall time, or auto (default)')
+    parser.add_argument('--reindex', metavar='BAG',
+                        help='only rebuild BAG/metadata.yaml from its .mcap files, then exit')
+    return parser.parse_args(list(argv))
+
+
+def _output_folder(output: str | None) -> Path:
+    if output:
+        return Path(output)
+    base = default_bag_name()
+    folder, n = Path(base), 1
+    while folder.exists():  # two recordings started within one second
+        folder, n = Path(f'{base}-{n}'), n + 1
+    return folder
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point; `args` is a full argv (program name first), default sys.argv."""
+    from rclpy.utilities import remove_ros_args
+
+    argv = list(sys.argv if args is None else args)
+    opts = parse_args(remove_ros_args(argv)[1:])
+    if opts.reindex:
+        from sim_runtime.bag.writer import write_metadata_from_files
+
+        print(f'wrote {write_metadata_from_files(opts.reindex)}')
+        return 0
+    try:
+        writer = BagWriter(
+            _output_folder(opts.output),
+            compression=opts.compression,
+            max_bag_size=opts.max_bag_size,
+            max_bag_duration_ns=int(opts.max_bag_duration * 1e9),
+        )
+    except InputError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    from sim_runtime.run import make_executor
+
+    rclpy.init(args=argv)
+    recorder = None
+    try:
+        recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)
+        executor = make_executor()
+        executor.add_node(recorder)
+        print(f'recording to {writer.folder} (Ctrl-C to stop)', file=sys.stderr)
+        # With no timeout the events executor never returns to Python to see Ctrl-C.
+        while rclpy.ok() and not recorder.done.done():
+            executor.spin_until_future_complete(recorder.done, timeout_sec=0.5)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except InputError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        writer.close()
+        return 2
+    finally:
+        if recorder is not None:
+            recorder.close()
+            recorder.destroy_node()
+        else:
+            writer.close()
+        if rclpy.ok():
+            rclpy.shutdown()
+    if recorder is not None and recorder.error is not None:
+        print(f'error: {recorder.error}; the bag holds what was written before', file=sys.stderr)
+        return 1
+    print(f'wrote {writer.message_count} messages to {writer.folder}', file=sys.stderr)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
