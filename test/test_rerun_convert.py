@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rerun.chunk as rrc
 import trimesh
 from rerun_test_helpers import arm_messages, column, create_messages, load_entities, simrobot_messages, write_bag
 from std_msgs.msg import String
@@ -43,6 +44,7 @@ def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_
                             capture_output=True, text=True, timeout=120)
     assert verify.returncode == 0, verify.stderr
 
+    assert len(rrc.RrdReader(out).blueprints()) == 1  # the layout opens with the file
     ents = load_entities(out)
     walls = column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")
     assert len(walls[0]) == 2  # LINE_LIST of 4 points = 2 segments

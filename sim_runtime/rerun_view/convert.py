@@ -22,6 +22,8 @@ from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
 
 APPLICATION_ID = "robot_sims"
+ROS_INTERNAL_TOPICS = frozenset({"/parameter_events", "/rosout"})
+"""Skipped without a warning: every node publishes them, nothing to draw."""
 
 
 class Progress:
@@ -32,20 +34,32 @@ class Progress:
         self.label = label
         self.stream = sys.stderr if stream is None else stream
         self._last = 0.0
+        self._last_decile = -1
+        self._tty = self.stream.isatty()
 
     def update(self, done: int, force: bool = False) -> None:
-        now = time.monotonic()
-        if not force and now - self._last < 0.1:
-            return
-        self._last = now
         frac = min(done / self.total, 1.0)
+        if self._tty:
+            now = time.monotonic()
+            if not force and now - self._last < 0.1:
+                return
+            self._last = now
+            end = "\r"
+        else:  # a log file gets a line per 10 %, not a redraw per tenth of a second
+            decile = int(10 * frac)
+            if decile == self._last_decile and not force:
+                return
+            self._last_decile = decile
+            end = "\n"
         bar = "#" * int(30 * frac)
-        self.stream.write(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{self.total} messages")
+        text = f"{self.label} [{bar:<30}] {100 * frac:5.1f}% {done}/{self.total} messages"
+        self.stream.write(f"\r{text}" if self._tty else f"{text}{end}")
         self.stream.flush()
 
     def close(self, done: int) -> None:
-        self.update(done, force=True)
-        self.stream.write("\n")
+        self.update(done, force=not self._tty or done < self.total)
+        if self._tty:
+            self.stream.write("\n")
         self.stream.flush()
 
 
@@ -70,14 +84,16 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
         raise InputError(f"output {out_path}: folder {out_path.parent} does not exist")
     skipped = {t: kind for t, kind in bag.topics.items() if kind not in SUPPORTED_TYPES}
     for topic, kind in sorted(skipped.items()):
+        if topic in ROS_INTERNAL_TOPICS:
+            continue
         warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped",
                       stacklevel=2)
     wanted = [t for t in bag.topics if t not in skipped]
 
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=None)
     rec.set_log_time_enabled(False)  # wall-clock at conversion time means nothing: sim_time only
-    logger = RerunLogger(rec, {t: bag.topics[t] for t in wanted})
-    rec.save(out_path, default_blueprint=logger.blueprint())
+    logger = RerunLogger(rec, {t: bag.topics[t] for t in wanted}, batch_scalars=True)
+    rec.save(out_path)
     rec.send_recording_name(Path(bag.path).name)
 
     bar = Progress(sum(bag.topic_counts.get(t, 0) for t in wanted), f"bag_to_rerun {Path(bag.path).name}") \
@@ -105,6 +121,9 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
     finally:
         if bar is not None:
             bar.close(done)
+        logger.flush()
+        # Sent last: the plot views depend on what the bag held.
+        rec.send_blueprint(logger.blueprint(), make_active=True, make_default=True)
         rec.flush()
         rec.disconnect()
     return out_path

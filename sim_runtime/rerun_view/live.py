@@ -17,7 +17,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from sim_runtime.rerun_view.convert import APPLICATION_ID
-from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, robots_in_topics, type_name
+from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, type_name
 
 SUBSCRIPTION_DEPTH = 100
 DISCOVERY_PERIOD = 2.0
@@ -37,7 +37,7 @@ class LiveView:
     logger: RerunLogger
     subscriptions: dict[str, Any] = field(default_factory=dict)
     message_count: int = 0
-    _robots: list[str] = field(default_factory=list)
+    _layout_sent: int = -1
     _timer: Any = None
 
     def subscribe(self, topic: str, msg_type: type, qos) -> None:
@@ -47,13 +47,18 @@ class LiveView:
         self.logger.add_topics({topic: type_name(msg_type)})
         self.subscriptions[topic] = self.node.create_subscription(
             msg_type, topic, lambda msg, t=topic: self._on_message(t, msg), qos)
-        robots = robots_in_topics(self.logger.topics)
-        if robots != self._robots:  # a new robot gets its robot-centred tab
-            self._robots = robots
+        self.update_layout()
+
+    def update_layout(self) -> None:
+        """Send the blueprint again if a robot (its own tab) or a plot group appeared since."""
+        if self.logger.layout_version != self._layout_sent:
+            self._layout_sent = self.logger.layout_version
             self.recording.send_blueprint(self.logger.blueprint(), make_active=True, make_default=True)
 
     def discover(self) -> None:
-        """Subscribe to drawable topics that other nodes publish (best effort: matches any publisher)."""
+        """Subscribe to drawable topics that other nodes publish (best effort: matches any publisher);
+        update the layout."""
+        self.update_layout()
         from sim_runtime.bag.reader import UnknownMessageType, message_class
 
         for topic, types in self.node.get_topic_names_and_types():
@@ -104,8 +109,7 @@ def attach_live_view(node: Node, spawn: bool = True, connect: str | None = None,
             qos = copy.copy(pub.qos_profile)
             qos.depth = max(qos.depth, SUBSCRIPTION_DEPTH)
             view.subscribe(pub.topic_name, pub.msg_type, qos)
-    if not view._robots:
-        recording.send_blueprint(view.logger.blueprint(), make_active=True, make_default=True)
+    view.update_layout()
     if discover:
         view._timer = node.create_timer(DISCOVERY_PERIOD, view.discover)
     return view

@@ -140,6 +140,16 @@ def robots_in_topics(topics: Iterable[str]) -> list[str]:
     return sorted(names)
 
 
+PLOT_ORDER = ("odom_error", "joint_states/position", "range", "cliff", "cmd_vel", "joint_states")
+
+
+def _plot_order(group: str) -> tuple[int, str]:
+    # The plots a user looks at first come first; battery and buttons last.
+    rank = next((i for i, key in enumerate(PLOT_ORDER) if f"/{key}" in f"/{group.removeprefix('plots/')}"),
+                len(PLOT_ORDER))
+    return rank, group
+
+
 def robot_color(name: str, names: list[str]) -> tuple[int, int, int]:
     """A robot's colour (rgb 0–255): by its place in the sorted robot names, so views agree."""
     index = names.index(name) if name in names else len(names)
@@ -187,12 +197,19 @@ class _Robot:
 class RerunLogger:
     """Logs ROS messages (topic, message, time) to a Rerun recording as archetypes.
 
+    With ``batch_scalars`` (bag conversion) plotted values are sent by :meth:`flush`.
+
     ``topics`` (name → ``pkg/msg/Type``) tells which robots exist and which are Creates (a robot with
     an ``overhead_pose`` topic); more can be added later with :meth:`add_topics`.
     """
 
-    def __init__(self, recording: rr.RecordingStream, topics: dict[str, str] | None = None) -> None:
+    def __init__(self, recording: rr.RecordingStream, topics: dict[str, str] | None = None, *,
+                 batch_scalars: bool = False) -> None:
         self.rec = recording
+        self._t_ns = 0
+        # Converting a bag, scalars are kept and sent as columns by flush(): a log call per sample
+        # costs ~0.5 ms, a column of thousands about the same. Live, they are logged at once.
+        self._scalar_columns: dict[str, tuple[list[int], list[float]]] | None = {} if batch_scalars else None
         self.topics: dict[str, str] = {}
         self._robots: dict[str, _Robot] = {}
         self._create_namespaces: set[str] = set()
@@ -200,6 +217,11 @@ class RerunLogger:
         self._static_meshes: dict[str, str] = {}
         self._binary_state: dict[str, bool] = {}
         self._epoch: bool | None = None
+        #: origins of the time-series views; layout_version grows when a view or robot is added
+        self.plot_groups: set[str] = set()
+        self._map_lo = np.full(2, np.inf)
+        self._map_hi = np.full(2, -np.inf)
+        self.layout_version = 0
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.add_topics(topics or {})
 
@@ -229,24 +251,44 @@ class RerunLogger:
         return True
 
     def blueprint(self) -> rrb.Blueprint:
-        """Global 3D view (top-down), one robot-centred tab per robot, plots and event log."""
-        robots = robots_in_topics(self.topics) or sorted(self._robots)
+        """Global 3D view (top-down), one robot-centred tab per robot, a plot per group, event log.
+
+        The time cursor follows the newest data: the end of a converted bag, "now" in a live view.
+        """
+        robots = sorted(set(robots_in_topics(self.topics)) | set(self._robots))
+        background = rrb.Background(kind="SolidColor", color=[255, 255, 255])
         tabs = [rrb.Spatial3DView(
-            origin="/world", name="Global",
-            eye_controls=rrb.EyeControls3D(position=[0.0, -0.01, 12.0], look_target=[0.0, 0.0, 0.0],
-                                           eye_up=[0.0, 0.0, 1.0]))]
-        tabs += [rrb.Spatial3DView(origin=f"/world/robots/{r}", contents="/world/**", name=f"{r} (robot-centred)")
-                 for r in robots]
+            origin="/world", name="Global", background=background,
+            eye_controls=self._top_down_eye())]
+        tabs += [rrb.Spatial3DView(origin=f"/world/robots/{r}", contents="/world/**", name=f"{r} (robot-centred)",
+                                   background=background) for r in robots]
+        plots = [rrb.TimeSeriesView(origin=f"/{g}", name=g.removeprefix("plots/"))
+                 for g in sorted(self.plot_groups, key=_plot_order)]
+        events = rrb.TextLogView(origin="/events", name="Events")
+        side = rrb.Vertical(rrb.Tabs(*plots, name="Plots"), events, row_shares=[2, 1]) if plots else events
         return rrb.Blueprint(
-            rrb.Horizontal(
-                rrb.Tabs(*tabs, active_tab=0),
-                rrb.Vertical(rrb.TimeSeriesView(origin="/plots", name="Plots"),
-                             rrb.TextLogView(origin="/events", name="Events"), row_shares=[2, 1]),
-                column_shares=[3, 2]),
+            rrb.Horizontal(rrb.Tabs(*tabs, active_tab=0), side, column_shares=[3, 2]),
+            rrb.TimePanel(timeline=TIMELINE, play_state="following", state="collapsed"),
             collapse_panels=True)
+
+    def _top_down_eye(self) -> rrb.EyeControls3D:
+        # Look straight down on the map (default 6 m square at the origin) from high enough to see it all.
+        if np.all(np.isfinite(self._map_lo)):
+            centre, extent = (self._map_lo + self._map_hi) / 2, float(np.max(self._map_hi - self._map_lo))
+        else:
+            centre, extent = np.zeros(2), 6.0
+        height = 1.1 * max(extent, 1.0)
+        return rrb.EyeControls3D(kind="Orbital", position=[centre[0], centre[1] - 0.01 * height, height],
+                                 look_target=[centre[0], centre[1], 0.0], eye_up=[0.0, 0.0, 1.0])
+
+    def _grow_map(self, xy: np.ndarray) -> None:
+        if len(xy):
+            self._map_lo = np.minimum(self._map_lo, xy.min(axis=0))
+            self._map_hi = np.maximum(self._map_hi, xy.max(axis=0))
 
     # ---------------------------------------------------------------- time
     def _set_time(self, t_ns: int) -> None:
+        self._t_ns = t_ns
         if self._epoch is None:
             self._epoch = t_ns > EPOCH_NS
         if self._epoch:
@@ -266,6 +308,7 @@ class RerunLogger:
                            _Track(f"world/tracks/{key}/truth", color, 0.01),
                            _Track(f"world/tracks/{key}/odom", tuple(c // 2 + 100 for c in color), 0.006))
             self._robots[key] = robot
+            self.layout_version += 1
             self._log_body(robot)
         return robot
 
@@ -300,6 +343,31 @@ class RerunLogger:
             mount = CREATE_SENSOR_MOUNTS.get(leaf) if robot.is_create else None
             self.rec.log(entity, _yaw_transform(*(mount or (0.0, 0.0, 0.0))), static=True)
         return entity
+
+    def _scalar(self, group: str, name: str, value: float) -> None:
+        """Plot ``value`` as series ``name`` of plot ``group`` (one time-series view per group)."""
+        if group not in self.plot_groups:
+            self.plot_groups.add(group if group != "plots" else f"plots/{name}")
+            self.layout_version += 1
+        entity = f"{group}/{name}"
+        if self._scalar_columns is None:
+            self.rec.log(entity, rr.Scalars(value))
+            return
+        times, values = self._scalar_columns.setdefault(entity, ([], []))
+        times.append(self._t_ns)
+        values.append(value)
+
+    def flush(self) -> None:
+        """Send the plotted values kept so far (``batch_scalars``); a no-op otherwise."""
+        if not self._scalar_columns:
+            return
+        for entity, (times, values) in self._scalar_columns.items():
+            if self._epoch:
+                index = rr.TimeColumn(TIMELINE, timestamp=np.array(times, dtype="datetime64[ns]"))
+            else:
+                index = rr.TimeColumn(TIMELINE, duration=np.array(times, dtype="timedelta64[ns]"))
+            self.rec.send_columns(entity, indexes=[index], columns=rr.Scalars.columns(scalars=values))
+        self._scalar_columns.clear()
 
     def _event(self, robot: str, text: str) -> None:
         self.rec.log(f"events/{robot}", rr.TextLog(text, level=rr.TextLogLevel.WARN))
@@ -341,9 +409,9 @@ class RerunLogger:
             self.rec.log(f"world/robots/{robot.name}", _yaw_transform(x, y, yaw))
         elif robot.last_truth is not None:
             tx, ty, tyaw = robot.last_truth
-            self.rec.log(f"plots/{robot.name}/odom_error/position_m", rr.Scalars(math.hypot(x - tx, y - ty)))
+            self._scalar(f"plots/{robot.name}/odom_error", "position_m", math.hypot(x - tx, y - ty))
             err = math.remainder(yaw - tyaw, 2 * math.pi)
-            self.rec.log(f"plots/{robot.name}/odom_error/heading_rad", rr.Scalars(err))
+            self._scalar(f"plots/{robot.name}/odom_error", "heading_rad", err)
 
     # ---------------------------------------------------------------- sensors
     def _laser_scan(self, topic: str, msg) -> None:
@@ -378,7 +446,7 @@ class RerunLogger:
         if math.isfinite(r):
             self.rec.log(f"{entity}/ray", rr.LineStrips3D([[[0, 0, 0], [r, 0, 0]]], radii=0.006,
                                                           colors=[(255, 140, 0)]))
-            self.rec.log(f"plots/{robot}/range/{_path_part(name)}", rr.Scalars(r))
+            self._scalar(f"plots/{robot}/range", _path_part(name), r)
         else:  # +inf: no echo within max_range (drawn faint to max_range); -inf: too close
             reach = msg.max_range if r > 0 else msg.min_range
             self.rec.log(f"{entity}/ray", rr.LineStrips3D([[[0, 0, 0], [reach, 0, 0]]], radii=0.003,
@@ -398,7 +466,7 @@ class RerunLogger:
         entity = self._frame_entity(msg.header.frame_id)
         robot = entity.split("/")[2] if entity.startswith("world/robots/") else "world"
         name = _basename(msg.header.frame_id) or _basename(topic)
-        self.rec.log(f"plots/{robot}/cliff/{_path_part(name)}", rr.Scalars(msg.illuminance))
+        self._scalar(f"plots/{robot}/cliff", _path_part(name), msg.illuminance)
         self._binary(topic, f"{entity}/detection", robot, name, msg.illuminance <= CLIFF_THRESHOLD)
 
     def _bool(self, topic: str, msg) -> None:
@@ -408,20 +476,27 @@ class RerunLogger:
         self._binary(topic, entity, robot, _basename(topic), bool(msg.data))
 
     def _scalar_data(self, topic: str, msg) -> None:
-        self.rec.log(f"plots/{_topic_path(topic)}", rr.Scalars(float(msg.data)))
+        self._scalar("plots", _topic_path(topic), float(msg.data))
 
     def _battery(self, topic: str, msg) -> None:
         base = f"plots/{_topic_path(topic)}"
-        self.rec.log(f"{base}/voltage", rr.Scalars(msg.voltage))
-        self.rec.log(f"{base}/percentage", rr.Scalars(msg.percentage))
+        self._scalar(base, "voltage", msg.voltage)
+        self._scalar(base, "percentage", msg.percentage)
+
+    def _joy(self, topic: str, msg) -> None:
+        base = f"plots/{_topic_path(topic)}"
+        for i, value in enumerate(msg.buttons):
+            self._scalar(base, f"button{i}", float(value))
+        for i, value in enumerate(msg.axes):
+            self._scalar(base, f"axis{i}", float(value))
 
     def _twist_stamped(self, topic: str, msg) -> None:
         self._twist(topic, msg.twist)
 
     def _twist(self, topic: str, twist) -> None:
         base = f"plots/{_topic_path(topic)}"
-        self.rec.log(f"{base}/linear_x", rr.Scalars(twist.linear.x))
-        self.rec.log(f"{base}/angular_z", rr.Scalars(twist.angular.z))
+        self._scalar(base, "linear_x", twist.linear.x)
+        self._scalar(base, "angular_z", twist.angular.z)
 
     def _joint_state(self, topic: str, msg) -> None:
         base = f"plots/{_topic_path(topic)}"
@@ -429,7 +504,7 @@ class RerunLogger:
         for field_name in ("position", "velocity", "effort"):
             values = getattr(msg, field_name)
             for joint, value in zip(names, values, strict=False):  # velocity/effort may be empty
-                self.rec.log(f"{base}/{field_name}/{_path_part(joint)}", rr.Scalars(float(value)))
+                self._scalar(f"{base}/{field_name}", _path_part(joint), float(value))
 
     # ---------------------------------------------------------------- maps
     def _occupancy_grid(self, topic: str, msg) -> None:
@@ -444,6 +519,8 @@ class RerunLogger:
         interior = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:]
         rows, cols = np.nonzero(grid & ~interior)
         res = info.resolution
+        o = info.origin.position
+        self._grow_map(np.array([[o.x, o.y], [o.x + w * res, o.y + h * res]]))
         local = np.column_stack([(cols + 0.5) * res, (rows + 0.5) * res, np.zeros(rows.size)])
         entity = f"world/{_topic_path(topic)}"
         self.rec.log(entity, _pose_transform(info.origin), static=True)
@@ -483,6 +560,7 @@ class RerunLogger:
             self._marker_entities[topic] = seen
 
     def _marker(self, entity: str, m, static: bool) -> None:
+        base_is_world = entity.startswith("world/") and not entity.startswith("world/robots/")
         color = _rgba(m.color)
         pts = _points(m.points)
         colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
@@ -491,6 +569,9 @@ class RerunLogger:
             self._mesh(entity, m, color)
             return
         transform = _pose_transform(m.pose)
+        if static and base_is_world:
+            p = m.pose.position
+            self._grow_map(pts[:, :2] + [p.x, p.y] if len(pts) else np.array([[p.x, p.y]]))
         if m.type in (SPHERE, TEXT):
             label = [m.text] if m.text else None
             radius = m.scale.x / 2 if m.type == SPHERE else 0.01
@@ -549,6 +630,7 @@ HANDLERS: dict[str, str] = {
     "sensor_msgs/msg/Illuminance": "_illuminance",
     "sensor_msgs/msg/JointState": "_joint_state",
     "sensor_msgs/msg/BatteryState": "_battery",
+    "sensor_msgs/msg/Joy": "_joy",
     "geometry_msgs/msg/Twist": "_twist",
     "geometry_msgs/msg/TwistStamped": "_twist_stamped",
     "std_msgs/msg/Bool": "_bool",

@@ -1,0 +1,85 @@
+"""End to end: a world recorded into a bag by the recorder, converted to .rrd and drawn as tracks."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+
+import pytest
+from geometry_msgs.msg import Twist
+from rclpy.node import Node
+from rerun_test_helpers import column, load_entities
+
+from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
+from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
+from sim_runtime.rerun_view.convert import bag_to_rerun
+from sim_runtime.rerun_view.logger import type_name
+from sim_runtime.rerun_view.tracks import tracks_from_bag
+from sim_runtime.run import drain
+from sim_runtime.testing import wait_for_match
+
+create_world = pytest.importorskip("create_sim.world_node")
+
+
+def record_world(executor, world, bag_dir, steps: int, chunk: int = 10, before_step=None) -> None:
+    """Record every topic the world publishes (raw CDR, its own QoS) into a rosbag2 folder."""
+    writer = BagWriter(bag_dir)
+    recorder = Node("test_recorder")
+    executor.add_node(recorder)
+    subs = []
+    for pub in world.publishers:
+        tid = writer.add_topic(pub.topic_name, type_name(pub.msg_type), qos_profiles_yaml([{}]))
+        qos = copy.copy(pub.qos_profile)
+        qos.depth = 200
+        subs.append(recorder.create_subscription(
+            pub.msg_type, pub.topic_name,
+            lambda data, tid=tid: writer.write(tid, round(world.sim_time * 1e9), data), qos, raw=True))
+    for sub in subs:
+        assert wait_for_match(executor, sub)
+    for k in range(0, steps, chunk):
+        if before_step is not None:
+            before_step(k)
+        world.step(chunk)
+        drain(executor)
+    drain(executor)
+    writer.close()
+
+
+def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tmp_path):
+    world = create_world.CreateWorldNode()
+    executor.add_node(world)
+    driver = make_node("driver")
+    cmd = driver.create_publisher(Twist, "/cmd_vel", COMMAND_QOS)
+    assert wait_for_match(executor, cmd)
+
+    def drive(k: int) -> None:
+        msg = Twist()
+        msg.linear.x, msg.angular.z = 0.3, 0.4
+        cmd.publish(msg)
+
+    bag = tmp_path / "create_bag"
+    record_world(executor, world, bag, steps=200, before_step=drive)  # 2 s of sim time
+
+    out = bag_to_rerun(bag, tmp_path / "create.rrd", progress=False)
+    env = private_rerun_env(tmp_path / "rerun_home")
+    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=env, capture_output=True,
+                            text=True, timeout=120)
+    assert verify.returncode == 0, verify.stderr
+    ents = load_entities(out)
+    walls = column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")[0]
+    assert len(walls) == len(world.world.walls)
+    assert column(ents["/world/map_markers/beacons/0"], "Points3D:labels") == [["Red1"]]
+    poses = column(ents["/world/robots/robot"], "Transform3D:translation")
+    assert len(poses) >= 90  # 50 Hz for 2 s, a few may be in flight when recording starts
+    x, y, _ = world.model.pose
+    assert poses[-1][0][:2] == pytest.approx([x, y], abs=0.02)
+    scans = column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")
+    assert len(scans) >= 18 and 300 < len(scans[-1]) <= 681
+    assert "/world/robots/robot/sonar_front/ray" in ents
+    assert "/world/tracks/robot/truth/0" in ents and "/world/tracks/robot/odom/0" in ents
+    assert "/plots/robot/odom_error/position_m" in ents
+
+    data = tracks_from_bag(bag)
+    assert data.image is not None and data.image.any()
+    assert data.tracks["robot"][-1] == pytest.approx([x, y], abs=0.02)
