@@ -233,24 +233,28 @@ class Bag:
             cid: (info.schemas[ch.schema_id].name if ch.schema_id in info.schemas else '')
             for cid, ch in info.channels.items()
         }
+        after: int | None = None  # resume point when an intact-looking file has a bad chunk
         if info.intact:
             with info.path.open('rb') as stream:
-                reader = SeekingReader(stream)
+                reader = SeekingReader(stream, validate_crcs=True)
                 try:
                     for _schema, channel, m in reader.iter_messages(
                         topics=list(topics) if topics is not None else None,
-                        start_time=start,
-                        end_time=None if end is None else end + 1,
+                        starting_at=start,
+                        ending_at=end,
                         log_time_order=True,
                     ):
+                        after = m.log_time
                         yield BagMessage(
                             channel.topic, types.get(channel.id, ''), m.log_time,
                             m.publish_time, m.data,
                         )
-                except (McapError, OSError, ValueError) as exc:
-                    _warn(f'{info.path}: corrupt data ({exc}); later messages of this file lost')
-            return
-        for rec in self._scan(info, quiet=True):
+                    return
+                except Exception as exc:  # noqa: BLE001 - CRC, decompression, short read
+                    _warn(f'{info.path}: corrupt chunk ({exc}); skipping it')
+            # Continue in file order, skipping corrupt chunks, after the last good message.
+            after = -1 if after is None else after
+        for rec in self._scan(info, quiet=not info.intact):
             if not isinstance(rec, Message):
                 continue
             channel = info.channels.get(rec.channel_id)
@@ -260,7 +264,7 @@ class Bag:
                 continue
             if (start is not None and rec.log_time < start) or (
                 end is not None and rec.log_time > end
-            ):
+            ) or (after is not None and rec.log_time <= after):
                 continue
             types.setdefault(
                 rec.channel_id,
