@@ -11,8 +11,8 @@ Usage::
 Stop with Ctrl-C (or SIGTERM): the bag is finished cleanly (MCAP summary, metadata.yaml).
 The bag opens in `ros2 bag info/play`, Foxglove, the `rosbags` library, `robot_sims replay` and
 `robot_sims bag_to_rerun`. If the recorder is killed, the .mcap files hold everything up to
-the last second; `python -m sim_runtime.bag.record --reindex BAG` writes the missing
-metadata.yaml. Topics are matched by exact name or by regular expression (full match);
+the last second; `robot_sims record --reindex BAG` rewrites unfinished splits with what is
+intact and writes the missing metadata.yaml, so every bag reader opens it. Topics are matched by exact name or by regular expression (full match);
 topics that appear after the start are picked up within a fraction of a second. Each
 subscription adapts to the publishers' QoS (best effort if any publisher is, transient local
 if all are, so latched maps are recorded). Message times are sim time (from ``/clock``) when a
@@ -301,9 +301,9 @@ def main(args: Sequence[str] | None = None) -> int:
     argv = list(sys.argv if args is None else args)
     opts = parse_args(remove_ros_args(argv)[1:])
     if opts.reindex:
-        from sim_runtime.bag.writer import write_metadata_from_files
+        from sim_runtime.bag.writer import reindex
 
-        print(f'wrote {write_metadata_from_files(opts.reindex)}')
+        print(f'recovered {opts.reindex}: wrote {reindex(opts.reindex)}')
         return 0
     try:
         writer = BagWriter(

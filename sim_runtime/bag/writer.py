@@ -36,6 +36,7 @@ __all__ = [
     'BagWriteError',
     'BagWriter',
     'qos_profiles_yaml',
+    'reindex',
     'write_metadata_from_files',
 ]
 
@@ -390,6 +391,55 @@ def metadata_yaml(
     return yaml.safe_dump(
         {'rosbag2_bagfile_information': info}, sort_keys=False, default_flow_style=False
     )
+
+
+def _recover_split(path: Path, bag: Any, info: Any) -> None:
+    """Rewrite an unfinished split as a finished MCAP file holding its intact messages."""
+    from mcap.records import Message
+
+    tmp = path.with_suffix('.mcap.recovering')
+    with tmp.open('wb') as stream:
+        writer = Writer(stream, compression=CompressionType.ZSTD)
+        writer.start(profile='ros2', library=_LIBRARY)
+        schema_ids: dict[int, int] = {}
+        channel_ids: dict[int, int] = {}
+        for rec in bag._scan(info, quiet=True):  # noqa: SLF001 - same package
+            if not isinstance(rec, Message) or rec.channel_id not in info.channels:
+                continue
+            if rec.channel_id not in channel_ids:
+                channel = info.channels[rec.channel_id]
+                schema = info.schemas.get(channel.schema_id)
+                if schema is not None and schema.id not in schema_ids:
+                    schema_ids[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+                channel_ids[rec.channel_id] = writer.register_channel(
+                    channel.topic, channel.message_encoding,
+                    schema_ids.get(channel.schema_id, 0), dict(channel.metadata),
+                )
+            writer.add_message(channel_ids[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
+        writer.finish()
+    tmp.replace(path)
+
+
+def reindex(folder: str | Path) -> Path:
+    """Make a bag whose recorder was killed (or ran out of disk) whole again.
+
+    Unfinished .mcap splits are rewritten with the messages that are intact (like
+    `mcap recover`), then metadata.yaml is rebuilt from the files (like `ros2 bag reindex`),
+    so every reader, rosbag2 and `rosbags` included, opens the bag.
+    """
+    import warnings
+
+    from sim_runtime.bag.reader import BagWarning, open_bag
+
+    folder = Path(folder)
+    meta = folder / 'metadata.yaml'
+    with warnings.catch_warnings():
+        warnings.simplefilter('ignore', BagWarning)
+        bag = open_bag(folder)
+        for info in bag._infos:  # noqa: SLF001 - same package
+            if not info.intact:
+                _recover_split(info.path, bag, info)
+        return write_metadata_from_files(folder)
 
 
 def write_metadata_from_files(folder: str | Path) -> Path:
