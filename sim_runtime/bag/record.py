@@ -12,11 +12,13 @@ Stop with Ctrl-C (or SIGTERM): the bag is finished cleanly (MCAP summary, metada
 The bag opens in `ros2 bag info/play`, Foxglove, the `rosbags` library, `robot_sims replay` and
 `robot_sims bag_to_rerun`. If the recorder is killed, the .mcap files hold everything up to
 the last second; `robot_sims record --reindex BAG` rewrites unfinished splits with what is
-intact and writes the missing metadata.yaml, so every bag reader opens it. Topics are matched by exact name or by regular expression (full match);
-topics that appear after the start are picked up within a fraction of a second. Each
-subscription adapts to the publishers' QoS (best effort if any publisher is, transient local
-if all are, so latched maps are recorded). Message times are sim time (from ``/clock``) when a
-clock is published at the start of recording (``--clock auto``, default), else wall time.
+intact and writes the missing metadata.yaml, so every bag reader opens it.
+
+Topics are matched by exact name or by regular expression (full match); topics that
+appear after the start are picked up within a fraction of a second. Each subscription adapts
+to the publishers' QoS (best effort if any publisher is, transient local if all are, so latched
+maps are recorded). Message times are sim time (from ``/clock``) when a clock is published
+at the start of recording (``--clock auto``, default), else wall time.
 """
 
 from __future__ import annotations

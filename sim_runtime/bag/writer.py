@@ -432,7 +432,6 @@ def reindex(folder: str | Path) -> Path:
     from sim_runtime.bag.reader import BagWarning, open_bag
 
     folder = Path(folder)
-    meta = folder / 'metadata.yaml'
     with warnings.catch_warnings():
         warnings.simplefilter('ignore', BagWarning)
         bag = open_bag(folder)
