@@ -216,7 +216,7 @@ class Player(Node):
     def _messages(self) -> Iterator[BagMessage]:
         return self.bag.messages(topics=list(self._publishers_by_topic), start=self._begin, end=self._end)
 
-    def _wait(self, bag_ns: int) -> str:
+    def _wait(self, bag_ns: int, consume_step: bool = True) -> str:
         """Sleep until bag time `bag_ns` is due, unless paused, stepped or stopped.
 
         Returns 'due', 'step' or 'stop'; pausing shifts the schedule by the pause length.
@@ -226,7 +226,7 @@ class Player(Node):
                 if self._stop:
                     return 'stop'
                 if self._steps:
-                    self._steps -= 1
+                    self._steps -= consume_step
                     return 'step'
                 if self._paused:
                     paused_at = time.perf_counter_ns()
@@ -266,8 +266,11 @@ class Player(Node):
                     # /clock ticks through gaps so sim-time timers keep firing
                     while self._clock_pub is not None and self._last_clock + _CLOCK_TICK_NS < m.log_time_ns:
                         tick = self._last_clock + _CLOCK_TICK_NS
-                        if self._wait(tick) == 'stop':
+                        how = self._wait(tick, consume_step=False)
+                        if how == 'stop':
                             return
+                        if how == 'step':  # a step goes straight to the next message
+                            break
                         self._publish_clock(tick)
                     how = self._wait(m.log_time_ns)
                     if how == 'stop':
