@@ -76,13 +76,8 @@ class Arm:
         self.name = config.name
         self.n = config.dof
         self.joint_names = config.joint_names
-        dh = np.zeros((self.n, 5))
-        dh[:, 0] = config.theta
-        dh[:, 1] = config.d
-        dh[:, 2] = config.a
-        dh[:, 3] = config.alpha
-        dh[:, kin.PRISMATIC] = [t == "p" for t in config.joint_types]
-        self.dh = dh
+        self.dh = kin.pack_dh(config.theta, config.d, config.a, config.alpha,
+                              [t == "p" for t in config.joint_types])
         self.modified = bool(config.modified_dh)
         self.base = np.array(config.base if base is None else base, dtype=float)
         self.qlim = np.ascontiguousarray(config.position_limits, dtype=float)

@@ -3,9 +3,10 @@
 Pure numpy/numba (no rclpy). The public, friendlier API is :class:`arm_sim.arm.Arm`; these kernels
 take the packed arrays it builds:
 
-- ``dh``: float64 array (n, 5), one row per joint: ``theta`` offset, ``d``, ``a``, ``alpha``,
-  ``prismatic`` (0.0 revolute, 1.0 prismatic). A revolute joint adds q to ``theta``, a prismatic
-  joint adds q to ``d``.
+- ``dh``: float64 array (n, 7), one row per joint: ``theta`` offset, ``d``, ``a``, ``alpha``,
+  ``prismatic`` (0.0 revolute, 1.0 prismatic), cos(alpha), sin(alpha) (precomputed: trigonometry
+  is most of an FK's cost). A revolute joint adds q to ``theta``, a prismatic joint adds q to ``d``.
+  Build it with :func:`pack_dh`.
 - ``modified``: False for standard DH (link transform Rz(theta) Tz(d) Tx(a) Rx(alpha)), True for
   modified/Craig DH (Rx(alpha) Tx(a) Rz(theta) Tz(d), with alpha and a of the previous link).
 - ``base``: 4x4 world-from-frame-0 transform.
@@ -27,12 +28,17 @@ import numpy as np
 PRISMATIC = 4  # column of ``dh`` flagging a prismatic joint
 
 
+def pack_dh(theta, d, a, alpha, prismatic) -> np.ndarray:
+    """The (n, 7) ``dh`` array of the kernels from per-joint parameters."""
+    alpha = np.asarray(alpha, dtype=float)
+    return np.ascontiguousarray(np.column_stack([theta, d, a, alpha, np.asarray(prismatic, dtype=float),
+                                                 np.cos(alpha), np.sin(alpha)]), dtype=float)
+
+
 @numba.njit(cache=True, inline="always")
-def _link_matrix(out, theta, d, a, alpha, modified):
+def _link_matrix(out, theta, d, a, ca, sa, modified):
     ct = math.cos(theta)
     st = math.sin(theta)
-    ca = math.cos(alpha)
-    sa = math.sin(alpha)
     if modified:
         out[0, 0] = ct
         out[0, 1] = -st
@@ -68,9 +74,9 @@ def _link_matrix(out, theta, d, a, alpha, modified):
 @numba.njit(cache=True, inline="always")
 def _joint_matrix(out, q_i, row, modified):
     if row[PRISMATIC] != 0.0:
-        _link_matrix(out, row[0], row[1] + q_i, row[2], row[3], modified)
+        _link_matrix(out, row[0], row[1] + q_i, row[2], row[5], row[6], modified)
     else:
-        _link_matrix(out, row[0] + q_i, row[1], row[2], row[3], modified)
+        _link_matrix(out, row[0] + q_i, row[1], row[2], row[5], row[6], modified)
 
 
 @numba.njit(cache=True, inline="always")
@@ -90,14 +96,17 @@ def _mul_affine(out, A, B):
 
 
 @numba.njit(cache=True)
-def fk_all_into(frames, q, dh, base, modified):
-    """Write the world pose of every link frame 0..n into ``frames`` (n+1, 4, 4)."""
-    n = dh.shape[0]
-    A = np.empty((4, 4))
+def _fk_frames(frames, q, dh, base, modified, A):
     frames[0, :, :] = base
-    for i in range(n):
+    for i in range(dh.shape[0]):
         _joint_matrix(A, q[i], dh[i], modified)
         _mul_affine(frames[i + 1], frames[i], A)
+
+
+@numba.njit(cache=True)
+def fk_all_into(frames, q, dh, base, modified):
+    """Write the world pose of every link frame 0..n into ``frames`` (n+1, 4, 4)."""
+    _fk_frames(frames, q, dh, base, modified, np.empty((4, 4)))
 
 
 @numba.njit(cache=True)
@@ -186,16 +195,21 @@ def _pose_error(e, Tgoal, T):
     """6-vector from T to Tgoal: position difference and rotation vector of Rgoal R^T (world)."""
     for r in range(3):
         e[r] = Tgoal[r, 3] - T[r, 3]
-    # R_err = Rgoal @ R^T
-    Re = np.empty((3, 3))
-    for r in range(3):
-        for c in range(3):
-            Re[r, c] = Tgoal[r, 0] * T[c, 0] + Tgoal[r, 1] * T[c, 1] + Tgoal[r, 2] * T[c, 2]
-    lx = Re[2, 1] - Re[1, 2]
-    ly = Re[0, 2] - Re[2, 0]
-    lz = Re[1, 0] - Re[0, 1]
+    # R_err = Rgoal @ R^T; only its trace and skew part are needed
+    r00 = Tgoal[0, 0] * T[0, 0] + Tgoal[0, 1] * T[0, 1] + Tgoal[0, 2] * T[0, 2]
+    r11 = Tgoal[1, 0] * T[1, 0] + Tgoal[1, 1] * T[1, 1] + Tgoal[1, 2] * T[1, 2]
+    r22 = Tgoal[2, 0] * T[2, 0] + Tgoal[2, 1] * T[2, 1] + Tgoal[2, 2] * T[2, 2]
+    r21 = Tgoal[2, 0] * T[1, 0] + Tgoal[2, 1] * T[1, 1] + Tgoal[2, 2] * T[1, 2]
+    r12 = Tgoal[1, 0] * T[2, 0] + Tgoal[1, 1] * T[2, 1] + Tgoal[1, 2] * T[2, 2]
+    r02 = Tgoal[0, 0] * T[2, 0] + Tgoal[0, 1] * T[2, 1] + Tgoal[0, 2] * T[2, 2]
+    r20 = Tgoal[2, 0] * T[0, 0] + Tgoal[2, 1] * T[0, 1] + Tgoal[2, 2] * T[0, 2]
+    r10 = Tgoal[1, 0] * T[0, 0] + Tgoal[1, 1] * T[0, 1] + Tgoal[1, 2] * T[0, 2]
+    r01 = Tgoal[0, 0] * T[1, 0] + Tgoal[0, 1] * T[1, 1] + Tgoal[0, 2] * T[1, 2]
+    lx = r21 - r12
+    ly = r02 - r20
+    lz = r10 - r01
     ln = math.sqrt(lx * lx + ly * ly + lz * lz)
-    tr = Re[0, 0] + Re[1, 1] + Re[2, 2]
+    tr = r00 + r11 + r22
     if ln < 1e-9:
         if tr > 0.0:
             e[3] = 0.5 * lx
@@ -203,9 +217,9 @@ def _pose_error(e, Tgoal, T):
             e[5] = 0.5 * lz
         else:
             # rotation by pi: the axis comes from the diagonal
-            e[3] = 0.5 * math.pi * (Re[0, 0] + 1.0)
-            e[4] = 0.5 * math.pi * (Re[1, 1] + 1.0)
-            e[5] = 0.5 * math.pi * (Re[2, 2] + 1.0)
+            e[3] = 0.5 * math.pi * (r00 + 1.0)
+            e[4] = 0.5 * math.pi * (r11 + 1.0)
+            e[5] = 0.5 * math.pi * (r22 + 1.0)
     else:
         s = math.atan2(ln, tr - 1.0) / ln
         e[3] = s * lx
@@ -222,10 +236,9 @@ def _norm(e):
 
 
 @numba.njit(cache=True)
-def _solve_spd(A, b):
-    """Solve A x = b for a small symmetric positive definite A (Cholesky, in place on copies)."""
+def _solve_spd(A, b, L, x):
+    """Solve A x = b for a small symmetric positive definite A (Cholesky into the buffer L)."""
     n = A.shape[0]
-    L = np.zeros((n, n))
     for i in range(n):
         for j in range(i + 1):
             s = A[i, j]
@@ -235,19 +248,16 @@ def _solve_spd(A, b):
                 L[i, i] = math.sqrt(s) if s > 0.0 else 1e-12
             else:
                 L[i, j] = s / L[j, j]
-    y = np.empty(n)
-    for i in range(n):
+    for i in range(n):  # forward substitution, y kept in x
         s = b[i]
         for k in range(i):
-            s -= L[i, k] * y[k]
-        y[i] = s / L[i, i]
-    x = np.empty(n)
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
     for i in range(n - 1, -1, -1):
-        s = y[i]
+        s = x[i]
         for k in range(i + 1, n):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
-    return x
 
 
 @numba.njit(cache=True)
@@ -273,6 +283,9 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
     e = np.empty(6)
     A = np.empty((n, n))
     g = np.empty(n)
+    L = np.zeros((n, n))
+    dq = np.empty(n)
+    work = np.empty((4, 4))
     for search in range(slimit):
         if search > 0:
             for i in range(n):
@@ -281,7 +294,7 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
         # a search that is still converging (near a singularity convergence turns linear) may run
         # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit
         for it in range(4 * ilimit):
-            fk_all_into(frames, q, dh, base, modified)
+            _fk_frames(frames, q, dh, base, modified, work)
             _pose_error(e, Tgoal, frames[n])
             res = _norm(e)
             if res < best_res:
@@ -306,7 +319,7 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
                     A[r, c] = s
                     A[c, r] = s
                 A[r, r] += damping
-            dq = _solve_spd(A, g)
+            _solve_spd(A, g, L, dq)
             for i in range(n):
                 q[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
         # the last step of this search is checked too
