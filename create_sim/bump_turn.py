@@ -63,9 +63,9 @@ class BumpTurnNode(Node):
         self.cmd_pub.publish(cmd)
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Entry point ``create_bump_turn``."""
-    run_nodes(lambda: [BumpTurnNode()], args)
+    return run_nodes(lambda: [BumpTurnNode()], args)
 
 
 def demo(duration: float = 60.0, map_file: str | None = None, seed: int = 0) -> dict:

@@ -96,8 +96,12 @@ class CreateWorldNode(SimWorldNode):
 
     def __init__(self, node_name: str = "create_world", **node_kwargs) -> None:
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
-        self._declare_parameters()
-        self.model = CreateModel(self.world, self.noise, rng=self.rng, pose=self.initial_pose)
+        try:
+            self._declare_parameters()
+            self.model = self._make_model()
+        except InputError:
+            self.destroy_node()  # a half-built node must not linger in the graph
+            raise
         self.com_delay = float(self.noise.com_delay)
 
         self._delayed_msgs: deque[tuple[float, Publisher, object]] = deque()
@@ -141,14 +145,20 @@ class CreateWorldNode(SimWorldNode):
         self.noise = self._load_noise(config_file)
         self.initial_pose = tuple(float(v) for v in pose)
 
+    def _make_model(self) -> CreateModel:
+        try:
+            return CreateModel(self.world, self.noise, rng=self.rng, pose=self.initial_pose)
+        except InputError as err:  # the pose overlaps a wall
+            raise InputError(f"parameter 'initial_pose' = {list(self.initial_pose)}: {err}") from err
+
     @staticmethod
     def _load_world(path: str) -> CreateMap:
         if not path:
             return CreateMap()
         try:
             return load_map(path)
-        except OSError as err:
-            raise InputError(f"parameter map_file: cannot read {path!r}: {err.strerror}") from err
+        except (InputError, OSError) as err:
+            raise InputError(f"parameter 'map_file' = {path!r}: {err}") from err
 
     @staticmethod
     def _load_noise(path: str) -> NoiseConfig:
@@ -156,8 +166,8 @@ class CreateWorldNode(SimWorldNode):
             return NoiseConfig()
         try:
             return load_config(path)
-        except OSError as err:
-            raise InputError(f"parameter config_file: cannot read {path!r}: {err.strerror}") from err
+        except (InputError, OSError) as err:
+            raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
 
     def frame(self, name: str) -> str:
         """The robot frame ``name`` with this robot's prefix (e.g. ``robot1/laser``)."""
@@ -478,8 +488,8 @@ def map_markers(world: CreateMap, stamp) -> MarkerArray:
     return MarkerArray(markers=markers)
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Entry point ``create_world``."""
-    run_nodes(lambda: [CreateWorldNode()], args)
+    return run_nodes(lambda: [CreateWorldNode()], args)
 
 

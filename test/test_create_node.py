@@ -308,10 +308,10 @@ def test_over_limit_command_is_clamped_per_wheel(rig):
     assert w == pytest.approx(0.5 / 0.129)
 
 
-def test_initial_pose_inside_a_wall_is_a_clear_error(tmp_path):
+def test_initial_pose_inside_a_wall_is_a_clear_error(ros, tmp_path):
     map_file = tmp_path / "room.map"
     map_file.write_text(ROOM)
-    with pytest.raises(InputError, match="inside a wall"):
+    with pytest.raises(InputError, match=r"'initial_pose'.*inside a wall"):
         make_world({"map_file": str(map_file), "initial_pose": [1.9, 0.0, 0.0]})
 
 
@@ -319,13 +319,13 @@ def test_initial_pose_inside_a_wall_is_a_clear_error(tmp_path):
     ("rate.scan", -1.0), ("rate.bump", 1000.0), ("cmd_vel_timeout", -0.5), ("real_time_factor", -1.0),
     ("initial_pose", [0.0, 0.0]), ("initial_pose", [0.0, math.nan, 0.0]),
 ])
-def test_parameter_out_of_range_is_a_clear_error(name, value):
+def test_parameter_out_of_range_is_a_clear_error(ros, name, value):
     with pytest.raises(InputError, match=f"'{name}'"):
         make_world({"map_file": "", name: value})
 
 
-def test_missing_map_file_names_the_parameter_and_path(tmp_path):
-    with pytest.raises(InputError, match="map_file.*nope.map"):
+def test_missing_map_file_names_the_parameter_and_path(ros, tmp_path):
+    with pytest.raises(InputError, match="'map_file'.*nope.map"):
         make_world({"map_file": str(tmp_path / "nope.map")})
 
 
@@ -412,3 +412,10 @@ def test_demo_runs_bump_turn_on_the_example_map(ros):
     assert summary["sim_seconds"] == pytest.approx(5.0)
     assert summary["distance_m"] > 1.0  # 0.3 m/s forward most of the time
     assert len(summary["final_pose"]) == 3 and summary["bumps"] >= 0
+
+
+def test_bad_row_in_the_map_file_names_parameter_file_line_and_value(ros, tmp_path):
+    map_file = tmp_path / "bad.map"
+    map_file.write_text("wall 0 0 1 1\nwall 0 0 x 1\n")
+    with pytest.raises(InputError, match=r"'map_file'.*bad.map:2.*'x'"):
+        make_world({"map_file": str(map_file)})
