@@ -29,6 +29,7 @@ from typing import IO, Any
 import yaml
 from mcap.writer import CompressionType, Writer
 
+from sim_runtime.bag.mcapfile import McapFile
 from sim_runtime.bag.msgdefs import full_definition
 from sim_runtime.errors import InputError
 
@@ -44,7 +45,7 @@ METADATA_VERSION = 9
 ROS_DISTRO = 'jazzy'
 _LIBRARY = 'robot_sims.bag'
 _INFINITE_NS = 2**63 - 1
-_COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4, 'none': CompressionType.NONE}
+_COMPRESSION = {'zstd': 'zstd', 'lz4': 'lz4', 'none': ''}
 
 #: Defaults for a QoS profile dict (rosbag2's "offered QoS" fields, Jazzy enum strings).
 QOS_DEFAULTS: dict[str, Any] = {
@@ -151,7 +152,7 @@ class BagWriter:
         self._topics: list[_Topic] = []
         self._missing: dict[int, tuple[str, ...]] = {}
         self._files: list[_FileStats] = []
-        self._writer: Writer | None = None
+        self._writer: McapFile | None = None
         self._stream: IO[bytes] | None = None
         self._channel_ids: dict[int, int] = {}  # topic id -> channel id in the current split
         self._schema_ids: dict[str, int] = {}
@@ -187,30 +188,29 @@ class BagWriter:
         if self.error is not None:
             raise self.error
         stats = self._files[-1]
-        if stats.message_count:
-            if (self._max_size and self._bytes_in_file >= self._max_size) or (
-                self._max_duration
-                and stats.start_ns is not None
-                and log_time_ns - stats.start_ns >= self._max_duration
-            ):
-                self._guard(self._next_split)
-        self._guard(
-            self._writer.add_message,  # type: ignore[union-attr]
-            self._channel_ids[topic_id],
-            log_time_ns,
-            data,
-            log_time_ns if publish_time_ns is None else publish_time_ns,
-        )
-        self._bytes_in_file += len(data) + 31  # message record overhead + index entry
+        if stats.message_count and (
+            (self._max_size and self._bytes_in_file >= self._max_size)
+            or (self._max_duration and log_time_ns - stats.start_ns >= self._max_duration)
+        ):
+            self._guard(self._next_split)
+            stats = self._files[-1]
+        try:
+            self._writer.add_message(  # type: ignore[union-attr]
+                self._channel_ids[topic_id], log_time_ns,
+                log_time_ns if publish_time_ns is None else publish_time_ns, data,
+            )
+        except OSError as exc:
+            self._fail(exc)
+        self._bytes_in_file += len(data) + 47  # message record + index entry
         self._topics[topic_id].message_count += 1
-        stats = self._files[-1]
-        stats.message_count += 1
-        if stats.start_ns is None or log_time_ns < stats.start_ns:
+        if stats.message_count == 0:
+            stats.start_ns = stats.end_ns = log_time_ns
+        elif log_time_ns < stats.start_ns:
             stats.start_ns = log_time_ns
-        if stats.end_ns is None or log_time_ns > stats.end_ns:
+        elif log_time_ns > stats.end_ns:
             stats.end_ns = log_time_ns
-        now = self._clock()
-        if now - self._last_flush >= self._flush_interval:
+        stats.message_count += 1
+        if self._clock() - self._last_flush >= self._flush_interval:
             self.flush()
 
     def flush(self) -> None:
@@ -238,22 +238,20 @@ class BagWriter:
         try:
             return fn(*args)
         except OSError as exc:
-            self.error = BagWriteError(
-                exc.errno, f'writing bag {self.folder} failed: {exc.strerror or exc}'
-            )
-            raise self.error from exc
+            self._fail(exc)
+
+    def _fail(self, exc: OSError) -> None:
+        self.error = BagWriteError(exc.errno, f'writing bag {self.folder} failed: {exc.strerror or exc}')
+        raise self.error from exc
 
     def _open_split(self) -> None:
         name = f'{self.folder.name}_{len(self._files)}.mcap'
         self._files.append(_FileStats(name))
         self._stream = self._open_stream(self.folder / name)
-        self._writer = Writer(
-            self._stream,
+        self._writer = McapFile(
+            self._stream, profile='ros2', library=_LIBRARY, compression=self._compression,
             chunk_size=self._chunk_size,
-            compression=self._compression,
-            enable_crcs=True,
         )
-        self._writer.start(profile='ros2', library=_LIBRARY)
         self._schema_ids = {}
         self._channel_ids = {}
         self._bytes_in_file = 0
@@ -265,11 +263,9 @@ class BagWriter:
         assert self._writer is not None
         schema_id = self._schema_ids.get(topic.type)
         if schema_id is None:
-            schema_id = self._writer.register_schema(
-                topic.type, 'ros2msg', topic.schema_text.encode()
-            )
+            schema_id = self._writer.add_schema(topic.type, 'ros2msg', topic.schema_text.encode())
             self._schema_ids[topic.type] = schema_id
-        self._channel_ids[tid] = self._writer.register_channel(
+        self._channel_ids[tid] = self._writer.add_channel(
             topic.name,
             'cdr',
             schema_id,
