@@ -114,8 +114,8 @@ def _step_robots(grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts,
 
 @numba.njit(cache=True)
 def _sense(
-    grid, clear, pose, radius, srob, spos, saxis, rstart, roff, srange, ids, bucket_start, bucket_items, nbx, nby,
-    out_t, out_v,
+    grid, clear, pose, radius, srob, spos, saxis, rstart, roff, rcos, rsin, srange, ids, bucket_start, bucket_items,
+    nbx, nby, out_t, out_v,
 ):
     """Cast every ray of every sensor (fast caster); candidates come from the robot buckets."""
     n_sensors = srob.shape[0]
@@ -138,10 +138,14 @@ def _sense(
         oy = pose[r, 1] + sn * spos[s, 0] + c * spos[s, 1]
         a0 = rstart[s]
         nr = rstart[s + 1] - a0
+        # ray directions: the fixed offsets' unit vectors turned by heading + axis (no trig per ray)
+        axis = h + saxis[s]
+        ca = math.cos(axis)
+        sa = math.sin(axis)
         for k in range(nr):
-            a = h + saxis[s] + roff[a0 + k]
-            dirs[k, 0] = math.cos(a)
-            dirs[k, 1] = math.sin(a)
+            dirs[k, 0] = ca * rcos[a0 + k] - sa * rsin[a0 + k]
+            dirs[k, 1] = sa * rcos[a0 + k] + ca * rsin[a0 + k]
+        dangle = roff[a0 + 1] - roff[a0] if nr > 1 else 0.0
         reach = srange[s] + rmax
         bx0 = max(int((ox - reach) // _BUCKET), 0)
         bx1 = min(int((ox + reach) // _BUCKET), nbx - 1)
@@ -161,8 +165,8 @@ def _sense(
                     cand_id[m] = ids[j]
                     m += 1
         raycast.cast_scan_fast(
-            grid, clear, ox, oy, dirs[:nr], srange[s], ids[r], cand_x[:m], cand_y[:m], cand_r[:m], cand_id[:m],
-            out_t[a0:a0 + nr], out_v[a0:a0 + nr],
+            grid, clear, ox, oy, dirs[:nr], axis + roff[a0], dangle, srange[s], ids[r],
+            cand_x[:m], cand_y[:m], cand_r[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],
         )
 
 
@@ -322,6 +326,8 @@ class SimrobotWorld:
         self.rstart = np.zeros(len(infos) + 1, dtype=np.int64)
         self.rstart[1:] = np.cumsum([s.rays for s in infos])
         self.roff = np.concatenate(offsets) if offsets else np.zeros(0)
+        self.rcos = np.cos(self.roff)
+        self.rsin = np.sin(self.roff)
         self.ray_t = np.full(first, np.inf)
         self.ray_v = np.zeros(first, dtype=np.int64)
         self.nearest_t = np.full(len(infos), np.inf)
@@ -427,7 +433,8 @@ class SimrobotWorld:
         np.cumsum(counts, out=bucket_start[1:])
         _sense(
             self.grid, self.clear, self.pose, self.radius, self.srob, self.spos, self.saxis, self.rstart, self.roff,
-            self.srange, self.ids[:n], bucket_start, order.astype(np.int64), self.nbx, self.nby, self.ray_t, self.ray_v,
+            self.rcos, self.rsin, self.srange, self.ids[:n], bucket_start, order.astype(np.int64), self.nbx, self.nby,
+            self.ray_t, self.ray_v,
         )
         _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
         self._sensed_at = self.step_count

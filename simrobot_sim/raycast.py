@@ -9,13 +9,15 @@ plus that cell's value; rays that reach ``max_range`` or leave the map give ``in
 
 Three casters:
 
-* :func:`cast_rays_exact` — Amanatides-Woo grid traversal, one cell at a time. It visits every
+* :func:`cast_scan_exact` — Amanatides-Woo grid traversal, one cell at a time. It visits every
   cell the ray touches, so it cannot slip between two cells that meet at a corner (an
   8-connected Bresenham line can). The reference.
-* :func:`cast_rays_fast` — jumps through free space using a clearance field (Euclidean distance
-  transform of the static walls, computed once), switches to the exact traversal only near
-  walls, and tests robots exactly by traversing just the stretch of the ray inside their
-  bounding circle. Same hits as the reference, far fewer cells visited.
+* :func:`cast_scan_fast` — walls: jumps through free space by a clearance table (Euclidean
+  distance transform of the static walls, computed once per map), reuses the free discs found by
+  the previous rays of the same scan (neighbouring rays cross the same free space), and walks
+  cell by cell only near walls; robots: an exact traversal of just the stretch of each ray inside
+  a nearby robot's bounding circle, only for the rays whose angle can meet it. Same hits as the
+  reference, a small fraction of the cells visited.
 * :func:`cast_ray_bresenham_python` — the seed's algorithm in plain Python (benchmark baseline).
 """
 
@@ -27,7 +29,9 @@ import numba
 import numpy as np
 
 #: Jumping is worth its re-initialisation only when it skips at least this many cells.
-JUMP_MIN = 4.0
+JUMP_MIN = 3
+#: Value of a wall cell in the clearance table.
+WALL = 255
 _SQRT2 = math.sqrt(2.0)
 _FAR = 1.0e9
 
@@ -100,11 +104,15 @@ def squared_distance_transform(occupied: np.ndarray) -> np.ndarray:
 
 
 def clearance_field(walls: np.ndarray) -> np.ndarray:
-    """Free distance (whole cells) a ray may travel from *any point* of each cell without entering
-    a wall cell: centre-to-centre distance minus two half-diagonals, floored, capped at 255.
-    uint8 so the table of a 1000x1000 map stays in cache (jumping is latency-bound)."""
-    d = np.sqrt(squared_distance_transform(np.ascontiguousarray(walls, dtype=np.bool_)))
-    return np.clip(np.floor(d - _SQRT2), 0, 255).astype(np.uint8)
+    """The fast caster's static table, uint8 in ``grid`` layout: :data:`WALL` for a wall cell,
+    else the free distance (whole cells, capped at 254) a ray may travel from *any point* of the
+    cell without entering a wall cell: centre-to-centre distance minus two half-diagonals, floored.
+    One byte per cell, so a 1000x1000 map's table stays in cache (jumping is latency-bound)."""
+    walls = np.ascontiguousarray(walls, dtype=np.bool_)
+    d = np.sqrt(squared_distance_transform(walls))
+    field = np.clip(np.floor(d - _SQRT2), 0, 254).astype(np.uint8)
+    field[walls] = WALL
+    return field
 
 
 @numba.njit(cache=True, inline="always")
@@ -133,7 +141,7 @@ def _clip_to_map(ox: float, oy: float, dx: float, dy: float, nx: int, ny: int, t
     return t0, t1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _traverse(
     grid: np.ndarray,
     ox: float,
@@ -144,13 +152,10 @@ def _traverse(
     t_end: float,
     self_id: int,
     only_id: int,
-    clear: np.ndarray,
-    use_clear: bool,
 ):
-    """Amanatides-Woo from ``t_start`` to ``t_end``. Returns (t_hit, value, t_stop, jump): a hit
-    when value > 0; otherwise traversal stopped at ``t_stop``, either at the end (jump 0) or, with
-    ``use_clear``, on entering a cell whose clearance ``jump`` >= JUMP_MIN lets the ray skip ahead.
-    ``only_id`` > 0 counts only cells of that id (exact test of one robot)."""
+    """Amanatides-Woo from ``t_start`` to ``t_end`` on the matrix: returns (t, value) of the first
+    cell that is non-zero and not ``self_id`` — or, when ``only_id`` > 0, that holds ``only_id``
+    (the exact test of one robot) — else (inf, 0)."""
     nx, ny = grid.shape
     px = ox + t_start * dx
     py = oy + t_start * dy
@@ -194,27 +199,23 @@ def _traverse(
         v = grid[cx, cy]
         if only_id > 0:
             if v == only_id:
-                return t, v, t, 0.0
+                return t, v
         elif v != 0 and v != self_id:
-            return t, v, t, 0.0
-        if use_clear:
-            c = clear[cx, cy]
-            if c >= JUMP_MIN:
-                return np.inf, 0, t, float(c)
+            return t, v
         if tmx < tmy:
             t = tmx
             tmx += tdx
             cx += sx
             if cx < 0 or cx >= nx:
-                return np.inf, 0, t_end, 0.0
+                return np.inf, 0
         else:
             t = tmy
             tmy += tdy
             cy += sy
             if cy < 0 or cy >= ny:
-                return np.inf, 0, t_end, 0.0
+                return np.inf, 0
         if t > t_end:
-            return np.inf, 0, t_end, 0.0
+            return np.inf, 0
 
 
 @numba.njit(cache=True)
@@ -224,16 +225,75 @@ def cast_ray_exact(grid, ox, oy, dx, dy, max_range, self_id):
     t0, t1 = _clip_to_map(ox, oy, dx, dy, nx, ny, max_range)
     if t0 > t1:
         return np.inf, 0
-    t, v, _, _ = _traverse(grid, ox, oy, dx, dy, t0, t1, self_id, 0, grid, False)
+    t, v = _traverse(grid, ox, oy, dx, dy, t0, t1, self_id, 0)
     if t > max_range:
         return np.inf, 0
     return t, v
 
 
 @numba.njit(cache=True)
-def _cast_walls_fast(grid, clear, ox, oy, dx, dy, t0, t1, self_id):
+def _traverse_walls(field, ox, oy, dx, dy, t_start, t_end):
+    """Amanatides-Woo on the static table only (robots are tested separately). Returns
+    (t_hit or inf, t_stop, jump): stops on a wall cell, at ``t_end`` (jump 0), or on entering a cell
+    whose clearance ``jump`` >= JUMP_MIN lets the ray skip ahead. One table read per cell."""
+    nx, ny = field.shape
+    px = ox + t_start * dx
+    py = oy + t_start * dy
+    cx = min(max(int(math.floor(px)), 0), nx - 1)
+    cy = min(max(int(math.floor(py)), 0), ny - 1)
+    if dx > 0.0:
+        sx = 1
+        tdx = 1.0 / dx
+        tmx = t_start + (cx + 1 - px) * tdx
+    elif dx < 0.0:
+        sx = -1
+        tdx = -1.0 / dx
+        tmx = t_start + (px - cx) * tdx
+    else:
+        sx = 0
+        tdx = np.inf
+        tmx = np.inf
+    if dy > 0.0:
+        sy = 1
+        tdy = 1.0 / dy
+        tmy = t_start + (cy + 1 - py) * tdy
+    elif dy < 0.0:
+        sy = -1
+        tdy = -1.0 / dy
+        tmy = t_start + (py - cy) * tdy
+    else:
+        sy = 0
+        tdy = np.inf
+        tmy = np.inf
+    t = t_start
+    while True:
+        c = field[cx, cy]
+        if c == WALL:
+            return t, t, 0.0
+        if c >= JUMP_MIN:
+            return np.inf, t, float(c)
+        if tmx < tmy:
+            t = tmx
+            tmx += tdx
+            cx += sx
+            if cx < 0 or cx >= nx:
+                return np.inf, t_end, 0.0
+        else:
+            t = tmy
+            tmy += tdy
+            cy += sy
+            if cy < 0 or cy >= ny:
+                return np.inf, t_end, 0.0
+        if t > t_end:
+            return np.inf, t_end, 0.0
+
+
+@numba.njit(cache=True)
+def _cast_walls_fast(field, ox, oy, dx, dy, t0, t1, discs, nd):
     # Jump while the clearance allows (one table look-up per jump), traverse cell by cell near walls.
-    nx, ny = grid.shape
+    # Every jump's free disc (centre, radius) is appended to ``discs`` for the next ray to reuse.
+    nx, ny = field.shape
+    maxd = discs.shape[0]
     t = t0
     while t <= t1:
         px = ox + t * dx
@@ -241,79 +301,136 @@ def _cast_walls_fast(grid, clear, ox, oy, dx, dy, t0, t1, self_id):
         # t <= t1 keeps the point in the map box up to rounding: clamp instead of testing
         cx = min(max(int(px), 0), nx - 1)
         cy = min(max(int(py), 0), ny - 1)
-        c = clear[cx, cy]
-        if c >= JUMP_MIN:
+        c = field[cx, cy]
+        if c >= JUMP_MIN and c != WALL:
+            if nd < maxd:
+                discs[nd, 0] = px
+                discs[nd, 1] = py
+                discs[nd, 2] = c
+                nd += 1
             t += float(c)
             continue
-        th, v, ts, jump = _traverse(grid, ox, oy, dx, dy, t, t1, self_id, 0, clear, True)
-        if v > 0:
-            return th, v
+        th, ts, jump = _traverse_walls(field, ox, oy, dx, dy, t, t1)
+        if th <= t1:
+            return th, nd
         if jump <= 0.0:
             break
+        if nd < maxd:
+            discs[nd, 0] = ox + ts * dx
+            discs[nd, 1] = oy + ts * dy
+            discs[nd, 2] = jump
+            nd += 1
         t = ts + jump
-    return np.inf, 0
+    return np.inf, nd
+
+
+@numba.njit(cache=True, inline="always")
+def _reuse_discs(ox, oy, dx, dy, t, discs, nd):
+    # Free discs found by earlier rays of this scan, in order along the previous ray: follow
+    # them along this ray while each one covers where we are. Returns (new t, discs kept).
+    keep = 0
+    for k in range(nd):
+        qx = discs[k, 0] - ox
+        qy = discs[k, 1] - oy
+        r = discs[k, 2]
+        b = qx * dx + qy * dy
+        disc = b * b - (qx * qx + qy * qy - r * r)
+        if disc <= 0.0:
+            break
+        sq = math.sqrt(disc)
+        if b - sq > t:
+            break
+        if b + sq > t:
+            t = b + sq
+        keep = k + 1
+    return t, keep
 
 
 @numba.njit(cache=True)
-def cast_scan_fast(grid, clear, ox, oy, directions, max_range, self_id, cand_x, cand_y, cand_r, cand_id, out_t, out_v):
-    """All rays of one sensor from ``(ox, oy)`` (``directions`` (n, 2) unit vectors) with the fast
-    caster. ``cand_*`` are robots that may be seen (centre, bounding radius covering every painted
-    cell, id); the sensor's own robot is skipped by ``self_id``. Results go to ``out_t``/``out_v``
+def cast_scan_fast(
+    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_id, out_t, out_v
+):
+    """All rays of one sensor from ``(ox, oy)`` with the fast caster. Ray ``i`` has unit direction
+    ``directions[i]`` at angle ``angle0 + i * dangle`` (an evenly spread fan, as every sensor).
+    ``cand_*`` are robots that may be seen (centre, bounding radius covering every painted cell,
+    id); the sensor's own robot is skipped by ``self_id``. Results go to ``out_t``/``out_v``
     (``inf``/0 for no hit within ``max_range``)."""
     nx, ny = grid.shape
-    m = cand_id.shape[0]
-    # keep the robots a ray of this sensor could reach; store them relative to the origin
-    qx = np.empty(m)
-    qy = np.empty(m)
-    r2 = np.empty(m)
-    rr = np.empty(m)
-    ids = np.empty(m, dtype=np.int64)
-    k = 0
-    for j in range(m):
-        if cand_id[j] == self_id:
-            continue
-        ax = cand_x[j] - ox
-        ay = cand_y[j] - oy
-        if math.sqrt(ax * ax + ay * ay) - cand_r[j] > max_range:
-            continue
-        qx[k] = ax
-        qy[k] = ay
-        rr[k] = cand_r[j]
-        r2[k] = ax * ax + ay * ay - cand_r[j] * cand_r[j]
-        ids[k] = cand_id[j]
-        k += 1
-    for i in range(directions.shape[0]):
+    n = directions.shape[0]
+    t_lo = np.empty(n)
+    t_hi = np.empty(n)
+    # pass 1: walls, ray after ray, reusing the free discs of the previous rays
+    discs = np.empty((256, 3))
+    nd = 0
+    for i in range(n):
         dx = directions[i, 0]
         dy = directions[i, 1]
         t0, t1 = _clip_to_map(ox, oy, dx, dy, nx, ny, max_range)
+        t_lo[i] = t0
+        t_hi[i] = t1
+        out_t[i] = np.inf
+        out_v[i] = 0
         if t0 > t1:
-            out_t[i] = np.inf
-            out_v[i] = 0
             continue
-        best, best_v = _cast_walls_fast(grid, clear, ox, oy, dx, dy, t0, t1, self_id)
-        # robots are not in the clearance field: a jump may cross one, so test them exactly
-        for j in range(k):
-            b = qx[j] * dx + qy[j] * dy
-            if b + rr[j] < t0 or b - rr[j] > best:
-                continue
-            disc = b * b - r2[j]
-            if disc < 0.0:
-                continue
-            s = math.sqrt(disc)
-            ta = max(b - s, t0)
-            tb = min(b + s, t1, best)
-            if ta > tb:
-                continue
-            th, v, _, _ = _traverse(grid, ox, oy, dx, dy, ta, tb, self_id, ids[j], clear, False)
-            if v > 0 and th < best:
-                best = th
-                best_v = v
-        if best > max_range:
+        ts, nd = _reuse_discs(ox, oy, dx, dy, t0, discs, nd)
+        if ts <= t1:
+            th, nd = _cast_walls_fast(clear, ox, oy, dx, dy, ts, t1, discs, nd)
+            if th <= t1:
+                out_t[i] = th
+                out_v[i] = 1
+    # pass 2: robots are not in the static table: test each robot exactly (traversal of its
+    # painted cells), only on the rays whose angle falls within its bounding circle
+    two_pi = 2.0 * math.pi
+    for j in range(cand_id.shape[0]):
+        rid = cand_id[j]
+        if rid == self_id:
+            continue
+        qx = cand_x[j] - ox
+        qy = cand_y[j] - oy
+        rad = cand_r[j]
+        dist2 = qx * qx + qy * qy
+        if math.sqrt(dist2) - rad > max_range:
+            continue
+        c2 = dist2 - rad * rad
+        half = 0.0
+        centre = 0.0
+        if c2 <= 0.0 or n == 1 or dangle == 0.0:
+            lo_i = 0
+            hi_i = n - 1
+            shifts = 1
+        else:
+            half = math.asin(min(rad / math.sqrt(dist2), 1.0)) + 1e-9
+            centre = math.atan2(qy, qx) - angle0
+            shifts = 3
+        for sh in range(shifts):
+            if shifts == 3:
+                off = centre + (sh - 1) * two_pi
+                if dangle > 0.0:
+                    lo_i = max(int(math.ceil((off - half) / dangle)), 0)
+                    hi_i = min(int(math.floor((off + half) / dangle)), n - 1)
+                else:
+                    lo_i = max(int(math.ceil((off + half) / dangle)), 0)
+                    hi_i = min(int(math.floor((off - half) / dangle)), n - 1)
+            for i in range(lo_i, hi_i + 1):
+                dx = directions[i, 0]
+                dy = directions[i, 1]
+                b = qx * dx + qy * dy
+                disc = b * b - c2
+                if disc < 0.0:
+                    continue
+                sq = math.sqrt(disc)
+                ta = max(b - sq, t_lo[i])
+                tb = min(b + sq, t_hi[i], out_t[i])
+                if ta > tb:
+                    continue
+                th, v = _traverse(grid, ox, oy, dx, dy, ta, tb, self_id, rid)
+                if v > 0 and th < out_t[i]:
+                    out_t[i] = th
+                    out_v[i] = v
+    for i in range(n):
+        if out_t[i] > max_range:
             out_t[i] = np.inf
             out_v[i] = 0
-        else:
-            out_t[i] = best
-            out_v[i] = best_v
 
 
 @numba.njit(cache=True)
@@ -325,11 +442,13 @@ def cast_scan_exact(grid, ox, oy, directions, max_range, self_id, out_t, out_v):
         out_v[i] = v
 
 
-def cast_ray_bresenham_python(rows: list, ox: float, oy: float, angle: float, max_range: float) -> tuple[float, int]:
+def cast_ray_bresenham_python(
+    rows: list, ox: float, oy: float, angle: float, max_range: float, self_id: int = 0
+) -> tuple[float, int]:
     """The seed's caster (usonic8.c/laser5.c) in plain Python: 8-connected Bresenham from the
     rounded sensor cell to the rounded end point, first non-zero cell wins; Euclidean distance
-    between the two cells. ``rows`` is ``grid.tolist()``. Benchmark baseline only: it can slip
-    between two cells that touch at a corner."""
+    between the two cells; cells of ``self_id`` are passed through. ``rows`` is ``grid.tolist()``.
+    Benchmark baseline only: it can slip between two cells that touch at a corner."""
     nx = len(rows)
     ny = len(rows[0])
     x0 = int(math.floor(ox))
@@ -344,7 +463,7 @@ def cast_ray_bresenham_python(rows: list, ox: float, oy: float, angle: float, ma
     x, y = x0, y0
     while 0 <= x < nx and 0 <= y < ny:
         v = rows[x][y]
-        if v:
+        if v and v != self_id:
             return math.hypot(x - x0, y - y0), v
         if x == x1 and y == y1:
             break

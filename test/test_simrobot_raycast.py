@@ -87,7 +87,9 @@ def test_fast_and_exact_single_rays_agree(seed, angle, ox, oy):
     et, ev, ft, fv = np.empty(1), np.empty(1, np.int64), np.empty(1), np.empty(1, np.int64)
     raycast.cast_scan_exact(grid, ox, oy, d, 150.0, 0, et, ev)
     empty = np.empty(0)
-    raycast.cast_scan_fast(grid, clear, ox, oy, d, 150.0, 0, empty, empty, empty, np.empty(0, np.int64), ft, fv)
+    raycast.cast_scan_fast(
+        grid, clear, ox, oy, d, angle, 0.0, 150.0, 0, empty, empty, empty, np.empty(0, np.int64), ft, fv
+    )
     if math.isfinite(et[0]):
         assert ft[0] == pytest.approx(et[0], abs=1.0)
     else:
