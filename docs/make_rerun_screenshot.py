@@ -61,7 +61,8 @@ def record_demo(bag: Path) -> None:
 def screenshot(rrd: Path, png: Path, home: Path) -> None:
     env = private_rerun_env(home)
     env.update({"WGPU_BACKEND": "vulkan", "XDG_RUNTIME_DIR": str(home)})
-    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", rerun_cli(), str(rrd),
+    # The X screen is larger than the window so the pointer (centre of the screen) hovers nothing.
+    cmd = ["xvfb-run", "-a", "-s", "-screen 0 3600x2400x24", rerun_cli(), str(rrd),
            "--window-size", "1600x1000", "--screenshot-to", str(png)]
     subprocess.run(cmd, env=env, check=True, timeout=300)
 

@@ -20,21 +20,21 @@ def test_create_bag_gives_wall_raster_and_truth_track(tmp_path):
     track = data.tracks["robot"]
     assert track.shape == (50, 2)  # overhead_pose, not odom
     assert track[-1] == pytest.approx([math.sin(0.5 * math.pi * 49 / 50), 1 - math.cos(0.5 * math.pi * 49 / 50)])
-    # wall y = -2 from x = -2 to 2: the image row of y = -2 is obstacle, a row 0.5 m above it is free
+    # wall y = -2 from x = -2 to 2: the row of y = -2 is obstacle, a row 0.5 m above it is free
     img, res, (ox, oy) = data.image, data.resolution, data.origin
-    h = img.shape[0]
-    row = lambda y: h - 1 - round((y - oy) / res)  # noqa: E731
+    row = lambda y: round((y - oy) / res)  # noqa: E731 - OccupancyGrid layout: row 0 = lowest y
     col = lambda x: round((x - ox) / res)  # noqa: E731
     assert img[row(-2.0), col(0.0)] and img[row(0.0), col(2.0)]
     assert not img[row(-1.5), col(0.0)]
 
 
-def test_simrobot_bag_uses_the_occupancy_grid_with_row_zero_on_top(tmp_path):
+def test_simrobot_bag_uses_the_occupancy_grid_as_published(tmp_path):
     bag = write_bag(tmp_path / "s.mcap", simrobot_messages())
     data = tracks_from_bag(bag)
     assert data.image.shape == (10, 20) and data.resolution == pytest.approx(0.1)
     assert data.origin == pytest.approx((-1.0, 0.0))
-    assert data.image[:, 0].all() and data.image.sum() == 10 + 9
+    assert (data.image[:, 0] == 100).all() and (data.image == 100).sum() == 10 + 9
+    assert (data.image[4:7, 10:13] == 100).all()  # row 0 = lowest y, as in the message
     assert data.tracks["r1"][:, 0] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
 
 

@@ -278,7 +278,9 @@ class RerunLogger:
         else:
             centre, extent = np.zeros(2), 6.0
         height = 1.1 * max(extent, 1.0)
-        return rrb.EyeControls3D(kind="Orbital", position=[centre[0], centre[1] - 0.01 * height, height],
+        # Slightly south of the target, so +y is up on screen; the viewer flips a near-vertical
+        # eye (offset 1 % of the height showed the map upside down, 5 % is right).
+        return rrb.EyeControls3D(kind="Orbital", position=[centre[0], centre[1] - 0.05 * height, height],
                                  look_target=[centre[0], centre[1], 0.0], eye_up=[0.0, 0.0, 1.0])
 
     def _grow_map(self, xy: np.ndarray) -> None:

@@ -2,7 +2,7 @@
 
 The map is the bag's last ``/map`` (OccupancyGrid, SIMROBOT) or the walls of its ``map_markers``
 (Create) rasterised; tracks are the ground-truth poses (``overhead_pose``/``pose``), or ``odom``
-for a robot without them. Drawing is SIMROBOT's ``draw_tracks`` (the seed's "draw tracks").
+for a robot without them. Drawn by :func:`simrobot_sim.tracks.draw_tracks` (the seed's "draw tracks").
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 from sim_runtime.bag.reader import UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, robot_color
+from simrobot_sim.tracks import draw_tracks
 
 RASTER_RESOLUTION = 0.01
 """m per pixel when walls (line segments) are rasterised into an occupancy image."""
@@ -26,9 +27,10 @@ MARGIN = 0.2
 
 @dataclass
 class TrackData:
-    """What a bag holds for a tracks picture: occupancy image (row 0 = top, True = obstacle) or
-    None, its resolution (m/px) and world origin (x, y of the image's bottom-left corner), tracks
-    (name → (N, 2) xy in ``map``) and colours (name → rgb 0–1)."""
+    """What a bag holds for a tracks picture, as :func:`simrobot_sim.tracks.draw_tracks` takes it:
+    occupancy laid out as OccupancyGrid data (row 0 = lowest y; >= 50 or True = obstacle) or None,
+    its resolution (m/cell) and origin (x, y of the lower-left corner), tracks (name → (N, 2) xy in
+    ``map``) and colours (name → rgb 0–1)."""
 
     image: np.ndarray | None = None
     resolution: float = RASTER_RESOLUTION
@@ -76,8 +78,7 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
                      colors={n: tuple(c / 255 for c in robot_color(n, names)) for n in names})
     if grid is not None:
         info = grid.info
-        cells = np.asarray(grid.data, dtype=np.int8).reshape(info.height, info.width)
-        data.image = np.flipud(cells >= 50)
+        data.image = np.asarray(grid.data, dtype=np.int8).reshape(info.height, info.width)
         data.resolution = float(info.resolution)
         data.origin = (info.origin.position.x, info.origin.position.y)
     elif walls:
@@ -100,44 +101,10 @@ def _rasterise(segments: np.ndarray, tracks: list[np.ndarray]) -> tuple[np.ndarr
     draw = ImageDraw.Draw(img)
     width = max(1, round(0.03 / RASTER_RESOLUTION))
     for (x0, y0), (x1, y1) in segments:
-        # image row 0 is the top (max y)
-        draw.line([((x0 - lo[0]) / RASTER_RESOLUTION, (hi[1] - y0) / RASTER_RESOLUTION),
-                   ((x1 - lo[0]) / RASTER_RESOLUTION, (hi[1] - y1) / RASTER_RESOLUTION)], fill=1, width=width)
-    return np.array(img, dtype=bool), (float(lo[0]), float(hi[1] - (h - 1) * RASTER_RESOLUTION))
-
-
-def _draw(data: TrackData, out_path: Path) -> None:
-    try:
-        from simrobot_sim.tracks import draw_tracks
-    except ImportError:
-        draw_tracks = _draw_tracks_matplotlib
-    draw_tracks(data.image, data.resolution, data.origin, data.tracks, data.colors, out_path)
-
-
-def _draw_tracks_matplotlib(image, resolution, origin, tracks, colors, out_path) -> None:
-    # Stand-in with simrobot_sim.tracks.draw_tracks' signature until that module exists.
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 8))
-    if image is not None:
-        h, w = image.shape
-        ax.imshow(~image, cmap="gray", vmin=0, vmax=1, interpolation="nearest",
-                  extent=(origin[0], origin[0] + w * resolution, origin[1], origin[1] + h * resolution))
-    for name, xy in tracks.items():
-        if len(xy):
-            ax.plot(xy[:, 0], xy[:, 1], "-", color=colors[name], lw=1.5, label=name)
-            ax.plot(*xy[0], "o", color=colors[name])
-            ax.plot(*xy[-1], "s", color=colors[name])
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    if tracks:
-        ax.legend(loc="upper right")
-    fig.savefig(out_path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
+        # pixel (column, row) = cell (x, y) from the lower-left corner: row 0 is the lowest y
+        draw.line([((x0 - lo[0]) / RASTER_RESOLUTION, (y0 - lo[1]) / RASTER_RESOLUTION),
+                   ((x1 - lo[0]) / RASTER_RESOLUTION, (y1 - lo[1]) / RASTER_RESOLUTION)], fill=1, width=width)
+    return np.array(img, dtype=bool), (float(lo[0]), float(lo[1]))
 
 
 def main(args: list[str] | None = None) -> None:
@@ -150,10 +117,14 @@ def main(args: list[str] | None = None) -> None:
         data = tracks_from_bag(opts.bag)
         if not data.tracks:
             raise InputError.at(opts.bag, None, "no robot poses (overhead_pose, pose or odom) in this bag")
-        _draw(data, Path(opts.output))
+        draw_tracks(data.image, data.resolution, data.origin, data.tracks, data.colors, opts.output)
     except InputError as err:
         print(f"draw_tracks: error: {err}", file=sys.stderr)
         raise SystemExit(2) from err
     lengths = ", ".join(f"{n} {np.sum(np.hypot(*np.diff(t, axis=0).T)):.2f} m" for n, t in data.tracks.items())
     print(f"wrote {opts.output} ({lengths})")
 
+
+
+if __name__ == "__main__":
+    main()
