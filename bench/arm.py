@@ -252,18 +252,21 @@ def bench_node() -> None:
 
     from arm_sim.arm_node import ArmNode
 
-    print("\narm node: CPU time per simulated second (physics 100 Hz, publishing at 100 Hz, no subscribers)")
+    print("\narm node: CPU time per simulated second (physics 100 Hz, publishing at 100 Hz, arm moving, "
+          "no subscribers)")
     rclpy.init()
     try:
         for config in ("arm/csa7.yaml", "arm/irb120.yaml"):
             node = ArmNode(parameter_overrides=[Parameter("robot_config", value=config),
                                                 Parameter("publish_rate", value=100.0)])
             node.step(100)
+            arm = node.arm("")
+            arm.motion.move_to(arm.arm.lower + 0.9 * (arm.arm.upper - arm.arm.lower), min_duration=30.0)
             steps = 2000
             cpu = time.process_time()
             node.step(steps)
             cpu = time.process_time() - cpu
-            arm = node.arm("")
+            assert arm.motion.moving
             share = cpu / (steps * node.physics_dt)
             print(f"  {arm.arm.name}: {arm.arm.n} links, {len(arm.arm.elements)} mesh elements: "
                   f"{share:.1%} of a core (goal <= 10 %)")
