@@ -25,6 +25,10 @@ or a component whose magnitude exceeds :data:`ABSURD_COMMAND` (1000 m/s or rad/s
 uninitialised-variable bug, not a request to drive fast), is rejected with a throttled warning
 and leaves the state unchanged.
 
+Sensors nobody subscribes to are not built or published (most of the cost at
+``real_time_factor: 0``), except those that draw seeded noise: they are always evaluated, so a
+run with a given ``seed`` reads the same whoever listens.
+
 ``com_delay`` (config file) delays both directions by that much sim time: a command takes
 effect ``com_delay`` after it is received, and each sensor message is published ``com_delay``
 after its measurement (its stamp stays the measurement time, so the latency is visible).

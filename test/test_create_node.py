@@ -419,3 +419,27 @@ def test_bad_row_in_the_map_file_names_parameter_file_line_and_value(ros, tmp_pa
     map_file.write_text("wall 0 0 1 1\nwall 0 0 x 1\n")
     with pytest.raises(InputError, match=r"'map_file'.*bad.map:2.*'x'"):
         make_world({"map_file": str(map_file)})
+
+
+def test_seeded_noise_does_not_depend_on_who_listens(executor, make_node, tmp_path):
+    config = tmp_path / "noisy.cfg"
+    config.write_text("odometry -0.02 0.06\nsonar 0 0.004\nlidar 0 0.001\ncamera 0 0.02\ncliff 3 6.9\nwall 0 0.01\n")
+    map_file = tmp_path / "room.map"
+    map_file.write_text(ROOM)
+    params = [Parameter("map_file", value=str(map_file)), Parameter("config_file", value=str(config)),
+              Parameter("seed", value=7)]
+    heard = CreateWorldNode(namespace="heard", parameter_overrides=params)
+    alone = CreateWorldNode(namespace="alone", parameter_overrides=params)
+    probe = make_node("noise_probe")
+    executor.add_node(heard)
+    executor.add_node(alone)
+    collectors = [Collector(probe, msg_type, f"/heard/{topic}", SENSOR_QOS)
+                  for topic, msg_type in SENSOR_TOPICS.items()]
+    odom = Collector(probe, Odometry, "/alone/odom", SENSOR_QOS)
+    for c in [*collectors, odom]:
+        assert wait_for_match(executor, c.subscription)
+    for world in (heard, alone):
+        world.command(0.3, 0.4)
+        world.step(150)
+    assert tuple(heard.model.odometry_pose) == tuple(alone.model.odometry_pose)
+    assert tuple(heard.model.odometry_pose) != pytest.approx(tuple(heard.model.pose))  # noise did act
