@@ -121,8 +121,9 @@ def bench_replay(folder: Path, seconds: float) -> tuple[float, float, int]:
     import numpy as np
     import rclpy
 
-    from sim_runtime.bag.replay import play_bag
+    from sim_runtime.bag.replay import SWITCH_INTERVAL, play_bag
 
+    sys.setswitchinterval(SWITCH_INTERVAL)  # as `robot_sims replay` does
     rclpy.init()
     try:
         stats = play_bag(folder, duration=seconds, topics=['/bench/scan', '/bench/grid'])

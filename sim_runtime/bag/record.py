@@ -46,8 +46,9 @@ from sim_runtime.errors import InputError
 __all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args']
 
 CLOCK_TOPIC = '/clock'
-#: Subscription queue: deep enough to ride out a chunk compression pause at high rates.
-RECORD_DEPTH = 1000
+#: Subscription queue: deep enough to ride out CPU contention at 20k msg/s (DDS allocates
+#: samples only when they queue up).
+RECORD_DEPTH = 10_000
 _PENDING_LIMIT = 100_000
 
 

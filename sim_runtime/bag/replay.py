@@ -23,6 +23,7 @@ warning. From Python, `play_bag(...)` plays a bag in-process (tests use it).
 from __future__ import annotations
 
 import argparse
+import queue
 import re
 import sys
 import threading
@@ -49,6 +50,11 @@ __all__ = ['PlayStats', 'Player', 'main', 'play_bag', 'replay_qos']
 
 CLOCK_TOPIC = '/clock'
 _CLOCK_TICK_NS = 10_000_000
+_BATCH = 64  # messages handed from the reading thread to the playing thread at a time
+_READ_AHEAD = 64  # batches
+#: GIL switch interval main() sets so the timing thread wakes promptly while the reading
+#: thread decodes chunks (Python's default 5 ms would be the worst-case lateness).
+SWITCH_INTERVAL = 0.0005
 # Sleep until this close to a deadline, then spin: time.sleep overshoots by ~0.1 ms.
 _SPIN_NS = 300_000
 
@@ -214,7 +220,42 @@ class Player(Node):
         self._thread.start()
 
     def _messages(self) -> Iterator[BagMessage]:
-        return self.bag.messages(topics=list(self._publishers_by_topic), start=self._begin, end=self._end)
+        """The messages to play, read ahead by a thread so chunk decoding never delays one."""
+        batches: queue.Queue[list[BagMessage] | BaseException | None] = queue.Queue(maxsize=_READ_AHEAD)
+
+        def put(item: list[BagMessage] | BaseException | None) -> bool:
+            while not self._stop:
+                try:
+                    batches.put(item, timeout=0.1)
+                    return True
+                except queue.Full:
+                    continue
+            return False
+
+        def read() -> None:
+            batch: list[BagMessage] = []
+            try:
+                for m in self.bag.messages(
+                    topics=list(self._publishers_by_topic), start=self._begin, end=self._end
+                ):
+                    batch.append(m)
+                    if len(batch) >= _BATCH:
+                        if not put(batch):
+                            return
+                        batch = []
+                put(batch)
+                put(None)
+            except BaseException as exc:  # noqa: BLE001 - handed to the playing thread
+                put(exc)
+
+        threading.Thread(target=read, name='bag-reader', daemon=True).start()
+        while True:
+            item = batches.get()
+            if item is None:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield from item
 
     def _wait(self, bag_ns: int, consume_step: bool = True) -> str:
         """Sleep until bag time `bag_ns` is due, unless paused, stepped or stopped.
@@ -382,6 +423,7 @@ def main(args: Sequence[str] | None = None) -> int:
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2
+    sys.setswitchinterval(SWITCH_INTERVAL)
     rclpy.init(args=argv)
     player = None
     try:
