@@ -22,6 +22,7 @@ from sim_runtime.paths import config_path
 
 IRB120 = config_path("arm/irb120.yaml")
 CSA7 = config_path("arm/csa7.yaml")
+SHIPPED_KINEMATICS = [Arm.from_file(path, load_meshes=False) for path in (IRB120, CSA7)]
 
 
 # --- the oracle ------------------------------------------------------------------------------
@@ -181,8 +182,7 @@ def test_fk_of_every_frame_matches_oracle(test_arm):
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.floats(-1.0, 1.0), min_size=7, max_size=7))
 def test_fk_matches_oracle_for_shipped_arms(fractions):
-    for path in (IRB120, CSA7):
-        arm = Arm.from_file(path, load_meshes=False)
+    for arm in SHIPPED_KINEMATICS:
         q = arm.mid_range() + 0.5 * np.array(fractions[: arm.n]) * (arm.upper - arm.lower)
         np.testing.assert_allclose(arm.fkine(q), oracle_frames(arm.config, q)[-1], atol=1e-12)
 
