@@ -103,7 +103,7 @@ def test_arm_meshes_logged_once_then_only_transforms(tmp_path):
     trimesh.creation.box(extents=[0.1, 0.1, 0.3]).export(stl)
     bag = write_bag(tmp_path / "arm.mcap", arm_messages(stl))
     ents = load_entities(bag_to_rerun(bag, tmp_path / "arm.rrd", progress=False))
-    link = ents["/world/robot_markers/links/1"]
+    link = ents["/world/markers/robot_markers/links/1"]
     assert len(column(link, "Asset3D:blob")) == 1
     assert column(link, "Asset3D:media_type") == [["model/stl"]]
     assert len(column(link, "Transform3D:translation")) == 10

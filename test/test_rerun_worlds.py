@@ -8,9 +8,11 @@ import subprocess
 import pytest
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rerun_test_helpers import column, load_entities
 
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
+from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_QOS
 from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
 from sim_runtime.rerun_view.convert import bag_to_rerun
@@ -83,3 +85,45 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     data = tracks_from_bag(bag)
     assert data.image is not None and data.image.any()
     assert data.tracks["robot"][-1] == pytest.approx([x, y], abs=0.02)
+
+
+def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_path):
+    simrobot = pytest.importorskip("simrobot_sim.world_node")
+    world = simrobot.SimrobotWorldNode(parameter_overrides=[
+        Parameter("world_file", value=str(config_path("simrobot/demo.yaml")))])
+    executor.add_node(world)
+    bag = tmp_path / "simrobot_bag"
+    record_world(executor, world, bag, steps=20, chunk=1)  # 20 steps of 1 s, in-process avoid controllers
+
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "simrobot.rrd", progress=False))
+    cells = column(ents["/world/map/obstacles"], "Points3D:positions")[0]
+    assert 1000 < len(cells) < int(world.spec.walls.sum())  # the outline, fewer than every wall cell
+    for name in world.model.names:
+        poses = column(ents[f"/world/robots/{name}"], "Transform3D:translation")
+        assert len(poses) >= 15
+        assert f"/world/tracks/{name}/truth/0" in ents
+    outlines = [e for e in ents if e.startswith("/world/markers/robots/robots/")]
+    assert len(outlines) == len(world.model.names)  # the /robots shapes
+    assert "/world/robots/r1/sens1/ray" in ents  # the ultrasonic sensor's ray (to the hit, or its range)
+
+    data = tracks_from_bag(bag)
+    assert sorted(data.tracks) == sorted(world.model.names)
+    assert data.image.shape == (world.spec.walls.shape[1], world.spec.walls.shape[0])
+
+
+def test_arm_bag_logs_each_mesh_once_then_transforms(executor, tmp_path):
+    arm_node = pytest.importorskip("arm_sim.arm_node")
+    world = arm_node.ArmNode(parameter_overrides=[Parameter("publish_rate", value=20.0)])
+    executor.add_node(world)
+    bag = tmp_path / "arm_bag"
+    record_world(executor, world, bag, steps=100)  # 1 s at 20 Hz: 20 marker arrays
+
+    ents = load_entities(bag_to_rerun(bag, tmp_path / "arm.rrd", progress=False))
+    meshes = [e for e in ents if e.startswith("/world/markers/robot_markers/")
+              and column(ents[e], "Asset3D:blob")]
+    assert len(meshes) >= len(world.arms[0].arm.elements) - 1  # every STL element (axes are not meshes)
+    for entity in meshes:
+        assert len(column(ents[entity], "Asset3D:blob")) == 1  # logged once
+        assert len(column(ents[entity], "Transform3D:translation")) >= 18  # moved each publication
+    joints = [e for e in ents if e.startswith("/plots/joint_states/position/")]
+    assert len(joints) == len(world.arms[0].arm.joint_names)

@@ -7,7 +7,8 @@ message of the worlds' topics (design.md §4–6) into archetypes on the ``sim_t
 entity                                 what
 =====================================  ==========================================================
 ``world``                              map frame (z up)
-``world/<topic>/<ns>/<id>``            each Marker of a MarkerArray (``map_markers``, ``/robots``,
+``world/map_markers/<ns>/<id>``        each Marker of the Create's ``map_markers``, static
+``world/markers/<topic>/<ns>/<id>``    each Marker of other MarkerArrays (``/robots``,
                                        ``robot_markers``…) in its header frame; meshes are logged
                                        once (static Asset3D), later only their transforms
 ``world/map``                          OccupancyGrid: the obstacle cells bordering free space
@@ -74,6 +75,7 @@ CREATE_SENSOR_MOUNTS: dict[str, tuple[float, float, float]] = {
 world publishes no tf); sonar ranges are measured from the body's edge, so sonar frames sit there."""
 
 TRUTH_POSE_TOPICS = ("overhead_pose", "pose")
+STATIC_MARKER_TOPICS = ("map_markers", "scene_markers")
 ROBOT_COLORS = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (255, 127, 14),
                 (23, 190, 207), (227, 119, 194), (140, 86, 75)]
 EVENT_COLOR = (230, 30, 30)
@@ -540,8 +542,9 @@ class RerunLogger:
         self._markers(topic, [msg])
 
     def _markers(self, topic: str, markers) -> None:
-        static = _basename(topic) in ("map_markers",)  # latched map: visible at every time
-        label = _topic_path(topic) if _basename(topic) != "map_markers" else "map_markers"
+        # Latched maps and scenes are static: visible at every time, even before they were published.
+        static = _basename(topic) in STATIC_MARKER_TOPICS
+        label = "map_markers" if _basename(topic) == "map_markers" else f"markers/{_topic_path(topic)}"
         seen: set[str] = set()
         for m in markers:
             if m.action == DELETEALL:
