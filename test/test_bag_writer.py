@@ -244,7 +244,8 @@ def test_unknown_type_names_type_and_topic(tmp_path):
 
 
 def test_missing_msg_files_record_what_is_available(tmp_path, monkeypatch):
-    """Only nav_msgs' .msg files installed: Odometry's own text is kept, the rest listed."""
+    """Only Odometry.msg installed: its text is kept, the other types are rebuilt from the
+    Python classes (fields only), and an independent decoder still decodes the messages."""
     prefix = tmp_path / 'prefix'
     src = next(p for p in msgdefs.share_prefixes() if (p / 'share/nav_msgs/msg/Odometry.msg').is_file())
     (prefix / 'share/nav_msgs/msg').mkdir(parents=True)
@@ -252,12 +253,14 @@ def test_missing_msg_files_record_what_is_available(tmp_path, monkeypatch):
     monkeypatch.setattr(msgdefs, 'share_prefixes', lambda: [prefix])
     msgdefs.full_definition.cache_clear()
     msgdefs._msg_text.cache_clear()
+    odom = Odometry(child_frame_id='b')
+    odom.pose.pose.orientation.w = 0.5
+    odom.twist.covariance[35] = 7.0
     try:
-        odom = Odometry(child_frame_id='b')
         with BagWriter(tmp_path / 'bag') as w:
             tid = w.add_topic('/odom', 'nav_msgs/msg/Odometry', qos_profiles_yaml([{}]))
-            assert set(w.missing_definitions(tid)) == {
-                'std_msgs/Header', 'geometry_msgs/PoseWithCovariance', 'geometry_msgs/TwistWithCovariance'}
+            assert {'std_msgs/Header', 'geometry_msgs/PoseWithCovariance', 'builtin_interfaces/Time'} <= set(
+                w.missing_definitions(tid))
             w.write(tid, 1, serialize_message(odom))
     finally:
         msgdefs.full_definition.cache_clear()
@@ -265,8 +268,12 @@ def test_missing_msg_files_record_what_is_available(tmp_path, monkeypatch):
     (m,) = open_bag(tmp_path / 'bag').messages()
     assert m.msg.child_frame_id == 'b'
     with (tmp_path / 'bag' / 'bag_0.mcap').open('rb') as stream:
-        (schema,) = make_reader(stream).get_summary().schemas.values()
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        (schema,) = reader.get_summary().schemas.values()
+        ((_s, _c, _m, decoded),) = reader.iter_decoded_messages()
     assert schema.data.decode().startswith('# This represents an estimate')
+    assert '\nMSG: geometry_msgs/Quaternion\nfloat64 x\n' in schema.data.decode()
+    assert_same(odom, decoded)
 
 
 class FullDisk:

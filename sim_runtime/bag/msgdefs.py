@@ -13,6 +13,7 @@ The `.msg` files come from the installed interface packages' share folders: ever
 from __future__ import annotations
 
 import functools
+import importlib
 import os
 import re
 import sys
@@ -58,6 +59,37 @@ def _msg_text(package: str, name: str) -> str | None:
     return None
 
 
+_IDL_TO_MSG = {'boolean': 'bool', 'octet': 'byte', 'float': 'float32', 'double': 'float64'}
+_SEQUENCE = re.compile(r'^sequence<([^,>]+)(?:,\s*(\d+))?>$')
+_BOUNDED_STRING = re.compile(r'^(w?string)<(\d+)>$')
+
+
+def _msg_type_of(idl_type: str) -> str:
+    """A field type as rosidl's Python classes spell it ('sequence<float, 5>') in .msg syntax."""
+    match = _SEQUENCE.match(idl_type)
+    if match:
+        bound = f'<={match.group(2)}' if match.group(2) else ''
+        return f'{_msg_type_of(match.group(1).strip())}[{bound}]'
+    if idl_type.endswith(']'):
+        base, _, size = idl_type[:-1].rpartition('[')
+        return f'{_msg_type_of(base)}[{size}]'
+    match = _BOUNDED_STRING.match(idl_type)
+    if match:
+        return f'{match.group(1)}<={match.group(2)}'
+    return _IDL_TO_MSG.get(idl_type, idl_type)
+
+
+def _text_from_python_class(package: str, name: str) -> str | None:
+    """Field list rebuilt from the installed Python message class (constants and comments
+    are lost), for a type whose .msg file is not installed."""
+    try:
+        cls = getattr(importlib.import_module(f'{package}.msg'), name)
+        fields = cls.get_fields_and_field_types()
+    except (ImportError, AttributeError):
+        return None
+    return ''.join(f'{_msg_type_of(t)} {field}\n' for field, t in fields.items())
+
+
 def _dependencies(text: str, package: str) -> list[str]:
     deps = set()
     for match in _FIELD_TYPE.finditer(text):
@@ -72,8 +104,9 @@ def _dependencies(text: str, package: str) -> list[str]:
 def full_definition(type_name: str) -> Definition:
     """Schema text for `type_name` (``pkg/msg/Type`` or ``pkg/Type``) with all dependencies.
 
-    Types whose `.msg` is not installed are left out and listed in `Definition.missing`
-    (the caller warns); the root's text is then empty if the root itself is missing.
+    Types whose `.msg` is not installed are listed in `Definition.missing` (the caller warns);
+    their text is rebuilt from the installed Python class when there is one (fields only),
+    else left out (the root's text is then empty if the root itself is unknown).
     """
     seen: set[str] = set()
     missing: list[str] = []
@@ -83,13 +116,15 @@ def full_definition(type_name: str) -> Definition:
         text = _msg_text(match.group(1), match.group(2)) if match else None
         if text is None:
             missing.append(dep_name)
-            return ''
+            text = _text_from_python_class(match.group(1), match.group(2)) if match else None
+            if text is None:
+                return ''
         result = text
         for dep in _dependencies(text, match.group(1)):
             if dep not in seen:
                 seen.add(dep)
                 body = text_of(dep)
-                if body or dep not in missing:
+                if body:
                     result += f'\n{_DELIMITER}MSG: {dep}\n{body}'
         return result
 

@@ -192,7 +192,7 @@ class Recorder(Node):
                 if missing:
                     self.get_logger().warning(
                         f'topic {name}: no .msg installed for {", ".join(missing)}; '
-                        'recorded with the message definitions that are available'
+                        'their definitions are rebuilt from the Python types where installed'
                     )
                 self.topic_ids[name] = tid
             else:
