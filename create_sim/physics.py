@@ -32,6 +32,7 @@ CONTACT_SKIN = 1e-3  # a wall this close to the body presses a bumper
 OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
 _PUSH_MARGIN = 1e-8  # push-out leaves the body this far from the wall...
 _TOUCH = 1e-6  # ...which the next step sees as touching (friction, sliding)
+_SOLVER_TOL = 0.1 * OVERLAP_TOL  # the solver's own acceptance, well inside the promise
 _MAX_CONTACTS = 64
 
 
@@ -74,8 +75,7 @@ def _push_out(segs, meta, start, items, px, py, radius, buf):
         n = grid_contacts(segs, meta, start, items, px, py, radius, buf)
         inside = False
         for i in range(n):
-            d = buf[i, 2]
-            if d >= radius - OVERLAP_TOL:
+            if buf[i, 2] >= radius:
                 continue
             inside = True
             # Recompute against the already-moved centre (Gauss–Seidel over contacts).
@@ -97,7 +97,7 @@ def _push_out(segs, meta, start, items, px, py, radius, buf):
             py += (py - cy) * k
         if not inside:
             return px, py, True
-    return px, py, min_clearance(segs, meta, start, items, px, py, radius, buf) >= radius - OVERLAP_TOL
+    return px, py, min_clearance(segs, meta, start, items, px, py, radius, buf) >= radius - _SOLVER_TOL
 
 
 @numba.njit(cache=True)
@@ -162,7 +162,7 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
             mid = 0.5 * (lo + hi)
             mx = x + (nx_ - x) * mid
             my = y + (ny_ - y) * mid
-            if min_clearance(segs, meta, start, items, mx, my, radius, buf) >= radius - OVERLAP_TOL:
+            if min_clearance(segs, meta, start, items, mx, my, radius, buf) >= radius - _SOLVER_TOL:
                 lo = mid
             else:
                 hi = mid
