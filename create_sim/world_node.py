@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Duration
@@ -51,7 +52,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
-from create_sim.model import CreateModel
+from create_sim.model import BeaconSighting, CreateModel
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     all_finite,
@@ -193,36 +194,42 @@ class CreateWorldNode(SimWorldNode):
         self.pub_battery = pub(BatteryState, "battery_state", SENSOR_QOS)
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
 
-        # rate name -> (callback, its publishers, the config noise it draws from)
-        sensors: dict[str, tuple[Callable[[], None], list[Publisher], str | None]] = {
-            "bump": (self._publish_bumps, self.pub_bump, None),
-            "cliff": (self._publish_cliffs, self.pub_cliff, "cliff"),
-            "wall": (self._publish_wall, [self.pub_wall], "wall"),
-            "virtual_wall": (self._publish_virtual_wall, [self.pub_virtual_wall], None),
-            "odom": (self._publish_odom, [self.pub_odom], None),  # odometry noise is drawn by the physics
-            "overhead_pose": (self._publish_overhead, [self.pub_overhead], None),
-            "sonar": (self._publish_sonar, self.pub_sonar, "sonar"),
-            "scan": (self._publish_scan, [self.pub_scan], "lidar"),
-            "camera": (self._publish_camera, [self.pub_camera], "camera"),
-            "buttons": (self._publish_buttons, [self.pub_buttons], None),
-            "battery": (self._publish_battery, [self.pub_battery], None),
+        m = self.model
+        # rate name -> (model sensor read or None, publisher of its message, its publishers, config noise it draws)
+        sensors: dict[str, tuple[Callable[[], Any] | None, Callable[..., None], list[Publisher], str | None]] = {
+            "bump": (m.bumps, self._publish_bumps, self.pub_bump, None),
+            "cliff": (m.cliff_signals, self._publish_cliffs, self.pub_cliff, "cliff"),
+            "wall": (m.wall_sensor, self._publish_wall, [self.pub_wall], "wall"),
+            "virtual_wall": (m.virtual_wall, self._publish_virtual_wall, [self.pub_virtual_wall], None),
+            "odom": (None, self._publish_odom, [self.pub_odom], None),  # odometry noise is drawn by the physics
+            "overhead_pose": (None, self._publish_overhead, [self.pub_overhead], None),
+            "sonar": (m.sonar, self._publish_sonar, self.pub_sonar, "sonar"),
+            "scan": (m.lidar, self._publish_scan, [self.pub_scan], "lidar"),
+            "camera": (m.camera, self._publish_camera, [self.pub_camera], "camera"),
+            "buttons": (None, self._publish_buttons, [self.pub_buttons], None),
+            "battery": (None, self._publish_battery, [self.pub_battery], None),
         }
-        for name, (callback, publishers, noise_key) in sensors.items():
-            self.every(self.rates[name], self._when_heard(callback, publishers, noise_key))
+        for name, (read, publish, publishers, noise_key) in sensors.items():
+            self.every(self.rates[name], self._sensor_tick(read, publish, publishers, noise_key))
 
-    def _when_heard(self, callback: Callable[[], None], publishers: list[Publisher],
-                    noise_key: str | None) -> Callable[[], None]:
-        """Skip a sensor nobody subscribes to (most of the cost at real_time_factor 0 is building and
-        publishing messages), unless it draws noise: skipping it would shift the seeded noise of the
-        others, and a run must not depend on who listens."""
-        if noise_key is not None and self.noise.noise[noise_key][1] != 0.0:
-            return callback
+    def _sensor_tick(self, read: Callable[[], Any] | None, publish: Callable[..., None],
+                     publishers: list[Publisher], noise_key: str | None) -> Callable[[], None]:
+        """A sensor's scheduled callback. Messages nobody subscribes to are not built (most of the cost
+        at real_time_factor 0), but a sensor that draws seeded noise is still read: skipping it would
+        shift the noise of the others, and a run must not depend on who listens."""
+        draws_noise = noise_key is not None and self.noise.noise[noise_key][1] != 0.0
 
-        def when_heard() -> None:
-            if any(p.get_subscription_count() for p in publishers):
-                callback()
+        def tick() -> None:
+            heard = any(p.get_subscription_count() for p in publishers)
+            if read is None:
+                if heard:
+                    publish()
+            elif heard or draws_noise:
+                reading = read()
+                if heard:
+                    publish(reading)
 
-        return when_heard
+        return tick
 
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
@@ -322,38 +329,36 @@ class CreateWorldNode(SimWorldNode):
         msg.header.frame_id = self.frame(frame)
         return msg
 
-    def _publish_bumps(self) -> None:
-        left, right = self.model.bumps()
+    def _publish_bumps(self, bumps: tuple[bool, bool]) -> None:
+        left, right = bumps
         self._send(self.pub_bump[0], self._binary_range("bump_left", left, 0.0, BUMP_FOV))
         self._send(self.pub_bump[1], self._binary_range("bump_right", right, 0.0, BUMP_FOV))
 
-    def _publish_wall(self) -> None:
-        self._send(self.pub_wall, self._binary_range(
-            "wall_ir", self.model.wall_sensor(), CreateModel.IR_RANGE, 0.0))
+    def _publish_wall(self, detected: bool) -> None:
+        self._send(self.pub_wall, self._binary_range("wall_ir", detected, CreateModel.IR_RANGE, 0.0))
 
-    def _publish_virtual_wall(self) -> None:
-        self._send(self.pub_virtual_wall, self._binary_range(
-            "virtual_wall_ir", self.model.virtual_wall(), 0.0, 2 * math.pi))
+    def _publish_virtual_wall(self, detected: bool) -> None:
+        self._send(self.pub_virtual_wall, self._binary_range("virtual_wall_ir", detected, 0.0, 2 * math.pi))
 
-    def _publish_cliffs(self) -> None:
+    def _publish_cliffs(self, signals: np.ndarray) -> None:
         stamp = self.stamp()
-        for name, publisher, value in zip(CLIFF_NAMES, self.pub_cliff, self.model.cliff_signals(), strict=True):
+        for name, publisher, value in zip(CLIFF_NAMES, self.pub_cliff, signals, strict=True):
             msg = Illuminance(illuminance=float(value))
             msg.header.stamp = stamp
             msg.header.frame_id = self.frame(f"cliff_{name}")
             self._send(publisher, msg)
 
-    def _publish_sonar(self) -> None:
+    def _publish_sonar(self, ranges: np.ndarray) -> None:
         stamp = self.stamp()
         lo, hi = CreateModel.SONAR_RANGE
-        for name, publisher, value in zip(SONAR_NAMES, self.pub_sonar, self.model.sonar(), strict=True):
+        for name, publisher, value in zip(SONAR_NAMES, self.pub_sonar, ranges, strict=True):
             msg = Range(radiation_type=Range.ULTRASOUND, field_of_view=0.0, min_range=lo, max_range=hi,
                         range=float(value))
             msg.header.stamp = stamp
             msg.header.frame_id = self.frame(f"sonar_{name}")
             self._send(publisher, msg)
 
-    def _publish_scan(self) -> None:
+    def _publish_scan(self, ranges: np.ndarray) -> None:
         fov = CreateModel.LIDAR_FOV
         lo, hi = CreateModel.LIDAR_RANGE
         msg = LaserScan(angle_min=-fov / 2, angle_max=fov / 2,
@@ -362,15 +367,15 @@ class CreateWorldNode(SimWorldNode):
                         range_min=lo, range_max=hi)
         msg.header.stamp = self.stamp()
         msg.header.frame_id = self.frame("laser")
-        msg.ranges = float32_array(self.model.lidar())
+        msg.ranges = float32_array(ranges)
         self._send(self.pub_scan, msg)
 
-    def _publish_camera(self) -> None:
+    def _publish_camera(self, sightings: list[BeaconSighting]) -> None:
         stamp = self.stamp()
         frame = self.frame("camera")
         lifetime = 2.0 / self.rates["camera"]  # sightings vanish in RViz once they stop coming
         markers = []
-        for i, sighting in enumerate(self.model.camera()):
+        for i, sighting in enumerate(sightings):
             m = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=sighting.id)
             m.header.stamp = stamp
             m.header.frame_id = frame
