@@ -126,7 +126,7 @@ class CreateModel:
             raise InputError(f"pose ({x}, {y}, {theta}) is not finite")
         gap = _clearance(self.grid.segs, float(x), float(y)) - self.RADIUS
         if gap < -OVERLAP_TOL:
-            raise InputError(f"pose ({x}, {y}, {theta}) puts the robot {-gap:.3f} m inside a wall "
+            raise InputError(f"pose ({x}, {y}, {theta}) puts the robot {-gap:.4g} m inside a wall "
                              f"(the body is a circle of radius {self.RADIUS} m)")
 
     # ----------------------------------------------------------------------------- motion

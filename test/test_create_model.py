@@ -131,6 +131,16 @@ def test_slides_along_a_wall_with_friction():
     assert robot.bumps() == (False, True)  # the wall is 45° to the right of the heading
 
 
+@pytest.mark.parametrize("walls", [[[-1, 1, 3, 1]], [[-1, 1, 1, 1], [1, 1, 3, 1]],
+                                   [[-1, 1, 1, 1], [1, 1, 3, 0.999]]])
+def test_slides_past_the_joint_of_a_wall_made_of_segments(walls):
+    """A joint between wall segments is not an obstacle: same slide as along one long wall."""
+    robot = CreateModel(world(walls=walls), pose=(-0.5, 1 - R - 0.01, math.radians(20)))
+    drive(robot, 0.3, 0.0, 10.0)
+    x, y, _ = robot.pose
+    assert x == pytest.approx(1.9635, abs=2e-3) and y == pytest.approx(1 - R, abs=1e-3)
+
+
 def test_corner_stops_the_robot_touching_both_walls():
     robot = CreateModel(world(walls=[[1, -2, 1, 1], [-2, 1, 1, 1]]), pose=(0, 0, math.pi / 4))
     drive(robot, 0.3, 0.0, 5.0)
