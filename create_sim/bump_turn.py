@@ -39,7 +39,8 @@ class BumpTurnNode(Node):
             self.create_subscription(Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_QOS)
         self.state = "forward"
         self.state_end = 0.0  # sim time at which "back" or "turn" ends
-        self.turn_rate = 0.0  # signed rad/s of the next turn
+        self.hit: set[str] = set()  # bumpers pressed since the last bump began
+        self.turn_rate = 0.0  # signed rad/s of the current turn
         self.bumps = 0
 
     def on_bump(self, side: str, msg: Range) -> None:
@@ -48,13 +49,14 @@ class BumpTurnNode(Node):
         now = time_from_msg(msg.header.stamp)
         if self.state == "forward" and any(self.pressed.values()):
             self.bumps += 1
-            # Hit on the left → turn right (clockwise); right or front → turn left.
-            direction = -1.0 if self.pressed["left"] and not self.pressed["right"] else 1.0
-            self.turn_rate = direction * TURN_SPEED
+            self.hit = set()
             self.state, self.state_end = "back", now + BACK_TIME
-        elif self.state == "back" and now >= self.state_end:
-            turn_time = self.rng.uniform(*TURN_ANGLES) / TURN_SPEED
-            self.state, self.state_end = "turn", now + turn_time
+        if self.state == "back":
+            self.hit.update(s for s, pressed in self.pressed.items() if pressed)
+            if now >= self.state_end:
+                # Only the left bumper → turn right (clockwise); the right one or both (front) → turn left.
+                self.turn_rate = -TURN_SPEED if self.hit == {"left"} else TURN_SPEED
+                self.state, self.state_end = "turn", now + self.rng.uniform(*TURN_ANGLES) / TURN_SPEED
         elif self.state == "turn" and now >= self.state_end:
             self.state = "forward"
         v, w = {"forward": (FORWARD_SPEED, 0.0), "back": (BACK_SPEED, 0.0), "turn": (0.0, self.turn_rate)}[self.state]

@@ -16,7 +16,7 @@ from visualization_msgs.msg import MarkerArray
 from create_sim.bump_turn import BumpTurnNode, demo
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.errors import InputError
-from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
+from sim_runtime.msgs import pose_msg, time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
@@ -390,6 +390,10 @@ def test_namespace_prefixes_robot_frames(executor, make_node, tmp_path):
     assert spin_until(executor, lambda: scan.last is not None and odom.last is not None)
     assert scan.last.header.frame_id == "robot2/laser"
     assert odom.last.header.frame_id == "odom" and odom.last.child_frame_id == "robot2/base_link"
+    explicit = CreateWorldNode(namespace="robot3", parameter_overrides=[
+        Parameter("map_file", value=""), Parameter("frame_prefix", value="kitchen/create_")])
+    assert explicit.frame("laser") == "kitchen/create_laser"
+    explicit.destroy_node()
 
 
 def test_bump_turn_escapes_a_wall(executor, make_node, tmp_path):
@@ -443,3 +447,27 @@ def test_seeded_noise_does_not_depend_on_who_listens(executor, make_node, tmp_pa
         world.step(150)
     assert tuple(heard.model.odometry_pose) == tuple(alone.model.odometry_pose)
     assert tuple(heard.model.odometry_pose) != pytest.approx(tuple(heard.model.pose))  # noise did act
+
+
+def _bumper(pressed: bool, t: float) -> Range:
+    msg = Range(range=-math.inf if pressed else math.inf)
+    msg.header.stamp = time_msg(t)
+    return msg
+
+
+@pytest.mark.parametrize(("left", "right", "turn_sign"), [(True, False, -1), (False, True, 1), (True, True, 1)])
+def test_bump_turn_backs_up_then_turns_away_from_the_bumper_hit(ros, left, right, turn_sign):
+    controller = BumpTurnNode()
+    try:
+        t = 0.0
+        for pressed_left, pressed_right in [(False, False), (left, right)] + [(False, False)] * 60:
+            t += 0.02
+            controller.on_bump("left", _bumper(pressed_left, t))
+            controller.on_bump("right", _bumper(pressed_right, t))
+            if controller.state == "turn":
+                break
+        assert controller.bumps == 1
+        assert controller.state == "turn" and t == pytest.approx(0.04 + 0.5)  # backed up for 0.5 s first
+        assert math.copysign(1, controller.turn_rate) == turn_sign
+    finally:
+        controller.destroy_node()
