@@ -276,42 +276,46 @@ class CreateRobot:
             self._cmd_pub.publish(twist)
         return v, w
 
-    def travel_dist(self, speed: float, distance: float) -> float:
+    def travel_dist(self, speed: float, distance: float, timeout: float | None = None) -> float:
         """``travelDist``: drive ``distance`` m (negative = backwards) at ``|speed|`` m/s, then stop.
 
-        Blocks until odometry reports the distance. ``|speed|`` is kept in 0.025–0.5 m/s. Returns
-        the odometry distance travelled (signed).
+        Blocks until odometry reports the distance. ``|speed|`` is kept in 0.025–0.5 m/s. A wall
+        in the way stops the body and its odometry, so pass ``timeout`` (sim seconds) to give up
+        then. Returns the odometry distance travelled (signed).
         """
         _check_finite(speed=speed, distance=distance)
         speed = _clamp(abs(speed), *TRAVEL_SPEED_RANGE)
-        self._msg("odom")
         start = self._travelled
-        if distance != 0.0:
-            self.set_fwd_vel_ang_vel(math.copysign(speed, distance), 0.0)
-            try:
-                self._wait_until(lambda: abs(self._travelled - start) >= abs(distance), "travel_dist")
-            finally:
-                self.set_fwd_vel_ang_vel(0.0, 0.0)
+        self._drive_until(math.copysign(speed, distance), 0.0, abs(distance),
+                          lambda: abs(self._travelled - start), timeout, "travel_dist")
         return self._travelled - start
 
-    def turn_angle(self, speed: float, angle: float) -> float:
+    def turn_angle(self, speed: float, angle: float, timeout: float | None = None) -> float:
         """``turnAngle``: turn in place by ``angle`` degrees (positive = CCW) at ``|speed|`` rad/s.
 
-        Blocks until odometry reports the turn. ``|speed|`` is kept in 0.025–0.2 rad/s. Unlike the
-        toolbox the angle is not wrapped: 360 turns a full circle. Returns the odometry turn (deg).
+        Blocks until odometry reports the turn (or ``timeout`` sim seconds pass). ``|speed|`` is
+        kept in 0.025–0.2 rad/s. Unlike the toolbox the angle is not wrapped: 360 turns a full
+        circle. Returns the odometry turn (degrees).
         """
         _check_finite(speed=speed, angle=angle)
         speed = _clamp(abs(speed), *TURN_SPEED_RANGE)
         target = math.radians(angle)
-        self._msg("odom")
         start = self._turned
-        if target != 0.0:
-            self.set_fwd_vel_ang_vel(0.0, math.copysign(speed, target))
-            try:
-                self._wait_until(lambda: abs(self._turned - start) >= abs(target), "turn_angle")
-            finally:
-                self.set_fwd_vel_ang_vel(0.0, 0.0)
+        self._drive_until(0.0, math.copysign(speed, target), abs(target),
+                          lambda: abs(self._turned - start), timeout, "turn_angle")
         return math.degrees(self._turned - start)
+
+    def _drive_until(self, v: float, w: float, goal: float, progress: Callable[[], float],
+                     timeout: float | None, what: str) -> None:
+        self._msg("odom")
+        if goal == 0.0:
+            return
+        deadline = math.inf if timeout is None else self._sim_time + timeout
+        self.set_fwd_vel_ang_vel(v, w)
+        try:
+            self._wait_until(lambda: progress() >= goal or self._sim_time >= deadline, what)
+        finally:
+            self.set_fwd_vel_ang_vel(0.0, 0.0)
 
     def beep(self) -> None:
         """``BeepRoomba``: the terminal bell."""

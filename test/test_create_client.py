@@ -66,6 +66,12 @@ def test_travel_dist_speed_limits(rig, robot):
     assert rig.world.sim_time - start == pytest.approx(0.02 / 0.025, abs=0.1)
 
 
+def test_travel_dist_into_a_wall_gives_up_after_the_timeout(rig, robot):
+    travelled = robot.travel_dist(0.5, 3.0, timeout=5.0)  # the wall is 1.84 m ahead
+    assert travelled == pytest.approx(1.84, abs=0.02)
+    assert robot.sim_time == pytest.approx(5.0, abs=0.05)
+
+
 def test_turn_angle_turns_the_angle(rig, robot):
     assert robot.turn_angle(0.2, 90) == pytest.approx(90, abs=1.0)
     assert math.degrees(robot.overhead_localization()[2]) == pytest.approx(90, abs=1.0)
