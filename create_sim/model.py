@@ -76,6 +76,9 @@ class CreateModel:
     def __init__(self, world: CreateMap, noise: NoiseConfig | None = None,
                  rng: np.random.Generator | None = None,
                  pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        for name in ("walls", "lines", "beacon_xy", "virtwalls"):
+            if not np.isfinite(getattr(world, name)).all():
+                raise InputError(f"map {name} contain non-finite values")
         self.world = world
         self.noise = noise if noise is not None else NoiseConfig()
         self.rng = rng if rng is not None else np.random.default_rng(0)

@@ -208,6 +208,11 @@ def test_initial_pose_inside_a_wall_is_an_input_error():
     np.testing.assert_array_equal(robot.pose, [0, 0, 0])
 
 
+def test_non_finite_map_built_in_code_is_an_input_error():
+    with pytest.raises(InputError, match="map walls contain non-finite values"):
+        CreateModel(world(walls=[[0, 0, math.nan, 1]]))
+
+
 def test_reset_restores_the_initial_state():
     robot = CreateModel(world(), pose=(1.0, 1.0, 0.5))
     drive(robot, 0.3, 0.4, 2.0)
