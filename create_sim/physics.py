@@ -11,9 +11,9 @@ known errors fixed:
 * One active contact: the robot slides along the contact's tangent; Coulomb-like friction from
   the seed's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
   μ·|v_n|/r from the turn rate, never reversing either (the original could *add* speed).
-* Several active contacts (two walls, a wall and a corner, corners): slide along the most
-  opposed contact if that motion presses into no other contact, otherwise stay put (stuck in
-  the corner); the turn rate loses μ·Σ|v_n|/r. A lone corner (a wall's end) is just a contact
+* Several active contacts (two walls, a wall and a corner, corners): slide along the first
+  contact, from the most opposed, whose slide presses into no other contact; if there is none,
+  stay put (stuck in the corner); the turn rate loses μ·Σ|v_n|/r. A lone corner (a wall's end) is just a contact
   whose normal points from the end to the centre, so the robot rolls round it (the seed's
   driveCorner; its extra "glancing" turn of the heading is not reproduced: the heading changes
   only with ω).
