@@ -262,3 +262,14 @@ def test_broken_mesh_fails_unless_skipped(tmp_path, executor):
     markers = world.arm("").markers.markers
     assert sum(m.type == Marker.CUBE for m in markers) == 1
     assert sum(m.type == Marker.MESH_RESOURCE for m in markers) == 6
+
+
+def test_demo_follows_the_trajectory_and_reaches_the_target(tmp_path):
+    from arm_sim.demo import TRAJECTORY, run_demo
+
+    summary = run_demo(tmp_path)
+    assert summary["trajectory_final_error_rad"] < 1e-9
+    assert summary["target_position_error_m"] < 1e-3
+    assert summary["peak_speed_fraction"] <= 1.0 + 1e-9
+    assert summary["joint_states_received"] >= 50 * TRAJECTORY[-1][0]
+    assert Path(summary["png"]).stat().st_size > 1000
