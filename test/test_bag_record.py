@@ -13,17 +13,19 @@ from pathlib import Path
 import pytest
 import yaml
 from mcap.reader import make_reader
+from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 from sim_runtime.bag.reader import BagWarning, open_bag
 from sim_runtime.bag.record import Recorder
-from sim_runtime.bag.writer import BagWriter
+from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
-from sim_runtime.testing import spin_until, wait_for_match
+from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 ROOT = Path(__file__).resolve().parent.parent
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -141,10 +143,10 @@ def test_disk_full_stops_the_recorder_cleanly(executor, make_node, tmp_path):
     assert (tmp_path / 'bag' / 'metadata.yaml').is_file()
 
 
-def run_recorder(folder: Path, *topics: str) -> subprocess.Popen:
+def run_recorder(folder: Path, *args: str) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen(
-        [sys.executable, '-m', 'sim_runtime.bag.record', '-o', str(folder), *topics],
+        [sys.executable, '-m', 'sim_runtime.bag.record', '-o', str(folder), *args],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
 
@@ -186,7 +188,7 @@ def test_sigkill_loses_at_most_the_last_second(executor, make_node, tmp_path):
 def test_ctrl_c_finishes_the_bag(executor, make_node, tmp_path):
     node = make_node('calm')
     pub = node.create_publisher(String, '/int_test/data', 100)
-    proc = run_recorder(tmp_path / 'bag', '/int_test/data')
+    proc = run_recorder(tmp_path / 'bag', '/int_test/data', '--compression', 'lz4', '--max-bag-duration', '0.2')
     try:
         assert wait_for_match(executor, pub, timeout=15)
         sent = publish_for(executor, pub, 0.5, 200.0)
@@ -197,9 +199,15 @@ def test_ctrl_c_finishes_the_bag(executor, make_node, tmp_path):
     finally:
         proc.kill()
     assert proc.returncode == 0, out
-    with (tmp_path / 'bag' / 'bag_0.mcap').open('rb') as stream:
-        summary = make_reader(stream).get_summary()
-    assert summary.statistics.message_count == sent
+    splits = sorted((tmp_path / 'bag').glob('*.mcap'))
+    assert len(splits) >= 2  # --max-bag-duration 0.2 over 0.5 s of messages
+    total = 0
+    for split in splits:
+        with split.open('rb') as stream:
+            summary = make_reader(stream).get_summary()
+        total += summary.statistics.message_count
+        assert {c.compression for c in summary.chunk_indexes} <= {'lz4'}
+    assert total == sent
     with RosbagsReader(tmp_path / 'bag') as reader:
         assert [TYPESTORE.deserialize_cdr(raw, c.msgtype).data for c, _t, raw in reader.messages()] == [
             str(i) for i in range(sent)]
@@ -210,3 +218,30 @@ def test_cli_refuses_existing_output(tmp_path):
     from sim_runtime.bag.record import main
     assert main(['record', '-o', str(tmp_path / 'bag')]) == 2
     assert list((tmp_path / 'bag').iterdir()) == []
+
+
+def test_replay_cli_republishes_a_bag(executor, make_node, tmp_path):
+    with BagWriter(tmp_path / 'bag') as w:
+        tid = w.add_topic('/cli_test/data', 'std_msgs/msg/String', qos_profiles_yaml([{}]))
+        for i in range(20):
+            w.write(tid, 10**9 + i * 10**7, serialize_message(String(data=str(i))))
+    node = make_node('cli_listener')
+    got = Collector(node, String, '/cli_test/renamed', 100)
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'sim_runtime.bag.replay', str(tmp_path / 'bag'), '--start-paused',
+         '--remap', '/cli_test/data:=/cli_test/renamed', '--ros-args', '-r', '__node:=cli_player'],
+        env=dict(os.environ, PYTHONPATH=str(ROOT)), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    try:
+        assert wait_for_match(executor, got.subscription, timeout=15)
+        client = node.create_client(Trigger, '/cli_player/resume')
+        assert client.wait_for_service(timeout_sec=15)
+        future = client.call_async(Trigger.Request())
+        executor.spin_until_future_complete(future, timeout_sec=5)
+        assert spin_until(executor, lambda: len(got.msgs) == 20, timeout=10)
+        out, _ = proc.communicate(timeout=15)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, out
+    assert [m.data for m in got.msgs] == [str(i) for i in range(20)]
+    assert 'published 20 messages' in out

@@ -43,7 +43,7 @@ from sim_runtime.bag.reader import UnknownMessageType, message_class
 from sim_runtime.bag.writer import BagWriteError, BagWriter, qos_profiles_yaml
 from sim_runtime.errors import InputError
 
-__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args']
+__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args', 'split_ros_args']
 
 CLOCK_TOPIC = '/clock'
 #: Subscription queue: deep enough to ride out CPU contention at 20k msg/s (DDS allocates
@@ -266,6 +266,17 @@ def default_bag_name(now: datetime | None = None) -> str:
     return (now or datetime.now()).strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
 
 
+def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(our arguments, argv for rclpy.init) from a full argv.
+
+    Everything from the first ``--ros-args`` on belongs to ROS; the rest is ours, including
+    ``--remap old:=new``, which rclpy would otherwise take for a (deprecated) remap rule.
+    """
+    argv = list(argv)
+    cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    return argv[1:cut], argv[:1] + argv[cut:]
+
+
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     """Our command-line flags (ROS arguments already removed)."""
     parser = argparse.ArgumentParser(
@@ -299,10 +310,8 @@ def _output_folder(output: str | None) -> Path:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point; `args` is a full argv (program name first), default sys.argv."""
-    from rclpy.utilities import remove_ros_args
-
-    argv = list(sys.argv if args is None else args)
-    opts = parse_args(remove_ros_args(argv)[1:])
+    ours, ros_argv = split_ros_args(sys.argv if args is None else args)
+    opts = parse_args(ours)
     if opts.reindex:
         from sim_runtime.bag.writer import reindex
 
@@ -320,7 +329,7 @@ def main(args: Sequence[str] | None = None) -> int:
         return 2
     from sim_runtime.run import make_executor
 
-    rclpy.init(args=argv)
+    rclpy.init(args=ros_argv)
     recorder = None
     try:
         recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)

@@ -44,6 +44,7 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
 from sim_runtime.bag.reader import Bag, BagMessage, UnknownMessageType, message_class, open_bag
+from sim_runtime.bag.record import split_ros_args
 from sim_runtime.errors import InputError
 
 __all__ = ['PlayStats', 'Player', 'main', 'play_bag', 'replay_qos']
@@ -411,12 +412,10 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point; `args` is a full argv (program name first), default sys.argv."""
-    from rclpy.utilities import remove_ros_args
-
     from sim_runtime.run import make_executor
 
-    argv = list(sys.argv if args is None else args)
-    opts = parse_args(remove_ros_args(argv)[1:])
+    ours, ros_argv = split_ros_args(sys.argv if args is None else args)
+    opts = parse_args(ours)
     try:
         bag = open_bag(opts.bag)
         remap = _parse_remaps(opts.remap)
@@ -424,7 +423,7 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f'error: {exc}', file=sys.stderr)
         return 2
     sys.setswitchinterval(SWITCH_INTERVAL)
-    rclpy.init(args=argv)
+    rclpy.init(args=ros_argv)
     player = None
     try:
         player = Player(
