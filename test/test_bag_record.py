@@ -245,3 +245,18 @@ def test_replay_cli_republishes_a_bag(executor, make_node, tmp_path):
     assert proc.returncode == 0, out
     assert [m.data for m in got.msgs] == [str(i) for i in range(20)]
     assert 'published 20 messages' in out
+
+
+def test_resubscribes_when_a_best_effort_publisher_joins(executor, make_node, tmp_path):
+    node = make_node('mixed')
+    reliable = node.create_publisher(String, '/mixed_test/data', COMMAND_QOS)
+    recorder = start_recorder(executor, tmp_path / 'bag', ['/mixed_test/data'])
+    assert wait_for_match(executor, reliable)
+    reliable.publish(String(data='from reliable'))
+    assert spin_until(executor, lambda: recorder.writer.message_count == 1)
+    best_effort = node.create_publisher(String, '/mixed_test/data', SENSOR_QOS)
+    assert wait_for_match(executor, best_effort)  # only after the recorder resubscribed
+    best_effort.publish(String(data='from best effort'))
+    assert spin_until(executor, lambda: recorder.writer.message_count == 2)
+    recorder.close()
+    assert [m.msg.data for m in open_bag(tmp_path / 'bag').messages()] == ['from reliable', 'from best effort']

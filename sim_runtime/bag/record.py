@@ -29,6 +29,7 @@ import struct
 import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -87,6 +88,15 @@ def clock_ns(cdr: bytes) -> int:
     return sec * 1_000_000_000 + nanosec
 
 
+@dataclass
+class _Subscribed:
+    subscription: Any
+    msg_type: Any
+    topic_id: int  # -1: /clock followed for sim time only
+    qos: QoSProfile
+    publisher_count: int
+
+
 def _is_hidden(topic: str) -> bool:
     return any(part.startswith('_') for part in topic.split('/'))
 
@@ -126,7 +136,7 @@ class Recorder(Node):
         self._sim_ns: int | None = None
         self._pending: list[tuple[int, bytes]] = []
         self._clock_sub: Any = None
-        self._subs: dict[str, Any] = {}
+        self._subs: dict[str, _Subscribed] = {}
         self._ignored: set[str] = set()
         self.error: BagWriteError | None = None
         self.done = Future()
@@ -158,15 +168,15 @@ class Recorder(Node):
             if self._sim:
                 self.get_logger().info('recording with sim time from /clock')
         for name, types in graph:
-            if name in self._subs or name in self._ignored:
+            if name in self._subs:
+                self._readapt(name)
+                continue
+            if name in self._ignored:
                 continue
             recorded = self.wanted(name)
             if not recorded and not (name == CLOCK_TOPIC and self._sim):
                 continue
-            publishers = [
-                p for p in self.get_publishers_info_by_topic(name) if p.node_name != self.get_name()
-                or p.node_namespace != self.get_namespace()
-            ]
+            publishers = self._offering_publishers(name)
             if not publishers:
                 continue
             type_name = types[0]
@@ -197,11 +207,46 @@ class Recorder(Node):
                 self.topic_ids[name] = tid
             else:
                 tid = -1
-            self._subs[name] = self.create_subscription(
-                msg_type, name, self._callback(name, tid), adapted_qos(offered), raw=True
+            qos = adapted_qos(offered)
+            self._subs[name] = _Subscribed(
+                self.create_subscription(msg_type, name, self._callback(name, tid), qos, raw=True),
+                msg_type, tid, qos, self.count_publishers(name),
             )
             self.get_logger().info(f'recording {name} [{type_name}]' if recorded else
                                    f'following {name} for sim time')
+
+    def _offering_publishers(self, name: str) -> list[Any]:
+        return [
+            p for p in self.get_publishers_info_by_topic(name)
+            if p.node_name != self.get_name() or p.node_namespace != self.get_namespace()
+        ]
+
+    def _readapt(self, name: str) -> None:
+        """Resubscribe if a publisher that joined later needs a laxer QoS (best effort,
+        volatile) than the subscription has: it would not be matched otherwise."""
+        sub = self._subs[name]
+        count = self.count_publishers(name)
+        if count == sub.publisher_count:
+            return
+        sub.publisher_count = count
+        offered = [p.qos_profile for p in self._offering_publishers(name)]
+        if not offered:
+            return
+        qos = adapted_qos(offered)
+        if (qos.reliability, qos.durability) == (sub.qos.reliability, sub.qos.durability):
+            return
+        self.get_logger().warning(
+            f'{name}: a new publisher offers {qos.reliability.name.lower()}/'
+            f'{qos.durability.name.lower()}; resubscribing to receive from it'
+        )
+        old = sub.subscription
+        # Subscribe anew before dropping the old one: nothing falls in between (a message
+        # sent in that instant may be recorded twice).
+        sub.subscription = self.create_subscription(
+            sub.msg_type, name, self._callback(name, sub.topic_id), qos, raw=True
+        )
+        sub.qos = qos
+        self.destroy_subscription(old)
 
     # -- messages ------------------------------------------------------------------------
 
@@ -249,7 +294,7 @@ class Recorder(Node):
         self.error = exc
         self.get_logger().error(f'{exc}; recording stopped')
         for sub in self._subs.values():
-            self.destroy_subscription(sub)
+            self.destroy_subscription(sub.subscription)
         self._subs.clear()
         if not self.done.done():
             self.done.set_result(exc)
