@@ -45,6 +45,8 @@ def record_world(executor, world, bag_dir, steps: int, chunk: int = 10, before_s
         world.step(chunk)
         drain(executor)
     drain(executor)
+    executor.remove_node(recorder)
+    recorder.destroy_node()
     writer.close()
 
 

@@ -273,12 +273,12 @@ class RerunLogger:
             rrb.TimePanel(timeline=TIMELINE, play_state="following", state="collapsed"),
             collapse_panels=True)
 
-    def _top_down_eye(self) -> rrb.EyeControls3D:
-        # Look straight down on the map (default 6 m square at the origin) from high enough to see it all.
-        if np.all(np.isfinite(self._map_lo)):
-            centre, extent = (self._map_lo + self._map_hi) / 2, float(np.max(self._map_hi - self._map_lo))
-        else:
-            centre, extent = np.zeros(2), 6.0
+    def _top_down_eye(self) -> rrb.EyeControls3D | None:
+        """Look straight down on the map from high enough to see it all; None (the viewer frames
+        the scene itself, in perspective) when there is no map, e.g. for arms."""
+        if not np.all(np.isfinite(self._map_lo)):
+            return None
+        centre, extent = (self._map_lo + self._map_hi) / 2, float(np.max(self._map_hi - self._map_lo))
         height = 1.1 * max(extent, 1.0)
         # Slightly south of the target, so +y is up on screen; the viewer flips a near-vertical
         # eye (offset 1 % of the height showed the map upside down, 5 % is right).
@@ -565,7 +565,6 @@ class RerunLogger:
             self._marker_entities[topic] = seen
 
     def _marker(self, entity: str, m, static: bool) -> None:
-        base_is_world = entity.startswith("world/") and not entity.startswith("world/robots/")
         color = _rgba(m.color)
         pts = _points(m.points)
         colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
@@ -574,7 +573,7 @@ class RerunLogger:
             self._mesh(entity, m, color)
             return
         transform = _pose_transform(m.pose)
-        if static and base_is_world:
+        if static and entity.startswith("world/map_markers/"):
             p = m.pose.position
             self._grow_map(pts[:, :2] + [p.x, p.y] if len(pts) else np.array([[p.x, p.y]]))
         if m.type in (SPHERE, TEXT):
