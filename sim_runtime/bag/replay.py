@@ -56,8 +56,8 @@ _READ_AHEAD = 64  # batches
 #: GIL switch interval main() sets so the timing thread wakes promptly while the reading
 #: thread decodes chunks (Python's default 5 ms would be the worst-case lateness).
 SWITCH_INTERVAL = 0.0005
-# Sleep until this close to a deadline, then spin: time.sleep overshoots by ~0.1 ms.
-_SPIN_NS = 300_000
+# Within this of a deadline, time.sleep (precise) instead of a condition wait (wakeable).
+_FINE_NS = 2_000_000
 
 
 def replay_qos(offered_yaml: str) -> QoSProfile:
@@ -281,11 +281,13 @@ class Player(Node):
             remaining = target - now
             if remaining <= 0:
                 return 'due'
-            if remaining > _SPIN_NS:
+            if remaining > _FINE_NS:
+                # Coarse: wake early, or at once on pause/step/stop.
                 with self._cond:
-                    self._cond.wait(min(remaining - _SPIN_NS, 50_000_000) / 1e9)
+                    self._cond.wait(min(remaining - _FINE_NS, 50_000_000) / 1e9)
             else:
-                time.sleep(0)  # spin the last fraction of a millisecond, GIL released
+                # Fine: a plain sleep overshoots ~0.1 ms, a condition wait several times that.
+                time.sleep(remaining / 1e9)
 
     def _wall(self, bag_ns: int) -> int:
         return self._origin_wall + int((bag_ns - self._origin_bag) / self.rate)
