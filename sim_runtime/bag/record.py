@@ -339,7 +339,8 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument('--clock', choices=('auto', 'sim', 'wall'), default='auto',
                         help='message times: sim time from /clock, wall time, or auto (default)')
     parser.add_argument('--reindex', metavar='BAG',
-                        help='only rebuild BAG/metadata.yaml from its .mcap files, then exit')
+                        help='recover BAG after a crash (rewrite unfinished .mcap splits, rebuild '
+                             'metadata.yaml) and exit')
     return parser.parse_args(list(argv))
 
 
