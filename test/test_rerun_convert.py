@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import warnings
@@ -17,6 +18,7 @@ from std_msgs.msg import String
 from sim_runtime.bag.reader import BagWarning
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli
+from sim_runtime.rerun_view.analytics import main as analytics_main
 from sim_runtime.rerun_view.convert import bag_to_rerun, main
 from sim_runtime.rerun_view.logger import TRACK_SEGMENT_POINTS
 
@@ -165,3 +167,10 @@ def test_garbage_file_and_missing_output_folder_are_clear_errors(tmp_path, capsy
         bag_to_rerun(bag, tmp_path / "no" / "such" / "out.rrd")
     with pytest.raises(InputError, match="no such bag"):
         bag_to_rerun(tmp_path / "missing_bag")
+
+
+def test_cli_wrapper_runs_rerun_with_analytics_off(capfd):
+    assert analytics_main(["analytics", "config"]) == 0
+    config = json.loads(capfd.readouterr().out)
+    assert config["analytics_enabled"] is False
+    assert not config["config_file_path"].startswith(str(Path.home()))

@@ -6,6 +6,8 @@ import copy
 import subprocess
 
 import pytest
+import rerun as rr
+import rerun.chunk as rrc
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -16,6 +18,7 @@ from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_QOS
 from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
 from sim_runtime.rerun_view.convert import bag_to_rerun
+from sim_runtime.rerun_view.live import attach_live_view
 from sim_runtime.rerun_view.logger import type_name
 from sim_runtime.rerun_view.tracks import tracks_from_bag
 from sim_runtime.run import drain
@@ -129,3 +132,22 @@ def test_arm_bag_logs_each_mesh_once_then_transforms(executor, tmp_path):
         assert len(column(ents[entity], "Transform3D:translation")) >= 18  # moved each publication
     joints = [e for e in ents if e.startswith("/plots/joint_states/position/")]
     assert len(joints) == len(world.arms[0].arm.joint_names)
+
+
+def test_live_view_of_the_create_world(executor, tmp_path):
+    world = create_world.CreateWorldNode()
+    executor.add_node(world)
+    rec = rr.RecordingStream("robot_sims_test")
+    out = tmp_path / "live.rrd"
+    rec.save(out)
+    view = attach_live_view(world, recording=rec, discover=False)
+    for _ in range(10):  # 1 s, as run_nodes does at real_time_factor 0: step, then handle callbacks
+        world.step(10)
+        drain(executor)
+    view.close()
+    rec.disconnect()
+    ents = load_entities(out)
+    assert "/world/map_markers/walls/0" in ents
+    assert len(column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")) >= 9
+    assert len(column(ents["/world/robots/robot"], "Transform3D:translation")) >= 45
+    assert len(rrc.RrdReader(out).blueprints()) == 1

@@ -15,6 +15,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 # FORCE_RERUN_ANALYTICS turns analytics on whatever the config says: never pass it through.
@@ -69,3 +70,15 @@ def analytics_disabled(env: dict[str, str]) -> bool:
     out = subprocess.run([rerun_cli(), "analytics", "config"], env=env, check=True,
                          capture_output=True, text=True, timeout=60).stdout
     return json.loads(out).get("analytics_enabled") is False
+
+
+def main(args: list[str] | None = None) -> int:
+    """``python -m sim_runtime.rerun_view.analytics RERUN_ARGS…``: run the rerun CLI (or viewer)
+    with a fresh private config home where analytics are disabled; for make targets and CI."""
+    argv = sys.argv[1:] if args is None else list(args)
+    with tempfile.TemporaryDirectory(prefix="rerun_home_") as home:
+        return subprocess.run([rerun_cli(), *argv], env=private_rerun_env(home), check=False).returncode
+
+
+if __name__ == "__main__":
+    sys.exit(main())
