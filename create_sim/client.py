@@ -48,6 +48,7 @@ from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
 
 MAX_WHEEL_SPEED = 0.5  # m/s
 WHEEL_BASE = 0.258  # m
+MAX_TURN_RATE = 2 * MAX_WHEEL_SPEED / WHEEL_BASE  # rad/s, wheels at full speed in opposite directions
 TRAVEL_SPEED_RANGE = (0.025, 0.5)  # m/s, travelDist
 TURN_SPEED_RANGE = (0.025, 0.2)  # rad/s, turnAngle
 RADIUS_RANGE = (0.001, 2.0)  # m, SetFwdVelRadiusRoomba
@@ -139,6 +140,7 @@ class CreateRobot:
         self.node = node
         self._spin = spin or (lambda: rclpy.spin_once(node, timeout_sec=0.05))  # hosted mode only
         self._stamped = stamped
+        self.commands_sent = 0  # velocity commands published
         self._cmd_pub = node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_QOS)
         self._subscribe()
         if self._thread:
@@ -176,7 +178,8 @@ class CreateRobot:
                 mid = yaw0 + turn / 2
                 step = (p.x - x0) * math.cos(mid) + (p.y - y0) * math.sin(mid)
                 # A jump no wheel could make is a reset of the robot's odometry, not motion.
-                if abs(step) <= 2 * MAX_WHEEL_SPEED * max(t - t0, 0.0) + 0.01:
+                dt = max(t - t0, 0.0)
+                if abs(step) <= 2 * MAX_WHEEL_SPEED * dt + 0.01 and abs(turn) <= 2 * MAX_TURN_RATE * dt + 0.05:
                     self._travelled += step
                     self._turned += turn
             self._odom_prev = (t, p.x, p.y, yaw)
@@ -274,6 +277,7 @@ class CreateRobot:
             self._cmd_pub.publish(msg)
         else:
             self._cmd_pub.publish(twist)
+        self.commands_sent += 1
         return v, w
 
     def travel_dist(self, speed: float, distance: float, timeout: float | None = None) -> float:

@@ -112,6 +112,7 @@ class CreateWorldNode(SimWorldNode):
         self._delayed_msgs: deque[tuple[float, Publisher, object]] = deque()
         self._delayed_cmds: deque[tuple[float, float, float]] = deque()
         self._last_cmd_time: float | None = None  # sim time the last command took effect
+        self.commands_received = 0  # velocity commands handled, rejected ones included (tests sync on it)
         self.buttons_state = [0, 0]  # [play, advance]
 
         self._make_publishers()
@@ -250,6 +251,7 @@ class CreateWorldNode(SimWorldNode):
 
         Returns False (and warns, throttled) if the command is rejected.
         """
+        self.commands_received += 1
         if not all_finite(v, w) or abs(v) > ABSURD_COMMAND or abs(w) > ABSURD_COMMAND:
             self.warn_throttled(
                 "cmd_vel", f"rejected cmd_vel v={v!r} w={w!r}: not finite or absurdly large "

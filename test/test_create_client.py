@@ -8,7 +8,7 @@ import threading
 import pytest
 from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
-from std_srvs.srv import SetBool
+from std_srvs.srv import SetBool, Trigger
 from test_create_node import Rig
 
 from create_sim.client import AllSensors, CreateRobot
@@ -19,11 +19,13 @@ from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
 
 def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
-    """A client on the probe node; while it blocks, the world steps, and each odometry message is
-    handled before the next step (deterministic however loaded the machine is)."""
+    """A client on the probe node; while it blocks, the world steps, after it has received every
+    command sent and with each odometry message handled before the next step (deterministic
+    however loaded the machine is)."""
     odom = Collector(rig.probe, Odometry, "odom", SENSOR_QOS)
 
     def spin() -> None:
+        spin_until(rig.executor, lambda: rig.world.commands_received >= robot.commands_sent)
         rig.step()
         if rig.world.step_count % 2 == 0:  # odom is published at 50 Hz, every other step
             now = rig.world.sim_time
@@ -187,3 +189,12 @@ def test_standalone_client_with_its_own_spinner_thread(executor):
         robot.close()
         stop.set()
         thread.join()
+
+
+def test_odometry_counters_ignore_the_jump_of_a_world_reset(rig, robot):
+    robot.turn_angle(0.2, 60)
+    robot.travel_dist(0.3, 0.2)
+    assert rig.call(Trigger, "reset", Trigger.Request()).success
+    robot.pause(0.2)
+    assert robot.angle_sensor() == pytest.approx(math.radians(60), abs=0.02)
+    assert robot.distance_sensor() == pytest.approx(0.2, abs=0.01)

@@ -98,7 +98,7 @@ class Rig:
 
     def drive(self, v: float, w: float = 0.0) -> None:
         """Publish a command and wait until the world has received it."""
-        queued = len(self.world._delayed_cmds)
+        received = self.world.commands_received
         twist = Twist()
         twist.linear.x, twist.angular.z = v, w
         if self.world.cmd_vel_stamped:
@@ -106,7 +106,7 @@ class Rig:
             self.cmd_pub.publish(msg)
         else:
             self.cmd_pub.publish(twist)
-        self.wait(lambda: len(self.world._delayed_cmds) > queued)
+        self.wait(lambda: self.world.commands_received > received)
         self.step()
 
     def call(self, client_type, name: str, request):
