@@ -56,7 +56,18 @@ def _outline(verts, v0, v1, x, y, h, vx, vy):
 
 
 @numba.njit(cache=True)
-def _step_robots(grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts, vstart, cells, ncells, dt, hit_by):
+def _cell_box(vx, vy, out):
+    # bounds of every cell the polygon overlaps (the sensors' exact test of a robot stays inside)
+    out[0] = math.floor(vx.min())
+    out[1] = math.floor(vy.min())
+    out[2] = math.floor(vx.max()) + 1.0
+    out[3] = math.floor(vy.max()) + 1.0
+
+
+@numba.njit(cache=True)
+def _step_robots(
+    grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts, vstart, cells, ncells, box, dt, hit_by
+):
     """One step of every powered, non-crashed robot in id order (later robots see earlier ones'
     new positions, as the seed's sequential update). Returns nothing; ``hit_by[r]`` > 0 marks a
     robot crashed into by another this step (applied by the caller after the loop, as the seed)."""
@@ -102,6 +113,7 @@ def _step_robots(grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts,
         _paint(gflat, tmp, n, own)
         cells[r, :n] = tmp[:n]
         ncells[r] = n
+        _cell_box(vx[:m], vy[:m], box[r])
         # heading kept in (-pi, pi]
         if hn > math.pi:
             hn -= 2.0 * math.pi
@@ -114,8 +126,8 @@ def _step_robots(grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts,
 
 @numba.njit(cache=True)
 def _sense(
-    grid, clear, pose, radius, srob, spos, saxis, rstart, roff, rcos, rsin, srange, ids, bucket_start, bucket_items,
-    nbx, nby, out_t, out_v,
+    grid, clear, pose, radius, box, srob, spos, saxis, rstart, roff, rcos, rsin, srange, ids, bucket_start,
+    bucket_items, nbx, nby, out_t, out_v,
 ):
     """Cast every ray of every sensor (fast caster); candidates come from the robot buckets."""
     n_sensors = srob.shape[0]
@@ -127,6 +139,7 @@ def _sense(
     cand_x = np.empty(n_rob)
     cand_y = np.empty(n_rob)
     cand_r = np.empty(n_rob)
+    cand_box = np.empty((n_rob, 4))
     cand_id = np.empty(n_rob, dtype=np.int64)
     rmax = radius.max() if n_rob > 0 else 0.0
     for s in range(n_sensors):
@@ -162,11 +175,12 @@ def _sense(
                     cand_x[m] = pose[j, 0]
                     cand_y[m] = pose[j, 1]
                     cand_r[m] = radius[j]
+                    cand_box[m] = box[j]
                     cand_id[m] = ids[j]
                     m += 1
         raycast.cast_scan_fast(
             grid, clear, ox, oy, dirs[:nr], axis + roff[a0], dangle, srange[s], ids[r],
-            cand_x[:m], cand_y[:m], cand_r[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],
+            cand_x[:m], cand_y[:m], cand_r[:m], cand_box[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],
         )
 
 
@@ -294,6 +308,7 @@ class SimrobotWorld:
         side = int(2 * math.ceil(self.radius.max() if n else 1) + 3)
         self.cells = np.zeros((n, side * side), dtype=np.int64)
         self.ncells = np.zeros(n, dtype=np.int64)
+        self.box = np.zeros((n, 4))
         self._build_sensors(spec.robots)
         for i, robot in enumerate(spec.robots):
             self._place(i, robot)
@@ -354,6 +369,7 @@ class SimrobotWorld:
         flat[tmp[:n]] = i + 2
         self.cells[i, :n] = tmp[:n]
         self.ncells[i] = n
+        _cell_box(vx, vy, self.box[i])
 
     def _outline(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         v = self.verts[self.vstart[i]:self.vstart[i + 1]]
@@ -411,7 +427,7 @@ class SimrobotWorld:
         hit_by = np.zeros(len(self.names), dtype=np.int64)
         _step_robots(
             self.grid, self.pose, self.vel, self.accel, self.wheel_r, self.la, self.lb, self.power, self.crashed,
-            self.verts, self.vstart, self.cells, self.ncells, self.dt, hit_by,
+            self.verts, self.vstart, self.cells, self.ncells, self.box, self.dt, hit_by,
         )
         # robot-on-robot crashes both (applied after everyone moved, as the seed)
         self.crashed |= hit_by > 0
@@ -432,9 +448,9 @@ class SimrobotWorld:
         bucket_start = np.zeros(self.nbx * self.nby + 1, dtype=np.int64)
         np.cumsum(counts, out=bucket_start[1:])
         _sense(
-            self.grid, self.clear, self.pose, self.radius, self.srob, self.spos, self.saxis, self.rstart, self.roff,
-            self.rcos, self.rsin, self.srange, self.ids[:n], bucket_start, order.astype(np.int64), self.nbx, self.nby,
-            self.ray_t, self.ray_v,
+            self.grid, self.clear, self.pose, self.radius, self.box, self.srob, self.spos, self.saxis, self.rstart,
+            self.roff, self.rcos, self.rsin, self.srange, self.ids[:n], bucket_start, order.astype(np.int64),
+            self.nbx, self.nby, self.ray_t, self.ray_v,
         )
         _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
         self._sensed_at = self.step_count

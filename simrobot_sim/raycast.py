@@ -348,12 +348,14 @@ def _reuse_discs(ox, oy, dx, dy, t, discs, nd):
 
 @numba.njit(cache=True)
 def cast_scan_fast(
-    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_id, out_t, out_v
+    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box, cand_id,
+    out_t, out_v,
 ):
     """All rays of one sensor from ``(ox, oy)`` with the fast caster. Ray ``i`` has unit direction
     ``directions[i]`` at angle ``angle0 + i * dangle`` (an evenly spread fan, as every sensor).
-    ``cand_*`` are robots that may be seen (centre, bounding radius covering every painted cell,
-    id); the sensor's own robot is skipped by ``self_id``. Results go to ``out_t``/``out_v``
+    ``cand_*`` are robots that may be seen (centre and bounding radius covering every painted cell,
+    box ``[x0, y0, x1, y1]`` of the painted cells, id); the sensor's own robot is skipped by
+    ``self_id``. Results go to ``out_t``/``out_v``
     (``inf``/0 for no hit within ``max_range``)."""
     nx, ny = grid.shape
     n = directions.shape[0]
@@ -379,7 +381,8 @@ def cast_scan_fast(
                 out_t[i] = th
                 out_v[i] = 1
     # pass 2: robots are not in the static table: test each robot exactly (traversal of its
-    # painted cells), only on the rays whose angle falls within its bounding circle
+    # painted cells inside their bounding box), only on the rays whose angle can meet its
+    # bounding circle
     two_pi = 2.0 * math.pi
     for j in range(cand_id.shape[0]):
         rid = cand_id[j]
@@ -389,19 +392,24 @@ def cast_scan_fast(
         qy = cand_y[j] - oy
         rad = cand_r[j]
         dist2 = qx * qx + qy * qy
-        if math.sqrt(dist2) - rad > max_range:
-            continue
         c2 = dist2 - rad * rad
+        if c2 > 0.0 and c2 > (max_range + rad) * (max_range + rad) - rad * rad:
+            continue  # farther than the range
+        bx0 = cand_box[j, 0] - ox
+        by0 = cand_box[j, 1] - oy
+        bx1 = cand_box[j, 2] - ox
+        by1 = cand_box[j, 3] - oy
+        lo_i = 0
+        hi_i = n - 1
+        shifts = 1
         half = 0.0
         centre = 0.0
-        if c2 <= 0.0 or n == 1 or dangle == 0.0:
-            lo_i = 0
-            hi_i = n - 1
-            shifts = 1
-        else:
-            half = math.asin(min(rad / math.sqrt(dist2), 1.0)) + 1e-9
-            centre = math.atan2(qy, qx) - angle0
-            shifts = 3
+        if c2 > 0.0 and n > 1 and dangle != 0.0:
+            # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
+            half = rad / math.sqrt(c2) + 1e-9
+            if half < 1.5:
+                centre = math.atan2(qy, qx) - angle0
+                shifts = 3
         for sh in range(shifts):
             if shifts == 3:
                 off = centre + (sh - 1) * two_pi
@@ -414,13 +422,23 @@ def cast_scan_fast(
             for i in range(lo_i, hi_i + 1):
                 dx = directions[i, 0]
                 dy = directions[i, 1]
-                b = qx * dx + qy * dy
-                disc = b * b - c2
-                if disc < 0.0:
+                # ray / box slabs
+                ta = t_lo[i]
+                tb = min(t_hi[i], out_t[i])
+                if dx != 0.0:
+                    u = bx0 / dx
+                    w = bx1 / dx
+                    ta = max(ta, min(u, w))
+                    tb = min(tb, max(u, w))
+                elif bx0 > 0.0 or bx1 < 0.0:
                     continue
-                sq = math.sqrt(disc)
-                ta = max(b - sq, t_lo[i])
-                tb = min(b + sq, t_hi[i], out_t[i])
+                if dy != 0.0:
+                    u = by0 / dy
+                    w = by1 / dy
+                    ta = max(ta, min(u, w))
+                    tb = min(tb, max(u, w))
+                elif by0 > 0.0 or by1 < 0.0:
+                    continue
                 if ta > tb:
                     continue
                 th, v = _traverse(grid, ox, oy, dx, dy, ta, tb, self_id, rid)
