@@ -170,7 +170,7 @@ class Bag:
             summary = None
             reason = str(exc) or type(exc).__name__
         else:
-            reason = 'no summary section'
+            reason = 'no summary statistics' if summary is not None else 'no summary section'
         if summary is not None and summary.statistics is not None:
             stats = summary.statistics
             has_messages = stats.message_count > 0
