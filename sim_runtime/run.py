@@ -75,7 +75,10 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
                 else:
                     executor.spin_once(timeout_sec=0.01)
         else:
-            executor.spin()
+            # EventsExecutor.spin() neither fires these timers nor returns on SIGINT here;
+            # short spin_once calls do both.
+            while rclpy.ok():
+                executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -18,7 +18,9 @@ EXECUTABLES = [
 def prefix(tmp_path_factory):
     prefix = tmp_path_factory.mktemp("prefix")
     subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--prefix", str(prefix), str(ROOT)],
+        # --ignore-installed: never uninstall the developer's editable install on the way.
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--ignore-installed",
+         "--prefix", str(prefix), str(ROOT)],
         check=True,
         timeout=600,
     )
