@@ -9,7 +9,8 @@ from the rightmost, ``intensities`` = obstacle number), ``odom`` (``<name>/odom`
 changes, ``crashed`` (transient local). World-level: ``/map`` (walls, transient local),
 ``/robots`` (outlines and colours) and ``/clock``.
 
-Inputs per robot: ``cmd_vel`` (Twist: linear.x, angular.z through the inverse model),
+Inputs per robot: ``cmd_vel`` (Twist: linear.x, angular.z through the inverse model; parameter
+``cmd_vel_stamped: true`` makes it TwistStamped, whose stamp then counts like wheel_cmd's),
 ``wheel_cmd`` (JointState: ``velocity`` = [left, right] rad/s, the seed's setvel), services
 ``set_power`` (SetBool) and ``clear_crash`` (Trigger). NaN/inf commands are rejected with a
 throttled warning. A command holds until the next one, as the seed's setvel.
@@ -18,7 +19,7 @@ Lockstep (``lockstep: true`` in the world file): after publishing step k the wor
 every powered, non-crashed robot has sent a command *for step k* before computing step k+1. A
 command counts for step k when it arrives after step k was published (unstamped), or when it is
 stamped with step k's sim time; a ``wheel_cmd`` stamped with an older step's time is stale and
-ignored (``cmd_vel`` has no stamp: it always counts on arrival). If
+ignored (a plain Twist ``cmd_vel`` has no stamp: it always counts on arrival). If
 ``lockstep_timeout`` wall seconds pass first, the world warns which robots did not answer and goes
 on. Unanswered step data is re-published every 0.5 s while waiting, so a controller that joined
 late still gets it. A run is then identical whatever the machine's load.
@@ -34,7 +35,7 @@ import math
 import time
 
 import numpy as np
-from geometry_msgs.msg import Point, PoseStamped, Twist
+from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, LaserScan, Range
@@ -73,6 +74,7 @@ class SimrobotWorldNode(SimWorldNode):
         if not self.has_parameter("world_file"):
             self.declare_parameter("world_file", spec.source)
         self.model = SimrobotWorld(spec)
+        self.cmd_vel_stamped = bool(self.declare_parameter("cmd_vel_stamped", False).value)
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)
         self.finished = False
@@ -133,7 +135,10 @@ class SimrobotWorldNode(SimWorldNode):
         io.pose.header.frame_id = "map"
         io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
         io.subs = [
-            self.create_subscription(Twist, f"/{name}/cmd_vel", lambda m, i=i: self._on_cmd_vel(i, m), COMMAND_QOS),
+            self.create_subscription(
+                TwistStamped if self.cmd_vel_stamped else Twist, f"/{name}/cmd_vel",
+                lambda m, i=i: self._on_cmd_vel(i, m), COMMAND_QOS,
+            ),
             self.create_subscription(
                 JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
             ),
@@ -182,7 +187,11 @@ class SimrobotWorldNode(SimWorldNode):
             return True  # unstamped: counts by arrival
         return time_from_msg(stamp) >= self.sim_time - 0.5 * self.physics_dt
 
-    def _on_cmd_vel(self, i: int, msg: Twist) -> None:
+    def _on_cmd_vel(self, i: int, msg: Twist | TwistStamped) -> None:
+        if isinstance(msg, TwistStamped):
+            if not self._counts_for_step(msg.header.stamp):
+                return  # stale: an answer to an older step
+            msg = msg.twist
         v, w = msg.linear.x, msg.angular.z
         try:
             self.model.set_cmd_vel(i, v, w)

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, LaserScan, Range
@@ -251,3 +251,25 @@ def test_world_file_parameter_and_steps_limit(executor, tmp_path):
     assert world.physics_dt == 0.5 and world.model.names == ["solo"]
     assert spin_steps(executor, world, 5) == 2
     assert world.finished and not world.ready_to_step() and world.sim_time == 1.0
+
+
+def test_cmd_vel_stamped_parameter_takes_twist_stamped(executor, make_node):
+    spec = WorldSpec(walls=box_walls(), robots=(RobotSpec("a", (1.0, 0.5)),), lockstep=True)
+    world = SimrobotWorldNode(spec, parameter_overrides=[Parameter("cmd_vel_stamped", value=True)])
+    executor.add_node(world)
+    node = make_node("stamped_driver")
+    pub = node.create_publisher(TwistStamped, "/a/cmd_vel", COMMAND_QOS)
+    assert wait_for_match(executor, pub)
+    world.step()
+    cmd = TwistStamped()
+    cmd.header.stamp = world.stamp()
+    cmd.twist.linear.x = 0.01
+    pub.publish(cmd)
+    assert spin_until(executor, world.ready_to_step)
+    stale = TwistStamped()
+    stale.twist.linear.x = 0.05
+    stale.header.stamp.nanosec = 1  # an answer to step 0 arriving during step 1: ignored
+    pub.publish(stale)
+    assert not spin_until(executor, lambda: world.model.vel[0, 0] == 5.0, timeout=0.5)
+    world.step()
+    assert world.model.poses()[0, 0] == pytest.approx(1.01)
