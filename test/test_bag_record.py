@@ -260,3 +260,24 @@ def test_resubscribes_when_a_best_effort_publisher_joins(executor, make_node, tm
     assert spin_until(executor, lambda: recorder.writer.message_count == 2)
     recorder.close()
     assert [m.msg.data for m in open_bag(tmp_path / 'bag').messages()] == ['from reliable', 'from best effort']
+
+
+def test_world_started_after_the_recorder_gets_sim_time(executor, make_node, tmp_path):
+    """`robot_sims record` first, then the simulation: times still come from /clock, and the
+    recorder's own /rosout lines are not stamped with wall time in between."""
+    recorder = start_recorder(executor, tmp_path / 'bag', ['/later_world/.*', '/rosout'])
+    recorder.get_logger().info('a log line before any simulation exists')
+    node = make_node('later_world')
+    clock = node.create_publisher(Clock, '/clock', 10)
+    pub = node.create_publisher(String, '/later_world/data', 10)
+    assert wait_for_match(executor, pub) and wait_for_match(executor, clock)
+    tick = Clock()
+    tick.clock.sec = 42
+    clock.publish(tick)
+    pub.publish(String(data='hello'))
+    assert spin_until(executor, lambda: recorder.topic_ids.get('/later_world/data') is not None
+                      and recorder.writer.message_count >= 2)
+    recorder.close()
+    times = {m.topic: m.log_time_ns for m in open_bag(tmp_path / 'bag').messages()}
+    assert times['/later_world/data'] == 42 * 10**9
+    assert times['/rosout'] <= 42 * 10**9  # held, then stamped with sim time, not wall time

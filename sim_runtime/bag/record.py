@@ -18,7 +18,8 @@ Topics are matched by exact name or by regular expression (full match); topics t
 appear after the start are picked up within a fraction of a second. Each subscription adapts
 to the publishers' QoS (best effort if any publisher is, transient local if all are, so latched
 maps are recorded). Message times are sim time (from ``/clock``) when a clock is published
-at the start of recording (``--clock auto``, default), else wall time.
+as recording starts, so the world may be started before or after the recorder
+(``--clock auto``, default; ``--clock sim`` / ``--clock wall`` force one), else wall time.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ from sim_runtime.errors import InputError
 __all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args', 'split_ros_args']
 
 CLOCK_TOPIC = '/clock'
+_GRAPH_TOPICS = frozenset({'/rosout', '/parameter_events'})
 #: Subscription queue: deep enough to ride out CPU contention at 20k msg/s (DDS allocates
 #: samples only when they queue up).
 RECORD_DEPTH = 10_000
@@ -105,7 +107,8 @@ class Recorder(Node):
     """Subscribes raw to matching topics (including ones appearing later) and writes a bag.
 
     `topics`: exact names or regular expressions (full match); empty = every topic.
-    `clock`: 'auto' (sim time if /clock has a publisher at the start), 'sim' or 'wall'.
+    `clock`: 'auto' (sim time if /clock has a publisher when the first data message comes
+    in), 'sim' or 'wall'.
     After a write failure (disk full) the recorder stops: `error` holds it and `done`
     (a Future) completes; `close()` finishes the bag either way.
     """
@@ -134,7 +137,8 @@ class Recorder(Node):
         self._clock_mode = clock
         self._sim: bool | None = None if clock == 'auto' else clock == 'sim'
         self._sim_ns: int | None = None
-        self._pending: list[tuple[int, bytes]] = []
+        self._pending: list[tuple[int, bytes, int]] = []  # held until the time source is known
+        self._graph_topic_ids: set[int] = set()
         self._clock_sub: Any = None
         self._subs: dict[str, _Subscribed] = {}
         self._ignored: set[str] = set()
@@ -159,22 +163,14 @@ class Recorder(Node):
         """Subscribe to matching topics that have publishers and are not yet recorded."""
         if self.error is not None:
             return
-        graph = self.get_topic_names_and_types()
-        names = {name for name, _types in graph}
-        # Decide the time source once the first real data topic shows up (every node has
-        # /rosout and /parameter_events, so they say nothing about a simulation running).
-        if self._sim is None and names - {CLOCK_TOPIC, '/rosout', '/parameter_events'}:
-            self._sim = CLOCK_TOPIC in names and bool(self.get_publishers_info_by_topic(CLOCK_TOPIC))
-            if self._sim:
-                self.get_logger().info('recording with sim time from /clock')
-        for name, types in graph:
+        for name, types in self.get_topic_names_and_types():
             if name in self._subs:
                 self._readapt(name)
                 continue
             if name in self._ignored:
                 continue
             recorded = self.wanted(name)
-            if not recorded and not (name == CLOCK_TOPIC and self._sim):
+            if not recorded and not (name == CLOCK_TOPIC and self._sim is not False):
                 continue
             publishers = self._offering_publishers(name)
             if not publishers:
@@ -205,6 +201,8 @@ class Recorder(Node):
                         'their definitions are rebuilt from the Python types where installed'
                     )
                 self.topic_ids[name] = tid
+                if name in _GRAPH_TOPICS:
+                    self._graph_topic_ids.add(tid)
             else:
                 tid = -1
             qos = adapted_qos(offered)
@@ -257,26 +255,54 @@ class Recorder(Node):
 
         def on_clock(data: bytes) -> None:
             self._sim_ns = clock_ns(data)
-            if self._pending:
-                pending, self._pending = self._pending, []
-                for pending_tid, pending_data in pending:
-                    write(pending_tid, pending_data)
+            if self._pending and self._sim:
+                self._release()
             if tid >= 0:
                 write(tid, data)
 
         return on_clock
 
+    def _decide_time_source(self) -> bool:
+        """Sim time if a /clock publisher exists when the first data message arrives."""
+        self._sim = self.count_publishers(CLOCK_TOPIC) > 0
+        self.get_logger().info(
+            'recording with sim time from /clock' if self._sim else 'recording with wall time'
+        )
+        return self._sim
+
     def _write(self, tid: int, data: bytes) -> None:
         if self.error is not None:
             return
-        if self._sim:
+        sim = self._sim
+        if sim is None:
+            # Every node has /rosout and /parameter_events (we do too): their messages say
+            # nothing about a simulation running, so they wait for the decision.
+            if tid in self._graph_topic_ids:
+                self._hold(tid, data)
+                return
+            sim = self._decide_time_source()
+            if self._pending and (not sim or self._sim_ns is not None):
+                self._release()
+        if sim:
             t = self._sim_ns
             if t is None:  # sim time not known yet: keep until the first /clock
-                if len(self._pending) < _PENDING_LIMIT:
-                    self._pending.append((tid, data))
+                self._hold(tid, data)
                 return
         else:
             t = time.time_ns()
+        self._put(tid, t, data)
+
+    def _hold(self, tid: int, data: bytes) -> None:
+        if len(self._pending) < _PENDING_LIMIT:
+            self._pending.append((tid, data, time.time_ns()))
+
+    def _release(self) -> None:
+        """Write held messages: at the current sim time, or at their arrival wall time."""
+        pending, self._pending = self._pending, []
+        for tid, data, wall_ns in pending:
+            self._put(tid, self._sim_ns if self._sim and self._sim_ns is not None else wall_ns, data)
+
+    def _put(self, tid: int, t: int, data: bytes) -> None:
         try:
             self.writer.write(tid, t, data, t)
         except BagWriteError as exc:
@@ -301,6 +327,12 @@ class Recorder(Node):
 
     def close(self) -> None:
         """Finish the bag (footer, summary, metadata.yaml); safe to call twice."""
+        if self._pending and self.error is None:
+            # No time source ever showed up for these (no data, or a /clock that never
+            # ticked): keep them at their arrival wall time rather than lose them.
+            if self._sim_ns is None:
+                self._sim = False
+            self._release()
         self.writer.close()
         if self.error is None and self.writer.error is not None:
             self.error = self.writer.error
