@@ -194,6 +194,7 @@ class CreateWorldNode(SimWorldNode):
         self.pub_buttons = pub(Joy, "buttons", SENSOR_QOS)
         self.pub_battery = pub(BatteryState, "battery_state", SENSOR_QOS)
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
+        self._make_templates()
 
         m = self.model
         # rate name -> (model sensor read or None, publisher of its message, its publishers, config noise it draws)
@@ -315,6 +316,17 @@ class CreateWorldNode(SimWorldNode):
             _, publisher, msg = queue.popleft()
             publisher.publish(msg)
 
+    def _message(self, publisher: Publisher):
+        """The message to fill for ``publisher``, its constant fields already set: one object reused
+        for every publication (rclpy serialises on publish), or a fresh one while ``com_delay``
+        holds messages back. Building messages is most of a world's cost at real_time_factor 0."""
+        if self.com_delay > 0.0:
+            return self._templates[publisher]()
+        msg = self._reusable.get(publisher)
+        if msg is None:
+            msg = self._reusable[publisher] = self._templates[publisher]()
+        return msg
+
     def _send(self, publisher: Publisher, msg: object) -> None:
         if self.com_delay > 0.0:
             self._delayed_msgs.append((self.sim_time + self.com_delay, publisher, msg))
@@ -322,108 +334,131 @@ class CreateWorldNode(SimWorldNode):
             publisher.publish(msg)
 
     # ---------------------------------------------------------------- sensors
-    def _binary_range(self, frame: str, detected: bool, distance: float, fov: float,
-                      radiation: int = Range.INFRARED) -> Range:
-        # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
-        msg = Range(radiation_type=radiation, field_of_view=fov, min_range=distance, max_range=distance,
-                    range=-math.inf if detected else math.inf)
-        msg.header.stamp = self.stamp()
-        msg.header.frame_id = self.frame(frame)
-        return msg
+    def _make_templates(self) -> None:
+        """Per publisher, a factory of its message with the fields that never change."""
+        m = CreateModel
+
+        def stamped(msg_type, frame: str, **fields):
+            def make():
+                msg = msg_type(**fields)
+                msg.header.frame_id = frame
+                return msg
+            return make
+
+        def detector(frame: str, distance: float, fov: float, radiation: int = Range.INFRARED):
+            # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
+            return stamped(Range, self.frame(frame), radiation_type=radiation, field_of_view=fov,
+                           min_range=distance, max_range=distance)
+
+        lo, hi = m.LIDAR_RANGE
+        scan_rate = self.rates["scan"] or 1.0
+        templates = {
+            self.pub_bump[0]: detector("bump_left", 0.0, BUMP_FOV),
+            self.pub_bump[1]: detector("bump_right", 0.0, BUMP_FOV),
+            self.pub_wall: detector("wall_ir", m.IR_RANGE, 0.0),
+            self.pub_virtual_wall: detector("virtual_wall_ir", 0.0, 2 * math.pi),
+            **{pub: stamped(Illuminance, self.frame(f"cliff_{name}"))
+               for pub, name in zip(self.pub_cliff, CLIFF_NAMES, strict=True)},
+            **{pub: stamped(Range, self.frame(f"sonar_{name}"), radiation_type=Range.ULTRASOUND,
+                            field_of_view=0.0, min_range=m.SONAR_RANGE[0], max_range=m.SONAR_RANGE[1])
+               for pub, name in zip(self.pub_sonar, SONAR_NAMES, strict=True)},
+            self.pub_scan: stamped(LaserScan, self.frame("laser"), angle_min=-m.LIDAR_FOV / 2,
+                                   angle_max=m.LIDAR_FOV / 2, angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
+                                   time_increment=0.0, scan_time=1.0 / scan_rate, range_min=lo, range_max=hi),
+            self.pub_odom: stamped(Odometry, "odom", child_frame_id=self.frame("base_link")),
+            self.pub_overhead: stamped(PoseStamped, "map"),
+            self.pub_buttons: stamped(Joy, self.frame("base_link")),
+            self.pub_battery: stamped(
+                BatteryState, self.frame("base_link"),  # the seed's battery readings are constants
+                voltage=m.BATTERY_VOLTAGE, current=m.BATTERY_CURRENT, temperature=m.TEMPERATURE,
+                charge=m.BATTERY_CHARGE, capacity=m.BATTERY_CAPACITY, design_capacity=m.BATTERY_CAPACITY,
+                percentage=1.0, present=True,
+                power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
+                power_supply_health=BatteryState.POWER_SUPPLY_HEALTH_GOOD,
+                power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH),
+        }
+        self._templates: dict[Publisher, Callable[[], Any]] = templates
+        self._reusable: dict[Publisher, Any] = {}
+
+    def _publish_detections(self, publishers: list[Publisher], detected) -> None:
+        stamp = self.stamp()
+        for publisher, hit in zip(publishers, detected, strict=True):
+            msg = self._message(publisher)
+            msg.header.stamp = stamp
+            msg.range = -math.inf if hit else math.inf
+            self._send(publisher, msg)
 
     def _publish_bumps(self, bumps: tuple[bool, bool]) -> None:
-        left, right = bumps
-        self._send(self.pub_bump[0], self._binary_range("bump_left", left, 0.0, BUMP_FOV))
-        self._send(self.pub_bump[1], self._binary_range("bump_right", right, 0.0, BUMP_FOV))
+        self._publish_detections(self.pub_bump, bumps)
 
     def _publish_wall(self, detected: bool) -> None:
-        self._send(self.pub_wall, self._binary_range("wall_ir", detected, CreateModel.IR_RANGE, 0.0))
+        self._publish_detections([self.pub_wall], [detected])
 
     def _publish_virtual_wall(self, detected: bool) -> None:
-        self._send(self.pub_virtual_wall, self._binary_range("virtual_wall_ir", detected, 0.0, 2 * math.pi))
+        self._publish_detections([self.pub_virtual_wall], [detected])
 
     def _publish_cliffs(self, signals: np.ndarray) -> None:
         stamp = self.stamp()
-        for name, publisher, value in zip(CLIFF_NAMES, self.pub_cliff, signals, strict=True):
-            msg = Illuminance(illuminance=float(value))
+        for publisher, value in zip(self.pub_cliff, signals.tolist(), strict=True):
+            msg = self._message(publisher)
             msg.header.stamp = stamp
-            msg.header.frame_id = self.frame(f"cliff_{name}")
+            msg.illuminance = value
             self._send(publisher, msg)
 
     def _publish_sonar(self, ranges: np.ndarray) -> None:
         stamp = self.stamp()
-        lo, hi = CreateModel.SONAR_RANGE
-        for name, publisher, value in zip(SONAR_NAMES, self.pub_sonar, ranges, strict=True):
-            msg = Range(radiation_type=Range.ULTRASOUND, field_of_view=0.0, min_range=lo, max_range=hi,
-                        range=float(value))
+        for publisher, value in zip(self.pub_sonar, ranges.tolist(), strict=True):
+            msg = self._message(publisher)
             msg.header.stamp = stamp
-            msg.header.frame_id = self.frame(f"sonar_{name}")
+            msg.range = value
             self._send(publisher, msg)
 
     def _publish_scan(self, ranges: np.ndarray) -> None:
-        fov = CreateModel.LIDAR_FOV
-        lo, hi = CreateModel.LIDAR_RANGE
-        msg = LaserScan(angle_min=-fov / 2, angle_max=fov / 2,
-                        angle_increment=fov / (CreateModel.LIDAR_BEAMS - 1),
-                        time_increment=0.0, scan_time=1.0 / self.rates["scan"],
-                        range_min=lo, range_max=hi)
+        msg = self._message(self.pub_scan)
         msg.header.stamp = self.stamp()
-        msg.header.frame_id = self.frame("laser")
         msg.ranges = float32_array(ranges)
         self._send(self.pub_scan, msg)
 
     def _publish_camera(self, sightings: list[BeaconSighting]) -> None:
         stamp = self.stamp()
         frame = self.frame("camera")
-        lifetime = 2.0 / self.rates["camera"]  # sightings vanish in RViz once they stop coming
+        lifetime = _duration(2.0 / self.rates["camera"])  # sightings vanish in RViz once they stop coming
         markers = []
         for i, sighting in enumerate(sightings):
-            m = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=sighting.id)
+            m = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=sighting.id,
+                       lifetime=lifetime, scale=Vector3(x=0.1, y=0.1, z=0.1), color=color_msg(*sighting.rgb),
+                       pose=pose_msg(sighting.distance * math.cos(sighting.angle),
+                                     sighting.distance * math.sin(sighting.angle), 0.0))
             m.header.stamp = stamp
             m.header.frame_id = frame
-            m.pose = pose_msg(sighting.distance * math.cos(sighting.angle),
-                              sighting.distance * math.sin(sighting.angle), 0.0)
-            m.scale = Vector3(x=0.1, y=0.1, z=0.1)
-            m.color = color_msg(*sighting.rgb)
-            m.lifetime = _duration(lifetime)
             markers.append(m)
         self._send(self.pub_camera, MarkerArray(markers=markers))
 
     def _publish_odom(self) -> None:
-        x, y, theta = self.model.odometry_pose
+        x, y, theta = self.model.odometry_pose.tolist()
         v, w = self.model.velocity
-        msg = Odometry(child_frame_id=self.frame("base_link"))
+        msg = self._message(self.pub_odom)
         msg.header.stamp = self.stamp()
-        msg.header.frame_id = "odom"
-        msg.pose.pose = pose_msg(float(x), float(y), float(theta))
+        msg.pose.pose = pose_msg(x, y, theta)
         msg.twist.twist.linear.x = float(v)
         msg.twist.twist.angular.z = float(w)
         self._send(self.pub_odom, msg)
 
     def _publish_overhead(self) -> None:
-        x, y, theta = self.model.pose
-        msg = PoseStamped(pose=pose_msg(float(x), float(y), float(theta)))
+        msg = self._message(self.pub_overhead)
         msg.header.stamp = self.stamp()
-        msg.header.frame_id = "map"
+        msg.pose = pose_msg(*self.model.pose.tolist())
         self._send(self.pub_overhead, msg)
 
     def _publish_buttons(self) -> None:
-        msg = Joy(buttons=list(self.buttons_state))
+        msg = self._message(self.pub_buttons)
         msg.header.stamp = self.stamp()
-        msg.header.frame_id = self.frame("base_link")
+        msg.buttons = list(self.buttons_state)
         self._send(self.pub_buttons, msg)
 
     def _publish_battery(self) -> None:
-        m = CreateModel  # the seed's battery readings are constants
-        msg = BatteryState(
-            voltage=m.BATTERY_VOLTAGE, current=m.BATTERY_CURRENT, temperature=m.TEMPERATURE,
-            charge=m.BATTERY_CHARGE, capacity=m.BATTERY_CAPACITY, design_capacity=m.BATTERY_CAPACITY,
-            percentage=1.0, present=True,
-            power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
-            power_supply_health=BatteryState.POWER_SUPPLY_HEALTH_GOOD,
-            power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH)
+        msg = self._message(self.pub_battery)
         msg.header.stamp = self.stamp()
-        msg.header.frame_id = self.frame("base_link")
         self._send(self.pub_battery, msg)
 
     # ---------------------------------------------------------------- map markers

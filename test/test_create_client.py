@@ -15,7 +15,7 @@ from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.qos import SENSOR_QOS
-from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
+from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 
 def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
@@ -169,15 +169,16 @@ def test_reading_without_a_robot_times_out_clearly(executor, make_node):
 
 
 def test_standalone_client_with_its_own_spinner_thread(executor):
+    # The world runs paced at twice real time in its own thread, as another process would.
     world = CreateWorldNode(namespace="solo", parameter_overrides=[
-        Parameter("map_file", value=""), Parameter("real_time_factor", value=0.0)])
+        Parameter("map_file", value=""), Parameter("real_time_factor", value=2.0)])
     executor.add_node(world)
+    world.start_pacing()
     stop = threading.Event()
 
-    def run_world():  # a world in its own thread, as another process would be
+    def run_world():
         while not stop.is_set():
-            world.step()
-            drain(executor, timeout_sec=0.01)
+            executor.spin_once(timeout_sec=0.05)
 
     robot = CreateRobot(namespace="solo")
     thread = threading.Thread(target=run_world, daemon=True)

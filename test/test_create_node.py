@@ -478,12 +478,7 @@ def test_bump_turn_backs_up_then_turns_away_from_the_bumper_hit(ros, left, right
         controller.destroy_node()
 
 
-@pytest.mark.parametrize("rtf", [
-    0.0,
-    pytest.param(1.0, marks=pytest.mark.xfail(
-        reason="sim_runtime.run.run_nodes: EventsExecutor.spin() fires no timers and ignores SIGINT "
-               "(a `while rclpy.ok(): spin_once(0.1)` loop works)", strict=False)),
-])
+@pytest.mark.parametrize("rtf", [0.0, 1.0])
 def test_create_world_process_serves_another_process(executor, make_node, rtf):
     """The README's two-terminal use: `robot_sims create_world` and the user's own node."""
     root = Path(__file__).resolve().parent.parent
