@@ -145,3 +145,17 @@ def test_record_replay_record_round_trip(executor, tmp_path):
             assert abs(m.log_time_ns - t) <= STEP
     assert copy.topic_metadata['/rt/map']['offered_qos_profiles'] != ''
     assert 'transient_local' in copy.topic_metadata['/rt/map']['offered_qos_profiles']
+
+
+def test_loop_plays_again_until_stopped(executor, make_node, tmp_path):
+    bag = make_bag(tmp_path / 'bag', n=5)
+    player = Player(bag, topics=['/rp/chatter'], loop=True, rate=10.0, node_name='loop_player')
+    executor.add_node(player)
+    node = make_node('loop_listener')
+    chatter = Collector(node, String, '/rp/chatter', 100)
+    assert wait_for_match(executor, player.topic_publishers['/rp/chatter'])
+    player.start()
+    assert spin_until(executor, lambda: len(chatter.msgs) >= 12)
+    player.stop()
+    assert player.finished.done()  # stop() ends the loop
+    assert [m.data for m in chatter.msgs[:12]] == [f'm{i % 5}' for i in range(12)]
