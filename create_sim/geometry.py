@@ -67,6 +67,17 @@ def point_segment_closest(px: float, py: float, x1: float, y1: float, x2: float,
     return cx, cy, math.hypot(px - cx, py - cy)
 
 
+@numba.njit(cache=True)
+def nearest_distance(segs, px, py) -> float:
+    """Exact distance from (px, py) to the nearest segment, checking them all (inf if none)."""
+    best = np.inf
+    for s in range(segs.shape[0]):
+        d = point_segment_closest(px, py, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3])[2]
+        if d < best:
+            best = d
+    return best
+
+
 # ---------------------------------------------------------------------------------------------
 # Uniform grid over segments
 # ---------------------------------------------------------------------------------------------

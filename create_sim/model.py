@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from create_sim.configfile import NoiseConfig
-from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts
+from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts, nearest_distance
 from create_sim.mapfile import CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
 from create_sim.sensing import camera_view, range_fan, virtual_wall_seen
@@ -122,12 +122,12 @@ class CreateModel:
 
     def clearance(self) -> float:
         """Gap between the body and the nearest wall (m); inf without walls."""
-        return _clearance(self.grid.segs, self._pose[0], self._pose[1]) - self.RADIUS
+        return nearest_distance(self.grid.segs, self._pose[0], self._pose[1]) - self.RADIUS
 
     def _check_pose(self, x: float, y: float, theta: float) -> None:
         if not all(math.isfinite(float(v)) for v in (x, y, theta)):
             raise InputError(f"pose ({x}, {y}, {theta}) is not finite")
-        gap = _clearance(self.grid.segs, float(x), float(y)) - self.RADIUS
+        gap = nearest_distance(self.grid.segs, float(x), float(y)) - self.RADIUS
         if gap < -OVERLAP_TOL:
             raise InputError(f"pose ({x}, {y}, {theta}) puts the robot {-gap:.4g} m inside a wall "
                              f"(the body is a circle of radius {self.RADIUS} m)")
@@ -310,20 +310,6 @@ class CreateModel:
                                             d * (1.0 + self._noise("camera")),
                                             a * (1.0 + self._noise("camera"))))
         return sightings
-
-
-def _clearance(segs: np.ndarray, x: float, y: float) -> float:
-    """Exact distance from (x, y) to the nearest segment (inf without segments)."""
-    if segs.shape[0] == 0:
-        return math.inf
-    p = np.array([x, y])
-    a = segs[:, :2]
-    ab = segs[:, 2:] - a
-    len2 = np.einsum("ij,ij->i", ab, ab)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = np.clip(np.where(len2 > 0, np.einsum("ij,ij->i", p - a, ab) / len2, 0.0), 0.0, 1.0)
-    closest = a + u[:, None] * ab
-    return float(np.hypot(*(p - closest).T).min())
 
 
 __all__ = ["BeaconSighting", "CreateModel"]
