@@ -1,7 +1,8 @@
 """Ray-casting speed on the issue's reference scene, single thread.
 
-Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the seed's shape at scale 3)
-each with a 683-ray, 240 degree laser of range 560 cells (13,660 rays per frame). Casters:
+Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the seed's shape at scale 3,
+24 cm long, or at the scale given as the first argument) each with a 683-ray, 240 degree laser of
+range 560 cells (13,660 rays per frame). Casters:
 
 * fast   — simrobot_sim's caster as the world uses it (clearance-field jumps, free discs reused
            across a scan, exact traversal near walls, exact robot tests): ``SimrobotWorld.sense``;
@@ -9,7 +10,7 @@ each with a 683-ray, 240 degree laser of range 560 cells (13,660 rays per frame)
 * python — the seed's plain-Python Bresenham (on one scan only: it is slow).
 
 Times are CPU seconds of this process (``time.process_time``), best of several repeats, so other
-load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simrobot_raycast.py``
+load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simrobot_raycast.py [scale]``
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ N_RECTS = 60
 N_ROBOTS = 20
 RAYS = 683
 RANGE_CELLS = 560
+ROBOT_SCALE = float(sys.argv[1]) if len(sys.argv) > 1 else 3.0
 
 
 def reference_scene(seed: int = 0) -> SimrobotWorld:
@@ -48,7 +50,7 @@ def reference_scene(seed: int = 0) -> SimrobotWorld:
     robots: list[RobotSpec] = []
     while len(robots) < N_ROBOTS:
         spec = RobotSpec(f"r{len(robots)}", tuple(rng.uniform(0.2, N_CELLS * 0.01 - 0.2, 2)),
-                         heading=float(rng.uniform(-math.pi, math.pi)), scale=3.0, sensors=(laser,))
+                         heading=float(rng.uniform(-math.pi, math.pi)), scale=ROBOT_SCALE, sensors=(laser,))
         try:
             SimrobotWorld(WorldSpec(walls=walls, robots=(*robots, spec)))
         except ValueError:

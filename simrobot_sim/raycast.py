@@ -298,7 +298,9 @@ def _cast_walls_fast(field, ox, oy, dx, dy, t0, t1, discs, nd):
     while t <= t1:
         px = ox + t * dx
         py = oy + t * dy
-        # t <= t1 keeps the point in the map box up to rounding: clamp instead of testing
+        if (px < 0.0 or py < 0.0 or px >= nx or py >= ny) and t > t0:
+            return np.inf, nd  # left the map (a ray cannot come back into a box)
+        # on the map edge (a ray entering from outside) a clamp finds the edge cell
         cx = min(max(int(px), 0), nx - 1)
         cy = min(max(int(py), 0), ny - 1)
         c = field[cx, cy]
@@ -364,10 +366,14 @@ def cast_scan_fast(
     # pass 1: walls, ray after ray, reusing the free discs of the previous rays
     discs = np.empty((256, 3))
     nd = 0
+    inside = 0.0 <= ox < nx and 0.0 <= oy < ny
     for i in range(n):
         dx = directions[i, 0]
         dy = directions[i, 1]
-        t0, t1 = _clip_to_map(ox, oy, dx, dy, nx, ny, max_range)
+        if inside:
+            t0, t1 = 0.0, max_range  # every traversal stops at the map edge by itself
+        else:
+            t0, t1 = _clip_to_map(ox, oy, dx, dy, nx, ny, max_range)
         t_lo[i] = t0
         t_hi[i] = t1
         out_t[i] = np.inf
