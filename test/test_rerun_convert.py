@@ -12,7 +12,18 @@ import numpy as np
 import pytest
 import rerun.chunk as rrc
 import trimesh
-from rerun_test_helpers import arm_messages, column, create_messages, load_entities, simrobot_messages, write_bag
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rerun_test_helpers import (
+    arm_messages,
+    column,
+    create_messages,
+    load_entities,
+    quat,
+    simrobot_messages,
+    stamp,
+    write_bag,
+)
 from std_msgs.msg import String
 
 from sim_runtime.bag.reader import BagWarning
@@ -174,3 +185,24 @@ def test_cli_wrapper_runs_rerun_with_analytics_off(capfd):
     config = json.loads(capfd.readouterr().out)
     assert config["analytics_enabled"] is False
     assert not config["config_file_path"].startswith(str(Path.home()))
+
+
+def test_odometry_is_aligned_with_truth_even_when_it_comes_first(tmp_path):
+    """Odometry starting at (0, 0) while the robot starts at (1, 2) facing +y: aligned, no error."""
+    msgs = []
+    for k in range(10):
+        t = 0.1 * k
+        odom = Odometry(child_frame_id="base_link")
+        odom.header.stamp, odom.header.frame_id = stamp(t), "odom"
+        odom.pose.pose.position.x = 0.1 * k  # forward in the odom frame
+        odom.pose.pose.orientation.w = 1.0
+        pose = PoseStamped()
+        pose.header.stamp, pose.header.frame_id = stamp(t), "map"
+        pose.pose.position.x, pose.pose.position.y = 1.0, 2.0 + 0.1 * k  # forward = +y in the map
+        pose.pose.orientation = quat(math.pi / 2)
+        msgs += [("/odom", odom, t), ("/overhead_pose", pose, t)]  # odometry first at each instant
+    ents = load_entities(bag_to_rerun(write_bag(tmp_path / "o.mcap", msgs), tmp_path / "o.rrd", progress=False))
+    errors = [v[0] for v in column(ents["/plots/robot/odom_error/position_m"], "Scalars:scalars")]
+    assert len(errors) == 10 and max(errors) < 1e-6  # each odometry pose waits for the truth of its instant
+    odom_track = column(ents["/world/tracks/robot/odom/0"], "LineStrips3D:strips")[-1][0]
+    assert odom_track[-1] == pytest.approx([1.0, 2.9, 0.0], abs=1e-5)

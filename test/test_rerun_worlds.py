@@ -11,6 +11,7 @@ import rerun.chunk as rrc
 from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy
 from rerun_test_helpers import column, load_entities
 
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
@@ -22,7 +23,7 @@ from sim_runtime.rerun_view.live import attach_live_view
 from sim_runtime.rerun_view.logger import type_name
 from sim_runtime.rerun_view.tracks import tracks_from_bag
 from sim_runtime.run import drain
-from sim_runtime.testing import wait_for_match
+from sim_runtime.testing import spin_until, wait_for_match
 
 create_world = pytest.importorskip("create_sim.world_node")
 
@@ -33,15 +34,25 @@ def record_world(executor, world, bag_dir, steps: int, chunk: int = 10, before_s
     recorder = Node("test_recorder")
     executor.add_node(recorder)
     subs = []
+    received: dict[str, int] = {}
+
+    def write(topic: str, tid: int, data: bytes) -> None:
+        received[topic] = received.get(topic, 0) + 1
+        writer.write(tid, round(world.sim_time * 1e9), data)
+
+    latched = []
     for pub in world.publishers:
         tid = writer.add_topic(pub.topic_name, type_name(pub.msg_type), qos_profiles_yaml([{}]))
         qos = copy.copy(pub.qos_profile)
         qos.depth = 200
+        if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL and pub.topic_name != "/clock":
+            latched.append(pub.topic_name)
         subs.append(recorder.create_subscription(
-            pub.msg_type, pub.topic_name,
-            lambda data, tid=tid: writer.write(tid, round(world.sim_time * 1e9), data), qos, raw=True))
+            pub.msg_type, pub.topic_name, lambda data, t=pub.topic_name, tid=tid: write(t, tid, data), qos, raw=True))
     for sub in subs:
         assert wait_for_match(executor, sub)
+    # maps published before the recorder existed arrive a little later: wait for them
+    assert spin_until(executor, lambda: all(received.get(t) for t in latched), 10.0)
     for k in range(0, steps, chunk):
         if before_step is not None:
             before_step(k)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +43,8 @@ import rerun.blueprint as rrb
 TIMELINE = "sim_time"
 CREATE_RADIUS = 0.16
 DEFAULT_HEADING_LENGTH = 0.2
+TRUTH_HISTORY = 64
+"""Ground-truth poses kept to pair with odometry of the same instant (and odometry kept waiting)."""
 TRACK_MIN_STEP = 0.005
 """A track gets a new point once the robot moved this far (m): no 50 Hz duplicates when parked."""
 TRACK_SEGMENT_POINTS = 256
@@ -167,7 +170,6 @@ class _Track:
     radius: float
     points: list[tuple[float, float]] = field(default_factory=list)
     segment: int = 0
-    total: int = 0
 
     def add(self, rec: rr.RecordingStream, x: float, y: float) -> None:
         if self.points and math.hypot(x - self.points[-1][0], y - self.points[-1][1]) < TRACK_MIN_STEP:
@@ -176,7 +178,6 @@ class _Track:
             self.points = self.points[-1:]  # the next segment starts where this one ended
             self.segment += 1
         self.points.append((x, y))
-        self.total += 1
         strip = np.zeros((len(self.points), 3), dtype=np.float32)
         strip[:, :2] = self.points
         rec.log(f"{self.entity}/{self.segment}",
@@ -190,8 +191,10 @@ class _Robot:
     is_create: bool
     truth: _Track
     odom: _Track
-    has_truth: bool = False
-    last_truth: tuple[float, float, float] | None = None
+    expects_truth: bool = False  # the robot has a ground-truth pose topic
+    # recent ground-truth poses and odometry waiting for the truth of its instant: (t_ns, x, y, yaw)
+    truths: deque[tuple[int, float, float, float]] = field(default_factory=lambda: deque(maxlen=TRUTH_HISTORY))
+    pending_odom: deque[tuple[int, float, float, float]] = field(default_factory=lambda: deque(maxlen=TRUTH_HISTORY))
     odom_to_map: tuple[float, float, float] | None = None  # (dx, dy, dyaw) aligning odom with map
     mounted: set[str] = field(default_factory=set)
 
@@ -213,6 +216,8 @@ class RerunLogger:
         # costs ~0.5 ms, a column of thousands about the same. Live, they are logged at once.
         self._scalar_columns: dict[str, tuple[list[int], list[float]]] | None = {} if batch_scalars else None
         self.topics: dict[str, str] = {}
+        self._topic_robots: list[str] = []  # sorted robot names of self.topics
+        self._topic_names: set[str] = set()  # self.topics without leading slashes
         self._robots: dict[str, _Robot] = {}
         self._create_namespaces: set[str] = set()
         self._marker_entities: dict[str, set[str]] = {}
@@ -231,6 +236,8 @@ class RerunLogger:
     def add_topics(self, topics: dict[str, str]) -> None:
         """Register topics (name → type); robots with ``overhead_pose`` are drawn as Creates."""
         self.topics.update(topics)
+        self._topic_robots = robots_in_topics(self.topics)
+        self._topic_names = {t.strip("/") for t in self.topics}
         for topic in topics:
             if _basename(topic) == "overhead_pose":
                 self._create_namespaces.add(_namespace(topic))
@@ -257,7 +264,7 @@ class RerunLogger:
 
         The time cursor follows the newest data: the end of a converted bag, "now" in a live view.
         """
-        robots = sorted(set(robots_in_topics(self.topics)) | set(self._robots))
+        robots = sorted(set(self._topic_robots) | set(self._robots))
         background = rrb.Background(kind="SolidColor", color=[255, 255, 255])
         tabs = [rrb.Spatial3DView(
             origin="/world", name="Global", background=background,
@@ -305,12 +312,13 @@ class RerunLogger:
         key = name or "robot"
         robot = self._robots.get(key)
         if robot is None:
-            known = robots_in_topics(self.topics)
+            known = self._topic_robots
             color = robot_color(key, known) if key in known else ROBOT_COLORS[len(self._robots) % len(ROBOT_COLORS)]
             is_create = name in self._create_namespaces
             robot = _Robot(key, color, is_create,
                            _Track(f"world/tracks/{key}/truth", color, 0.01),
-                           _Track(f"world/tracks/{key}/odom", tuple(c // 2 + 100 for c in color), 0.006))
+                           _Track(f"world/tracks/{key}/odom", tuple(c // 2 + 100 for c in color), 0.006),
+                           expects_truth=self._has_truth_topic(key))
             self._robots[key] = robot
             self.layout_version += 1
             self._log_body(robot)
@@ -335,7 +343,7 @@ class RerunLogger:
             return "world"
         prefix, _, leaf = frame.rpartition("/")
         key = prefix or "robot"
-        known = prefix in self._create_namespaces or key in self._robots or key in robots_in_topics(self.topics)
+        known = key in self._robots or key in self._topic_robots
         if not known:
             return "world"
         robot = self._robot(prefix)
@@ -350,8 +358,9 @@ class RerunLogger:
 
     def _scalar(self, group: str, name: str, value: float) -> None:
         """Plot ``value`` as series ``name`` of plot ``group`` (one time-series view per group)."""
-        if group not in self.plot_groups:
-            self.plot_groups.add(group if group != "plots" else f"plots/{name}")
+        view = group if group != "plots" else f"plots/{name}"
+        if view not in self.plot_groups:
+            self.plot_groups.add(view)
             self.layout_version += 1
         entity = f"{group}/{name}"
         if self._scalar_columns is None:
@@ -384,38 +393,60 @@ class RerunLogger:
             return
         robot = self._robot(_namespace(topic))
         x, y, yaw = msg.pose.position.x, msg.pose.position.y, _yaw(msg.pose.orientation)
-        robot.has_truth = True
-        robot.last_truth = (x, y, yaw)
+        robot.expects_truth = True
+        robot.truths.append((self._t_ns, x, y, yaw))
         self.rec.log(f"world/robots/{robot.name}", _yaw_transform(x, y, yaw))
         robot.truth.add(self.rec, x, y)
+        self._compare_odometry(robot)
 
     def _odometry(self, topic: str, msg) -> None:
         child = msg.child_frame_id.strip("/")
-        prefix = child.rpartition("/")[0] if child else _namespace(topic)
-        robot = self._robot(prefix)
+        robot = self._robot(child.rpartition("/")[0] if child else _namespace(topic))
         p = msg.pose.pose
-        ox, oy, oyaw = p.position.x, p.position.y, _yaw(p.orientation)
-        if robot.odom_to_map is None:
-            # The odom frame starts wherever the world put it; align it with the ground truth at the
-            # first odometry message so the two tracks are comparable (identity if there is no truth).
-            if robot.last_truth is not None:
-                tx, ty, tyaw = robot.last_truth
-                dyaw = tyaw - oyaw
-                c, s = math.cos(dyaw), math.sin(dyaw)
-                robot.odom_to_map = (tx - (c * ox - s * oy), ty - (s * ox + c * oy), dyaw)
+        robot.pending_odom.append((self._t_ns, p.position.x, p.position.y, _yaw(p.orientation)))
+        self._compare_odometry(robot)
+
+    def _has_truth_topic(self, robot: str) -> bool:
+        ns = "" if robot == "robot" else robot
+        return any(f"{ns}/{name}".strip("/") in self._topic_names for name in TRUTH_POSE_TOPICS)
+
+    def _compare_odometry(self, robot: _Robot) -> None:
+        """Draw odometry in the map frame, next to the ground truth of the same instant.
+
+        The odom frame starts wherever the world put it, so it is aligned with the truth at the
+        first odometry message; each odometry pose waits until the truth of its instant (which may
+        be logged just after it) is known, then is compared with it.
+        """
+        if robot.expects_truth and not robot.truths:
+            return
+        now = self._t_ns
+        while robot.pending_odom:
+            t, ox, oy, oyaw = robot.pending_odom[0]
+            truth = None
+            if robot.expects_truth:
+                if robot.truths[-1][0] < t:
+                    break  # the truth of this instant has not arrived yet
+                truth = min(robot.truths, key=lambda tr: abs(tr[0] - t))[1:]
+            robot.pending_odom.popleft()
+            if robot.odom_to_map is None:
+                if truth is None:
+                    robot.odom_to_map = (0.0, 0.0, 0.0)
+                else:
+                    dyaw = truth[2] - oyaw
+                    c, s = math.cos(dyaw), math.sin(dyaw)
+                    robot.odom_to_map = (truth[0] - (c * ox - s * oy), truth[1] - (s * ox + c * oy), dyaw)
+            dx, dy, dyaw = robot.odom_to_map
+            c, s = math.cos(dyaw), math.sin(dyaw)
+            x, y, yaw = dx + c * ox - s * oy, dy + s * ox + c * oy, oyaw + dyaw
+            self._set_time(t)
+            robot.odom.add(self.rec, x, y)
+            if truth is None:  # odometry is all we know of this robot's pose
+                self.rec.log(f"world/robots/{robot.name}", _yaw_transform(x, y, yaw))
             else:
-                robot.odom_to_map = (0.0, 0.0, 0.0)
-        dx, dy, dyaw = robot.odom_to_map
-        c, s = math.cos(dyaw), math.sin(dyaw)
-        x, y, yaw = dx + c * ox - s * oy, dy + s * ox + c * oy, oyaw + dyaw
-        robot.odom.add(self.rec, x, y)
-        if not robot.has_truth:
-            self.rec.log(f"world/robots/{robot.name}", _yaw_transform(x, y, yaw))
-        elif robot.last_truth is not None:
-            tx, ty, tyaw = robot.last_truth
-            self._scalar(f"plots/{robot.name}/odom_error", "position_m", math.hypot(x - tx, y - ty))
-            err = math.remainder(yaw - tyaw, 2 * math.pi)
-            self._scalar(f"plots/{robot.name}/odom_error", "heading_rad", err)
+                group = f"plots/{robot.name}/odom_error"
+                self._scalar(group, "position_m", math.hypot(x - truth[0], y - truth[1]))
+                self._scalar(group, "heading_rad", math.remainder(yaw - truth[2], 2 * math.pi))
+        self._set_time(now)
 
     # ---------------------------------------------------------------- sensors
     def _laser_scan(self, topic: str, msg) -> None:
