@@ -273,3 +273,16 @@ def test_cmd_vel_stamped_parameter_takes_twist_stamped(executor, make_node):
     assert not spin_until(executor, lambda: world.model.vel[0, 0] == 5.0, timeout=0.5)
     world.step()
     assert world.model.poses()[0, 0] == pytest.approx(1.01)
+
+
+def test_demo_runs_the_four_robots_for_300_steps_and_draws_tracks(ros, tmp_path):
+    from PIL import Image
+
+    from simrobot_sim.demo import run_demo
+
+    summary = run_demo(tmp_path)
+    assert summary["steps"] == 300
+    assert sorted(summary["travelled_m"]) == ["r1", "r2", "r3", "r4"]
+    # alg2 moves at 0.5 cm per step, straight or turning: every robot covers most of 1.5 m
+    assert all(1.0 < d <= 1.5 + 1e-6 for d in summary["travelled_m"].values())
+    assert Image.open(summary["tracks_png"]).size[0] > 400
