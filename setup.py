@@ -82,6 +82,8 @@ setup(
         "numba>=0.60",
         "trimesh>=4.0",
         "mcap>=1.1",
+        "zstandard",
+        "lz4",
         "rerun-sdk>=0.41",
         "pyyaml",
         "pillow",
