@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import array
 import math
 import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
 from rclpy.node import Node
@@ -21,6 +23,28 @@ from sim_runtime.qos import CLOCK_QOS
 #: gives up on real time (like the MATLAB timer's BusyMode "drop"): physics never
 #: takes bigger steps, the run just falls behind the wall clock.
 MAX_CATCH_UP_STEPS = 50
+
+
+def _like(default: Any, value: Any) -> Any:
+    """``value`` converted to ``default``'s type where that loses nothing, else None."""
+    if isinstance(default, bool) or default is None:
+        return value if isinstance(value, bool) or default is None else None
+    if isinstance(default, float):
+        return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+    if isinstance(default, int):
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+    if isinstance(default, str):
+        return value if isinstance(value, str) else None
+    if isinstance(default, list | tuple):
+        if not isinstance(value, list | tuple | array.array):
+            return None
+        items = list(value)
+        if default and isinstance(default[0], float):
+            if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in items):
+                return None
+            return [float(v) for v in items]
+        return items
+    return value
 
 
 class _Scheduled:
@@ -95,15 +119,21 @@ class SimWorldNode(Node):
     def declare_checked(
         self, name: str, default: Any, check: Callable[[Any], bool], description: str
     ) -> Any:
-        """Declare a parameter and return its value; a value failing ``check`` raises
-        :class:`InputError` naming the parameter, the value and what is expected."""
-        value = self.declare_parameter(name, default).value
+        """Declare a parameter and return its value, typed like ``default``.
+
+        Whole numbers are accepted where a float is expected (``-p real_time_factor:=0``,
+        ``-p initial_pose:=[1,0,0]``); a value of another type, or failing ``check``, raises
+        :class:`InputError` naming the parameter, the value and what is expected.
+        """
+        descriptor = ParameterDescriptor(description=description, dynamic_typing=True)
+        given = self.declare_parameter(name, default, descriptor).value
+        value = _like(default, given)
         try:
-            ok = bool(check(value))
+            ok = value is not None and bool(check(value))
         except (TypeError, ValueError):
             ok = False
         if not ok:
-            raise InputError(f"parameter '{name}' = {value!r} is invalid: {description}")
+            raise InputError(f"parameter '{name}' = {given!r} is invalid: {description}")
         return value
 
     def stamp(self):

@@ -112,3 +112,14 @@ def test_real_time_factor_paces_the_world_against_the_wall_clock(executor):
     elapsed = time.monotonic() - start
     # Twice real time, give or take a few timer periods on a loaded machine.
     assert world.sim_time == pytest.approx(2.0 * elapsed, abs=0.15)
+
+
+def test_checked_parameters_accept_whole_numbers_for_floats_and_name_bad_types(ros):
+    world = CounterWorld(parameter_overrides=[Parameter("real_time_factor", value=0)])
+    assert world.real_time_factor == 0.0 and isinstance(world.real_time_factor, float)
+    assert world.declare_checked("pose", [0.0, 0.0, 0.0], lambda v: len(v) == 3, "[x, y, theta]") == [0.0] * 3
+    world.destroy_node()
+    with pytest.raises(InputError, match=r"parameter 'real_time_factor' = 'fast'"):
+        CounterWorld(parameter_overrides=[Parameter("real_time_factor", value="fast")])
+    with pytest.raises(InputError, match=r"parameter 'seed' = 1.5"):
+        CounterWorld(parameter_overrides=[Parameter("seed", value=1.5)])
