@@ -46,9 +46,11 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
         if size == _HEADER_BYTES + count * _BINARY_RECORD.itemsize:
             if count == 0:
                 raise InputError.at(path, None, "binary STL holds no triangles")
-            records = np.frombuffer(data, dtype=_BINARY_RECORD, count=count, offset=_HEADER_BYTES)
-            triangles = np.ascontiguousarray(records["vertices"])
-            _check_finite(triangles, path)
+            triangles = np.empty((count, 3, 3), dtype=np.float32)
+            bad = _copy_binary_vertices(np.frombuffer(data, dtype=np.uint8), triangles.reshape(-1).view(np.uint8),
+                                        triangles.reshape(-1), count)
+            if bad >= 0:
+                raise InputError.at(path, None, f"triangle {bad} has a NaN or infinite coordinate")
             return triangles
     head = data[:1024]
     if head.lstrip().startswith(b"solid") and b"\x00" not in head:
@@ -59,6 +61,24 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
     expected = _HEADER_BYTES + count * _BINARY_RECORD.itemsize
     raise InputError.at(path, None, f"truncated or corrupt binary STL: the header announces {count} "
                                     f"triangles ({expected} bytes) but the file has {size} bytes")
+
+
+@numba.njit(cache=True)
+def _copy_binary_vertices(buf, out_bytes, out_floats, count):
+    """Copy the 36 vertex bytes of every 50-byte record (one pass, no unaligned numpy path) and
+    return the first triangle with a NaN/inf coordinate, or -1."""
+    bad = -1
+    for k in range(count):
+        src = 84 + 50 * k + 12
+        dst = 36 * k
+        for j in range(36):
+            out_bytes[dst + j] = buf[src + j]
+        if bad < 0:
+            for j in range(9 * k, 9 * k + 9):
+                if not math.isfinite(out_floats[j]):
+                    bad = k
+                    break
+    return bad
 
 
 def _check_finite(triangles: np.ndarray, path: str | os.PathLike[str]) -> None:

@@ -218,3 +218,11 @@ def test_move_to_arrives_together_within_velocity_limits():
     np.testing.assert_allclose(motion.q, [1.0, -1.0], atol=1e-12)
     assert np.all(np.array(speeds) <= vmax + 1e-9)
     assert np.array(speeds)[:, 0].max() == pytest.approx(1.0, rel=1e-3)
+
+
+def test_nan_coordinate_in_binary_stl_names_the_triangle(tmp_path):
+    triangles = tetrahedron()
+    triangles[2, 1, 0] = np.nan
+    write_stl(tmp_path / "nan.stl", triangles)
+    with pytest.raises(InputError, match=r"nan\.stl.*triangle 2 has a NaN"):
+        load_stl(tmp_path / "nan.stl")
