@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import rclpy
 from geometry_msgs.msg import Twist
+from rclpy.context import Context
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 
@@ -70,9 +72,16 @@ def main(args: list[str] | None = None) -> int:
     return run_nodes(lambda: [BumpTurnNode()], args)
 
 
-def demo(duration: float = 60.0, map_file: str | None = None, seed: int = 0) -> dict:
+def demo(
+    duration: float = 60.0,
+    map_file: str | None = None,
+    seed: int = 0,
+    extra_nodes: Callable[[Context], Sequence[Node]] | None = None,
+) -> dict:
     """Run the default world with this controller for ``duration`` sim seconds, as fast as the CPU
-    allows, in this process; print and return a summary (distance driven, bumps, final pose)."""
+    allows, in this process; print and return a summary (distance driven, bumps, final pose).
+
+    ``extra_nodes(context)`` adds nodes (a recorder, a viewer) to the same executor."""
     from rclpy.parameter import Parameter
 
     from create_sim.world_node import CreateWorldNode
@@ -90,6 +99,8 @@ def demo(duration: float = 60.0, map_file: str | None = None, seed: int = 0) -> 
         world = CreateWorldNode(parameter_overrides=overrides)
         controller = BumpTurnNode(parameter_overrides=[Parameter("seed", value=seed)])
         nodes = [world, controller]
+        if extra_nodes is not None:
+            nodes += extra_nodes(world.context)
         for node in nodes:
             executor.add_node(node)
         wait_for_match(executor, controller.cmd_pub)
