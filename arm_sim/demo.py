@@ -8,7 +8,9 @@ the commands over the real topics; the world is stepped with ``node.step`` (dete
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -20,8 +22,10 @@ TRAJECTORY = [  # (seconds from start, joint positions in rad)
 TARGET_Q = [-0.6, 0.35, 0.25, 0.3, 0.7, -0.2]  # the target pose is the flange pose here
 
 
-def run_demo(out_dir: str | Path | None = None) -> dict:
-    """Run the demo; returns a summary (errors in m/rad, sim time, messages received, PNG path)."""
+def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Sequence[Any]] | None = None) -> dict:
+    """Run the demo; returns a summary (errors in m/rad, sim time, messages received, PNG path).
+
+    ``extra_nodes(context)`` adds nodes (a recorder, a viewer) to the demo's executor."""
     import rclpy
     from builtin_interfaces.msg import Duration
     from geometry_msgs.msg import PoseStamped
@@ -44,6 +48,8 @@ def run_demo(out_dir: str | Path | None = None) -> dict:
         world = ArmNode(context=context)
         commander = Node("arm_demo_commander", context=context)
         nodes += [world, commander]
+        if extra_nodes is not None:
+            nodes += extra_nodes(context)
         for node in nodes:
             executor.add_node(node)
         arm = world.arm("")

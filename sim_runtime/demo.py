@@ -14,10 +14,12 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from rclpy.context import Context
+from rclpy.logging import LoggingSeverity
 from rclpy.node import Node
 
 from sim_runtime.bag.record import Recorder
@@ -34,6 +36,7 @@ class _Recording:
 
     def __call__(self, context: Context) -> Sequence[Node]:
         self.recorder = Recorder(BagWriter(self.folder), clock="sim", context=context)
+        self.recorder.get_logger().set_level(LoggingSeverity.WARN)  # not one line per topic
         return [self.recorder]
 
     def close(self) -> int:
@@ -49,7 +52,10 @@ def _recorded(name: str, out: Path, run: Callable[[_Recording], dict]) -> dict:
     recording = _Recording(out / f"{name}_bag")
     summary = run(recording)
     messages = recording.close()
-    rrd = bag_to_rerun(recording.folder, out / f"{name}.rrd", progress=False)
+    with warnings.catch_warnings():
+        # Command topics (cmd_vel, joint_trajectory) have nothing to draw; that is expected here.
+        warnings.filterwarnings("ignore", message=".*is not drawn; skipped")
+        rrd = bag_to_rerun(recording.folder, out / f"{name}.rrd", progress=False)
     print(f"  {name}: {messages} messages recorded in {recording.folder}; Rerun file {rrd}")
     return {"summary": summary, "bag": recording.folder, "rrd": rrd}
 
