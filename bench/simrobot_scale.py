@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import os
-import resource
 import sys
 import time
 from pathlib import Path
@@ -107,6 +106,15 @@ def node_step_ms(n: int, steps: int = 10) -> float:
         world.destroy_node()
 
 
+def current_rss_mb() -> float:
+    """Resident memory of this process now (Linux), in MB."""
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    return math.nan
+
+
 def history_memory() -> list[tuple[int, int, float]]:
     world = SimrobotWorld(scene(10, history_steps=10000))
     drive(world)
@@ -114,8 +122,7 @@ def history_memory() -> list[tuple[int, int, float]]:
     for k in range(1, 100001):
         world.step()
         if k in (1000, 10000, 50000, 100000):
-            rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-            rows.append((k, world.history.nbytes() // len(world.names), rss_mb))
+            rows.append((k, world.history.nbytes() // len(world.names), current_rss_mb()))
     return rows
 
 
@@ -145,7 +152,7 @@ def main() -> None:
         rclpy.shutdown()
 
     print("\nhistory memory, 10 robots, history_steps = 10000:")
-    print(f"{'steps':>8}{'bytes/robot':>13}{'max RSS MB':>12}")
+    print(f"{'steps':>8}{'bytes/robot':>13}{'RSS MB':>12}")
     for k, per_robot, rss in history_memory():
         print(f"{k:>8}{per_robot:>13}{rss:>12.0f}")
 
