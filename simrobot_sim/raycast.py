@@ -268,9 +268,9 @@ def _traverse_walls(field, ox, oy, dx, dy, t_start, t_end):
     t = t_start
     while True:
         c = field[cx, cy]
-        if c == WALL:
-            return t, t, 0.0
-        if c >= JUMP_MIN:
+        if c >= JUMP_MIN:  # one test per cell: walls are the top value
+            if c == WALL:
+                return t, t, 0.0
             return np.inf, t, float(c)
         if tmx < tmy:
             t = tmx
