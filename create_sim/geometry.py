@@ -24,8 +24,11 @@ _PARALLEL_TOL = 1e-14
 
 @numba.njit(cache=True, inline="always")
 def ray_segment_distance(ox: float, oy: float, dx: float, dy: float,
-                         x1: float, y1: float, x2: float, y2: float) -> float:
-    """Distance along the unit ray (ox, oy)+t(dx, dy), t ≥ 0, to the segment; inf if it misses."""
+                         x1: float, y1: float, x2: float, y2: float, limit: float) -> float:
+    """Distance along the unit ray (ox, oy)+t(dx, dy), 0 ≤ t < limit, to the segment; else inf.
+
+    ``limit`` (the nearest hit so far) lets a caster skip the second half of the test.
+    """
     sx = x2 - x1
     sy = y2 - y1
     ax = x1 - ox
@@ -39,12 +42,12 @@ def ray_segment_distance(ox: float, oy: float, dx: float, dy: float,
         t2 = (x2 - ox) * dx + (y2 - oy) * dy
         lo = min(t1, t2)
         hi = max(t1, t2)
-        if hi < 0.0:
+        if hi < 0.0 or max(lo, 0.0) >= limit:
             return np.inf
         return max(lo, 0.0)
     inv = 1.0 / denom
     t = (ax * sy - ay * sx) * inv
-    if t < 0.0:
+    if t < 0.0 or t >= limit:
         return np.inf
     u = (ax * dy - ay * dx) * inv
     if u < -_SEGMENT_PARAM_TOL or u > 1.0 + _SEGMENT_PARAM_TOL:
@@ -176,26 +179,21 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
     py = oy + dy * t_in
     ix = min(max(int((px - x0) / cell), 0), nx - 1)
     iy = min(max(int((py - y0) / cell), 0), ny - 1)
-    if dx > 0.0:
-        step_x = 1
-        t_max_x = (x0 + (ix + 1) * cell - ox) / dx
-        t_delta_x = cell / dx
-    elif dx < 0.0:
-        step_x = -1
-        t_max_x = (x0 + ix * cell - ox) / dx
-        t_delta_x = -cell / dx
+    # Ray parameter at the next x / y cell boundary, and its increment per cell.
+    if dx != 0.0:
+        inv_dx = 1.0 / dx
+        step_x = 1 if dx > 0.0 else -1
+        t_max_x = (x0 + (ix + (1 if dx > 0.0 else 0)) * cell - ox) * inv_dx
+        t_delta_x = abs(cell * inv_dx)
     else:
         step_x = 0
         t_max_x = np.inf
         t_delta_x = np.inf
-    if dy > 0.0:
-        step_y = 1
-        t_max_y = (y0 + (iy + 1) * cell - oy) / dy
-        t_delta_y = cell / dy
-    elif dy < 0.0:
-        step_y = -1
-        t_max_y = (y0 + iy * cell - oy) / dy
-        t_delta_y = -cell / dy
+    if dy != 0.0:
+        inv_dy = 1.0 / dy
+        step_y = 1 if dy > 0.0 else -1
+        t_max_y = (y0 + (iy + (1 if dy > 0.0 else 0)) * cell - oy) * inv_dy
+        t_delta_y = abs(cell * inv_dy)
     else:
         step_y = 0
         t_max_y = np.inf
@@ -208,7 +206,8 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
             if mailbox[s] == stamp:
                 continue
             mailbox[s] = stamp
-            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3])
+            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3],
+                                     best)
             if t < best:
                 best = t
         t_exit = min(t_max_x, t_max_y)
@@ -284,7 +283,8 @@ def brute_cast_fan(segs, ox, oy, angles, max_range):
         dy = math.sin(angles[i])
         best = np.inf
         for s in range(segs.shape[0]):
-            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3])
+            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3],
+                                     best)
             if t < best:
                 best = t
         out[i] = best if best <= max_range else np.inf
