@@ -30,7 +30,6 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
     from builtin_interfaces.msg import Duration
     from geometry_msgs.msg import PoseStamped
     from rclpy.context import Context
-    from rclpy.experimental import EventsExecutor
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -38,11 +37,12 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
     from arm_sim.arm_node import ArmNode
     from sim_runtime.msgs import quaternion_from_matrix
     from sim_runtime.qos import COMMAND_QOS
+    from sim_runtime.run import make_executor
     from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
     context = Context()
     rclpy.init(context=context)
-    executor = EventsExecutor(context=context)
+    executor = make_executor(context)
     nodes: list[Node] = []
     try:
         world = ArmNode(context=context)

@@ -12,12 +12,14 @@ dropped however fast the world runs. Output goes to ``out/demo/<time>/``.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import rclpy.logging
 from rclpy.context import Context
 from rclpy.logging import LoggingSeverity
 from rclpy.node import Node
@@ -35,8 +37,8 @@ class _Recording:
         self.recorder: Recorder | None = None
 
     def __call__(self, context: Context) -> Sequence[Node]:
+        rclpy.logging.set_logger_level("recorder", LoggingSeverity.WARN)  # not one line per topic
         self.recorder = Recorder(BagWriter(self.folder), clock="sim", context=context)
-        self.recorder.get_logger().set_level(LoggingSeverity.WARN)  # not one line per topic
         return [self.recorder]
 
     def close(self) -> int:
@@ -67,31 +69,30 @@ def create_demo(out: Path) -> dict:
     return _recorded("create", out, lambda rec: demo(60.0, extra_nodes=rec))
 
 
-def simrobot_demo(out: Path) -> dict:
-    """The seed's SIMROBOT demo: four robots, 300 lockstep steps, tracks PNG."""
-    from simrobot_sim.demo import run_demo
+def _hosted_demo(name: str, module: str) -> Callable[[Path], dict]:
+    """A demo whose ``module.run_demo(out_dir, extra_nodes=...)`` hosts our recorder."""
 
-    def run(rec: _Recording) -> dict:
-        summary = run_demo(out, extra_nodes=rec)
-        print(f"simrobot demo: {summary}")
-        return summary
+    def demo(out: Path) -> dict:
+        run_demo = importlib.import_module(module).run_demo
 
-    return _recorded("simrobot", out, run)
+        def run(rec: _Recording) -> dict:
+            summary = run_demo(out, extra_nodes=rec)
+            print(f"{name} demo: {summary}")
+            return summary
 
+        return _recorded(name, out, run)
 
-def arm_demo(out: Path) -> dict:
-    """IRB120 following a joint trajectory, then a target pose."""
-    from arm_sim.demo import run_demo
-
-    def run(rec: _Recording) -> dict:
-        summary = run_demo(out, extra_nodes=rec)
-        print(f"arm demo: {summary}")
-        return summary
-
-    return _recorded("arm", out, run)
+    demo.__doc__ = importlib.import_module(module).run_demo.__doc__
+    return demo
 
 
-DEMOS = {"create": create_demo, "simrobot": simrobot_demo, "arm": arm_demo}
+DEMOS = {
+    "create": create_demo,
+    # The seed's SIMROBOT demo: four robots, 300 lockstep steps, tracks PNG.
+    "simrobot": _hosted_demo("simrobot", "simrobot_sim.demo"),
+    # IRB120 following a joint trajectory, then a target pose.
+    "arm": _hosted_demo("arm", "arm_sim.demo"),
+}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,7 +8,9 @@ four rooms joined by doorways, a few boxes and a round pillar).
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -44,14 +46,17 @@ def draw_demo_map(path: str | Path, size: int = 500) -> Path:
     return path
 
 
-def run_demo(out_dir: str | Path, steps: int = 300) -> dict:
+def run_demo(
+    out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None
+) -> dict:
     """Run the demo world in lockstep with its four in-process alg2 controllers and write
     ``simrobot_tracks.png`` into ``out_dir``. Returns a summary (steps, per-robot distance
-    travelled in metres, crashed robots, PNG path)."""
+    travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a
+    recorder, a viewer) to the demo's executor."""
     import rclpy
     from rclpy.context import Context
-    from rclpy.experimental import EventsExecutor
 
+    from sim_runtime.run import make_executor
     from simrobot_sim.avoid import AvoidNode
     from simrobot_sim.tracks import draw_tracks
     from simrobot_sim.world_file import load_world
@@ -62,7 +67,7 @@ def run_demo(out_dir: str | Path, steps: int = 300) -> dict:
     spec = load_world(config_path(DEMO_WORLD))
     context = Context()
     rclpy.init(context=context)
-    executor = EventsExecutor(context=context)  # the runtime's executor kind, on our own context
+    executor = make_executor(context)
     nodes = []
     try:
         world = SimrobotWorldNode(spec, context=context)
@@ -70,6 +75,8 @@ def run_demo(out_dir: str | Path, steps: int = 300) -> dict:
         for robot in spec.robots:
             sonar = next(s.name for s in robot.sensors if s.kind == "ultrasonic")
             nodes.append(AvoidNode(robot=robot.name, sensor=sonar, context=context))
+        if extra_nodes is not None:
+            nodes += extra_nodes(context)
         for node in nodes:
             executor.add_node(node)
         done = spin_steps(executor, world, steps)
