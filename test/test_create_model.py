@@ -485,6 +485,26 @@ def test_never_inside_a_wall(seed, n_walls, sequence, room):
         assert np.isfinite(robot.pose).all()
 
 
+def test_never_inside_a_wall_over_ten_thousand_random_sequences():
+    """The issue's bulk form of the property: 10,000 random command sequences (20 commands,
+    random dt) from random free poses in 100 random maps, half of them closed rooms."""
+    rng = np.random.default_rng(20261122)
+    box = [[-3, -3, 3, -3], [3, -3, 3, 3], [3, 3, -3, 3], [-3, 3, -3, -3]]
+    for map_index in range(100):
+        walls = random_walls(rng, int(rng.integers(1, 25)))
+        robot_map = world(walls=np.vstack([walls, box]) if map_index % 2 else walls)
+        robot = CreateModel(robot_map, pose=free_pose(robot_map, rng))
+        for _ in range(100):
+            robot.set_pose(*free_pose(robot_map, rng))
+            v = rng.uniform(-2.0, 2.0, 20)
+            w = rng.uniform(-10.0, 10.0, 20)
+            dt = rng.choice([0.01, 0.05, 0.3], 20)
+            for k in range(20):
+                robot.set_velocity(v[k], w[k])
+                robot.step(dt[k])
+                assert robot.clearance() >= -1e-9, (map_index, robot.pose, v[k], w[k], dt[k])
+
+
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_walls=st.integers(0, 120))
 def test_grid_culled_lidar_agrees_with_brute_force(seed, n_walls):
