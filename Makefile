@@ -29,6 +29,7 @@ demo: venv
 	$(PY) -m sim_runtime.demo
 
 bench: venv
+	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"
 	set -e; for script in bench/*.py; do echo "== $$script"; $(PY) $$script; done
 
 clean:

@@ -93,6 +93,8 @@ setup(
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
         "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
+        "bench": ["roboticstoolbox-python"],
     },
     entry_points={
         "console_scripts": ["robot_sims = sim_runtime.cli:main"],
