@@ -9,11 +9,12 @@ import pytest
 from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from std_srvs.srv import SetBool, Trigger
-from test_create_node import Rig
+from test_create_node import Rig, make_world
 
 from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.msgs import time_from_msg
+from sim_runtime.paths import config_path
 from sim_runtime.qos import SENSOR_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
@@ -35,6 +36,20 @@ def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
     for subscription in rig.probe.subscriptions:
         assert wait_for_match(rig.executor, subscription)
     return robot
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compiled_kernels(ros):
+    """Compile (or load from cache) every numba kernel of the world before any test runs: the
+    client's timeouts are wall-clock, and a first compile on a cold cache can take longer."""
+    world = make_world({"map_file": str(config_path("create/example.map")), "real_time_factor": 0.0,
+                        "config_file": str(config_path("create/example_config.txt"))})
+    world.model.set_velocity(0.2, 0.5)
+    world.step(20)
+    model = world.model
+    model.bumps(), model.cliff_signals(), model.wall_sensor(), model.virtual_wall()
+    model.sonar(), model.lidar(), model.camera()
+    world.destroy_node()
 
 
 @pytest.fixture
