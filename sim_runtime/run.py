@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Callable, Sequence
 
@@ -10,6 +11,7 @@ from rclpy.context import Context
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from sim_runtime.errors import InputError
 from sim_runtime.world_node import SimWorldNode
@@ -36,6 +38,37 @@ def drain(executor, timeout_sec: float = 1.0) -> bool:
     return marker.done()
 
 
+class StopSignal:
+    """Ctrl-C and SIGTERM as a flag that an executable's main loop polls.
+
+    rclpy's own handlers shut the context down wherever the program happens to be, so a
+    world stopped mid-step failed with "publisher's context is invalid", and Python's
+    KeyboardInterrupt surfaced inside callbacks. With a flag the loop finishes what it is
+    doing, then stops and cleans up; a second Ctrl-C while a bag is being finished is
+    harmless for the same reason.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, self._request)
+
+    def _request(self, _signum: int, _frame: object) -> None:
+        self.requested = True
+
+    @property
+    def running(self) -> bool:
+        """True until a stop was requested or rclpy was shut down."""
+        return not self.requested and rclpy.ok()
+
+
+def init_ros(args: Sequence[str] | None = None) -> StopSignal:
+    """``rclpy.init`` for an executable's main, with our stop flag instead of rclpy's handlers."""
+    stop = StopSignal()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    return stop
+
+
 def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None = None) -> int:
     """Initialise rclpy, build the nodes, spin them in one executor until shutdown.
 
@@ -43,7 +76,7 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
     CPU allows, handling every queued callback between steps. Bad input found while building
     the nodes is printed as one clear line and the process exits with status 2.
     """
-    rclpy.init(args=args)
+    stop = init_ros(args)
     nodes: list[Node] = []
     try:
         try:
@@ -65,7 +98,7 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
             if world not in fast:
                 world.start_pacing()
         if fast:
-            while rclpy.ok():
+            while stop.running:
                 stepped = False
                 for world in fast:
                     if world.ready_to_step():
@@ -78,9 +111,9 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
         else:
             # EventsExecutor.spin() neither fires these timers nor returns on SIGINT here;
             # short spin_once calls do both.
-            while rclpy.ok():
+            while stop.running:
                 executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         for node in nodes:

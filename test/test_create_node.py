@@ -501,6 +501,8 @@ def test_create_world_process_serves_another_process(executor, make_node, rtf):
         assert spin_until(executor, lambda: odom.last.pose.pose.position.x > 0.2, timeout=10.0)
         world.send_signal(signal.SIGINT)  # Ctrl-C
         assert world.wait(timeout=10.0) == 0
+        errors = world.stderr.read()
+        assert "Traceback" not in errors and "FATAL" not in errors, errors
     finally:
         if world.poll() is None:
             world.kill()

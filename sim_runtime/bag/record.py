@@ -405,9 +405,9 @@ def main(args: Sequence[str] | None = None) -> int:
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2
-    from sim_runtime.run import make_executor
+    from sim_runtime.run import init_ros, make_executor
 
-    rclpy.init(args=ros_argv)
+    stop = init_ros(ros_argv)
     recorder = None
     try:
         recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)
@@ -415,9 +415,9 @@ def main(args: Sequence[str] | None = None) -> int:
         executor.add_node(recorder)
         print(f'recording to {writer.folder} (Ctrl-C to stop)', file=sys.stderr)
         # With no timeout the events executor never returns to Python to see Ctrl-C.
-        while rclpy.ok() and not recorder.done.done():
+        while stop.running and not recorder.done.done():
             executor.spin_until_future_complete(recorder.done, timeout_sec=0.5)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)

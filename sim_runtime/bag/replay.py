@@ -414,7 +414,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point; `args` is a full argv (program name first), default sys.argv."""
-    from sim_runtime.run import make_executor
+    from sim_runtime.run import init_ros, make_executor
 
     ours, ros_argv = split_ros_args(sys.argv if args is None else args)
     opts = parse_args(ours)
@@ -425,7 +425,7 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f'error: {exc}', file=sys.stderr)
         return 2
     sys.setswitchinterval(SWITCH_INTERVAL)
-    rclpy.init(args=ros_argv)
+    stop = init_ros(ros_argv)
     player = None
     try:
         player = Player(
@@ -438,9 +438,9 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f'playing {bag}', file=sys.stderr)
         player.start()
         # A timeout lets the events executor return to Python so Ctrl-C is seen.
-        while rclpy.ok() and not player.finished.done():
+        while stop.running and not player.finished.done():
             executor.spin_until_future_complete(player.finished, timeout_sec=0.5)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
