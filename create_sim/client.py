@@ -238,8 +238,8 @@ class CreateRobot:
     def set_fwd_vel_ang_vel(self, fwd_vel: float, ang_vel: float) -> tuple[float, float]:
         """``SetFwdVelAngVelCreate``: forward (m/s) and angular (rad/s, CCW) velocity.
 
-        Each wheel is limited to ±0.5 m/s (over-limit commands are scaled per wheel, as the robot
-        does). Returns the (v, ω) sent. Does not block.
+        Each wheel is clamped to ±0.5 m/s (so an over-limit turn keeps turning, unlike the
+        original toolbox). Returns the (v, ω) sent. Does not block.
         """
         _check_finite(fwd_vel=fwd_vel, ang_vel=ang_vel)
         right = _clamp(fwd_vel + ang_vel * WHEEL_BASE / 2, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
@@ -271,6 +271,10 @@ class CreateRobot:
         v, w = (right + left) / 2, (right - left) / WHEEL_BASE
         twist = Twist()
         twist.linear.x, twist.angular.z = v, w
+        if self._cmd_pub.get_subscription_count() == 0:
+            # A command published before the world has matched would be lost silently.
+            self._wait_until(lambda: self._cmd_pub.get_subscription_count() > 0,
+                             "waiting for the world to subscribe to cmd_vel")
         if self._stamped:
             msg = TwistStamped(twist=twist)
             msg.header.stamp = self.node.get_clock().now().to_msg()

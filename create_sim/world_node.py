@@ -365,7 +365,7 @@ class CreateWorldNode(SimWorldNode):
             self.pub_scan: stamped(LaserScan, self.frame("laser"), angle_min=-m.LIDAR_FOV / 2,
                                    angle_max=m.LIDAR_FOV / 2, angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
                                    time_increment=0.0, scan_time=1.0 / scan_rate, range_min=lo, range_max=hi),
-            self.pub_odom: stamped(Odometry, "odom", child_frame_id=self.frame("base_link")),
+            self.pub_odom: stamped(Odometry, self.frame("odom"), child_frame_id=self.frame("base_link")),
             self.pub_overhead: stamped(PoseStamped, "map"),
             self.pub_buttons: stamped(Joy, self.frame("base_link")),
             self.pub_battery: stamped(
@@ -488,8 +488,7 @@ def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], w
 
 def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.ndarray:
     """Triangle (3, 2) of a virtual wall's main field: emitter, then the two far corners."""
-    # The seed treats any setting other than exactly 1 or 2 (even 2.5) as "long".
-    length, angle = CreateModel.VWALL_FIELDS[setting if setting in (1, 2) else 3]
+    length, angle = CreateModel.VWALL_FIELDS[int(setting)]  # the map parser admits only 1, 2, 3
     corners = [(x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2))
                for s in (1, -1)]
     return np.array([(x, y), *corners])

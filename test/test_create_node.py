@@ -394,7 +394,8 @@ def test_namespace_prefixes_robot_frames(executor, make_node, tmp_path):
     world.step(10)
     assert spin_until(executor, lambda: scan.last is not None and odom.last is not None)
     assert scan.last.header.frame_id == "robot2/laser"
-    assert odom.last.header.frame_id == "odom" and odom.last.child_frame_id == "robot2/base_link"
+    # Each robot has its own odometry frame (REP-105 with a prefix per robot).
+    assert odom.last.header.frame_id == "robot2/odom" and odom.last.child_frame_id == "robot2/base_link"
     explicit = CreateWorldNode(namespace="robot3", parameter_overrides=[
         Parameter("map_file", value=""), Parameter("frame_prefix", value="kitchen/create_")])
     assert explicit.frame("laser") == "kitchen/create_laser"

@@ -339,9 +339,9 @@ class RerunLogger:
     def _frame_entity(self, frame_id: str) -> str:
         """The entity of a frame: the map, a robot, or a sensor mounted on a robot."""
         frame = frame_id.strip("/")
-        if frame in ("", "map", "world", "odom"):
-            return "world"
         prefix, _, leaf = frame.rpartition("/")
+        if frame in ("", "map", "world") or leaf == "odom":  # odometry frames start at the map origin
+            return "world"
         key = prefix or "robot"
         known = key in self._robots or key in self._topic_robots
         if not known:
