@@ -366,9 +366,9 @@ class ArmNode(SimWorldNode):
         raise KeyError(prefix)
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """Entry point ``arm``."""
-    run_nodes(lambda: [ArmNode()], args)
+    return run_nodes(lambda: [ArmNode()], args)
 
 
 if __name__ == "__main__":

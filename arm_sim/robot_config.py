@@ -51,9 +51,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from sim_runtime.errors import InputError
+from sim_runtime.yamlfile import load_yaml
 
 _CONSTANTS = {"pi": math.pi, "deg": math.pi / 180.0}
 _BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
@@ -218,13 +218,7 @@ def read_color(reader: _Reader, value: Any, where: str) -> tuple[float, float, f
 def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     """Read and check a robot configuration file; raises InputError naming file, field and index."""
     path = Path(path).resolve()
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError.at(path, None, f"cannot read robot config: {exc.strerror or exc}") from exc
-    except yaml.YAMLError as exc:
-        line = getattr(getattr(exc, "problem_mark", None), "line", None)
-        raise InputError.at(path, None if line is None else line + 1, f"invalid YAML: {exc}") from exc
+    raw = load_yaml(path, "robot config")
     r = _Reader(path)
     raw = r.mapping(raw, "<top level>")
     known = {"name", "mesh_folder", "dof", "base", "joint_types", "joint_names", "modified_dh", "dh",

@@ -24,11 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from arm_sim.robot_config import _Reader, read_color, read_transform
 from arm_sim.stl import load_stl
-from sim_runtime.errors import InputError
+from sim_runtime.yamlfile import load_yaml
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -64,12 +63,7 @@ class Scene:
 def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read a scene file and its meshes; raises InputError naming file, field and index."""
     path = Path(path).resolve()
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError.at(path, None, f"cannot read scene file: {exc.strerror or exc}") from exc
-    except yaml.YAMLError as exc:
-        raise InputError.at(path, None, f"invalid YAML: {exc}") from exc
+    raw = load_yaml(path, "scene file")
     r = _Reader(path)
     raw = r.mapping(raw if raw is not None else {}, "<top level>")
     unknown = set(raw) - {"objects", "arms"}

@@ -57,6 +57,6 @@ class AvoidNode(Node):
         self.publisher.publish(self._cmd)
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """``simrobot_avoid --ros-args -r __ns:=/<robot>``."""
-    run_nodes(lambda: [AvoidNode()], args)
+    return run_nodes(lambda: [AvoidNode()], args)

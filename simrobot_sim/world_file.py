@@ -8,10 +8,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from PIL import Image
 
 from sim_runtime.errors import InputError
+from sim_runtime.yamlfile import load_yaml
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
@@ -336,11 +336,4 @@ def load_world(path: str | Path) -> WorldSpec:
     Every error names the file, the robot (index and name) and the field.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError.at(path, None, "world file not found")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        line = exc.problem_mark.line + 1 if getattr(exc, "problem_mark", None) else None
-        raise InputError.at(path, line, f"invalid YAML: {exc}") from exc
-    return parse_world(data, str(path), path.parent)
+    return parse_world(load_yaml(path, "world file"), str(path), path.parent)

@@ -358,6 +358,6 @@ def make_nodes() -> list[Node]:
     return nodes
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     """``simrobot_world --ros-args -p world_file:=<world.yaml>``."""
-    run_nodes(make_nodes, args)
+    return run_nodes(make_nodes, args)

@@ -1,0 +1,77 @@
+"""Every executable turns bad input into one clear line on stderr and exit status 2, and stops
+cleanly on SIGTERM, as a user running it from a terminal or a script relies on."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from rosgraph_msgs.msg import Clock
+
+from sim_runtime.testing import Collector, spin_until
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_exe(name: str, *args: str, **popen) -> subprocess.Popen:
+    """``robot_sims <name> args...`` from this checkout, in its own process."""
+    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
+    return subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
+
+
+@pytest.fixture(scope="module")
+def garbage(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("bad") / "garbage.yaml"
+    path.write_bytes(bytes(range(256)) * 4)
+    return path
+
+
+def bad_inputs(garbage: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
+    existing = tmp / "existing_bag"
+    existing.mkdir(exist_ok=True)
+    return {
+        "create_world": (["--ros-args", "-p", "map_file:=/no/such.map"], "/no/such.map"),
+        "simrobot_world": (["--ros-args", "-p", f"world_file:={garbage}"], str(garbage)),
+        "arm": (["--ros-args", "-p", f"robot_config:={garbage}"], str(garbage)),
+        "record": (["-o", str(existing)], str(existing)),
+        "replay": (["/no/such/bag"], "/no/such/bag"),
+        "bag_to_rerun": (["/no/such/bag"], "/no/such/bag"),
+        "draw_tracks": (["/no/such/bag", "-o", str(tmp / "t.png")], "/no/such/bag"),
+    }
+
+
+@pytest.mark.parametrize("name", ["create_world", "simrobot_world", "arm", "record", "replay",
+                                  "bag_to_rerun", "draw_tracks"])
+def test_bad_input_exits_2_naming_the_file(name, garbage, tmp_path):
+    args, named = bad_inputs(garbage, tmp_path)[name]
+    process = run_exe(name, *args)
+    _out, err = process.communicate(timeout=120)
+    assert process.returncode == 2, err
+    assert named in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("name,args", [
+    ("create_world", []),
+    ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),
+    ("arm", []),
+])
+def test_worlds_stop_cleanly_on_sigterm(name, args, executor, make_node):
+    process = run_exe(name, "--ros-args", "-p", "real_time_factor:=1.0", *args)
+    try:
+        clock = Collector(make_node("probe"), Clock, "/clock", 10)
+        assert spin_until(executor, lambda: clock.msgs or process.poll() is not None, timeout=60)
+        assert process.poll() is None and clock.msgs, process.communicate()[1]  # it is stepping
+        process.send_signal(signal.SIGTERM)
+        _out, err = process.communicate(timeout=30)
+        assert process.returncode == 0, err
+        assert "Traceback" not in err and "FATAL" not in err, err
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
