@@ -21,7 +21,7 @@ Parameters (besides ``real_time_factor`` and ``seed`` from :class:`SimWorldNode`
 
 Commands: each wheel is limited to ±0.5 m/s (an over-limit command is clamped per wheel and
 v, ω recomputed, as the seed's keyboard control meant to). A command with a NaN/inf component,
-or a component whose magnitude exceeds :data:`ABSURD_COMMAND` (1000 m/s or rad/s: a unit or
+or a component whose magnitude exceeds :data:`sim_runtime.msgs.ABSURD_COMMAND` (1000 m/s or rad/s: a unit or
 uninitialised-variable bug, not a request to drive fast), is rejected with a throttled warning
 and leaves the state unchanged.
 
@@ -55,8 +55,10 @@ from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
+    ABSURD_COMMAND,
     all_finite,
     color_msg,
+    command_ok,
     float32_array,
     pose_msg,
     yaw_from_quaternion,
@@ -69,7 +71,6 @@ from sim_runtime.world_node import SimWorldNode
 PHYSICS_RATE = 100.0
 """Fixed physics rate (Hz), independent of ``real_time_factor``."""
 
-ABSURD_COMMAND = 1000.0
 """|v| (m/s) or |ω| (rad/s) above this is rejected as garbage instead of clamped."""
 
 DEFAULT_RATES: dict[str, float] = {
@@ -253,7 +254,7 @@ class CreateWorldNode(SimWorldNode):
         Returns False (and warns, throttled) if the command is rejected.
         """
         self.commands_received += 1
-        if not all_finite(v, w) or abs(v) > ABSURD_COMMAND or abs(w) > ABSURD_COMMAND:
+        if not command_ok(v, w):
             self.warn_throttled(
                 "cmd_vel", f"rejected cmd_vel v={v!r} w={w!r}: not finite or absurdly large "
                 f"(|value| > {ABSURD_COMMAND:g}); state unchanged")

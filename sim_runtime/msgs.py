@@ -90,5 +90,16 @@ def color_msg(r: float, g: float, b: float, a: float = 1.0) -> ColorRGBA:
 
 
 def all_finite(*values: float) -> bool:
-    """True when no value is NaN or ±inf (commands must pass this before touching state)."""
+    """True when no value is NaN or ±inf."""
     return all(math.isfinite(v) for v in values)
+
+
+#: Largest magnitude a velocity command component may have (m/s, rad/s). Anything bigger is a
+#: units bug, not a request: it would overflow the kinematics into inf.
+ABSURD_COMMAND = 1000.0
+
+
+def command_ok(*values: float) -> bool:
+    """True when every command component is finite and at most :data:`ABSURD_COMMAND` in size;
+    a command failing this is rejected (with a throttled warning) before it touches state."""
+    return all(math.isfinite(v) and abs(v) <= ABSURD_COMMAND for v in values)

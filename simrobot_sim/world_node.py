@@ -44,7 +44,15 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.errors import InputError
-from sim_runtime.msgs import color_msg, float32_array, pose_msg, quaternion_from_yaw, time_from_msg
+from sim_runtime.msgs import (
+    ABSURD_COMMAND,
+    color_msg,
+    command_ok,
+    float32_array,
+    pose_msg,
+    quaternion_from_yaw,
+    time_from_msg,
+)
 from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.world_node import SimWorldNode
@@ -193,6 +201,10 @@ class SimrobotWorldNode(SimWorldNode):
                 return  # stale: an answer to an older step
             msg = msg.twist
         v, w = msg.linear.x, msg.angular.z
+        if not command_ok(v, w):
+            self.warn_throttled(f"cmd_vel{i}", f"/{self.model.names[i]}/cmd_vel ignored: v={v!r} w={w!r} is not "
+                                f"finite or absurdly large (|value| > {ABSURD_COMMAND:g})")
+            return
         try:
             self.model.set_cmd_vel(i, v, w)
         except InputError as err:
@@ -209,6 +221,10 @@ class SimrobotWorldNode(SimWorldNode):
             self.warn_throttled(
                 f"wheel{i}", f"/{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
             )
+            return
+        if not command_ok(*msg.velocity):
+            self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
+                                f"absurdly large (|value| > {ABSURD_COMMAND:g} rad/s)")
             return
         try:
             self.model.set_wheel_speeds(i, float(msg.velocity[0]), float(msg.velocity[1]))

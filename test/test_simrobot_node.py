@@ -125,6 +125,15 @@ def test_cmd_vel_and_wheel_cmd_move_the_robot_and_nan_is_rejected(executor, make
     assert p.position.x == pytest.approx(0.99) and yaw_from_quaternion(p.orientation) == pytest.approx(0.1)
     assert world.model.poses()[1, 0] == pytest.approx(1.305)
 
+    # Finite but absurd (1e308 overflows the kinematics into inf): rejected, state unchanged.
+    before = world.model.vel.copy()
+    huge = Twist()
+    huge.linear.x = huge.angular.z = 1e308
+    cmd.publish(huge)
+    wheels.publish(JointState(velocity=[1e308, 1e308]))
+    drain(executor)
+    assert np.array_equal(world.model.vel, before)
+
 
 def call(executor, node, srv_type, name, request):
     client = node.create_client(srv_type, name)
