@@ -43,7 +43,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from visualization_msgs.msg import MarkerArray
 
-from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
+from sim_runtime.msgs import time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
 
 MAX_WHEEL_SPEED = 0.5  # m/s
@@ -85,6 +85,7 @@ class AllSensors(NamedTuple):
 
 
 def _wrap(angle: float) -> float:
+    # Plain Python on purpose: the client talks to any robot and loads none of the simulator's kernels.
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
@@ -277,7 +278,7 @@ class CreateRobot:
                              "waiting for the world to subscribe to cmd_vel")
         if self._stamped:
             msg = TwistStamped(twist=twist)
-            msg.header.stamp = self.node.get_clock().now().to_msg()
+            msg.header.stamp = time_msg(self._sim_time)  # the newest sim time the robot reported
             self._cmd_pub.publish(msg)
         else:
             self._cmd_pub.publish(twist)

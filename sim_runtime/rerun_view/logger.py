@@ -40,6 +40,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
+
 TIMELINE = "sim_time"
 CREATE_RADIUS = 0.16
 DEFAULT_HEADING_LENGTH = 0.2
@@ -120,10 +122,6 @@ def _rgba(c) -> tuple[int, int, int, int]:
     return tuple(int(round(255 * min(max(v, 0.0), 1.0))) for v in (c.r, c.g, c.b, c.a))  # type: ignore[return-value]
 
 
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 def _pose_transform(pose) -> rr.Transform3D:
     p, q = pose.position, pose.orientation
     quat = [q.x, q.y, q.z, q.w] if (q.x, q.y, q.z, q.w) != (0.0, 0.0, 0.0, 0.0) else [0.0, 0.0, 0.0, 1.0]
@@ -131,8 +129,8 @@ def _pose_transform(pose) -> rr.Transform3D:
 
 
 def _yaw_transform(x: float, y: float, yaw: float) -> rr.Transform3D:
-    return rr.Transform3D(translation=[x, y, 0.0],
-                          quaternion=rr.Quaternion(xyzw=[0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]))
+    q = quaternion_from_yaw(yaw)
+    return rr.Transform3D(translation=[x, y, 0.0], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]))
 
 
 def _points(points) -> np.ndarray:
@@ -392,7 +390,7 @@ class RerunLogger:
             self.rec.log(entity, _pose_transform(msg.pose), rr.TransformAxes3D(0.1))
             return
         robot = self._robot(_namespace(topic))
-        x, y, yaw = msg.pose.position.x, msg.pose.position.y, _yaw(msg.pose.orientation)
+        x, y, yaw = msg.pose.position.x, msg.pose.position.y, yaw_from_quaternion(msg.pose.orientation)
         robot.expects_truth = True
         robot.truths.append((self._t_ns, x, y, yaw))
         self.rec.log(f"world/robots/{robot.name}", _yaw_transform(x, y, yaw))
@@ -403,7 +401,7 @@ class RerunLogger:
         child = msg.child_frame_id.strip("/")
         robot = self._robot(child.rpartition("/")[0] if child else _namespace(topic))
         p = msg.pose.pose
-        robot.pending_odom.append((self._t_ns, p.position.x, p.position.y, _yaw(p.orientation)))
+        robot.pending_odom.append((self._t_ns, p.position.x, p.position.y, yaw_from_quaternion(p.orientation)))
         self._compare_odometry(robot)
 
     def _has_truth_topic(self, robot: str) -> bool:
