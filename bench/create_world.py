@@ -176,11 +176,10 @@ def write_map(world: CreateMap, folder: str) -> str:
 _LISTENER = r"""
 import importlib, sys
 import rclpy
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sim_runtime.qos import ANY_PUBLISHER_QOS as qos
 from sim_runtime.run import make_executor
 rclpy.init()
 node = rclpy.create_node("bench_listener")
-qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)  # matches every publisher
 for spec in sys.argv[1:]:
     topic, type_name = spec.split("=")
     package, _, message = type_name.split("/")

@@ -34,3 +34,12 @@ CLOCK_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
+
+#: Listeners that take whatever is published (live view, benchmarks): best effort and volatile
+#: match every publisher, reliable or not; a deep queue rides out bursts.
+ANY_PUBLISHER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)

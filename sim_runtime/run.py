@@ -38,6 +38,17 @@ def drain(executor, timeout_sec: float = 1.0) -> bool:
     return marker.done()
 
 
+def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(our arguments, argv for rclpy.init) from a full argv.
+
+    Everything from the first ``--ros-args`` on belongs to ROS; the rest is ours, including
+    ``--remap old:=new``, which rclpy would otherwise take for a (deprecated) remap rule.
+    """
+    argv = list(argv)
+    cut = argv.index("--ros-args") if "--ros-args" in argv else len(argv)
+    return argv[1:cut], argv[:1] + argv[cut:]
+
+
 class StopSignal:
     """Ctrl-C and SIGTERM as a flag that an executable's main loop polls.
 

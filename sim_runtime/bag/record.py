@@ -44,8 +44,9 @@ from rclpy.task import Future
 from sim_runtime.bag.reader import UnknownMessageType, message_class
 from sim_runtime.bag.writer import BagWriteError, BagWriter, qos_profiles_yaml
 from sim_runtime.errors import InputError
+from sim_runtime.run import init_ros, make_executor, split_ros_args
 
-__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args', 'split_ros_args']
+__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args']
 
 CLOCK_TOPIC = '/clock'
 _GRAPH_TOPICS = frozenset({'/rosout', '/parameter_events'})
@@ -343,17 +344,6 @@ def default_bag_name(now: datetime | None = None) -> str:
     return (now or datetime.now()).strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
 
 
-def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
-    """(our arguments, argv for rclpy.init) from a full argv.
-
-    Everything from the first ``--ros-args`` on belongs to ROS; the rest is ours, including
-    ``--remap old:=new``, which rclpy would otherwise take for a (deprecated) remap rule.
-    """
-    argv = list(argv)
-    cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
-    return argv[1:cut], argv[:1] + argv[cut:]
-
-
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     """Our command-line flags (ROS arguments already removed)."""
     parser = argparse.ArgumentParser(
@@ -405,8 +395,6 @@ def main(args: Sequence[str] | None = None) -> int:
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2
-    from sim_runtime.run import init_ros, make_executor
-
     stop = init_ros(ros_argv)
     recorder = None
     try:

@@ -44,8 +44,8 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
 from sim_runtime.bag.reader import Bag, BagMessage, UnknownMessageType, message_class, open_bag
-from sim_runtime.bag.record import split_ros_args
 from sim_runtime.errors import InputError
+from sim_runtime.run import init_ros, make_executor, split_ros_args
 
 __all__ = ['PlayStats', 'Player', 'main', 'play_bag', 'replay_qos']
 
@@ -355,8 +355,6 @@ def play_bag(
     replayed topic has that many subscribers (so nothing is lost to discovery).
     `options` go to `Player` (rate, loop, start_offset, duration, topics, exclude, remap, …).
     """
-    from sim_runtime.run import make_executor
-
     bag = bag if isinstance(bag, Bag) else open_bag(bag)
     own_executor = executor is None
     executor = executor or make_executor()
@@ -414,8 +412,6 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point; `args` is a full argv (program name first), default sys.argv."""
-    from sim_runtime.run import init_ros, make_executor
-
     ours, ros_argv = split_ros_args(sys.argv if args is None else args)
     opts = parse_args(ours)
     try:

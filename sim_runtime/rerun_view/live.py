@@ -14,19 +14,14 @@ from typing import Any
 
 import rerun as rr
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from sim_runtime.qos import ANY_PUBLISHER_QOS
 from sim_runtime.rerun_view.convert import APPLICATION_ID
 from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, type_name
 
 SUBSCRIPTION_DEPTH = 100
 DISCOVERY_PERIOD = 2.0
 """Seconds (wall clock) between looks for new topics published by other nodes."""
-
-DISCOVERED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SUBSCRIPTION_DEPTH,
-                            reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
-"""Best effort, volatile: compatible with every publisher."""
-
 
 @dataclass
 class LiveView:
@@ -68,7 +63,7 @@ class LiveView:
                 cls = message_class(types[0], topic)
             except UnknownMessageType:
                 continue
-            self.subscribe(topic, cls, DISCOVERED_QOS)
+            self.subscribe(topic, cls, ANY_PUBLISHER_QOS)
 
     def _on_message(self, topic: str, msg: object) -> None:
         sim_time = getattr(self.node, "sim_time", None)
