@@ -38,6 +38,21 @@ def drain(executor, timeout_sec: float = 1.0) -> bool:
     return marker.done()
 
 
+def spin_steps(executor, world: SimWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
+    """Step ``world`` ``steps`` times as fast as it is ready (a lockstep world waits for its
+    controllers), handling every queued callback after each step; returns the steps done
+    (fewer if the world finishes first)."""
+    done = 0
+    while done < steps and not world.finished:
+        if world.ready_to_step():
+            world.step()
+            done += 1
+            drain(executor)
+        else:
+            executor.spin_once(timeout_sec=idle_timeout)
+    return done
+
+
 def split_ros_args(argv: Sequence[str]) -> tuple[list[str], list[str]]:
     """(our arguments, argv for rclpy.init) from a full argv.
 

@@ -93,6 +93,7 @@ class SimWorldNode(Node):
         self.rng = np.random.default_rng(self.seed)
         self.sim_time = 0.0
         self.step_count = 0
+        self.finished = False  # a world that ends (a steps limit) sets this; it then never steps
         self._scheduled: list[_Scheduled] = []
         self._last_warning: dict[str, float] = {}
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
@@ -104,7 +105,7 @@ class SimWorldNode(Node):
 
     def ready_to_step(self) -> bool:
         """Whether the next step may run now; lockstep worlds wait for their controllers."""
-        return True
+        return not self.finished
 
     def every(self, rate_hz: float, callback: Callable[[], None]) -> None:
         """Run ``callback`` after each physics step at which sim time crosses a multiple of

@@ -56,11 +56,11 @@ def run_demo(
     import rclpy
     from rclpy.context import Context
 
-    from sim_runtime.run import make_executor
+    from sim_runtime.run import make_executor, spin_steps
     from simrobot_sim.avoid import AvoidNode
     from simrobot_sim.tracks import draw_tracks
     from simrobot_sim.world_file import load_world
-    from simrobot_sim.world_node import SimrobotWorldNode, spin_steps
+    from simrobot_sim.world_node import SimrobotWorldNode
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

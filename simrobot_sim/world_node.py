@@ -85,7 +85,6 @@ class SimrobotWorldNode(SimWorldNode):
         self.cmd_vel_stamped = bool(self.declare_parameter("cmd_vel_stamped", False).value)
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)
-        self.finished = False
         n = len(self.model.names)
         self._answered = np.zeros(n, dtype=bool)
         self._published_wall = time.monotonic()
@@ -339,22 +338,6 @@ def _spec_from_parameter(node_kwargs: dict) -> WorldSpec:
     if not path:
         raise InputError("parameter 'world_file' is required: --ros-args -p world_file:=<world.yaml>")
     return load_world(path)
-
-
-def spin_steps(executor, world: SimrobotWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
-    """Step ``world`` ``steps`` times as fast as it is ready (lockstep waits for controllers),
-    spinning ``executor`` in between; returns the steps done (fewer once ``steps_limit`` hits)."""
-    from sim_runtime.run import drain
-
-    done = 0
-    while done < steps and not world.finished:
-        if world.ready_to_step():
-            world.step()
-            done += 1
-            drain(executor)
-        else:
-            executor.spin_once(timeout_sec=idle_timeout)
-    return done
 
 
 def make_nodes() -> list[Node]:

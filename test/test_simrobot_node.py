@@ -20,11 +20,11 @@ from visualization_msgs.msg import MarkerArray
 
 from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
-from sim_runtime.run import drain, make_executor
+from sim_runtime.run import drain, make_executor, spin_steps
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 from simrobot_sim.avoid import AvoidNode
 from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
-from simrobot_sim.world_node import SimrobotWorldNode, spin_steps
+from simrobot_sim.world_node import SimrobotWorldNode
 
 
 def box_walls(nx: int = 200, ny: int = 100, wall_from_x: int | None = 150) -> np.ndarray:
