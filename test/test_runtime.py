@@ -100,18 +100,26 @@ def test_float32_array_fills_message_fields_exactly():
     assert list(msg.ranges) == [0.5, math.inf, 2.25]
 
 
-def test_real_time_factor_paces_the_world_against_the_wall_clock(executor):
-    import time
+def test_real_time_factor_paces_the_world_against_the_wall_clock(ros, monkeypatch):
+    import sim_runtime.world_node as world_node
 
+    wall = [100.0]
+    monkeypatch.setattr(world_node.time, "monotonic", lambda: wall[0])
     world = CounterWorld(parameter_overrides=[Parameter("real_time_factor", value=2.0)])
-    executor.add_node(world)
     world.start_pacing()
-    start = time.monotonic()
-    while time.monotonic() - start < 0.5:
-        executor.spin_once(timeout_sec=0.01)
-    elapsed = time.monotonic() - start
-    # Twice real time, give or take a few timer periods on a loaded machine.
-    assert world.sim_time == pytest.approx(2.0 * elapsed, abs=0.15)
+    wall[0] += 0.2  # 0.2 wall seconds at twice real time: 0.4 sim seconds
+    world._pace()
+    assert world.sim_time == pytest.approx(0.4) and world.physics_steps == 40
+    wall[0] += 0.004  # less than one step's worth (0.005 s wall): nothing yet
+    world._pace()
+    assert world.physics_steps == 40
+    wall[0] += 10.0  # far behind: a bounded burst, then real time from here (physics never skips)
+    world._pace()
+    assert world.physics_steps == 40 + world_node.MAX_CATCH_UP_STEPS
+    wall[0] += 0.05
+    world._pace()
+    assert world.physics_steps == 40 + world_node.MAX_CATCH_UP_STEPS + 10
+    world.destroy_node()
 
 
 def test_checked_parameters_accept_whole_numbers_for_floats_and_name_bad_types(ros):
