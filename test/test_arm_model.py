@@ -148,7 +148,7 @@ def write_config(folder: Path, **overrides) -> Path:
 
 
 @pytest.fixture(params=["standard", "modified"])
-def test_arm(request, tmp_path) -> Arm:
+def arm4(request, tmp_path) -> Arm:
     path = write_config(tmp_path, modified_dh=request.param == "modified")
     return Arm.from_file(path, load_meshes=False)
 
@@ -171,12 +171,12 @@ def test_irb120_home_pose_matches_the_seed_dh():
     np.testing.assert_allclose(T[:3, 2], [1.0, 0.0, 0.0], atol=1e-12)  # tool z points forward
 
 
-def test_fk_of_every_frame_matches_oracle(test_arm):
+def test_fk_of_every_frame_matches_oracle(arm4):
     rng = np.random.default_rng(0)
-    for q in random_q(test_arm, rng, 20):
-        frames = test_arm.fkine_all(q)
-        np.testing.assert_allclose(frames, np.array(oracle_frames(test_arm.config, q)), atol=1e-12)
-        np.testing.assert_allclose(test_arm.fkine(q), frames[-1], atol=1e-12)
+    for q in random_q(arm4, rng, 20):
+        frames = arm4.fkine_all(q)
+        np.testing.assert_allclose(frames, np.array(oracle_frames(arm4.config, q)), atol=1e-12)
+        np.testing.assert_allclose(arm4.fkine(q), frames[-1], atol=1e-12)
 
 
 @settings(max_examples=40, deadline=None)
@@ -198,17 +198,17 @@ def test_batched_variants_equal_single_calls(shipped):
                                atol=1e-12)
 
 
-def test_jacobian_matches_oracle_and_finite_differences(test_arm):
+def test_jacobian_matches_oracle_and_finite_differences(arm4):
     rng = np.random.default_rng(2)
-    cfg = test_arm.config
+    cfg = arm4.config
     h = 1e-7
-    for q in random_q(test_arm, rng, 10):
-        J = test_arm.jacob0(q)
+    for q in random_q(arm4, rng, 10):
+        J = arm4.jacob0(q)
         frames = oracle_frames(cfg, q)
         np.testing.assert_allclose(J, oracle_jacobian_point(cfg, frames, frames[-1][:3, 3], cfg.dof), atol=1e-12)
-        T0 = test_arm.fkine(q)
-        for k in range(test_arm.n):
-            dq = np.zeros(test_arm.n)
+        T0 = arm4.fkine(q)
+        for k in range(arm4.n):
+            dq = np.zeros(arm4.n)
             dq[k] = h
             Tp, Tm = oracle_frames(cfg, q + dq)[-1], oracle_frames(cfg, q - dq)[-1]
             np.testing.assert_allclose(J[:3, k], (Tp[:3, 3] - Tm[:3, 3]) / (2 * h), atol=1e-7)
@@ -259,13 +259,13 @@ def test_ik_reports_failure_for_unreachable_pose():
 
 
 # --- dynamics --------------------------------------------------------------------------------
-def test_rne_matches_lagrangian_oracle(test_arm):
+def test_rne_matches_lagrangian_oracle(arm4):
     rng = np.random.default_rng(6)
     for _ in range(5):
-        q = random_q(test_arm, rng)
-        qd, qdd = rng.normal(size=test_arm.n), rng.normal(size=test_arm.n)
-        expected = oracle_torque(test_arm.config, q, qd, qdd)
-        np.testing.assert_allclose(test_arm.rne(q, qd, qdd), expected, atol=1e-6, rtol=1e-6)
+        q = random_q(arm4, rng)
+        qd, qdd = rng.normal(size=arm4.n), rng.normal(size=arm4.n)
+        expected = oracle_torque(arm4.config, q, qd, qdd)
+        np.testing.assert_allclose(arm4.rne(q, qd, qdd), expected, atol=1e-6, rtol=1e-6)
 
 
 def test_rne_of_shipped_arms_matches_lagrangian_oracle(shipped):
@@ -277,10 +277,10 @@ def test_rne_of_shipped_arms_matches_lagrangian_oracle(shipped):
     np.testing.assert_allclose(shipped.inertia(q), oracle_mass_matrix(shipped.config, q), atol=1e-10)
 
 
-def test_gravload_holds_the_arm(test_arm):
+def test_gravload_holds_the_arm(arm4):
     rng = np.random.default_rng(9)
-    q = random_q(test_arm, rng)
-    np.testing.assert_allclose(test_arm.gravload(q), oracle_gravity(test_arm.config, q), atol=1e-10)
+    q = random_q(arm4, rng)
+    np.testing.assert_allclose(arm4.gravload(q), oracle_gravity(arm4.config, q), atol=1e-10)
 
 
 def test_irb120_gravity_torques_are_plausible():
