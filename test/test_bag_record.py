@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import yaml
 from mcap.reader import make_reader
+from rclpy.duration import Duration
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_typestore
@@ -193,7 +194,7 @@ def test_ctrl_c_finishes_the_bag(executor, make_node, tmp_path):
         assert wait_for_match(executor, pub, timeout=15)
         sent = publish_for(executor, pub, 0.5, 200.0)
         # every message reaches the recorder before we stop it (reliable, depth 100)
-        time.sleep(0.5)
+        assert pub.wait_for_all_acked(Duration(seconds=10))
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=15)
     finally:
