@@ -191,6 +191,7 @@ class ArmInstance:
         return MarkerArray(markers=[*markers, self.axes])
 
     def publish(self) -> None:
+        """Publish this arm's joint_states, robot_markers and end_effector_pose at sim time."""
         stamp = self.node.stamp()
         q, qd, qdd = self.motion.q, self.motion.qd, self.motion.qdd
         msg = self.joint_msg
@@ -232,6 +233,7 @@ class ArmInstance:
         return clipped
 
     def on_trajectory(self, msg: JointTrajectory) -> None:
+        """Follow ``msg`` from now on (it replaces any motion); bad trajectories are rejected."""
         what = "joint_trajectory"
         if not msg.points:
             self.motion.stop()
@@ -263,6 +265,7 @@ class ArmInstance:
         self.motion.follow(times, positions, velocities)
 
     def on_joint_command(self, msg: JointState) -> None:
+        """Move the named (or all) joints to the given positions, clamped to their limits."""
         what = "joint_command"
         names = list(msg.name) if msg.name else list(self.arm.joint_names)
         if len(msg.position) != len(names):
@@ -280,6 +283,7 @@ class ArmInstance:
         self.motion.move_to(self._clamped(target, what))
 
     def on_target_pose(self, msg: PoseStamped) -> None:
+        """Solve IK for ``msg`` and move there; an unreachable or invalid target leaves the arm still."""
         what = "target_pose"
         frame = msg.header.frame_id
         if frame not in ("", self.node.frame_id):
@@ -351,10 +355,12 @@ class ArmNode(SimWorldNode):
         return MarkerArray(markers=markers)
 
     def physics_step(self) -> None:
+        """Advance every arm's motion by one physics step."""
         for arm in self.arms:
             arm.motion.step(self.physics_dt)
 
     def publish(self) -> None:
+        """Publish every arm's state and markers."""
         for arm in self.arms:
             arm.publish()
 

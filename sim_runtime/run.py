@@ -8,7 +8,7 @@ from collections.abc import Callable, Sequence
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -17,7 +17,7 @@ from sim_runtime.errors import InputError
 from sim_runtime.world_node import SimWorldNode
 
 
-def make_executor(context: Context | None = None):
+def make_executor(context: Context | None = None) -> Executor:
     """The executor every process and test uses (on ``context``, default rclpy's global one).
 
     rclpy's EventsExecutor is 4-5x faster than SingleThreadedExecutor and, unlike it, does

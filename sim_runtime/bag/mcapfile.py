@@ -84,12 +84,14 @@ class McapFile:
         self._pos += len(data)
 
     def add_schema(self, name: str, encoding: str, data: bytes) -> int:
+        """Register a schema; returns its id."""
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
         self._schemas.append(schema)
         self._chunk += _record_bytes(schema)  # in the data section too: recoverable after a crash
         return schema.id
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int, metadata: dict[str, str]) -> int:
+        """Register a channel (topic); returns its id."""
         channel = Channel(id=len(self._channels) + 1, topic=topic, message_encoding=message_encoding,
                           schema_id=schema_id, metadata=metadata)
         self._channels.append(channel)
@@ -98,6 +100,7 @@ class McapFile:
         return channel.id
 
     def add_message(self, channel_id: int, log_time: int, publish_time: int, data: bytes) -> None:
+        """Append a message (times in ns) to the open chunk, closing it when full."""
         chunk = self._chunk
         offset = len(chunk)
         chunk += _MESSAGE_HEAD.pack(Opcode.MESSAGE, 22 + len(data), channel_id, 0, log_time, publish_time)
@@ -163,6 +166,7 @@ class McapFile:
         self._out.flush()
 
     def add_metadata(self, name: str, metadata: dict[str, str]) -> None:
+        """Write a metadata record (after closing the open chunk)."""
         self.close_chunk()
         record = _record_bytes(Metadata(name=name, metadata=metadata))
         self._metadata_indexes.append(MetadataIndex(offset=self._pos, length=len(record), name=name))

@@ -93,6 +93,7 @@ class PlayStats:
 
     @property
     def median_lateness_ms(self) -> float:
+        """Median of how late messages went out against their scheduled wall time, in ms."""
         return median(self.lateness_ns) / 1e6 if self.lateness_ns else 0.0
 
 
@@ -172,11 +173,13 @@ class Player(Node):
 
     @property
     def paused(self) -> bool:
+        """Whether playback is paused."""
         return self._paused
 
     # -- control -------------------------------------------------------------------------
 
     def set_paused(self, paused: bool) -> None:
+        """Pause or resume; on resume the timeline continues where it stopped."""
         with self._cond:
             self._paused = paused
             self._cond.notify_all()
@@ -188,6 +191,7 @@ class Player(Node):
             self._cond.notify_all()
 
     def stop(self) -> None:
+        """Stop playback and wait for the player thread to end."""
         with self._cond:
             self._stop = True
             self._cond.notify_all()
@@ -217,6 +221,7 @@ class Player(Node):
     # -- playback ------------------------------------------------------------------------
 
     def start(self) -> None:
+        """Start playing in a background thread (``finished`` completes at the end)."""
         self._thread = threading.Thread(target=self._run, name='bag-player', daemon=True)
         self._thread.start()
 
