@@ -164,20 +164,31 @@ def _sense(
         bx1 = min(int((ox + reach) // _BUCKET), nbx - 1)
         by0 = max(int((oy - reach) // _BUCKET), 0)
         by1 = min(int((oy + reach) // _BUCKET), nby - 1)
+        # nearest buckets first (square rings around the sensor's bucket): the caster tests
+        # candidates in this order, so near robots shorten the rays before far ones are tried
+        cbx = min(max(int(ox // _BUCKET), bx0), bx1)
+        cby = min(max(int(oy // _BUCKET), by0), by1)
+        rings = max(cbx - bx0, bx1 - cbx, cby - by0, by1 - cby)
         m = 0
-        for bx in range(bx0, bx1 + 1):
-            for by in range(by0, by1 + 1):
-                b = bx * nby + by
-                for q in range(bucket_start[b], bucket_start[b + 1]):
-                    j = bucket_items[q]
-                    if j == r:
+        for ring in range(rings + 1):
+            for bx in range(max(cbx - ring, bx0), min(cbx + ring, bx1) + 1):
+                edge = bx == cbx - ring or bx == cbx + ring
+                # inside the ring's left and right columns only its top and bottom rows are new
+                step = 1 if edge else max(2 * ring, 1)
+                for by in range(cby - ring, cby + ring + 1, step):
+                    if by < by0 or by > by1:
                         continue
-                    cand_x[m] = pose[j, 0]
-                    cand_y[m] = pose[j, 1]
-                    cand_r[m] = radius[j]
-                    cand_box[m] = box[j]
-                    cand_id[m] = ids[j]
-                    m += 1
+                    b = bx * nby + by
+                    for q in range(bucket_start[b], bucket_start[b + 1]):
+                        j = bucket_items[q]
+                        if j == r:
+                            continue
+                        cand_x[m] = pose[j, 0]
+                        cand_y[m] = pose[j, 1]
+                        cand_r[m] = radius[j]
+                        cand_box[m] = box[j]
+                        cand_id[m] = ids[j]
+                        m += 1
         raycast.cast_scan_fast(
             grid, clear, ox, oy, dirs[:nr], axis + roff[a0], dangle, srange[s], ids[r],
             cand_x[:m], cand_y[:m], cand_r[:m], cand_box[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],

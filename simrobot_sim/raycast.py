@@ -232,6 +232,10 @@ def _traverse(
             return np.inf, 0
 
 
+#: The same traversal compiled with the fast caster's options, for its exact robot tests.
+_traverse_fast = numba.njit(**_FAST)(_traverse.py_func)
+
+
 @numba.njit(cache=True)
 def cast_ray_exact(grid, ox, oy, dx, dy, max_range, self_id):
     """One ray, reference traversal. ``(dx, dy)`` is a unit vector. Returns (t, value)."""
@@ -415,6 +419,9 @@ def cast_scan_fast(
         c2 = dist2 - rad * rad
         if c2 > 0.0 and c2 > (max_range + rad) * (max_range + rad) - rad * rad:
             continue  # farther than the range
+        # no ray meets the robot before its bounding circle: rays already shorter are skipped
+        # with one comparison (candidates come nearest first, so most far ones end here)
+        t_near = math.sqrt(dist2) - rad
         bx0 = cand_box[j, 0] - ox
         by0 = cand_box[j, 1] - oy
         bx1 = cand_box[j, 2] - ox
@@ -440,6 +447,8 @@ def cast_scan_fast(
                     lo_i = max(int(math.ceil((off + half) / dangle)), 0)
                     hi_i = min(int(math.floor((off - half) / dangle)), n - 1)
             for i in range(lo_i, hi_i + 1):
+                if out_t[i] <= t_near:
+                    continue
                 dx = directions[i, 0]
                 dy = directions[i, 1]
                 # ray / box slabs
@@ -461,7 +470,7 @@ def cast_scan_fast(
                     continue
                 if ta > tb:
                     continue
-                th, v = _traverse(grid, ox, oy, dx, dy, ta, tb, self_id, rid)
+                th, v = _traverse_fast(grid, ox, oy, dx, dy, ta, tb, self_id, rid)
                 if v > 0 and th < out_t[i]:
                     out_t[i] = th
                     out_v[i] = v
