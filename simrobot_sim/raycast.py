@@ -381,32 +381,17 @@ def cast_scan_fast(
     n = directions.shape[0]
     t_lo = np.empty(n)
     t_hi = np.empty(n)
-    # pass 1: walls, ray after ray, reusing the free discs of the previous rays
-    discs = np.empty((256, 3))
-    nd = 0
     inside = 0.0 <= ox < nx and 0.0 <= oy < ny
     for i in range(n):
-        dx = directions[i, 0]
-        dy = directions[i, 1]
         if inside:
-            t0, t1 = 0.0, max_range  # every traversal stops at the map edge by itself
+            t_lo[i], t_hi[i] = 0.0, max_range  # every traversal stops at the map edge by itself
         else:
-            t0, t1 = _clip_to_map(ox, oy, dx, dy, nx, ny, max_range)
-        t_lo[i] = t0
-        t_hi[i] = t1
+            t_lo[i], t_hi[i] = _clip_to_map(ox, oy, directions[i, 0], directions[i, 1], nx, ny, max_range)
         out_t[i] = np.inf
         out_v[i] = 0
-        if t0 > t1:
-            continue
-        ts, nd = _reuse_discs(ox, oy, dx, dy, t0, discs, nd)
-        if ts <= t1:
-            th, nd = _cast_walls_fast(clear, ox, oy, dx, dy, ts, t1, discs, nd)
-            if th <= t1:
-                out_t[i] = th
-                out_v[i] = 1
-    # pass 2: robots are not in the static table: test each robot exactly (traversal of its
+    # pass 1: robots are not in the static table: test each robot exactly (traversal of its
     # painted cells inside their bounding box), only on the rays whose angle can meet its
-    # bounding circle
+    # bounding circle. Robots first: a ray that meets one needs the walls only up to it.
     two_pi = 2.0 * math.pi
     for j in range(cand_id.shape[0]):
         rid = cand_id[j]
@@ -474,6 +459,22 @@ def cast_scan_fast(
                 if v > 0 and th < out_t[i]:
                     out_t[i] = th
                     out_v[i] = v
+    # pass 2: walls, ray after ray, reusing the free discs of the previous rays
+    discs = np.empty((256, 3))
+    nd = 0
+    for i in range(n):
+        dx = directions[i, 0]
+        dy = directions[i, 1]
+        t0 = t_lo[i]
+        t1 = min(t_hi[i], out_t[i])
+        if t0 > t1:
+            continue
+        ts, nd = _reuse_discs(ox, oy, dx, dy, t0, discs, nd)
+        if ts <= t1:
+            th, nd = _cast_walls_fast(clear, ox, oy, dx, dy, ts, t1, discs, nd)
+            if th < out_t[i]:
+                out_t[i] = th
+                out_v[i] = 1
     for i in range(n):
         if out_t[i] > max_range:
             out_t[i] = np.inf
