@@ -124,6 +124,21 @@ def _step_robots(
         pose[r, 2] = hn
 
 
+@numba.njit(cache=True, inline="always")
+def _disc_meets_cone(qx, qy, d2, r, e1x, e1y, e2x, e2y):
+    # Does the disc (centre q, radius r) meet the convex cone from the origin between the unit
+    # directions e1 and e2 (counter-clockwise)? Inside, or within r of one of its two edges.
+    if e1x * qy - e1y * qx >= 0.0 and qx * e2y - qy * e2x >= 0.0:
+        return True
+    r2 = r * r
+    for ex, ey in ((e1x, e1y), (e2x, e2y)):
+        along = qx * ex + qy * ey
+        across = qx * ey - qy * ex
+        if (along >= 0.0 and across * across <= r2) or (along < 0.0 and d2 <= r2):
+            return True
+    return False
+
+
 @numba.njit(cache=True)
 def _sense(
     grid, clear, pose, radius, box, srob, spos, saxis, rstart, roff, rcos, rsin, srange, ids, bucket_start,
@@ -159,6 +174,17 @@ def _sense(
             dirs[k, 0] = ca * rcos[a0 + k] - sa * rsin[a0 + k]
             dirs[k, 1] = sa * rcos[a0 + k] + ca * rsin[a0 + k]
         dangle = roff[a0 + 1] - roff[a0] if nr > 1 else 0.0
+        # the fan's sector, to keep only robots whose bounding circle can meet a ray: a convex
+        # cone between the first and last ray, a half-plane for a 180 degree fan, else no test
+        span = abs(roff[a0 + nr - 1] - roff[a0])
+        mid = axis + 0.5 * (roff[a0] + roff[a0 + nr - 1])
+        mx = math.cos(mid)
+        my = math.sin(mid)
+        sector = 0 if span < math.pi - 1e-9 else (1 if span <= math.pi + 1e-9 else 2)
+        if roff[a0 + nr - 1] >= roff[a0]:
+            e1x, e1y, e2x, e2y = dirs[0, 0], dirs[0, 1], dirs[nr - 1, 0], dirs[nr - 1, 1]
+        else:
+            e1x, e1y, e2x, e2y = dirs[nr - 1, 0], dirs[nr - 1, 1], dirs[0, 0], dirs[0, 1]
         reach = srange[s] + rmax
         bx0 = max(int((ox - reach) // _BUCKET), 0)
         bx1 = min(int((ox + reach) // _BUCKET), nbx - 1)
@@ -183,10 +209,23 @@ def _sense(
                         j = bucket_items[q]
                         if j == r:
                             continue
+                        qx = pose[j, 0] - ox
+                        qy = pose[j, 1] - oy
+                        rj = radius[j]
+                        d2 = qx * qx + qy * qy
+                        if d2 > (srange[s] + rj) * (srange[s] + rj):
+                            continue  # beyond the range
+                        if sector == 1 and qx * mx + qy * my < -rj:
+                            continue  # behind a 180 degree fan
+                        if sector == 0 and not _disc_meets_cone(qx, qy, d2, rj, e1x, e1y, e2x, e2y):
+                            continue
                         cand_x[m] = pose[j, 0]
                         cand_y[m] = pose[j, 1]
-                        cand_r[m] = radius[j]
-                        cand_box[m] = box[j]
+                        cand_r[m] = rj
+                        cand_box[m, 0] = box[j, 0]
+                        cand_box[m, 1] = box[j, 1]
+                        cand_box[m, 2] = box[j, 2]
+                        cand_box[m, 3] = box[j, 3]
                         cand_id[m] = ids[j]
                         m += 1
         raycast.cast_scan_fast(

@@ -30,12 +30,17 @@ def test_fast_caster_matches_exact_on_random_maps_with_robots(seed):
     nx, ny = int(rng.integers(60, 260)), int(rng.integers(60, 260))
     walls = random_walls(rng, nx, ny, rects=int(rng.integers(5, 40)), specks=int(rng.integers(0, 300)))
     robots = []
-    laser = SensorSpec("scan", "laser", position=(0.05, 0.0), beamwidth=math.radians(300), range=1.5, rays=181)
-    sonar = SensorSpec("sonar", "ultrasonic", position=(0.05, 0.0), range=0.4, rays=30)
+    # a wide laser, a 180 degree one looking back and a narrow sonar: the three ways the caster
+    # picks the robots a fan can see (no sector test, half-plane, cone)
+    sensors = (
+        SensorSpec("scan", "laser", position=(0.05, 0.0), beamwidth=math.radians(300), range=1.5, rays=181),
+        SensorSpec("rear", "laser", position=(-0.03, 0.0), axis=math.pi, beamwidth=math.pi, range=1.0, rays=91),
+        SensorSpec("sonar", "ultrasonic", position=(0.05, 0.0), range=0.4, rays=30),
+    )
     while len(robots) < 25:
         x, y = rng.uniform(0.05, nx / 100 - 0.05), rng.uniform(0.05, ny / 100 - 0.05)
         spec = RobotSpec(f"r{len(robots)}", (x, y), heading=rng.uniform(-math.pi, math.pi),
-                         scale=float(rng.uniform(0.5, 3.0)), sensors=(laser, sonar))
+                         scale=float(rng.uniform(0.5, 3.0)), sensors=sensors)
         try:  # placement rejects robots on walls or on each other: keep drawing
             SimrobotWorld(WorldSpec(walls=walls, robots=(*robots, spec)))
         except ValueError:
