@@ -164,7 +164,9 @@ class SimWorldNode(Node):
         """Step on a steady wall timer at ``real_time_factor`` (> 0); catches up in bursts."""
         if self.real_time_factor <= 0.0 or self._pacer is not None:
             return
-        period = max(self.physics_dt / self.real_time_factor, 0.001)
+        # At most 10 ms between looks, however long a step is: a lockstep world with 1 s steps
+        # must notice its controllers' answers promptly, not at the next 1 s tick.
+        period = min(max(self.physics_dt / self.real_time_factor, 0.001), 0.01)
         self._pace_origin = (time.monotonic(), self.sim_time)
         self._pacer = self.create_timer(period, self._pace, clock=RosClock(clock_type=ClockType.STEADY_TIME))
 
