@@ -249,7 +249,7 @@ def cast_ray_exact(grid, ox, oy, dx, dy, max_range, self_id):
     return t, v
 
 
-@numba.njit(**_FAST)
+@numba.njit(inline="always", **_FAST)
 def _traverse_walls(field, ox, oy, dx, dy, t_start, t_end):
     """Amanatides-Woo on the static table only (robots are tested separately). Returns
     (t_hit or inf, t_stop, jump): stops on a wall cell, at ``t_end`` (jump 0), or on entering a cell
@@ -306,7 +306,7 @@ def _traverse_walls(field, ox, oy, dx, dy, t_start, t_end):
             return np.inf, t_end, 0.0
 
 
-@numba.njit(**_FAST)
+@numba.njit(inline="always", **_FAST)
 def _cast_walls_fast(field, ox, oy, dx, dy, t0, t1, discs, nd):
     # Jump while the clearance allows (one table look-up per jump), traverse cell by cell near walls.
     # Every jump's free disc (centre, radius) is appended to ``discs`` for the next ray to reuse.
