@@ -33,7 +33,7 @@ from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
 _SQRT2 = math.sqrt(2.0)
 #: Side (cells) of the buckets used to find the robots a sensor may see.
-_BUCKET = 32
+_BUCKET = 64
 
 
 @numba.njit(cache=True)

@@ -420,17 +420,19 @@ def cast_scan_fast(
             # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
             half = rad / math.sqrt(c2) + 1e-9
             if half < 1.5:
-                centre = math.atan2(qy, qx) - angle0
+                # the circle's centre angle from the first ray, along the fan, in [0, 2 pi)
+                centre = (math.atan2(qy, qx) - angle0) * (1.0 if dangle > 0.0 else -1.0)
+                centre -= two_pi * math.floor(centre / two_pi)
                 shifts = 3
+        step = abs(dangle)
         for sh in range(shifts):
             if shifts == 3:
+                # the same angle one turn down or up only matters when the window wraps
                 off = centre + (sh - 1) * two_pi
-                if dangle > 0.0:
-                    lo_i = max(int(math.ceil((off - half) / dangle)), 0)
-                    hi_i = min(int(math.floor((off + half) / dangle)), n - 1)
-                else:
-                    lo_i = max(int(math.ceil((off + half) / dangle)), 0)
-                    hi_i = min(int(math.floor((off - half) / dangle)), n - 1)
+                if off + half < 0.0 or off - half > (n - 1) * step:
+                    continue
+                lo_i = max(int(math.ceil((off - half) / step)), 0)
+                hi_i = min(int(math.floor((off + half) / step)), n - 1)
             for i in range(lo_i, hi_i + 1):
                 if out_t[i] <= t_near:
                     continue
