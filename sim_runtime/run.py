@@ -10,6 +10,7 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
@@ -89,9 +90,14 @@ class StopSignal:
 
 
 def init_ros(args: Sequence[str] | None = None) -> StopSignal:
-    """``rclpy.init`` for an executable's main, with our stop flag instead of rclpy's handlers."""
+    """``rclpy.init`` for an executable's main, with our stop flag instead of rclpy's handlers.
+
+    Arguments rcl cannot parse raise :class:`InputError`."""
     stop = StopSignal()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except _rclpy.RCLError as error:  # e.g. "-p name:=" with no value
+        raise InputError(f"invalid ROS arguments {' '.join(args or sys.argv)!r}: {error}") from None
     return stop
 
 
@@ -102,7 +108,11 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
     CPU allows, handling every queued callback between steps. Bad input found while building
     the nodes is printed as one clear line and the process exits with status 2.
     """
-    stop = init_ros(args)
+    try:
+        stop = init_ros(args)
+    except InputError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
     nodes: list[Node] = []
     try:
         try:

@@ -207,6 +207,32 @@ def test_standalone_client_with_its_own_spinner_thread(executor):
         thread.join()
 
 
+def test_first_command_of_a_fresh_client_reaches_a_world_in_another_process(tmp_path):
+    """The typical ported MATLAB opening: connect, command at once, wait. The command must not be
+    lost while the client and the world are still discovering each other."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    world = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from create_sim.world_node import main; sys.exit(main())",
+         "--ros-args", "-p", "map_file:=''", "-r", "__ns:=/fresh"],
+        env=dict(os.environ, PYTHONPATH=str(root)), cwd=root, stderr=subprocess.PIPE, text=True)
+    robot = CreateRobot(namespace="fresh", timeout=30.0)
+    try:
+        assert robot.set_fwd_vel_ang_vel(0.3, 0.0) == (0.3, 0.0)
+        robot.pause(1.0)
+        x, y, _ = robot.overhead_localization()
+        assert x == pytest.approx(0.3, abs=0.05) and y == pytest.approx(0.0, abs=1e-6)
+    finally:
+        robot.close()
+        world.send_signal(signal.SIGINT)
+        world.communicate(timeout=30)
+
+
 def test_odometry_counters_ignore_the_jump_of_a_world_reset(rig, robot):
     robot.turn_angle(0.2, 60)
     robot.travel_dist(0.3, 0.2)

@@ -56,6 +56,12 @@ def test_bad_input_exits_2_naming_the_file(name, garbage, tmp_path):
     assert named in err and "Traceback" not in err, err
 
 
+def test_unparsable_ros_arguments_exit_2_without_a_traceback():
+    process = run_exe("create_world", "--ros-args", "-p", "map_file:=")  # a parameter rule with no value
+    _out, err = process.communicate(timeout=120)
+    assert process.returncode == 2 and "invalid ROS arguments" in err and "Traceback" not in err, err
+
+
 @pytest.mark.parametrize("name,args", [
     ("create_world", []),
     ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),

@@ -386,6 +386,7 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f'recovered {opts.reindex}: wrote {reindex(opts.reindex)}')
         return 0
     try:
+        stop = init_ros(ros_argv)  # first: bad ROS arguments must not leave an empty bag behind
         writer = BagWriter(
             _output_folder(opts.output),
             compression=opts.compression,
@@ -394,8 +395,8 @@ def main(args: Sequence[str] | None = None) -> int:
         )
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
+        rclpy.try_shutdown()
         return 2
-    stop = init_ros(ros_argv)
     recorder = None
     try:
         recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)

@@ -422,11 +422,11 @@ def main(args: Sequence[str] | None = None) -> int:
     try:
         bag = open_bag(opts.bag)
         remap = _parse_remaps(opts.remap)
+        stop = init_ros(ros_argv)
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2
     sys.setswitchinterval(SWITCH_INTERVAL)
-    stop = init_ros(ros_argv)
     player = None
     try:
         player = Player(
