@@ -16,6 +16,7 @@ load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simro
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -115,6 +116,8 @@ def main() -> None:
     print(f"{'plain-Python Bresenham (seed)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
     print(f"agreement with exact: {agree.mean() * 100:.2f}% same hit/miss, max |difference| "
           f"{diff[f & agree].max():.2e} cells, mean hit distance {exact_t[f].mean():.0f} cells")
+    print("load average (1, 5, 15 min) after the runs: {:.2f} {:.2f} {:.2f} on {} CPUs (other processes share "
+          "them: run a few times, keep the best)".format(*os.getloadavg(), os.cpu_count()))
     goals = (fast_rps >= 5e6, fast_rps >= 3 * exact_rps, fast_rps >= 100 * py_rps)
     print("goals (>= 5M rays/s, >= 3x exact, >= 100x python):", ", ".join("met" if g else "MISSED" for g in goals))
 

@@ -135,6 +135,8 @@ def main() -> None:
         rate = model_rate(n, steps)
         print(f"{n:>6}{rate:>12.1f}{1000 / rate:>10.2f}{1e6 / rate / n:>10.1f}")
 
+    print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f} on {} CPUs".format(*os.getloadavg(), os.cpu_count()))
+
     print("\nworld node at 10 Hz (physics + sensing + all topics), CPU ms per step:")
     print(f"{'N':>6}{'ms/step':>10}{'holds 10 Hz':>13}")
     rclpy.init()
@@ -150,6 +152,8 @@ def main() -> None:
         print(f"largest N tried that holds 10 Hz on one core: {largest}")
     finally:
         rclpy.shutdown()
+
+    print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()))
 
     print("\nhistory memory, 10 robots, history_steps = 10000:")
     print(f"{'steps':>8}{'bytes/robot':>13}{'RSS MB':>12}")

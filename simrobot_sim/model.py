@@ -204,6 +204,16 @@ def _sense(
                 for by in range(cby - ring, cby + ring + 1, step):
                     if by < by0 or by > by1:
                         continue
+                    # whole buckets out of reach or behind a 180 degree fan are skipped unread
+                    gx = min(max(ox, bx * _BUCKET), (bx + 1) * _BUCKET) - ox
+                    gy = min(max(oy, by * _BUCKET), (by + 1) * _BUCKET) - oy
+                    if gx * gx + gy * gy > reach * reach:
+                        continue
+                    if sector == 1:
+                        fx = ((bx + 1) * _BUCKET if mx > 0.0 else bx * _BUCKET) - ox
+                        fy = ((by + 1) * _BUCKET if my > 0.0 else by * _BUCKET) - oy
+                        if fx * mx + fy * my < -rmax:
+                            continue
                     b = bx * nby + by
                     for q in range(bucket_start[b], bucket_start[b + 1]):
                         j = bucket_items[q]
