@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import shutil
 import struct
 import sys
 import time
@@ -386,7 +387,6 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f'recovered {opts.reindex}: wrote {reindex(opts.reindex)}')
         return 0
     try:
-        stop = init_ros(ros_argv)  # first: bad ROS arguments must not leave an empty bag behind
         writer = BagWriter(
             _output_folder(opts.output),
             compression=opts.compression,
@@ -395,7 +395,13 @@ def main(args: Sequence[str] | None = None) -> int:
         )
     except InputError as exc:
         print(f'error: {exc}', file=sys.stderr)
-        rclpy.try_shutdown()
+        return 2
+    try:
+        stop = init_ros(ros_argv)
+    except InputError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        writer.close()
+        shutil.rmtree(writer.folder)  # created a moment ago and empty: leave nothing behind
         return 2
     recorder = None
     try:
