@@ -107,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in options.demos or list(DEMOS):
         print(f"== {name} demo")
         results[name] = DEMOS[name](out)
-    print("\nOpen a recording in the Rerun viewer (see README, 'Viewing a run', to opt out of its analytics):")
+    print("\nOpen a recording in the Rerun viewer (to opt out of the viewer's usage analytics first, see")
+    print("the README, 'Recording, replaying and viewing a run'):")
     for result in results.values():
         print(f"  rerun {result['rrd']}")
     return 0
