@@ -26,10 +26,8 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
     """Run the demo; returns a summary (errors in m/rad, sim time, messages received, PNG path).
 
     ``extra_nodes(context)`` adds nodes (a recorder, a viewer) to the demo's executor."""
-    import rclpy
     from builtin_interfaces.msg import Duration
     from geometry_msgs.msg import PoseStamped
-    from rclpy.context import Context
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -37,14 +35,11 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
     from arm_sim.arm_node import ArmNode
     from sim_runtime.msgs import quaternion_from_matrix
     from sim_runtime.qos import COMMAND_QOS
-    from sim_runtime.run import make_executor
+    from sim_runtime.run import private_ros
     from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
-    context = Context()
-    rclpy.init(context=context)
-    executor = make_executor(context)
     nodes: list[Node] = []
-    try:
+    with private_ros() as (context, executor):
         world = ArmNode(context=context)
         commander = Node("arm_demo_commander", context=context)
         nodes += [world, commander]
@@ -96,12 +91,6 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         if out_dir is not None:
             summary["png"] = str(draw_arm(arm.arm, arm.motion.q, Path(out_dir) / "arm_demo.png"))
         return summary
-    finally:
-        for node in nodes:
-            executor.remove_node(node)
-            node.destroy_node()
-        executor.shutdown()
-        rclpy.shutdown(context=context)
 
 
 def draw_arm(arm, q: np.ndarray, path: Path) -> Path:

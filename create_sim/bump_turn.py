@@ -12,7 +12,6 @@ import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import Twist
 from rclpy.context import Context
 from rclpy.node import Node
@@ -85,22 +84,18 @@ def demo(
     from rclpy.parameter import Parameter
 
     from create_sim.world_node import CreateWorldNode
-    from sim_runtime.testing import drain, make_executor, wait_for_match
+    from sim_runtime.run import drain, private_ros
+    from sim_runtime.testing import wait_for_match
 
-    owns_rclpy = not rclpy.ok()
-    if owns_rclpy:
-        rclpy.init()
     overrides = [Parameter("real_time_factor", value=0.0), Parameter("seed", value=seed)]
     if map_file is not None:
         overrides.append(Parameter("map_file", value=str(map_file)))
-    executor = make_executor()
-    nodes = []
-    try:
-        world = CreateWorldNode(parameter_overrides=overrides)
-        controller = BumpTurnNode(parameter_overrides=[Parameter("seed", value=seed)])
+    with private_ros() as (context, executor):
+        world = CreateWorldNode(parameter_overrides=overrides, context=context)
+        controller = BumpTurnNode(parameter_overrides=[Parameter("seed", value=seed)], context=context)
         nodes = [world, controller]
         if extra_nodes is not None:
-            nodes += extra_nodes(world.context)
+            nodes += extra_nodes(context)
         for node in nodes:
             executor.add_node(node)
         wait_for_match(executor, controller.cmd_pub)
@@ -119,13 +114,6 @@ def demo(
         summary = {"sim_seconds": world.sim_time, "distance_m": distance, "bumps": controller.bumps,
                    "final_pose": (x, y, theta), "wall_seconds": wall,
                    "speed_vs_real_time": world.sim_time / wall if wall > 0 else math.inf}
-    finally:
-        for node in nodes:
-            executor.remove_node(node)
-            node.destroy_node()
-        executor.shutdown()
-        if owns_rclpy:
-            rclpy.try_shutdown()
     print(f"create_bump_turn demo: {summary['sim_seconds']:.1f} s simulated in {wall:.1f} s "
           f"({summary['speed_vs_real_time']:.0f}x real time); drove {distance:.2f} m, "
           f"{controller.bumps} bumps; final pose x={x:.2f} m y={y:.2f} m theta={math.degrees(theta):.0f} deg")

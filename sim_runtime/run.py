@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 
 import rclpy
 from rclpy.context import Context
@@ -26,6 +27,24 @@ def make_executor(context: Context | None = None) -> Executor:
     2000 subscriptions, measured here), which a world with hundreds of robots needs.
     """
     return EventsExecutor(context=context)
+
+
+@contextmanager
+def private_ros(args: Sequence[str] | None = None) -> Iterator[tuple[Context, Executor]]:
+    """A private rclpy context and its executor, for running worlds inside a library call (a
+    demo, a notebook) whether or not rclpy's global context is up; on exit every node added
+    to the executor is destroyed and the context shut down."""
+    context = Context()
+    rclpy.init(args=args, context=context)
+    executor = make_executor(context)
+    try:
+        yield context, executor
+    finally:
+        for node in list(executor.get_nodes()):
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.shutdown(context=context)
 
 
 def drain(executor, timeout_sec: float = 1.0) -> bool:

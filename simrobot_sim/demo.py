@@ -53,10 +53,8 @@ def run_demo(
     ``simrobot_tracks.png`` into ``out_dir``. Returns a summary (steps, per-robot distance
     travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a
     recorder, a viewer) to the demo's executor."""
-    import rclpy
-    from rclpy.context import Context
 
-    from sim_runtime.run import make_executor, spin_steps
+    from sim_runtime.run import private_ros, spin_steps
     from simrobot_sim.avoid import AvoidNode
     from simrobot_sim.tracks import draw_tracks
     from simrobot_sim.world_file import load_world
@@ -65,11 +63,8 @@ def run_demo(
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     spec = load_world(config_path(DEMO_WORLD))
-    context = Context()
-    rclpy.init(context=context)
-    executor = make_executor(context)
     nodes = []
-    try:
+    with private_ros() as (context, executor):
         world = SimrobotWorldNode(spec, context=context)
         nodes.append(world)
         for robot in spec.robots:
@@ -95,12 +90,6 @@ def run_demo(
             "crashed": [n for i, n in enumerate(model.names) if model.crashed[i]],
             "tracks_png": str(png),
         }
-    finally:
-        for node in nodes:
-            executor.remove_node(node)
-            node.destroy_node()
-        executor.shutdown()
-        rclpy.shutdown(context=context)
 
 
 if __name__ == "__main__":
