@@ -89,6 +89,8 @@ def test_non_finite_commands_are_rejected_and_leave_state():
             w.set_wheel_speeds(0, *bad)
         with pytest.raises(ValueError, match="finite"):
             w.set_cmd_vel(0, *bad)
+    with pytest.raises(ValueError, match="wheel speeds"):  # finite, but overflows the inverse model
+        w.set_cmd_vel(0, 1e308, 1e308)
     assert tuple(w.vel[0]) == (0.5, 0.5)
 
 
