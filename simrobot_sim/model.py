@@ -470,7 +470,8 @@ class SimrobotWorld:
         """Forward speed (m/s) and yaw rate (rad/s) through the inverse model."""
         if not (math.isfinite(v) and math.isfinite(omega)):
             raise InputError(f"robot {self.names[i]!r}: cmd_vel must be finite, got v={v}, omega={omega}")
-        speeds = self.wheel_speeds_for(i, v, omega)
+        with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+            speeds = self.wheel_speeds_for(i, v, omega)
         if not all(math.isfinite(s) for s in speeds):  # e.g. 1e308 m/s overflows in cells/s
             raise InputError(f"robot {self.names[i]!r}: cmd_vel v={v}, omega={omega} gives wheel speeds {speeds}")
         self.vel[i] = speeds
