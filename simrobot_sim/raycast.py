@@ -155,6 +155,19 @@ def _clip_to_map(ox: float, oy: float, dx: float, dy: float, nx: int, ny: int, t
     return t0, t1
 
 
+@numba.njit(cache=True, inline="always")
+def _axis_start(d: float, p: float, c: int, t_start: float) -> tuple[int, float, float]:
+    """Grid traversal set-up along one axis (Amanatides–Woo): the cell step, the ray length per
+    cell, and the ray length at the first cell boundary, for direction ``d`` from ``p`` in cell ``c``."""
+    if d > 0.0:
+        per_cell = 1.0 / d
+        return 1, per_cell, t_start + (c + 1 - p) * per_cell
+    if d < 0.0:
+        per_cell = -1.0 / d
+        return -1, per_cell, t_start + (p - c) * per_cell
+    return 0, np.inf, np.inf
+
+
 @numba.njit(cache=True)
 def _traverse(
     grid: np.ndarray,
@@ -184,30 +197,8 @@ def _traverse(
         cx = 0
     if cy < 0:
         cy = 0
-    if dx > 0.0:
-        sx = 1
-        tdx = 1.0 / dx
-        tmx = t_start + (cx + 1 - px) * tdx
-    elif dx < 0.0:
-        sx = -1
-        tdx = -1.0 / dx
-        tmx = t_start + (px - cx) * tdx
-    else:
-        sx = 0
-        tdx = np.inf
-        tmx = np.inf
-    if dy > 0.0:
-        sy = 1
-        tdy = 1.0 / dy
-        tmy = t_start + (cy + 1 - py) * tdy
-    elif dy < 0.0:
-        sy = -1
-        tdy = -1.0 / dy
-        tmy = t_start + (py - cy) * tdy
-    else:
-        sy = 0
-        tdy = np.inf
-        tmy = np.inf
+    sx, tdx, tmx = _axis_start(dx, px, cx, t_start)
+    sy, tdy, tmy = _axis_start(dy, py, cy, t_start)
     t = t_start
     while True:
         v = grid[cx, cy]
@@ -259,30 +250,8 @@ def _traverse_walls(field, ox, oy, dx, dy, t_start, t_end):
     py = oy + t_start * dy
     cx = min(max(int(math.floor(px)), 0), nx - 1)
     cy = min(max(int(math.floor(py)), 0), ny - 1)
-    if dx > 0.0:
-        sx = 1
-        tdx = 1.0 / dx
-        tmx = t_start + (cx + 1 - px) * tdx
-    elif dx < 0.0:
-        sx = -1
-        tdx = -1.0 / dx
-        tmx = t_start + (px - cx) * tdx
-    else:
-        sx = 0
-        tdx = np.inf
-        tmx = np.inf
-    if dy > 0.0:
-        sy = 1
-        tdy = 1.0 / dy
-        tmy = t_start + (cy + 1 - py) * tdy
-    elif dy < 0.0:
-        sy = -1
-        tdy = -1.0 / dy
-        tmy = t_start + (py - cy) * tdy
-    else:
-        sy = 0
-        tdy = np.inf
-        tmy = np.inf
+    sx, tdx, tmx = _axis_start(dx, px, cx, t_start)
+    sy, tdy, tmy = _axis_start(dy, py, cy, t_start)
     t = t_start
     while True:
         c = field[cx, cy]
