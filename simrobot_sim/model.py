@@ -150,6 +150,9 @@ def _sense(
     for s in range(n_sensors):
         max_rays = max(max_rays, rstart[s + 1] - rstart[s])
     dirs = np.empty((max_rays, 2))
+    t_lo = np.empty(max_rays)
+    t_hi = np.empty(max_rays)
+    discs = np.empty((256, 3))
     n_rob = pose.shape[0]
     cand_x = np.empty(n_rob)
     cand_y = np.empty(n_rob)
@@ -238,9 +241,10 @@ def _sense(
                         cand_box[m, 3] = box[j, 3]
                         cand_id[m] = ids[j]
                         m += 1
-        raycast.cast_scan_fast(
+        raycast.cast_scan_fast_into(
             grid, clear, ox, oy, dirs[:nr], axis + roff[a0], dangle, srange[s], ids[r],
             cand_x[:m], cand_y[:m], cand_r[:m], cand_box[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],
+            t_lo, t_hi, discs,
         )
 
 

@@ -346,10 +346,23 @@ def cast_scan_fast(
     box ``[x0, y0, x1, y1]`` of the painted cells, id); the sensor's own robot is skipped by
     ``self_id``. Results go to ``out_t``/``out_v``
     (``inf``/0 for no hit within ``max_range``)."""
+    n = directions.shape[0]
+    cast_scan_fast_into(
+        grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box,
+        cand_id, out_t, out_v, np.empty(n), np.empty(n), np.empty((256, 3)),
+    )
+
+
+@numba.njit(**_FAST)
+def cast_scan_fast_into(
+    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box, cand_id,
+    out_t, out_v, t_lo, t_hi, discs,
+):
+    """:func:`cast_scan_fast` with the caller's scratch (no allocation per scan, for a caller
+    casting many scans): ``t_lo``/``t_hi`` hold at least one entry per ray, ``discs`` the free
+    discs reused between rays (any number of rows; more rows, more reuse)."""
     nx, ny = grid.shape
     n = directions.shape[0]
-    t_lo = np.empty(n)
-    t_hi = np.empty(n)
     inside = 0.0 <= ox < nx and 0.0 <= oy < ny
     for i in range(n):
         if inside:
@@ -431,7 +444,6 @@ def cast_scan_fast(
                     out_t[i] = th
                     out_v[i] = v
     # pass 2: walls, ray after ray, reusing the free discs of the previous rays
-    discs = np.empty((256, 3))
     nd = 0
     for i in range(n):
         dx = directions[i, 0]
@@ -525,10 +537,17 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
             if (ax <= cxp) != (bx <= cxp):
                 xs[m] = ay + (cxp - ax) * (by - ay) / (bx - ax)
                 m += 1
-        xs_sorted = np.sort(xs[:m])
+        # insertion sort in place: a handful of crossings, and no allocation per column
+        for a in range(1, m):
+            key = xs[a]
+            b = a - 1
+            while b >= 0 and xs[b] > key:
+                xs[b + 1] = xs[b]
+                b -= 1
+            xs[b + 1] = key
         for k in range(0, m - 1, 2):
-            j0 = int(math.ceil(xs_sorted[k] - 0.5))
-            j1 = int(math.floor(xs_sorted[k + 1] - 0.5))
+            j0 = int(math.ceil(xs[k] - 0.5))
+            j1 = int(math.floor(xs[k + 1] - 0.5))
             for j in range(max(j0, y_lo), min(j1, y_hi) + 1):
                 mark[i, j - y_lo] = True
     # boundary: cells crossed by each edge
