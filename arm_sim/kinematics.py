@@ -292,8 +292,9 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
                 q[i] = lower[i] + np.random.random() * (upper[i] - lower[i])
         prev_res = np.inf
         # a search that is still converging (near a singularity convergence turns linear) may run
-        # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit
-        for it in range(4 * ilimit):
+        # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit. The
+        # extra pass checks the last step's result.
+        for it in range(4 * ilimit + 1):
             _fk_frames(frames, q, dh, base, modified, work)
             _pose_error(e, Tgoal, frames[n])
             res = _norm(e)
@@ -302,7 +303,7 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
                 best_q[:] = q
             if res < tol:
                 return best_q, True, best_res, search + 1
-            if it >= ilimit and (res > 1e-2 or res > 0.95 * prev_res):
+            if it == 4 * ilimit or (it >= ilimit and (res > 1e-2 or res > 0.95 * prev_res)):
                 break
             prev_res = res
             _jacobian_from_frames(J, frames, dh, modified)
@@ -322,15 +323,6 @@ def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, s
             _solve_spd(A, g, L, dq)
             for i in range(n):
                 q[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
-        # the last step of this search is checked too
-        fk_all_into(frames, q, dh, base, modified)
-        _pose_error(e, Tgoal, frames[n])
-        res = _norm(e)
-        if res < best_res:
-            best_res = res
-            best_q[:] = q
-        if res < tol:
-            return best_q, True, best_res, search + 1
     return best_q, False, best_res, slimit
 
 
