@@ -51,13 +51,13 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.arm import PLACEHOLDER_SIZE, Arm
-from arm_sim.kinematics import quaternions_xyzw
 from arm_sim.motion import JointMotion
 from arm_sim.scene import Scene, load_scene
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
 from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS
+from sim_runtime.rotations import quaternions_xyzw
 from sim_runtime.run import run_nodes
 from sim_runtime.world_node import SimWorldNode
 

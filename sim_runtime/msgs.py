@@ -39,20 +39,10 @@ def yaw_from_quaternion(q: Quaternion) -> float:
 
 def quaternion_from_matrix(rotation: np.ndarray) -> Quaternion:
     """3x3 rotation matrix → unit quaternion (Shepperd's method, stable for every angle)."""
-    m = np.asarray(rotation, dtype=float)
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0.0:
-        s = 2.0 * math.sqrt(trace + 1.0)
-        w, x, y, z = 0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
-        w, x, y, z = (m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s
-    elif m[1, 1] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
-        w, x, y, z = (m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s
-    else:
-        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
-        w, x, y, z = (m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s
+    # Imported here: the kernel needs numba, which nodes that never convert matrices skip loading.
+    from sim_runtime.rotations import quaternions_xyzw
+
+    x, y, z, w = quaternions_xyzw(np.ascontiguousarray(rotation, dtype=np.float64)[None, :3, :3])[0]
     return Quaternion(x=float(x), y=float(y), z=float(z), w=float(w))
 
 
