@@ -20,7 +20,7 @@ $(STAMP): setup.py
 	touch $@
 
 lint: venv
-	$(PY) -m ruff check .
+	$(PY) -m ruff check . && $(PY) -m ruff format --check .
 
 test: venv lint
 	$(PY) -m pytest -q

@@ -57,8 +57,20 @@ class LoadedElement:
 def placeholder_cube(size: float = PLACEHOLDER_SIZE) -> np.ndarray:
     """Triangles (12, 3, 3) of a cube of edge ``size`` centred on the origin."""
     corners = (np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)]) - 0.5) * size
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
-             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    faces = [
+        (0, 1, 3),
+        (0, 3, 2),
+        (4, 6, 7),
+        (4, 7, 5),
+        (0, 4, 5),
+        (0, 5, 1),
+        (2, 3, 7),
+        (2, 7, 6),
+        (0, 2, 6),
+        (0, 6, 4),
+        (1, 5, 7),
+        (1, 7, 3),
+    ]
     return corners[np.array(faces)].astype(np.float32)
 
 
@@ -70,14 +82,19 @@ class Arm:
     ``skip_missing_meshes``, which draws a placeholder cube for each unreadable element instead.
     """
 
-    def __init__(self, config: RobotConfig, *, base: np.ndarray | None = None,
-                 load_meshes: bool = True, skip_missing_meshes: bool = False) -> None:
+    def __init__(
+        self,
+        config: RobotConfig,
+        *,
+        base: np.ndarray | None = None,
+        load_meshes: bool = True,
+        skip_missing_meshes: bool = False,
+    ) -> None:
         self.config = config
         self.name = config.name
         self.n = config.dof
         self.joint_names = config.joint_names
-        self.dh = kin.pack_dh(config.theta, config.d, config.a, config.alpha,
-                              [t == "p" for t in config.joint_types])
+        self.dh = kin.pack_dh(config.theta, config.d, config.a, config.alpha, [t == "p" for t in config.joint_types])
         self.modified = bool(config.modified_dh)
         self.base = np.array(config.base if base is None else base, dtype=float)
         self.qlim = np.ascontiguousarray(config.position_limits, dtype=float)
@@ -120,8 +137,7 @@ class Arm:
         """Jacobians (m, 6, n) for configurations Q (m, n)."""
         return kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.dh, self.base, self.modified)
 
-    def ikine(self, T, q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100,
-              seed: int = 0) -> IKResult:
+    def ikine(self, T, q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100, seed: int = 0) -> IKResult:
         """Joint coordinates reaching world pose T (4x4), within joint limits.
 
         Levenberg–Marquardt from ``q0`` (default: mid-range), then random restarts; success
@@ -130,18 +146,31 @@ class Arm:
         """
         T = np.ascontiguousarray(T, dtype=float)
         q0 = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
-        q, ok, res, searches = kin.ikine_lm(T, q0, self.dh, self.base, self.modified, self.lower,
-                                            self.upper, tol, ilimit, slimit, seed)
+        q, ok, res, searches = kin.ikine_lm(
+            T, q0, self.dh, self.base, self.modified, self.lower, self.upper, tol, ilimit, slimit, seed
+        )
         return IKResult(q=q, success=bool(ok), residual=float(res), searches=int(searches))
 
-    def ikine_batch(self, Ts, Q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100,
-                    seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def ikine_batch(
+        self, Ts, Q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100, seed: int = 0
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """IK for poses Ts (m, 4, 4): returns (Q (m, n), success (m,), residual (m,))."""
         Ts = np.ascontiguousarray(Ts, dtype=float)
         if Q0 is None:
             Q0 = np.tile(self.mid_range(), (len(Ts), 1))
-        return kin.ikine_lm_batch(Ts, np.ascontiguousarray(Q0, dtype=float), self.dh, self.base,
-                                  self.modified, self.lower, self.upper, tol, ilimit, slimit, seed)
+        return kin.ikine_lm_batch(
+            Ts,
+            np.ascontiguousarray(Q0, dtype=float),
+            self.dh,
+            self.base,
+            self.modified,
+            self.lower,
+            self.upper,
+            tol,
+            ilimit,
+            slimit,
+            seed,
+        )
 
     def mid_range(self) -> np.ndarray:
         """Middle of every joint's range."""
@@ -156,17 +185,35 @@ class Arm:
     def rne(self, q, qd, qdd, gravity=None) -> np.ndarray:
         """Joint torques/forces (n,) for positions, velocities, accelerations (Newton–Euler)."""
         g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
-        return kin.rne(np.asarray(q, dtype=float), np.asarray(qd, dtype=float),
-                       np.asarray(qdd, dtype=float), self.dh, self.base, self.modified,
-                       self.mass, self.cog, self.inertia_links, g)
+        return kin.rne(
+            np.asarray(q, dtype=float),
+            np.asarray(qd, dtype=float),
+            np.asarray(qdd, dtype=float),
+            self.dh,
+            self.base,
+            self.modified,
+            self.mass,
+            self.cog,
+            self.inertia_links,
+            g,
+        )
 
     def rne_batch(self, Q, QD, QDD, gravity=None) -> np.ndarray:
         """Inverse dynamics (m, n) for states Q, QD, QDD (m, n)."""
         g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
         as_array = np.ascontiguousarray
-        return kin.rne_batch(as_array(Q, dtype=float), as_array(QD, dtype=float),
-                             as_array(QDD, dtype=float), self.dh, self.base, self.modified,
-                             self.mass, self.cog, self.inertia_links, g)
+        return kin.rne_batch(
+            as_array(Q, dtype=float),
+            as_array(QD, dtype=float),
+            as_array(QDD, dtype=float),
+            self.dh,
+            self.base,
+            self.modified,
+            self.mass,
+            self.cog,
+            self.inertia_links,
+            g,
+        )
 
     def gravload(self, q) -> np.ndarray:
         """Joint torques (n,) that hold the arm still against gravity at q."""

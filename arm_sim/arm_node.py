@@ -120,10 +120,12 @@ class PatchedMarkers:
             marker.header.stamp.nanosec = 999_000_000 + k
         data = serialize_message(markers)
         self.buffer = np.frombuffer(bytearray(data), dtype=np.uint8)
-        self.pose_index = np.array([self._find(data, struct.pack("<d", p[0])) for p in sentinel_poses])[:, None] \
-            + np.arange(56)
-        self.stamp_index = np.array([self._find(data, struct.pack("<iI", 0x5EED00 + k, 999_000_000 + k))
-                                     for k in range(count)])[:, None] + np.arange(8)
+        self.pose_index = np.array([self._find(data, struct.pack("<d", p[0])) for p in sentinel_poses])[
+            :, None
+        ] + np.arange(56)
+        self.stamp_index = np.array(
+            [self._find(data, struct.pack("<iI", 0x5EED00 + k, 999_000_000 + k)) for k in range(count)]
+        )[:, None] + np.arange(8)
         expected = sentinel_poses.view(np.uint8).reshape(posed, 56)
         if not np.array_equal(self.buffer[self.pose_index], expected):
             raise RuntimeError("marker pose fields are not contiguous in the serialized message")
@@ -154,8 +156,9 @@ class ArmInstance:
         self.prefix = prefix
         namespace = node.get_namespace().strip("/")
         self.label = "/".join(part for part in (namespace, prefix.rstrip("/")) if part) or arm.name
-        self.motion = JointMotion(np.clip(np.zeros(arm.n), arm.lower, arm.upper), arm.lower, arm.upper,
-                                  arm.velocity_limits)
+        self.motion = JointMotion(
+            np.clip(np.zeros(arm.n), arm.lower, arm.upper), arm.lower, arm.upper, arm.velocity_limits
+        )
         self.index = {name: i for i, name in enumerate(arm.joint_names)}
         frame = node.frame_id
         self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", COMMAND_QOS)
@@ -228,8 +231,9 @@ class ArmInstance:
         clipped, joints = self.motion.clamp(q)
         if len(joints):
             names = [self.arm.joint_names[j] for j in joints]
-            self.node.warn_throttled(f"{self.label}/{what}/clamp",
-                                     f"{self.prefix}{what}: {names} beyond joint limits, clamped")
+            self.node.warn_throttled(
+                f"{self.label}/{what}/clamp", f"{self.prefix}{what}: {names} beyond joint limits, clamped"
+            )
         return clipped
 
     def on_trajectory(self, msg: JointTrajectory) -> None:
@@ -302,9 +306,10 @@ class ArmInstance:
         target[:3, 3] = [p.x, p.y, p.z]
         result = self.arm.ikine(target, q0=self.motion.q, seed=int(self.node.rng.integers(2**31)))
         if not result.success:
-            self.node.warn_throttled(f"{self.label}/{what}/unreachable",
-                                     f"{self.prefix}{what} unreachable (pose error {result.residual:.3g}): "
-                                     f"no motion")
+            self.node.warn_throttled(
+                f"{self.label}/{what}/unreachable",
+                f"{self.prefix}{what} unreachable (pose error {result.residual:.3g}): no motion",
+            )
             return
         self.motion.move_to(result.q)
 
@@ -316,11 +321,11 @@ class ArmNode(SimWorldNode):
         super().__init__("arm", physics_rate=PHYSICS_RATE, **node_kwargs)
         robot_config = str(self.declare_parameter("robot_config", "arm/irb120.yaml").value)
         scene_file = str(self.declare_parameter("scene_file", "").value)
-        self.alpha = float(self.declare_checked("alpha", 1.0, lambda v: 0.0 <= v <= 1.0,
-                                                "marker opacity in 0..1 (setTransparency)"))
+        self.alpha = float(
+            self.declare_checked("alpha", 1.0, lambda v: 0.0 <= v <= 1.0, "marker opacity in 0..1 (setTransparency)")
+        )
         self.frame_id = str(self.declare_checked("frame_id", "world", lambda v: bool(v), "a frame name"))
-        rate = float(self.declare_checked("publish_rate", 50.0, lambda v: math.isfinite(v) and v >= 0,
-                                          "Hz, >= 0"))
+        rate = float(self.declare_checked("publish_rate", 50.0, lambda v: math.isfinite(v) and v >= 0, "Hz, >= 0"))
         skip = bool(self.declare_parameter("skip_missing_meshes", False).value)
         self.scene: Scene | None = load_scene(resolve_config(scene_file)) if scene_file else None
         self.arms: list[ArmInstance] = []

@@ -77,16 +77,18 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         spin_until(executor, lambda: arm.motion.moving)
         run(3.0)
         reached = poses.last.pose.position
-        target_error = float(np.linalg.norm([reached.x - target[0, 3], reached.y - target[1, 3],
-                                             reached.z - target[2, 3]]))
+        target_error = float(
+            np.linalg.norm([reached.x - target[0, 3], reached.y - target[1, 3], reached.z - target[2, 3]])
+        )
         summary = {
             "sim_time_s": round(world.sim_time, 3),
             "joint_states_received": len(states.msgs),
             "trajectory_final_error_rad": trajectory_error,
             "target_position_error_m": target_error,
             "final_q": [round(v, 4) for v in arm.motion.q.tolist()],
-            "peak_speed_fraction": float(max(np.max(np.abs(m.velocity) / arm.arm.velocity_limits)
-                                             for m in states.msgs)),
+            "peak_speed_fraction": float(
+                max(np.max(np.abs(m.velocity) / arm.arm.velocity_limits) for m in states.msgs)
+            ),
         }
         if out_dir is not None:
             summary["png"] = str(draw_arm(arm.arm, arm.motion.q, Path(out_dir) / "arm_demo.png"))
@@ -111,8 +113,9 @@ def draw_arm(arm, q: np.ndarray, path: Path) -> Path:
     ax.set_xlim(*view.limits[0:2])
     ax.set_ylim(*view.limits[2:4])
     ax.set_zlim(*view.limits[4:6])
-    ax.set_box_aspect([view.limits[1] - view.limits[0], view.limits[3] - view.limits[2],
-                       view.limits[5] - view.limits[4]])
+    ax.set_box_aspect(
+        [view.limits[1] - view.limits[0], view.limits[3] - view.limits[2], view.limits[5] - view.limits[4]]
+    )
     # MATLAB's azimuth is measured from -y, matplotlib's from +x
     ax.view_init(elev=view.elevation, azim=view.azimuth - 90)
     ax.set_title(f"{arm.name} after the demo")

@@ -31,8 +31,10 @@ PRISMATIC = 4  # column of ``dh`` flagging a prismatic joint
 def pack_dh(theta, d, a, alpha, prismatic) -> np.ndarray:
     """The (n, 7) ``dh`` array of the kernels from per-joint parameters."""
     alpha = np.asarray(alpha, dtype=float)
-    return np.ascontiguousarray(np.column_stack([theta, d, a, alpha, np.asarray(prismatic, dtype=float),
-                                                 np.cos(alpha), np.sin(alpha)]), dtype=float)
+    return np.ascontiguousarray(
+        np.column_stack([theta, d, a, alpha, np.asarray(prismatic, dtype=float), np.cos(alpha), np.sin(alpha)]),
+        dtype=float,
+    )
 
 
 @numba.njit(cache=True, inline="always")
@@ -335,8 +337,7 @@ def ikine_lm_batch(Tgoals, Q0, dh, base, modified, lower, upper, tol, ilimit, sl
     ok = np.empty(m, dtype=np.bool_)
     res = np.empty(m)
     for k in range(m):
-        q, s, r, _ = ikine_lm(Tgoals[k], Q0[k], dh, base, modified, lower, upper, tol, ilimit,
-                              slimit, seed + k)
+        q, s, r, _ = ikine_lm(Tgoals[k], Q0[k], dh, base, modified, lower, upper, tol, ilimit, slimit, seed + k)
         Q[k] = q
         ok[k] = s
         res[k] = r

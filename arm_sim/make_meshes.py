@@ -77,10 +77,8 @@ def make_irb120(folder: Path) -> list[Path]:
     arm = Arm.from_file(CONFIG_DIR / "irb120.yaml", load_meshes=False)
     frames = arm.fkine_all(np.zeros(arm.n))
     tube_r = [0.07, 0.05, 0.055, 0.04, 0.03, 0.022]
-    house = [(0.07, 0.17, 0.0), (0.06, 0.14, 0.0), (0.06, 0.12, 0.0), (0.04, 0.09, 0.0),
-             (0.033, 0.06, 0.02)]
-    shapes = {0: _merge([_box([0, 0, 0.01], [0.24, 0.18, 0.02]),
-                         _cylinder([0, 0, 0.02], [0, 0, 0.12], 0.09)])}
+    house = [(0.07, 0.17, 0.0), (0.06, 0.14, 0.0), (0.06, 0.12, 0.0), (0.04, 0.09, 0.0), (0.033, 0.06, 0.02)]
+    shapes = {0: _merge([_box([0, 0, 0.01], [0.24, 0.18, 0.02]), _cylinder([0, 0, 0.02], [0, 0, 0.12], 0.09)])}
     for k in range(1, arm.n + 1):
         parts = [_tube(frames, arm, k, tube_r[k - 1])]
         if k < arm.n:

@@ -70,8 +70,9 @@ class JointMotion:
         times = np.asarray(times, dtype=float)
         positions = np.atleast_2d(np.asarray(positions, dtype=float))
         if times.ndim != 1 or len(times) != len(positions) or positions.shape[1] != self.n:
-            raise InputError(f"trajectory needs times (k,) and positions (k, {self.n}), "
-                             f"got {times.shape} and {positions.shape}")
+            raise InputError(
+                f"trajectory needs times (k,) and positions (k, {self.n}), got {times.shape} and {positions.shape}"
+            )
         if len(times) == 0 or times[0] < 0 or np.any(np.diff(times) <= 0):
             raise InputError(f"trajectory times must be >= 0 and strictly increasing, got {times.tolist()}")
         if velocities is not None:

@@ -56,8 +56,7 @@ from sim_runtime.errors import InputError
 from sim_runtime.yamlfile import load_yaml
 
 _CONSTANTS = {"pi": math.pi, "deg": math.pi / 180.0}
-_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
-           ast.Div: operator.truediv}
+_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
 _UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 
@@ -130,8 +129,9 @@ class _Reader:
             try:
                 result = float(_evaluate(ast.parse(value.strip(), mode="eval").body))
             except (SyntaxError, ValueError, KeyError, ZeroDivisionError):
-                raise self.error(where, f"expected a number or an expression of numbers, pi and "
-                                        f"deg, got {value!r}") from None
+                raise self.error(
+                    where, f"expected a number or an expression of numbers, pi and deg, got {value!r}"
+                ) from None
         else:
             raise self.error(where, f"expected a number, got {value!r}")
         if not math.isfinite(result):
@@ -162,8 +162,7 @@ class _Reader:
 
 
 def _evaluate(node: ast.AST) -> float:
-    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) \
-            and not isinstance(node.value, bool):
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
         return node.value
     if isinstance(node, ast.Name):
         return _CONSTANTS[node.id]
@@ -180,9 +179,11 @@ def transform_from_xyz_rpy(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
     cp, sp = math.cos(rpy[1]), math.sin(rpy[1])
     cy, sy = math.cos(rpy[2]), math.sin(rpy[2])
     T = np.eye(4)
-    T[:3, :3] = [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                 [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                 [-sp, cp * sr, cp * cr]]
+    T[:3, :3] = [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
     T[:3, 3] = xyz
     return T
 
@@ -197,8 +198,11 @@ def read_transform(reader: _Reader, value: Any, where: str) -> np.ndarray:
         rpy = reader.vector(value.get("rpy", [0, 0, 0]), f"{where}.rpy", 3)
         return transform_from_xyz_rpy(xyz, rpy)
     T = reader.matrix(value, where, 4, 4)
-    if not np.allclose(T[3], [0, 0, 0, 1]) or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6) \
-            or np.linalg.det(T[:3, :3]) < 0:
+    if (
+        not np.allclose(T[3], [0, 0, 0, 1])
+        or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-6)
+        or np.linalg.det(T[:3, :3]) < 0
+    ):
         raise reader.error(where, "not a rigid transform (rotation must be orthonormal, last row 0 0 0 1)")
     return T
 
@@ -221,8 +225,20 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     raw = load_yaml(path, "robot config")
     r = _Reader(path)
     raw = r.mapping(raw, "<top level>")
-    known = {"name", "mesh_folder", "dof", "base", "joint_types", "joint_names", "modified_dh", "dh",
-             "limits", "dynamics", "links", "view"}
+    known = {
+        "name",
+        "mesh_folder",
+        "dof",
+        "base",
+        "joint_types",
+        "joint_names",
+        "modified_dh",
+        "dh",
+        "limits",
+        "dynamics",
+        "links",
+        "view",
+    }
     unknown = set(raw) - known
     if unknown:
         raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(known)}")
@@ -278,17 +294,35 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
     links = _read_links(r, r.require(raw, "links"), dof, mesh_folder)
     view = _read_view(r, raw.get("view"))
-    return RobotConfig(path=path, name=name, mesh_folder=mesh_folder, dof=dof, base=base,
-                       joint_types=types, joint_names=names, theta=params["theta"], d=params["d"],
-                       a=params["a"], alpha=params["alpha"], modified_dh=modified,
-                       position_limits=position, velocity_limits=velocity, dynamics=dynamics,
-                       links=links, view=view)
+    return RobotConfig(
+        path=path,
+        name=name,
+        mesh_folder=mesh_folder,
+        dof=dof,
+        base=base,
+        joint_types=types,
+        joint_names=names,
+        theta=params["theta"],
+        d=params["d"],
+        a=params["a"],
+        alpha=params["alpha"],
+        modified_dh=modified,
+        position_limits=position,
+        velocity_limits=velocity,
+        dynamics=dynamics,
+        links=links,
+        view=view,
+    )
 
 
 def _read_dynamics(r: _Reader, raw: Any, dof: int) -> Dynamics:
     if raw is None:
-        return Dynamics(mass=np.zeros(dof), cog=np.zeros((dof, 3)), inertia=np.zeros((dof, 3, 3)),
-                        gravity=np.array([0.0, 0.0, -9.81]))
+        return Dynamics(
+            mass=np.zeros(dof),
+            cog=np.zeros((dof, 3)),
+            inertia=np.zeros((dof, 3, 3)),
+            gravity=np.array([0.0, 0.0, -9.81]),
+        )
     raw = r.mapping(raw, "dynamics")
     gravity = r.vector(raw.get("gravity", [0.0, 0.0, -9.81]), "dynamics.gravity", 3)
     mass = r.vector(r.require(raw, "mass", "dynamics."), "dynamics.mass", dof)
@@ -348,5 +382,8 @@ def _read_view(r: _Reader, raw: Any) -> ViewInfo:
     for axis, k in zip("XYZ", range(0, 6, 2), strict=True):
         if not limits[k] < limits[k + 1]:
             raise r.error("view.limits", f"min{axis} must be below max{axis}, got {limits[k]}, {limits[k + 1]}")
-    return ViewInfo(limits=limits, azimuth=r.number(raw.get("azimuth", ViewInfo.azimuth), "view.azimuth"),
-                    elevation=r.number(raw.get("elevation", ViewInfo.elevation), "view.elevation"))
+    return ViewInfo(
+        limits=limits,
+        azimuth=r.number(raw.get("azimuth", ViewInfo.azimuth), "view.azimuth"),
+        elevation=r.number(raw.get("elevation", ViewInfo.elevation), "view.elevation"),
+    )

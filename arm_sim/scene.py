@@ -82,10 +82,16 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         scale = r.number(entry.get("scale", 1.0), f"{where}.scale")
         if scale <= 0:
             raise r.error(f"{where}.scale", f"must be > 0, got {scale}")
-        objects.append(SceneObject(
-            name=name, mesh=mesh_path, color=read_color(r, entry.get("color", [0.7, 0.7, 0.7]), f"{where}.color"),
-            pose=read_transform(r, entry.get("pose", {}), f"{where}.pose"), scale=scale,
-            triangles=load_stl(mesh_path) * np.float32(scale)))
+        objects.append(
+            SceneObject(
+                name=name,
+                mesh=mesh_path,
+                color=read_color(r, entry.get("color", [0.7, 0.7, 0.7]), f"{where}.color"),
+                pose=read_transform(r, entry.get("pose", {}), f"{where}.pose"),
+                scale=scale,
+                triangles=load_stl(mesh_path) * np.float32(scale),
+            )
+        )
     arms = []
     arm_names: set[str] = set()
     for i, entry in enumerate(_list(r, raw.get("arms", []), "arms")):

@@ -47,8 +47,9 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
             if count == 0:
                 raise InputError.at(path, None, "binary STL holds no triangles")
             triangles = np.empty((count, 3, 3), dtype=np.float32)
-            bad = _copy_binary_vertices(np.frombuffer(data, dtype=np.uint8), triangles.reshape(-1).view(np.uint8),
-                                        triangles.reshape(-1), count)
+            bad = _copy_binary_vertices(
+                np.frombuffer(data, dtype=np.uint8), triangles.reshape(-1).view(np.uint8), triangles.reshape(-1), count
+            )
             if bad >= 0:
                 raise InputError.at(path, None, f"triangle {bad} has a NaN or infinite coordinate")
             return triangles
@@ -56,11 +57,16 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
     if head.lstrip().startswith(b"solid") and b"\x00" not in head:
         return _parse_ascii(data, path)
     if size < _HEADER_BYTES:
-        raise InputError.at(path, None, f"not an STL file: {size} bytes, too short for a binary "
-                                        "header and not ASCII ('solid' …)")
+        raise InputError.at(
+            path, None, f"not an STL file: {size} bytes, too short for a binary header and not ASCII ('solid' …)"
+        )
     expected = _HEADER_BYTES + count * _BINARY_RECORD.itemsize
-    raise InputError.at(path, None, f"truncated or corrupt binary STL: the header announces {count} "
-                                    f"triangles ({expected} bytes) but the file has {size} bytes")
+    raise InputError.at(
+        path,
+        None,
+        f"truncated or corrupt binary STL: the header announces {count} "
+        f"triangles ({expected} bytes) but the file has {size} bytes",
+    )
 
 
 @numba.njit(cache=True)
@@ -102,10 +108,9 @@ def _parse_ascii(data: bytes, path: str | os.PathLike[str]) -> np.ndarray:
     if error_at >= 0:
         raise InputError.at(path, line_of(error_at), "expected three numbers after 'vertex'")
     end = len(data[-4096:].rstrip()) + max(len(data) - 4096, 0)  # slices only the tail: no copy of the file
-    tail = data[max(end - 4096, 0):end].rsplit(b"\n", 1)[-1].strip()
+    tail = data[max(end - 4096, 0) : end].rsplit(b"\n", 1)[-1].strip()
     if not tail.startswith(b"endsolid"):
-        raise InputError.at(path, line_of(end),
-                            "truncated ASCII STL: the file does not end with 'endsolid'")
+        raise InputError.at(path, line_of(end), "truncated ASCII STL: the file does not end with 'endsolid'")
     if count == 0:
         raise InputError.at(path, None, "ASCII STL holds no triangles")
     if count % 3:
@@ -171,7 +176,7 @@ def _parse_float(buf, i, pow10):
         return 0.0, i, False
     e10 = exp - frac
     if e10 < -60 or e10 > 60:
-        return sign * mant * 10.0 ** e10, i, True
+        return sign * mant * 10.0**e10, i, True
     return sign * mant * pow10[e10 + 60], i, True
 
 
@@ -208,8 +213,7 @@ def _ascii_vertices(buf: np.ndarray, out: np.ndarray) -> tuple[int, int]:
     return int(count), int(error_at)
 
 
-def write_stl(path: str | os.PathLike[str], triangles: np.ndarray, *, ascii: bool = False,
-              name: str = "mesh") -> None:
+def write_stl(path: str | os.PathLike[str], triangles: np.ndarray, *, ascii: bool = False, name: str = "mesh") -> None:
     """Write triangles (F, 3, 3) as a binary (default) or ASCII STL file with facet normals."""
     tri = np.asarray(triangles, dtype=np.float64)
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -218,9 +222,11 @@ def write_stl(path: str | os.PathLike[str], triangles: np.ndarray, *, ascii: boo
     path = Path(path)
     if ascii:
         rows = np.concatenate([normals[:, None, :], tri], axis=1).reshape(-1, 12)
-        facet = ("  facet normal {:.6e} {:.6e} {:.6e}\n    outer loop\n"
-                 "      vertex {:.6e} {:.6e} {:.6e}\n      vertex {:.6e} {:.6e} {:.6e}\n"
-                 "      vertex {:.6e} {:.6e} {:.6e}\n    endloop\n  endfacet\n")
+        facet = (
+            "  facet normal {:.6e} {:.6e} {:.6e}\n    outer loop\n"
+            "      vertex {:.6e} {:.6e} {:.6e}\n      vertex {:.6e} {:.6e} {:.6e}\n"
+            "      vertex {:.6e} {:.6e} {:.6e}\n    endloop\n  endfacet\n"
+        )
         body = "".join(facet.format(*row) for row in rows.tolist())
         path.write_text(f"solid {name}\n{body}endsolid {name}\n")
         return

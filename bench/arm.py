@@ -137,9 +137,21 @@ def rtb_robot(arm: Arm):
         import roboticstoolbox as rtb
     except ImportError:
         return None
-    links = [rtb.RevoluteDH(d=arm.dh[i, 1], a=arm.dh[i, 2], alpha=arm.dh[i, 3], offset=arm.dh[i, 0],
-                            qlim=arm.qlim[i], m=arm.mass[i], r=arm.cog[i], I=arm.inertia_links[i], Jm=0, G=1)
-             for i in range(arm.n)]
+    links = [
+        rtb.RevoluteDH(
+            d=arm.dh[i, 1],
+            a=arm.dh[i, 2],
+            alpha=arm.dh[i, 3],
+            offset=arm.dh[i, 0],
+            qlim=arm.qlim[i],
+            m=arm.mass[i],
+            r=arm.cog[i],
+            I=arm.inertia_links[i],
+            Jm=0,
+            G=1,
+        )
+        for i in range(arm.n)
+    ]
     robot = rtb.DHRobot(links, gravity=arm.gravity, name=arm.name)
     return robot
 
@@ -195,8 +207,12 @@ def bench_kinematics(arm: Arm, robot, n_targets: int) -> None:
     t = time.perf_counter()
     nok = [np_ikine(arm, T, arm.mid_range())[1] for T in sub]
     row(f"plain numpy LM (30 targets): success {np.mean(nok):.1%}", (time.perf_counter() - t) / len(sub), unit="ms")
-    row(f"arm_sim ikine: success {ok.mean():.1%}, max err {err:.1e}", ours, theirs if robot is not None else None,
-        unit="ms")
+    row(
+        f"arm_sim ikine: success {ok.mean():.1%}, max err {err:.1e}",
+        ours,
+        theirs if robot is not None else None,
+        unit="ms",
+    )
 
     print(f"{arm.name}: inverse dynamics (RNE), per call")
     QD, QDD = rng.normal(size=Q.shape), rng.normal(size=Q.shape)
@@ -252,13 +268,15 @@ def bench_node() -> None:
 
     from arm_sim.arm_node import ArmNode
 
-    print("\narm node: CPU time per simulated second (physics 100 Hz, publishing at 100 Hz, arm moving, "
-          "no subscribers)")
+    print(
+        "\narm node: CPU time per simulated second (physics 100 Hz, publishing at 100 Hz, arm moving, no subscribers)"
+    )
     rclpy.init()
     try:
         for config in ("arm/csa7.yaml", "arm/irb120.yaml"):
-            node = ArmNode(parameter_overrides=[Parameter("robot_config", value=config),
-                                                Parameter("publish_rate", value=100.0)])
+            node = ArmNode(
+                parameter_overrides=[Parameter("robot_config", value=config), Parameter("publish_rate", value=100.0)]
+            )
             node.step(100)
             arm = node.arm("")
             arm.motion.move_to(arm.arm.lower + 0.9 * (arm.arm.upper - arm.arm.lower), min_duration=30.0)
@@ -268,8 +286,10 @@ def bench_node() -> None:
             cpu = time.process_time() - cpu
             assert arm.motion.moving
             share = cpu / (steps * node.physics_dt)
-            print(f"  {arm.arm.name}: {arm.arm.n} links, {len(arm.arm.elements)} mesh elements: "
-                  f"{share:.1%} of a core (goal <= 10 %)")
+            print(
+                f"  {arm.arm.name}: {arm.arm.n} links, {len(arm.arm.elements)} mesh elements: "
+                f"{share:.1%} of a core (goal <= 10 %)"
+            )
             node.destroy_node()
     finally:
         rclpy.shutdown()

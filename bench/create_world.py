@@ -54,8 +54,9 @@ def random_map(seed: int = 0) -> CreateMap:
         beacon_xy=rng.uniform(-5.0, 5.0, (10, 2)),
         beacon_rgb=rng.uniform(0.0, 1.0, (10, 3)),
         beacon_ids=[f"b{i}" for i in range(10)],
-        virtwalls=np.column_stack([rng.uniform(-5.0, 5.0, (5, 2)), rng.uniform(-3.0, 3.0, 5),
-                                   rng.integers(1, 4, 5)]).astype(np.float64),
+        virtwalls=np.column_stack(
+            [rng.uniform(-5.0, 5.0, (5, 2)), rng.uniform(-3.0, 3.0, 5), rng.integers(1, 4, 5)]
+        ).astype(np.float64),
     )
 
 
@@ -121,19 +122,17 @@ def bench_lidar(world: CreateMap, budget: float) -> dict[str, Rate]:
         def run():
             ox, oy, angles = rays[next(counter) % len(rays)]
             caster(ox, oy, angles)
+
         return run
 
     walls = world.walls
     results = {
-        "numpy rays×walls matrix": rate(scan(lambda x, y, a: numpy_cast_fan(walls, x, y, a, 4.0)),
-                                        budget) * BEAMS,
-        "numba brute force": rate(scan(lambda x, y, a: brute_cast_fan(walls, x, y, a, 4.0)),
-                                  budget) * BEAMS,
+        "numpy rays×walls matrix": rate(scan(lambda x, y, a: numpy_cast_fan(walls, x, y, a, 4.0)), budget) * BEAMS,
+        "numba brute force": rate(scan(lambda x, y, a: brute_cast_fan(walls, x, y, a, 4.0)), budget) * BEAMS,
         "numba uniform grid": rate(scan(lambda x, y, a: grid.cast(x, y, a, 4.0)), budget) * BEAMS,
     }
     for x, y, angles in rays:  # the benchmark is only worth printing if they agree
-        np.testing.assert_allclose(grid.cast(x, y, angles, 4.0),
-                                   brute_cast_fan(walls, x, y, angles, 4.0), atol=1e-9)
+        np.testing.assert_allclose(grid.cast(x, y, angles, 4.0), brute_cast_fan(walls, x, y, angles, 4.0), atol=1e-9)
     robot = CreateModel(world, pose=poses[0])
 
     def model_scan():
@@ -211,17 +210,23 @@ def bench_node(map_path: str, pose, budget: float, subscribed: bool) -> Rate:
     rclpy.init()
     listener = None
     try:
-        node = CreateWorldNode(parameter_overrides=[
-            Parameter("map_file", value=map_path),
-            Parameter("config_file", value=str(ROOT / "config/create/example_config.txt")),
-            Parameter("initial_pose", value=[float(v) for v in pose]),
-            Parameter("real_time_factor", value=0.0)])
+        node = CreateWorldNode(
+            parameter_overrides=[
+                Parameter("map_file", value=map_path),
+                Parameter("config_file", value=str(ROOT / "config/create/example_config.txt")),
+                Parameter("initial_pose", value=[float(v) for v in pose]),
+                Parameter("real_time_factor", value=0.0),
+            ]
+        )
         executor = make_executor()
         executor.add_node(node)
         if subscribed:
             topics = node.get_publisher_names_and_types_by_node(node.get_name(), node.get_namespace())
-            listener = subprocess.Popen([sys.executable, "-c", _LISTENER, *(f"{t}={types[0]}" for t, types in topics)],
-                                        cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+            listener = subprocess.Popen(
+                [sys.executable, "-c", _LISTENER, *(f"{t}={types[0]}" for t, types in topics)],
+                cwd=ROOT,
+                env=dict(os.environ, PYTHONPATH=str(ROOT)),
+            )
             publishers = list(node.publishers)
             if not spin_until(executor, lambda: all(p.get_subscription_count() for p in publishers), 20.0):
                 raise RuntimeError("the listener process did not subscribe to every topic")
@@ -278,8 +283,7 @@ def bench_cold_start(map_path: str, pose) -> tuple[float, float]:
     times = []
     for _ in range(2):
         t0 = time.perf_counter()
-        with subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              text=True) as child:
+        with subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
             line = child.stdout.readline()
             times.append(time.perf_counter() - t0)
             _, err = child.communicate(timeout=120)
@@ -305,20 +309,23 @@ def main() -> None:
 
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(f"{os.cpu_count()} CPUs, load average {load} (other processes slow every figure down)")
-    print(f"LIDAR scan, {BEAMS} beams, {N_WALLS} random walls, one core "
-          "(wall-clock rate; per CPU-second of this process in brackets)")
+    print(
+        f"LIDAR scan, {BEAMS} beams, {N_WALLS} random walls, one core "
+        "(wall-clock rate; per CPU-second of this process in brackets)"
+    )
     lidar = bench_lidar(world, budget)
     brute = lidar["numba brute force"]
     for name, rays in lidar.items():
-        print(f"  {name:36s} {rays / 1e6:6.2f} M rays/s ({rays.cpu / 1e6:6.2f})"
-              f"   ×{rays / brute:5.2f} vs brute force")
+        print(f"  {name:36s} {rays / 1e6:6.2f} M rays/s ({rays.cpu / 1e6:6.2f})   ×{rays / brute:5.2f} vs brute force")
     grid = lidar["numba uniform grid"]
     numpy_rate = lidar["numpy rays×walls matrix"]
     print(f"  grid vs numpy: ×{grid / numpy_rate:.1f}   goal ≥ 5 M rays/s: {verdict(grid, 5e6)}")
 
     steps = bench_model_step(world, noise, budget)
-    print(f"Full-sensor model step (physics + all 8 sensors, example noise): {steps:6.0f} steps/s "
-          f"({steps.cpu:6.0f})   goal ≥ 2,000: {verdict(steps, 2000)}")
+    print(
+        f"Full-sensor model step (physics + all 8 sensors, example noise): {steps:6.0f} steps/s "
+        f"({steps.cpu:6.0f})   goal ≥ 2,000: {verdict(steps, 2000)}"
+    )
 
     if args.no_node:
         return
@@ -327,12 +334,16 @@ def main() -> None:
         map_path = write_map(world, folder)
         for subscribed, label in ((False, "no subscribers"), (True, "every topic subscribed by another process")):
             speed = bench_node(map_path, pose, 2 * budget, subscribed)
-            print(f"create_world node, real_time_factor 0, default rates, {label}: "
-                  f"{speed:6.1f}× real time ({speed.cpu:6.1f})   goal ≥ 20×: {verdict(speed, 20)}")
+            print(
+                f"create_world node, real_time_factor 0, default rates, {label}: "
+                f"{speed:6.1f}× real time ({speed.cpu:6.1f})   goal ≥ 20×: {verdict(speed, 20)}"
+            )
         first, warm = bench_cold_start(map_path, pose)
-        print(f"Cold start to first scan (fresh interpreter): {first:.2f} s first run, "
-              f"{warm:.2f} s with the numba cache warm   goal ≤ 3 s: "
-              f"{'met' if warm <= 3.0 else 'NOT met'}")
+        print(
+            f"Cold start to first scan (fresh interpreter): {first:.2f} s first run, "
+            f"{warm:.2f} s with the numba cache warm   goal ≤ 3 s: "
+            f"{'met' if warm <= 3.0 else 'NOT met'}"
+        )
 
 
 if __name__ == "__main__":

@@ -22,16 +22,16 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-os.environ.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(ROOT / 'config' / 'fastdds_localhost.xml'))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 
 GOAL_RATE = 20_000
 GOAL_LATENESS_MS = 1.0
-TOPICS = ('/bench/chatter', '/bench/scan', '/bench/grid')
+TOPICS = ("/bench/chatter", "/bench/scan", "/bench/grid")
 
 
 def _pin(cpu: int) -> None:
-    if hasattr(os, 'sched_setaffinity') and cpu < os.cpu_count():
+    if hasattr(os, "sched_setaffinity") and cpu < os.cpu_count():
         os.sched_setaffinity(0, {cpu})
 
 
@@ -46,7 +46,7 @@ def publisher(rate: float, seconds: float) -> None:
 
     _pin(1)
     rclpy.init()
-    node = rclpy.create_node('bench_publisher')
+    node = rclpy.create_node("bench_publisher")
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=ReliabilityPolicy.RELIABLE)
     types = (String, LaserScan, OccupancyGrid)
     pubs = [node.create_publisher(t, name, qos) for t, name in zip(types, TOPICS, strict=True)]
@@ -54,7 +54,7 @@ def publisher(rate: float, seconds: float) -> None:
     grid.info.width = grid.info.height = 64
     grid.data = [0] * 4096
     payloads = [
-        serialize_message(String(data='x' * 40)),
+        serialize_message(String(data="x" * 40)),
         serialize_message(LaserScan(ranges=[1.0] * 360)),
         serialize_message(grid),
     ]
@@ -62,7 +62,7 @@ def publisher(rate: float, seconds: float) -> None:
     deadline = time.monotonic() + 15
     while any(p.get_subscription_count() < 1 for p in pubs):
         if time.monotonic() > deadline:
-            sys.exit('publisher: recorder never subscribed')
+            sys.exit("publisher: recorder never subscribed")
         time.sleep(0.01)
     time.sleep(0.2)
     total = int(rate * seconds)
@@ -93,17 +93,20 @@ def bench_record(rate: float, seconds: float, folder: Path) -> tuple[int, int, f
 
     _pin(0)
     rclpy.init()
-    recorder = Recorder(BagWriter(folder, compression='zstd'), list(TOPICS), clock='wall')
+    recorder = Recorder(BagWriter(folder, compression="zstd"), list(TOPICS), clock="wall")
     executor = make_executor()
     executor.add_node(recorder)
     proc = subprocess.Popen(
-        [sys.executable, __file__, '--publisher', '--rate', str(rate), '--seconds', str(seconds)],
-        stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        [sys.executable, __file__, "--publisher", "--rate", str(rate), "--seconds", str(seconds)],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
     )
     # Spin as `robot_sims record` does (spin_until_future_complete), not spin_once per message.
     publisher_done = Future()
-    recorder.create_timer(0.1, lambda: proc.poll() is not None and not publisher_done.done()
-                          and publisher_done.set_result(True))
+    recorder.create_timer(
+        0.1, lambda: proc.poll() is not None and not publisher_done.done() and publisher_done.set_result(True)
+    )
     cpu0 = time.process_time()
     while not publisher_done.done():
         executor.spin_until_future_complete(publisher_done, timeout_sec=0.5)
@@ -129,10 +132,12 @@ def robot_bag(folder: Path, rate: float, seconds: float) -> Path:
 
     from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 
-    qos = qos_profiles_yaml([{'reliability': 'best_effort'}])
-    kinds = [('/robot/scan', 'sensor_msgs/msg/LaserScan', serialize_message(LaserScan(ranges=[1.0] * 360))),
-             ('/robot/odom', 'nav_msgs/msg/Odometry', serialize_message(Odometry())),
-             ('/robot/sonar', 'sensor_msgs/msg/Range', serialize_message(Range()))]
+    qos = qos_profiles_yaml([{"reliability": "best_effort"}])
+    kinds = [
+        ("/robot/scan", "sensor_msgs/msg/LaserScan", serialize_message(LaserScan(ranges=[1.0] * 360))),
+        ("/robot/odom", "nav_msgs/msg/Odometry", serialize_message(Odometry())),
+        ("/robot/sonar", "sensor_msgs/msg/Range", serialize_message(Range())),
+    ]
     with BagWriter(folder) as w:
         ids = [w.add_topic(topic, type_name, qos) for topic, type_name, _ in kinds]
         for i in range(int(rate * seconds)):
@@ -159,35 +164,39 @@ def bench_replay(folder: Path, seconds: float, topics: list[str] | None = None) 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('--rate', type=float, default=GOAL_RATE, help='messages/s to publish')
-    parser.add_argument('--seconds', type=float, default=3.0)
-    parser.add_argument('--publisher', action='store_true', help=argparse.SUPPRESS)
+    parser.add_argument("--rate", type=float, default=GOAL_RATE, help="messages/s to publish")
+    parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument("--publisher", action="store_true", help=argparse.SUPPRESS)
     opts = parser.parse_args()
     if opts.publisher:
         publisher(opts.rate, opts.seconds)
         return
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp) / 'bench_bag'
+        folder = Path(tmp) / "bench_bag"
         sent, recorded, pub_rate, cpu = bench_record(opts.rate, opts.seconds, folder)
         drops = sent - recorded
-        size = sum(f.stat().st_size for f in folder.glob('*.mcap'))
-        print(f'recorder: {sent} msgs published at {pub_rate:,.0f} msg/s, {recorded} recorded, '
-              f'{drops} dropped, recorder CPU {cpu:.2f} s ({recorded / cpu:,.0f} msg per CPU-s), '
-              f'bag {size / 1e6:.1f} MB')
-        print(f'{"metric":34s} {"goal":>12s} {"measured":>12s} {"ratio":>7s}')
+        size = sum(f.stat().st_size for f in folder.glob("*.mcap"))
+        print(
+            f"recorder: {sent} msgs published at {pub_rate:,.0f} msg/s, {recorded} recorded, "
+            f"{drops} dropped, recorder CPU {cpu:.2f} s ({recorded / cpu:,.0f} msg per CPU-s), "
+            f"bag {size / 1e6:.1f} MB"
+        )
+        print(f"{'metric':34s} {'goal':>12s} {'measured':>12s} {'ratio':>7s}")
         kept = pub_rate * recorded / sent  # messages/s that made it into the bag
-        print(f'{"recorded msg/s (1 core)":34s} {GOAL_RATE:>12,} {kept:>12,.0f} {kept / GOAL_RATE:>6.2f}x')
-        print(f'{"dropped messages":34s} {0:>12} {drops:>12} {"ok" if drops == 0 else "FAIL":>7s}')
+        print(f"{'recorded msg/s (1 core)':34s} {GOAL_RATE:>12,} {kept:>12,.0f} {kept / GOAL_RATE:>6.2f}x")
+        print(f"{'dropped messages':34s} {0:>12} {drops:>12} {'ok' if drops == 0 else 'FAIL':>7s}")
         runs = [
-            ('1,000 msg/s robot bag', robot_bag(Path(tmp) / 'robot', 1000, 3.0), None),
-            ('6,000 msg/s scans+grids above', folder, ['/bench/scan', '/bench/grid']),
+            ("1,000 msg/s robot bag", robot_bag(Path(tmp) / "robot", 1000, 3.0), None),
+            ("6,000 msg/s scans+grids above", folder, ["/bench/scan", "/bench/grid"]),
         ]
         for label, bag, topics in runs:
             median, p99, n = bench_replay(bag, 2.0, topics)
-            print(f'{"replay median lateness (ms)":34s} {GOAL_LATENESS_MS:>12.3f} {median:>12.3f} '
-                  f'{GOAL_LATENESS_MS / max(median, 1e-6):>6.1f}x  {label}')
-            print(f'{"replay p99 lateness (ms)":34s} {"":>12s} {p99:>12.3f}          ({n} msgs)')
+            print(
+                f"{'replay median lateness (ms)':34s} {GOAL_LATENESS_MS:>12.3f} {median:>12.3f} "
+                f"{GOAL_LATENESS_MS / max(median, 1e-6):>6.1f}x  {label}"
+            )
+            print(f"{'replay p99 lateness (ms)':34s} {'':>12s} {p99:>12.3f}          ({n} msgs)")
 
 
-if __name__ == '__main__':
+if __name__ == "__main__":
     main()

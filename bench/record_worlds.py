@@ -39,9 +39,14 @@ def exe(name: str, *args: str) -> subprocess.Popen:
     nobody reads until the end can fill up and block the process)."""
     code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
     log = tempfile.TemporaryFile(mode="w+")
-    process = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT,
-                               env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                               stdout=subprocess.DEVNULL, stderr=log, text=True)
+    process = subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        cwd=ROOT,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        stdout=subprocess.DEVNULL,
+        stderr=log,
+        text=True,
+    )
     process.log = log  # type: ignore[attr-defined]
     return process
 

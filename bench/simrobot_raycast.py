@@ -45,13 +45,19 @@ def reference_scene(seed: int = 0) -> SimrobotWorld:
     for _ in range(N_RECTS):
         x, y = rng.integers(0, N_CELLS - 50, 2)
         w, h = rng.integers(10, 80, 2)
-        walls[x:x + w, y:y + h] = True
-    laser = SensorSpec("scan", "laser", position=(0.0, 0.0), beamwidth=math.radians(240),
-                       range=RANGE_CELLS * 0.01, rays=RAYS)
+        walls[x : x + w, y : y + h] = True
+    laser = SensorSpec(
+        "scan", "laser", position=(0.0, 0.0), beamwidth=math.radians(240), range=RANGE_CELLS * 0.01, rays=RAYS
+    )
     robots: list[RobotSpec] = []
     while len(robots) < N_ROBOTS:
-        spec = RobotSpec(f"r{len(robots)}", tuple(rng.uniform(0.2, N_CELLS * 0.01 - 0.2, 2)),
-                         heading=float(rng.uniform(-math.pi, math.pi)), scale=ROBOT_SCALE, sensors=(laser,))
+        spec = RobotSpec(
+            f"r{len(robots)}",
+            tuple(rng.uniform(0.2, N_CELLS * 0.01 - 0.2, 2)),
+            heading=float(rng.uniform(-math.pi, math.pi)),
+            scale=ROBOT_SCALE,
+            sensors=(laser,),
+        )
         try:
             SimrobotWorld(WorldSpec(walls=walls, robots=(*robots, spec)))
         except ValueError:
@@ -75,7 +81,7 @@ def main() -> None:
     scans = []
     for k in range(len(world.sensors)):
         ox, oy, axis = world.sensor_origin(k)
-        angles = axis + world.roff[world.rstart[k]:world.rstart[k + 1]]
+        angles = axis + world.roff[world.rstart[k] : world.rstart[k + 1]]
         scans.append((ox / 0.01, oy / 0.01, angles, np.column_stack([np.cos(angles), np.sin(angles)]), k + 2))
     exact_t = np.empty(n_rays)
     exact_v = np.empty(n_rays, dtype=np.int64)
@@ -108,16 +114,22 @@ def main() -> None:
     f = np.isfinite(exact_t)
     agree = np.isfinite(world.ray_t) == f
     diff = np.abs(np.where(f, exact_t, 0.0) - np.where(f, world.ray_t, 0.0))
-    print(f"scene: {N_CELLS}x{N_CELLS} cells, {N_RECTS} rectangles, {N_ROBOTS} robots, "
-          f"{RAYS}-ray laser, range {RANGE_CELLS} cells; {n_rays} rays per frame")
+    print(
+        f"scene: {N_CELLS}x{N_CELLS} cells, {N_RECTS} rectangles, {N_ROBOTS} robots, "
+        f"{RAYS}-ray laser, range {RANGE_CELLS} cells; {n_rays} rays per frame"
+    )
     print(f"{'caster':<34}{'rays/s':>14}{'fast is':>12}")
     print(f"{'fast (clearance jumps + discs)':<34}{fast_rps:>14,.0f}{'':>12}")
     print(f"{'numba exact traversal (per cell)':<34}{exact_rps:>14,.0f}{fast_rps / exact_rps:>11.1f}x")
     print(f"{'plain-Python Bresenham (seed)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
-    print(f"agreement with exact: {agree.mean() * 100:.2f}% same hit/miss, max |difference| "
-          f"{diff[f & agree].max():.2e} cells, mean hit distance {exact_t[f].mean():.0f} cells")
-    print("load average (1, 5, 15 min) after the runs: {:.2f} {:.2f} {:.2f} on {} CPUs (other processes share "
-          "them: run a few times, keep the best)".format(*os.getloadavg(), os.cpu_count()))
+    print(
+        f"agreement with exact: {agree.mean() * 100:.2f}% same hit/miss, max |difference| "
+        f"{diff[f & agree].max():.2e} cells, mean hit distance {exact_t[f].mean():.0f} cells"
+    )
+    print(
+        "load average (1, 5, 15 min) after the runs: {:.2f} {:.2f} {:.2f} on {} CPUs (other processes share "
+        "them: run a few times, keep the best)".format(*os.getloadavg(), os.cpu_count())
+    )
     goals = (fast_rps >= 5e6, fast_rps >= 3 * exact_rps, fast_rps >= 100 * py_rps)
     print("goals (>= 5M rays/s, >= 3x exact, >= 100x python):", ", ".join("met" if g else "MISSED" for g in goals))
 

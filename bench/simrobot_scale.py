@@ -33,8 +33,9 @@ from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec  # noqa: E4
 
 SENSORS = (
     SensorSpec("sonar_front", "ultrasonic", position=(0.05, 0.0), beamwidth=math.radians(60), range=0.5, rays=30),
-    SensorSpec("sonar_rear", "ultrasonic", position=(-0.03, 0.0), axis=math.pi, beamwidth=math.radians(60),
-               range=0.5, rays=30),
+    SensorSpec(
+        "sonar_rear", "ultrasonic", position=(-0.03, 0.0), axis=math.pi, beamwidth=math.radians(60), range=0.5, rays=30
+    ),
     SensorSpec("laser", "laser", position=(0.0, 0.0), beamwidth=math.radians(180), range=2.0, rays=181),
 )
 
@@ -46,7 +47,7 @@ def scene_walls(seed: int = 0) -> np.ndarray:
     for _ in range(60):
         x, y = rng.integers(0, 950, 2)
         w, h = rng.integers(10, 80, 2)
-        walls[x:x + w, y:y + h] = True
+        walls[x : x + w, y : y + h] = True
     return walls
 
 
@@ -58,11 +59,14 @@ def scene(n: int, dt: float = 0.1, history_steps: int = 10000, seed: int = 1) ->
     robots = []
     while len(robots) < n:
         x, y = rng.integers(10, 990, 2)
-        if taken[x - 6:x + 7, y - 6:y + 7].any():
+        if taken[x - 6 : x + 7, y - 6 : y + 7].any():
             continue
-        taken[x - 6:x + 7, y - 6:y + 7] = True
-        robots.append(RobotSpec(f"r{len(robots)}", (x * 0.01, y * 0.01), heading=float(rng.uniform(-math.pi, math.pi)),
-                                sensors=SENSORS))
+        taken[x - 6 : x + 7, y - 6 : y + 7] = True
+        robots.append(
+            RobotSpec(
+                f"r{len(robots)}", (x * 0.01, y * 0.01), heading=float(rng.uniform(-math.pi, math.pi)), sensors=SENSORS
+            )
+        )
     return WorldSpec(walls=walls, robots=tuple(robots), dt=dt, history_steps=history_steps)
 
 

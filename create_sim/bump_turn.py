@@ -111,10 +111,17 @@ def demo(
             previous = pose.copy()
         wall = time.perf_counter() - start_wall
         x, y, theta = (float(v) for v in world.model.pose)
-        summary = {"sim_seconds": world.sim_time, "distance_m": distance, "bumps": controller.bumps,
-                   "final_pose": (x, y, theta), "wall_seconds": wall,
-                   "speed_vs_real_time": world.sim_time / wall if wall > 0 else math.inf}
-    print(f"create_bump_turn demo: {summary['sim_seconds']:.1f} s simulated in {wall:.1f} s "
-          f"({summary['speed_vs_real_time']:.0f}x real time); drove {distance:.2f} m, "
-          f"{controller.bumps} bumps; final pose x={x:.2f} m y={y:.2f} m theta={math.degrees(theta):.0f} deg")
+        summary = {
+            "sim_seconds": world.sim_time,
+            "distance_m": distance,
+            "bumps": controller.bumps,
+            "final_pose": (x, y, theta),
+            "wall_seconds": wall,
+            "speed_vs_real_time": world.sim_time / wall if wall > 0 else math.inf,
+        }
+    print(
+        f"create_bump_turn demo: {summary['sim_seconds']:.1f} s simulated in {wall:.1f} s "
+        f"({summary['speed_vs_real_time']:.0f}x real time); drove {distance:.2f} m, "
+        f"{controller.bumps} bumps; final pose x={x:.2f} m y={y:.2f} m theta={math.degrees(theta):.0f} deg"
+    )
     return summary

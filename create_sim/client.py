@@ -114,8 +114,15 @@ class CreateRobot:
     robot before raising :class:`TimeoutError`.
     """
 
-    def __init__(self, namespace: str = "", *, node: Node | None = None,
-                 spin: Callable[[], None] | None = None, stamped: bool = False, timeout: float = 5.0) -> None:
+    def __init__(
+        self,
+        namespace: str = "",
+        *,
+        node: Node | None = None,
+        spin: Callable[[], None] | None = None,
+        stamped: bool = False,
+        timeout: float = 5.0,
+    ) -> None:
         self.timeout = timeout
         self._cond = threading.Condition()
         self._latest: dict[str, object] = {}
@@ -149,11 +156,17 @@ class CreateRobot:
 
     def _subscribe(self) -> None:
         topics: list[tuple[type, str]] = [
-            (Range, "bump/left"), (Range, "bump/right"), (Range, "wall"), (Range, "virtual_wall"),
+            (Range, "bump/left"),
+            (Range, "bump/right"),
+            (Range, "wall"),
+            (Range, "virtual_wall"),
             *((Illuminance, f"cliff/{n}") for n in CLIFF_NAMES),
             *((Range, f"sonar/{n}") for n in SONAR_NUMBERS.values()),
-            (LaserScan, "scan"), (MarkerArray, "camera/beacons"), (PoseStamped, "overhead_pose"),
-            (Joy, "buttons"), (BatteryState, "battery_state"),
+            (LaserScan, "scan"),
+            (MarkerArray, "camera/beacons"),
+            (PoseStamped, "overhead_pose"),
+            (Joy, "buttons"),
+            (BatteryState, "battery_state"),
         ]
         for msg_type, topic in topics:
             self.node.create_subscription(msg_type, topic, lambda msg, t=topic: self._store(t, msg), SENSOR_QOS)
@@ -201,8 +214,10 @@ class CreateRobot:
                 if self._updates != seen:
                     deadline, seen = time.monotonic() + self.timeout, self._updates
                 elif time.monotonic() > deadline:
-                    raise TimeoutError(f"{what}: no message from the robot for {self.timeout} s "
-                                       f"(is create_world running in namespace {self.node.get_namespace()!r}?)")
+                    raise TimeoutError(
+                        f"{what}: no message from the robot for {self.timeout} s "
+                        f"(is create_world running in namespace {self.node.get_namespace()!r}?)"
+                    )
 
     def _msg(self, topic: str):
         self._wait_until(lambda: topic in self._latest, f"waiting for {topic}")
@@ -274,8 +289,9 @@ class CreateRobot:
         twist.linear.x, twist.angular.z = v, w
         if self._cmd_pub.get_subscription_count() == 0:
             # A command published before the world has matched would be lost silently.
-            self._wait_until(lambda: self._cmd_pub.get_subscription_count() > 0,
-                             "waiting for the world to subscribe to cmd_vel")
+            self._wait_until(
+                lambda: self._cmd_pub.get_subscription_count() > 0, "waiting for the world to subscribe to cmd_vel"
+            )
         if self._stamped:
             msg = TwistStamped(twist=twist)
             msg.header.stamp = time_msg(self._sim_time)  # the newest sim time the robot reported
@@ -295,8 +311,14 @@ class CreateRobot:
         _check_finite(speed=speed, distance=distance)
         speed = _clamp(abs(speed), *TRAVEL_SPEED_RANGE)
         start = self._travelled
-        self._drive_until(math.copysign(speed, distance), 0.0, abs(distance),
-                          lambda: abs(self._travelled - start), timeout, "travel_dist")
+        self._drive_until(
+            math.copysign(speed, distance),
+            0.0,
+            abs(distance),
+            lambda: abs(self._travelled - start),
+            timeout,
+            "travel_dist",
+        )
         return self._travelled - start
 
     def turn_angle(self, speed: float, angle: float, timeout: float | None = None) -> float:
@@ -310,12 +332,14 @@ class CreateRobot:
         speed = _clamp(abs(speed), *TURN_SPEED_RANGE)
         target = math.radians(angle)
         start = self._turned
-        self._drive_until(0.0, math.copysign(speed, target), abs(target),
-                          lambda: abs(self._turned - start), timeout, "turn_angle")
+        self._drive_until(
+            0.0, math.copysign(speed, target), abs(target), lambda: abs(self._turned - start), timeout, "turn_angle"
+        )
         return math.degrees(self._turned - start)
 
-    def _drive_until(self, v: float, w: float, goal: float, progress: Callable[[], float],
-                     timeout: float | None, what: str) -> None:
+    def _drive_until(
+        self, v: float, w: float, goal: float, progress: Callable[[], float], timeout: float | None, what: str
+    ) -> None:
         self._msg("odom")
         if goal == 0.0:
             return
@@ -405,8 +429,11 @@ class CreateRobot:
         """``CameraSensorCreate``: (angles rad left-positive, distances m, colours N×3 RGB) of the
         beacons the camera sees; empty arrays when none."""
         sightings = self.beacons()
-        return (np.array([s[2] for s in sightings]), np.array([s[1] for s in sightings]),
-                np.array([s[3] for s in sightings]).reshape(-1, 3))
+        return (
+            np.array([s[2] for s in sightings]),
+            np.array([s[1] for s in sightings]),
+            np.array([s[3] for s in sightings]).reshape(-1, 3),
+        )
 
     def beacons(self) -> list[tuple[str, float, float, tuple[float, float, float]]]:
         """Beacons in view as (id, distance m, angle rad, (r, g, b)); ids as written in the map."""
@@ -466,7 +493,27 @@ class CreateRobot:
         charge, capacity, percent = self.battery_charge()
         battery = self._msg("battery_state")
         return AllSensors(
-            bump_right, bump_left, bump_front, self.wall_sensor(), self.virtual_wall_sensor(),
-            False, False, False, False, False, False, False, False, play, advance,
-            self.distance_sensor(), self.angle_sensor(), float(battery.voltage), float(battery.current),
-            float(battery.temperature), charge, capacity, percent)
+            bump_right,
+            bump_left,
+            bump_front,
+            self.wall_sensor(),
+            self.virtual_wall_sensor(),
+            False,
+            False,
+            False,
+            False,
+            False,
+            False,
+            False,
+            False,
+            play,
+            advance,
+            self.distance_sensor(),
+            self.angle_sensor(),
+            float(battery.voltage),
+            float(battery.current),
+            float(battery.temperature),
+            charge,
+            capacity,
+            percent,
+        )

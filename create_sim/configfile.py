@@ -53,30 +53,32 @@ def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
         args = tokens[1:]
         if keyword in SENSORS or keyword == "imu":
             if len(args) != 2:
-                raise InputError.at(source, number,
-                                    f"'{keyword}' needs 2 numbers (mean std), got {len(args)}: "
-                                    f"{' '.join(args)!r}")
+                raise InputError.at(
+                    source, number, f"'{keyword}' needs 2 numbers (mean std), got {len(args)}: {' '.join(args)!r}"
+                )
             mean = parse_number(args[0], f"{keyword} mean", source, number)
             std = parse_number(args[1], f"{keyword} std", source, number)
             if std < 0.0:
                 raise InputError.at(source, number, f"{keyword} std {args[1]!r} must be >= 0")
             if keyword == "imu":
-                warnings.warn(f"{source}:{number}: 'imu' noise ignored (the simulated Create has "
-                              "no IMU)", stacklevel=2)
+                warnings.warn(f"{source}:{number}: 'imu' noise ignored (the simulated Create has no IMU)", stacklevel=2)
                 continue
             config.noise[keyword] = (mean, std)
         elif keyword == "com_delay":
             if len(args) != 1:
-                raise InputError.at(source, number,
-                                    f"'com_delay' needs 1 number (seconds), got {len(args)}: "
-                                    f"{' '.join(args)!r}")
+                raise InputError.at(
+                    source, number, f"'com_delay' needs 1 number (seconds), got {len(args)}: {' '.join(args)!r}"
+                )
             delay = parse_number(args[0], "com_delay", source, number)
             if delay < 0.0:
                 raise InputError.at(source, number, f"com_delay {args[0]!r} must be >= 0")
             config.com_delay = delay
         else:
-            warnings.warn(f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
-                          f"(expected {', '.join(SENSORS)} or com_delay)", stacklevel=2)
+            warnings.warn(
+                f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
+                f"(expected {', '.join(SENSORS)} or com_delay)",
+                stacklevel=2,
+            )
     return config
 
 

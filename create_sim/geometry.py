@@ -23,8 +23,9 @@ _PARALLEL_TOL = 1e-14
 
 
 @numba.njit(cache=True, inline="always")
-def ray_segment_distance(ox: float, oy: float, dx: float, dy: float,
-                         x1: float, y1: float, x2: float, y2: float, limit: float) -> float:
+def ray_segment_distance(
+    ox: float, oy: float, dx: float, dy: float, x1: float, y1: float, x2: float, y2: float, limit: float
+) -> float:
     """Distance along the unit ray (ox, oy)+t(dx, dy), 0 ≤ t < limit, to the segment; else inf.
 
     ``limit`` (the nearest hit so far) lets a caster skip the second half of the test.
@@ -84,6 +85,7 @@ def nearest_distance(segs, px, py) -> float:
 # ---------------------------------------------------------------------------------------------
 # Uniform grid over segments
 # ---------------------------------------------------------------------------------------------
+
 
 @numba.njit(cache=True)
 def _segment_touches_box(x1, y1, x2, y2, bx0, by0, bx1, by1, eps) -> bool:
@@ -206,8 +208,7 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
             if mailbox[s] == stamp:
                 continue
             mailbox[s] = stamp
-            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3],
-                                     best)
+            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3], best)
             if t < best:
                 best = t
         t_exit = min(t_max_x, t_max_y)
@@ -283,8 +284,7 @@ def brute_cast_fan(segs, ox, oy, angles, max_range):
         dy = math.sin(angles[i])
         best = np.inf
         for s in range(segs.shape[0]):
-            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3],
-                                     best)
+            t = ray_segment_distance(ox, oy, dx, dy, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3], best)
             if t < best:
                 best = t
         out[i] = best if best <= max_range else np.inf
@@ -346,8 +346,7 @@ class SegmentGrid:
         """Grid over ``segs``; the default cell size puts about two cells per segment, ≥ 5 cm."""
         segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
         if segs.shape[0] == 0:
-            return cls(segs, np.array([0.0, 0.0, 1.0, 0.0, 0.0]), np.zeros(1, np.int64),
-                       np.zeros(0, np.int32))
+            return cls(segs, np.array([0.0, 0.0, 1.0, 0.0, 0.0]), np.zeros(1, np.int64), np.zeros(0, np.int32))
         lo = np.minimum(segs[:, :2].min(axis=0), segs[:, 2:].min(axis=0))
         hi = np.maximum(segs[:, :2].max(axis=0), segs[:, 2:].max(axis=0))
         extent = np.maximum(hi - lo, 1e-3)
@@ -362,8 +361,7 @@ class SegmentGrid:
             cell *= 2.0
             shape = np.ceil(extent / cell).astype(np.int64) + 1
         origin = lo - 0.5 * (shape * cell - extent)
-        start, items = _build_grid(segs, float(origin[0]), float(origin[1]), float(cell),
-                                   int(shape[0]), int(shape[1]))
+        start, items = _build_grid(segs, float(origin[0]), float(origin[1]), float(cell), int(shape[0]), int(shape[1]))
         meta = np.array([origin[0], origin[1], cell, shape[0], shape[1]], dtype=np.float64)
         return cls(segs, meta, start, items)
 
@@ -372,15 +370,25 @@ class SegmentGrid:
         angles = np.asarray(angles, dtype=np.float64)
         return self.cast_fan(ox, oy, 0.0, np.cos(angles), np.sin(angles), max_range)
 
-    def cast_fan(self, ox: float, oy: float, heading: float, cos_off: np.ndarray,
-                 sin_off: np.ndarray, max_range: float) -> np.ndarray:
+    def cast_fan(
+        self, ox: float, oy: float, heading: float, cos_off: np.ndarray, sin_off: np.ndarray, max_range: float
+    ) -> np.ndarray:
         """Like :meth:`cast` for a sensor's fixed fan: angles heading + offsets (as cos, sin)."""
-        return grid_cast_fan(self.segs, self.meta, self.start, self.items, float(ox), float(oy),
-                             float(heading), cos_off, sin_off, float(max_range))
+        return grid_cast_fan(
+            self.segs,
+            self.meta,
+            self.start,
+            self.items,
+            float(ox),
+            float(oy),
+            float(heading),
+            cos_off,
+            sin_off,
+            float(max_range),
+        )
 
 
-def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray,
-                   max_range: float) -> np.ndarray:
+def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:
     """Vectorised numpy rays × segments matrix (the baseline the benchmark compares against)."""
     dx = np.cos(angles)[:, None]
     dy = np.sin(angles)[:, None]

@@ -40,13 +40,13 @@ class CreateMap:
 
     def to_text(self) -> str:
         """The map in the file format, numbers written exactly (``parse_map`` gives it back)."""
-        rows = ["% robot_sims Create map: wall/line x1 y1 x2 y2, beacon x y [r g b] id, "
-                "virtwall x y theta setting"]
+        rows = ["% robot_sims Create map: wall/line x1 y1 x2 y2, beacon x y [r g b] id, virtwall x y theta setting"]
         rows += ["wall " + " ".join(repr(float(v)) for v in w) for w in self.walls]
         rows += ["line " + " ".join(repr(float(v)) for v in w) for w in self.lines]
         for xy, rgb, beacon_id in zip(self.beacon_xy, self.beacon_rgb, self.beacon_ids, strict=True):
-            rows.append(f"beacon {float(xy[0])!r} {float(xy[1])!r} "
-                        f"[{' '.join(repr(float(c)) for c in rgb)}] {beacon_id}")
+            rows.append(
+                f"beacon {float(xy[0])!r} {float(xy[1])!r} [{' '.join(repr(float(c)) for c in rgb)}] {beacon_id}"
+            )
         for x, y, theta, setting in self.virtwalls:
             rows.append(f"virtwall {float(x)!r} {float(y)!r} {float(theta)!r} {int(setting)}")
         return "\n".join(rows) + "\n"
@@ -68,13 +68,13 @@ def parse_number(token: str, what: str, source: str, line: int) -> float:
     return value
 
 
-def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: str,
-             line: int) -> list[float]:
+def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: str, line: int) -> list[float]:
     if len(tokens) != len(names):
         raise InputError.at(
-            source, line,
-            f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: "
-            f"{' '.join(tokens)!r}")
+            source,
+            line,
+            f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: {' '.join(tokens)!r}",
+        )
     return [parse_number(t, f"{keyword} {n}", source, line) for t, n in zip(tokens, names, strict=True)]
 
 
@@ -122,15 +122,16 @@ def parse_map(text: str, source: str = "<string>") -> CreateMap:
             beacon_rgb.append(rgb)
             beacon_ids.append(beacon_id)
         elif keyword == "virtwall":
-            x, y, theta, setting = _numbers(args, ("x", "y", "theta", "setting"), keyword, source,
-                                            number)
+            x, y, theta, setting = _numbers(args, ("x", "y", "theta", "setting"), keyword, source, number)
             if setting not in (1.0, 2.0, 3.0):
-                raise InputError.at(source, number,
-                                    f"virtwall setting {args[3]!r} must be 1, 2 or 3")
+                raise InputError.at(source, number, f"virtwall setting {args[3]!r} must be 1, 2 or 3")
             virtwalls.append([x, y, theta, setting])
         else:
-            warnings.warn(f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
-                          "(expected wall, line, beacon or virtwall)", stacklevel=2)
+            warnings.warn(
+                f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
+                "(expected wall, line, beacon or virtwall)",
+                stacklevel=2,
+            )
     return CreateMap(
         walls=np.array(walls, dtype=np.float64).reshape(-1, 4),
         lines=np.array(lines, dtype=np.float64).reshape(-1, 4),

@@ -73,9 +73,13 @@ class CreateModel:
     BATTERY_CAPACITY = 3.0  # Ah
     TEMPERATURE = 25.0  # °C
 
-    def __init__(self, world: CreateMap, noise: NoiseConfig | None = None,
-                 rng: np.random.Generator | None = None,
-                 pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        world: CreateMap,
+        noise: NoiseConfig | None = None,
+        rng: np.random.Generator | None = None,
+        pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
         for name in ("walls", "lines", "beacon_xy", "virtwalls"):
             if not np.isfinite(getattr(world, name)).all():
                 raise InputError(f"map {name} contain non-finite values")
@@ -129,8 +133,10 @@ class CreateModel:
             raise InputError(f"pose ({x}, {y}, {theta}) is not finite")
         gap = nearest_distance(self.grid.segs, float(x), float(y)) - self.RADIUS
         if gap < -OVERLAP_TOL:
-            raise InputError(f"pose ({x}, {y}, {theta}) puts the robot {-gap:.4g} m inside a wall "
-                             f"(the body is a circle of radius {self.RADIUS} m)")
+            raise InputError(
+                f"pose ({x}, {y}, {theta}) puts the robot {-gap:.4g} m inside a wall "
+                f"(the body is a circle of radius {self.RADIUS} m)"
+            )
 
     # ----------------------------------------------------------------------------- motion
     def set_velocity(self, v: float, w: float) -> tuple[float, float]:
@@ -167,8 +173,20 @@ class CreateModel:
             raise ValueError(f"time step {dt} must be finite and >= 0")
         x0, y0, th0 = self._pose
         v, w = self._command
-        x1, y1, th1 = advance(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                              x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
+        x1, y1, th1 = advance(
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x0,
+            y0,
+            th0,
+            v,
+            w,
+            dt,
+            self.RADIUS,
+            self.FRICTION,
+        )
         self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0
@@ -190,8 +208,7 @@ class CreateModel:
             turn += self._noise("odometry") * abs(turn)
         x, y, th = self._odom_pose
         mid = th + 0.5 * turn
-        self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid),
-                              wrap_angle(th + turn))
+        self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid), wrap_angle(th + turn))
         self._odom_totals += (dist, turn)
 
     @property
@@ -209,7 +226,7 @@ class CreateModel:
         if self._normals_used + size > self._normals.shape[0]:
             self._normals = self.rng.standard_normal(max(4096, size))
             self._normals_used = 0
-        draws = self._normals[self._normals_used:self._normals_used + size]
+        draws = self._normals[self._normals_used : self._normals_used + size]
         self._normals_used += size
         return draws
 
@@ -226,8 +243,16 @@ class CreateModel:
     def _touching(self) -> np.ndarray:
         """Contact points [cx, cy, d, wall] of walls within the contact skin of the body."""
         x, y, _ = self._pose
-        n = grid_contacts(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                          x, y, self.RADIUS + CONTACT_SKIN, self._contact_buf)
+        n = grid_contacts(
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x,
+            y,
+            self.RADIUS + CONTACT_SKIN,
+            self._contact_buf,
+        )
         return self._contact_buf[:n]
 
     def bumps(self) -> tuple[bool, bool]:
@@ -252,8 +277,9 @@ class CreateModel:
         signals = np.full(4, self.CLIFF_FLOOR)
         if n:
             rel = (self._crossing_buf[:n] - th + math.pi) % (2.0 * math.pi) - math.pi
-            over = ((rel[None, :] >= self.CLIFF_WINDOWS[:, :1])
-                    & (rel[None, :] <= self.CLIFF_WINDOWS[:, 1:])).any(axis=1)
+            over = ((rel[None, :] >= self.CLIFF_WINDOWS[:, :1]) & (rel[None, :] <= self.CLIFF_WINDOWS[:, 1:])).any(
+                axis=1
+            )
             signals[over] = self.CLIFF_LINE
         return signals + self._noise("cliff", 4)
 
@@ -264,8 +290,9 @@ class CreateModel:
             return False
         x, y, th = self._pose
         mount = th + self.IR_MOUNT_ANGLE
-        hit = self.grid.cast_fan(x + self.RADIUS * math.cos(mount), y + self.RADIUS * math.sin(mount),
-                                 th, *self._ir_fan, reach)
+        hit = self.grid.cast_fan(
+            x + self.RADIUS * math.cos(mount), y + self.RADIUS * math.sin(mount), th, *self._ir_fan, reach
+        )
         return bool(hit[0] < math.inf)
 
     def virtual_wall(self) -> bool:
@@ -273,25 +300,59 @@ class CreateModel:
         if self.world.virtwalls.shape[0] == 0:
             return False
         x, y, th = self._pose
-        return virtual_wall_seen(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                                 x + self.RADIUS * math.cos(th), y + self.RADIUS * math.sin(th),
-                                 self._virtwalls, self.VWALL_HALO, self._vwall_ranges,
-                                 self._vwall_angles, _OCCLUSION_TOL)
+        return virtual_wall_seen(
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x + self.RADIUS * math.cos(th),
+            y + self.RADIUS * math.sin(th),
+            self._virtwalls,
+            self.VWALL_HALO,
+            self._vwall_ranges,
+            self._vwall_angles,
+            _OCCLUSION_TOL,
+        )
 
     def sonar(self) -> np.ndarray:
         """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
-        return range_fan(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items, x, y, th,
-                         *self._sonar_fan, self.RADIUS, lo, hi, self._noise("sonar", 4), -np.inf)
+        return range_fan(
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x,
+            y,
+            th,
+            *self._sonar_fan,
+            self.RADIUS,
+            lo,
+            hi,
+            self._noise("sonar", 4),
+            -np.inf,
+        )
 
     def lidar(self) -> np.ndarray:
         """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m."""
         x, y, th = self._pose
         lo, hi = self.LIDAR_RANGE
-        scan = range_fan(self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-                         x + self.RADIUS * math.cos(th), y + self.RADIUS * math.sin(th), th,
-                         *self._lidar_fan, 0.0, lo, hi, self._noise("lidar", self.LIDAR_BEAMS), lo)
+        scan = range_fan(
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x + self.RADIUS * math.cos(th),
+            y + self.RADIUS * math.sin(th),
+            th,
+            *self._lidar_fan,
+            0.0,
+            lo,
+            hi,
+            self._noise("lidar", self.LIDAR_BEAMS),
+            lo,
+        )
         return scan.astype(np.float32)
 
     def camera(self) -> list[BeaconSighting]:
@@ -300,15 +361,29 @@ class CreateModel:
             return []
         x, y, th = self._pose
         index, dist, bearing = camera_view(
-            self.grid.segs, self.grid.meta, self.grid.start, self.grid.items,
-            x + self.CAMERA_OFFSET * math.cos(th), y + self.CAMERA_OFFSET * math.sin(th), th,
-            self._beacon_xy, self.CAMERA_RANGE, self.CAMERA_HALF_FOV, _OCCLUSION_TOL)
+            self.grid.segs,
+            self.grid.meta,
+            self.grid.start,
+            self.grid.items,
+            x + self.CAMERA_OFFSET * math.cos(th),
+            y + self.CAMERA_OFFSET * math.sin(th),
+            th,
+            self._beacon_xy,
+            self.CAMERA_RANGE,
+            self.CAMERA_HALF_FOV,
+            _OCCLUSION_TOL,
+        )
         sightings = []
         for i, d, a in zip(index.tolist(), dist.tolist(), bearing.tolist(), strict=True):
             # Camera noise is proportional ("percent"), separate draws for distance and angle.
-            sightings.append(BeaconSighting(self.world.beacon_ids[i], self._beacon_rgb[i],
-                                            d * (1.0 + self._noise("camera")),
-                                            a * (1.0 + self._noise("camera"))))
+            sightings.append(
+                BeaconSighting(
+                    self.world.beacon_ids[i],
+                    self._beacon_rgb[i],
+                    d * (1.0 + self._noise("camera")),
+                    a * (1.0 + self._noise("camera")),
+                )
+            )
         return sightings
 
 

@@ -27,8 +27,7 @@ def _hidden(segs, meta, start, items, mailbox, stamp, ox, oy, tx, ty, tol) -> bo
 
 
 @numba.njit(cache=True)
-def virtual_wall_seen(segs, meta, start, items, rx, ry, emitters, halo, field_ranges,
-                      field_angles, tol) -> bool:
+def virtual_wall_seen(segs, meta, start, items, rx, ry, emitters, halo, field_ranges, field_angles, tol) -> bool:
     """Whether the receiver (rx, ry) is in any emitter's halo or triangular field, unoccluded.
 
     ``emitters`` rows are [x, y, theta, setting]; setting s (1, 2, 3) selects
@@ -83,8 +82,7 @@ def camera_view(segs, meta, start, items, cx, cy, heading, targets, max_range, h
 
 
 @numba.njit(cache=True)
-def range_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, offset, lo, hi,
-              noise, too_close):
+def range_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, too_close):
     """Range readings of a fixed fan of beams, REP-117 style, in one call.
 
     Distances are measured from (ox, oy) less ``offset`` (sonar: from the centre, read from the

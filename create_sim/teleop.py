@@ -38,16 +38,29 @@ MAX_ANGULAR_STEPS = 5  # ±2.5 rad/s
 
 # key token -> (linear steps, angular steps) change; None = stop
 KEY_ACTIONS: dict[bytes, tuple[int, int] | None] = {
-    b"w": (1, 0), b"\x1b[A": (1, 0), b"\x1bOA": (1, 0),
-    b"s": (-1, 0), b"\x1b[B": (-1, 0), b"\x1bOB": (-1, 0),
-    b"a": (0, 1), b"\x1b[D": (0, 1), b"\x1bOD": (0, 1),
-    b"d": (0, -1), b"\x1b[C": (0, -1), b"\x1bOC": (0, -1),
-    b" ": None, b"\r": None, b"\n": None, b"\x1b": None,
+    b"w": (1, 0),
+    b"\x1b[A": (1, 0),
+    b"\x1bOA": (1, 0),
+    b"s": (-1, 0),
+    b"\x1b[B": (-1, 0),
+    b"\x1bOB": (-1, 0),
+    b"a": (0, 1),
+    b"\x1b[D": (0, 1),
+    b"\x1bOD": (0, 1),
+    b"d": (0, -1),
+    b"\x1b[C": (0, -1),
+    b"\x1bOC": (0, -1),
+    b" ": None,
+    b"\r": None,
+    b"\n": None,
+    b"\x1b": None,
 }
 QUIT_KEYS = (b"q", b"Q", b"\x03")
 
-HELP = ("Create teleop: w/Up +0.1 m/s, s/Down -0.1 m/s, a/Left +0.5 rad/s, d/Right -0.5 rad/s, "
-        "space/Return/Esc stop, q quit\r\n")
+HELP = (
+    "Create teleop: w/Up +0.1 m/s, s/Down -0.1 m/s, a/Left +0.5 rad/s, d/Right -0.5 rad/s, "
+    "space/Return/Esc stop, q quit\r\n"
+)
 
 
 def split_keys(data: bytes) -> list[bytes]:
@@ -55,11 +68,11 @@ def split_keys(data: bytes) -> list[bytes]:
     keys = []
     i = 0
     while i < len(data):
-        if data[i:i + 1] == b"\x1b" and data[i + 1:i + 2] in (b"[", b"O") and i + 2 < len(data):
-            keys.append(data[i:i + 3])
+        if data[i : i + 1] == b"\x1b" and data[i + 1 : i + 2] in (b"[", b"O") and i + 2 < len(data):
+            keys.append(data[i : i + 3])
             i += 3
         else:
-            keys.append(data[i:i + 1])
+            keys.append(data[i : i + 1])
             i += 1
     return keys
 

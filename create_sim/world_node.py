@@ -123,28 +123,48 @@ class CreateWorldNode(SimWorldNode):
     # ---------------------------------------------------------------- parameters
     def _declare_parameters(self) -> None:
         map_file = self.declare_checked(
-            "map_file", str(config_path("create/example.map")), lambda v: isinstance(v, str),
-            "map file in the seed's text format ('' = empty map)")
+            "map_file",
+            str(config_path("create/example.map")),
+            lambda v: isinstance(v, str),
+            "map file in the seed's text format ('' = empty map)",
+        )
         config_file = self.declare_checked(
-            "config_file", "", lambda v: isinstance(v, str),
-            "noise/com_delay config file in the seed's text format ('' = noise-free)")
+            "config_file",
+            "",
+            lambda v: isinstance(v, str),
+            "noise/com_delay config file in the seed's text format ('' = noise-free)",
+        )
         pose = self.declare_checked(
-            "initial_pose", [0.0, 0.0, 0.0],
+            "initial_pose",
+            [0.0, 0.0, 0.0],
             lambda v: len(v) == 3 and all_finite(*v),
-            "initial pose [x, y, theta] in the map frame (m, rad)")
+            "initial pose [x, y, theta] in the map frame (m, rad)",
+        )
         self.cmd_vel_stamped = self.declare_checked(
-            "cmd_vel_stamped", False, lambda v: isinstance(v, bool),
-            "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel")
+            "cmd_vel_stamped",
+            False,
+            lambda v: isinstance(v, bool),
+            "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel",
+        )
         self.cmd_vel_timeout = self.declare_checked(
-            "cmd_vel_timeout", 0.0, lambda v: math.isfinite(v) and v >= 0.0,
-            "stop after this many sim seconds without cmd_vel (0 = hold the last command)")
+            "cmd_vel_timeout",
+            0.0,
+            lambda v: math.isfinite(v) and v >= 0.0,
+            "stop after this many sim seconds without cmd_vel (0 = hold the last command)",
+        )
         prefix = self.declare_checked(
-            "frame_prefix", "", lambda v: isinstance(v, str),
-            "prefix of the robot's frames ('' = derived from the namespace)")
+            "frame_prefix",
+            "",
+            lambda v: isinstance(v, str),
+            "prefix of the robot's frames ('' = derived from the namespace)",
+        )
         self.rates = {
             name: self.declare_checked(
-                f"rate.{name}", default, lambda v: math.isfinite(v) and 0.0 <= v <= PHYSICS_RATE,
-                f"{name} publication rate in Hz (0 = never, at most the physics rate)")
+                f"rate.{name}",
+                default,
+                lambda v: math.isfinite(v) and 0.0 <= v <= PHYSICS_RATE,
+                f"{name} publication rate in Hz (0 = never, at most the physics rate)",
+            )
             for name, default in DEFAULT_RATES.items()
         }
         self.prefix = prefix or _frame_prefix(self.get_namespace())
@@ -215,8 +235,13 @@ class CreateWorldNode(SimWorldNode):
         for name, (read, publish, publishers, noise_key) in sensors.items():
             self.every(self.rates[name], self._sensor_tick(read, publish, publishers, noise_key))
 
-    def _sensor_tick(self, read: Callable[[], Any] | None, publish: Callable[..., None],
-                     publishers: list[Publisher], noise_key: str | None) -> Callable[[], None]:
+    def _sensor_tick(
+        self,
+        read: Callable[[], Any] | None,
+        publish: Callable[..., None],
+        publishers: list[Publisher],
+        noise_key: str | None,
+    ) -> Callable[[], None]:
         """A sensor's scheduled callback. Messages nobody subscribes to are not built (most of the cost
         at real_time_factor 0), but a sensor that draws seeded noise is still read: skipping it would
         shift the noise of the others, and a run must not depend on who listens."""
@@ -237,11 +262,10 @@ class CreateWorldNode(SimWorldNode):
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
             self.create_subscription(
-                TwistStamped, "cmd_vel", lambda m: self.command(m.twist.linear.x, m.twist.angular.z),
-                COMMAND_QOS)
+                TwistStamped, "cmd_vel", lambda m: self.command(m.twist.linear.x, m.twist.angular.z), COMMAND_QOS
+            )
         else:
-            self.create_subscription(
-                Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_QOS)
+            self.create_subscription(Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_QOS)
         self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_QOS)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
@@ -256,8 +280,10 @@ class CreateWorldNode(SimWorldNode):
         self.commands_received += 1
         if not command_ok(v, w):
             self.warn_throttled(
-                "cmd_vel", f"rejected cmd_vel v={v!r} w={w!r}: not finite or absurdly large "
-                f"(|value| > {ABSURD_COMMAND:g}); state unchanged")
+                "cmd_vel",
+                f"rejected cmd_vel v={v!r} w={w!r}: not finite or absurdly large "
+                f"(|value| > {ABSURD_COMMAND:g}); state unchanged",
+            )
             return False
         self._delayed_cmds.append((self.sim_time + self.com_delay, float(v), float(w)))
         return True
@@ -267,8 +293,11 @@ class CreateWorldNode(SimWorldNode):
             _, v, w = self._delayed_cmds.popleft()
             self.model.set_velocity(v, w)
             self._last_cmd_time = now
-        if (self.cmd_vel_timeout > 0.0 and self._last_cmd_time is not None
-                and now - self._last_cmd_time >= self.cmd_vel_timeout - 1e-9):
+        if (
+            self.cmd_vel_timeout > 0.0
+            and self._last_cmd_time is not None
+            and now - self._last_cmd_time >= self.cmd_vel_timeout - 1e-9
+        ):
             self.model.set_velocity(0.0, 0.0)
             self._last_cmd_time = None
 
@@ -295,8 +324,7 @@ class CreateWorldNode(SimWorldNode):
         response.message = "robot back at its initial pose, stopped, odometry cleared"
         return response
 
-    def _on_button(self, index: int, request: SetBool.Request,
-                   response: SetBool.Response) -> SetBool.Response:
+    def _on_button(self, index: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         # The seed's GUI buttons are toggles that stay down until pressed again (several may be down).
         self.buttons_state[index] = int(bool(request.data))
         response.success = True
@@ -344,12 +372,19 @@ class CreateWorldNode(SimWorldNode):
                 msg = msg_type(**fields)
                 msg.header.frame_id = frame
                 return msg
+
             return make
 
         def detector(frame: str, distance: float, fov: float, radiation: int = Range.INFRARED):
             # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
-            return stamped(Range, self.frame(frame), radiation_type=radiation, field_of_view=fov,
-                           min_range=distance, max_range=distance)
+            return stamped(
+                Range,
+                self.frame(frame),
+                radiation_type=radiation,
+                field_of_view=fov,
+                min_range=distance,
+                max_range=distance,
+            )
 
         lo, hi = m.LIDAR_RANGE
         scan_rate = self.rates["scan"] or 1.0
@@ -358,25 +393,50 @@ class CreateWorldNode(SimWorldNode):
             self.pub_bump[1]: detector("bump_right", 0.0, BUMP_FOV),
             self.pub_wall: detector("wall_ir", m.IR_RANGE, 0.0),
             self.pub_virtual_wall: detector("virtual_wall_ir", 0.0, 2 * math.pi),
-            **{pub: stamped(Illuminance, self.frame(f"cliff_{name}"))
-               for pub, name in zip(self.pub_cliff, CLIFF_NAMES, strict=True)},
-            **{pub: stamped(Range, self.frame(f"sonar_{name}"), radiation_type=Range.ULTRASOUND,
-                            field_of_view=0.0, min_range=m.SONAR_RANGE[0], max_range=m.SONAR_RANGE[1])
-               for pub, name in zip(self.pub_sonar, SONAR_NAMES, strict=True)},
-            self.pub_scan: stamped(LaserScan, self.frame("laser"), angle_min=-m.LIDAR_FOV / 2,
-                                   angle_max=m.LIDAR_FOV / 2, angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
-                                   time_increment=0.0, scan_time=1.0 / scan_rate, range_min=lo, range_max=hi),
+            **{
+                pub: stamped(Illuminance, self.frame(f"cliff_{name}"))
+                for pub, name in zip(self.pub_cliff, CLIFF_NAMES, strict=True)
+            },
+            **{
+                pub: stamped(
+                    Range,
+                    self.frame(f"sonar_{name}"),
+                    radiation_type=Range.ULTRASOUND,
+                    field_of_view=0.0,
+                    min_range=m.SONAR_RANGE[0],
+                    max_range=m.SONAR_RANGE[1],
+                )
+                for pub, name in zip(self.pub_sonar, SONAR_NAMES, strict=True)
+            },
+            self.pub_scan: stamped(
+                LaserScan,
+                self.frame("laser"),
+                angle_min=-m.LIDAR_FOV / 2,
+                angle_max=m.LIDAR_FOV / 2,
+                angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
+                time_increment=0.0,
+                scan_time=1.0 / scan_rate,
+                range_min=lo,
+                range_max=hi,
+            ),
             self.pub_odom: stamped(Odometry, self.frame("odom"), child_frame_id=self.frame("base_link")),
             self.pub_overhead: stamped(PoseStamped, "map"),
             self.pub_buttons: stamped(Joy, self.frame("base_link")),
             self.pub_battery: stamped(
-                BatteryState, self.frame("base_link"),  # the seed's battery readings are constants
-                voltage=m.BATTERY_VOLTAGE, current=m.BATTERY_CURRENT, temperature=m.TEMPERATURE,
-                charge=m.BATTERY_CHARGE, capacity=m.BATTERY_CAPACITY, design_capacity=m.BATTERY_CAPACITY,
-                percentage=1.0, present=True,
+                BatteryState,
+                self.frame("base_link"),  # the seed's battery readings are constants
+                voltage=m.BATTERY_VOLTAGE,
+                current=m.BATTERY_CURRENT,
+                temperature=m.TEMPERATURE,
+                charge=m.BATTERY_CHARGE,
+                capacity=m.BATTERY_CAPACITY,
+                design_capacity=m.BATTERY_CAPACITY,
+                percentage=1.0,
+                present=True,
                 power_supply_status=BatteryState.POWER_SUPPLY_STATUS_DISCHARGING,
                 power_supply_health=BatteryState.POWER_SUPPLY_HEALTH_GOOD,
-                power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH),
+                power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH,
+            ),
         }
         self._templates: dict[Publisher, Callable[[], Any]] = templates
         self._reusable: dict[Publisher, Any] = {}
@@ -426,10 +486,19 @@ class CreateWorldNode(SimWorldNode):
         lifetime = _duration(2.0 / self.rates["camera"])  # sightings vanish in RViz once they stop coming
         markers = []
         for i, sighting in enumerate(sightings):
-            m = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=sighting.id,
-                       lifetime=lifetime, scale=Vector3(x=0.1, y=0.1, z=0.1), color=color_msg(*sighting.rgb),
-                       pose=pose_msg(sighting.distance * math.cos(sighting.angle),
-                                     sighting.distance * math.sin(sighting.angle), 0.0))
+            m = Marker(
+                ns="beacons",
+                id=i,
+                type=Marker.SPHERE,
+                action=Marker.ADD,
+                text=sighting.id,
+                lifetime=lifetime,
+                scale=Vector3(x=0.1, y=0.1, z=0.1),
+                color=color_msg(*sighting.rgb),
+                pose=pose_msg(
+                    sighting.distance * math.cos(sighting.angle), sighting.distance * math.sin(sighting.angle), 0.0
+                ),
+            )
             m.header.stamp = stamp
             m.header.frame_id = frame
             markers.append(m)
@@ -476,8 +545,7 @@ def _segment_points(segments: np.ndarray, z: float = 0.0) -> list[Point]:
     return [Point(x=float(x), y=float(y), z=z) for x, y in segments.reshape(-1, 2)]
 
 
-def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], width: float,
-               stamp) -> Marker:
+def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], width: float, stamp) -> Marker:
     m = Marker(ns=ns, id=0, type=Marker.LINE_LIST, action=Marker.ADD, points=_segment_points(segments))
     m.header.frame_id = "map"
     m.header.stamp = stamp
@@ -490,8 +558,9 @@ def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], w
 def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.ndarray:
     """Triangle (3, 2) of a virtual wall's main field: emitter, then the two far corners."""
     length, angle = CreateModel.VWALL_FIELDS[int(setting)]  # the map parser admits only 1, 2, 3
-    corners = [(x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2))
-               for s in (1, -1)]
+    corners = [
+        (x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2)) for s in (1, -1)
+    ]
     return np.array([(x, y), *corners])
 
 
@@ -537,5 +606,3 @@ def map_markers(world: CreateMap, stamp) -> MarkerArray:
 def main(args: list[str] | None = None) -> int:
     """Entry point ``create_world``."""
     return run_nodes(lambda: [CreateWorldNode()], args)
-
-

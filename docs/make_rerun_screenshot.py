@@ -46,9 +46,13 @@ def record_demo(bag: Path) -> None:
         tid = writer.add_topic(pub.topic_name, type_name(pub.msg_type), qos_profiles_yaml([{}]))
         qos = copy.copy(pub.qos_profile)
         qos.depth = 200
-        recorder.create_subscription(pub.msg_type, pub.topic_name,
-                                     lambda data, tid=tid: writer.write(tid, round(world.sim_time * 1e9), data),
-                                     qos, raw=True)
+        recorder.create_subscription(
+            pub.msg_type,
+            pub.topic_name,
+            lambda data, tid=tid: writer.write(tid, round(world.sim_time * 1e9), data),
+            qos,
+            raw=True,
+        )
     for _ in range(50):
         executor.spin_once(timeout_sec=0.05)
     while world.sim_time < SIM_SECONDS:
@@ -62,8 +66,18 @@ def screenshot(rrd: Path, png: Path, home: Path) -> None:
     env = private_rerun_env(home)
     env.update({"WGPU_BACKEND": "vulkan", "XDG_RUNTIME_DIR": str(home)})
     # The X screen is larger than the window so the pointer (centre of the screen) hovers nothing.
-    cmd = ["xvfb-run", "-a", "-s", "-screen 0 3600x2400x24", rerun_cli(), str(rrd),
-           "--window-size", "1600x1000", "--screenshot-to", str(png)]
+    cmd = [
+        "xvfb-run",
+        "-a",
+        "-s",
+        "-screen 0 3600x2400x24",
+        rerun_cli(),
+        str(rrd),
+        "--window-size",
+        "1600x1000",
+        "--screenshot-to",
+        str(png),
+    ]
     subprocess.run(cmd, env=env, check=True, timeout=300)
 
 

@@ -117,9 +117,7 @@ class SimWorldNode(Node):
             entry.done = math.floor(self.step_count * entry.ticks_per_step + 1e-9)
             self._scheduled.append(entry)
 
-    def declare_checked(
-        self, name: str, default: Any, check: Callable[[Any], bool], description: str
-    ) -> Any:
+    def declare_checked(self, name: str, default: Any, check: Callable[[Any], bool], description: str) -> Any:
         """Declare a parameter and return its value, typed like ``default``.
 
         Whole numbers are accepted where a float is expected (``-p real_time_factor:=0``,

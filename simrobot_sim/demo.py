@@ -27,8 +27,8 @@ def draw_demo_map(path: str | Path, size: int = 500) -> Path:
     occ[:wall, :] = occ[-wall:, :] = occ[:, :wall] = occ[:, -wall:] = True
     mid = size // 2
     # cross of inner walls with one doorway per arm
-    occ[mid - 2:mid + 2, :] = True
-    occ[:, mid - 2:mid + 2] = True
+    occ[mid - 2 : mid + 2, :] = True
+    occ[:, mid - 2 : mid + 2] = True
     for r0, r1, c0, c1 in (
         (mid - 2, mid + 2, 90, 170),  # west doorway
         (mid - 2, mid + 2, 330, 410),  # east doorway
@@ -46,9 +46,7 @@ def draw_demo_map(path: str | Path, size: int = 500) -> Path:
     return path
 
 
-def run_demo(
-    out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None
-) -> dict:
+def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None) -> dict:
     """Run the demo world in lockstep with its four in-process alg2 controllers and write
     ``simrobot_tracks.png`` into ``out_dir``. Returns a summary (steps, per-robot distance
     travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a
@@ -80,7 +78,12 @@ def run_demo(
         colors = {name: tuple(model.colors[i]) for i, name in enumerate(model.names)}
         occupancy = np.asarray(spec.walls).T  # OccupancyGrid layout: rows along y
         png = draw_tracks(
-            occupancy, model.resolution, model.origin, tracks, colors, out_dir / "simrobot_tracks.png",
+            occupancy,
+            model.resolution,
+            model.origin,
+            tracks,
+            colors,
+            out_dir / "simrobot_tracks.png",
             title=f"SIMROBOT demo: {len(tracks)} robots, alg2, {done} steps",
         )
         travelled = {n: float(np.hypot(*np.diff(xy, axis=0).T).sum()) for n, xy in tracks.items()}

@@ -141,8 +141,26 @@ def _disc_meets_cone(qx, qy, d2, r, e1x, e1y, e2x, e2y):
 
 @numba.njit(cache=True)
 def _sense(
-    grid, clear, pose, radius, box, srob, spos, saxis, rstart, roff, rcos, rsin, srange, ids, bucket_start,
-    bucket_items, nbx, nby, out_t, out_v,
+    grid,
+    clear,
+    pose,
+    radius,
+    box,
+    srob,
+    spos,
+    saxis,
+    rstart,
+    roff,
+    rcos,
+    rsin,
+    srange,
+    ids,
+    bucket_start,
+    bucket_items,
+    nbx,
+    nby,
+    out_t,
+    out_v,
 ):
     """Cast every ray of every sensor (fast caster); candidates come from the robot buckets."""
     n_sensors = srob.shape[0]
@@ -242,9 +260,25 @@ def _sense(
                         cand_id[m] = ids[j]
                         m += 1
         raycast.cast_scan_fast_into(
-            grid, clear, ox, oy, dirs[:nr], axis + roff[a0], dangle, srange[s], ids[r],
-            cand_x[:m], cand_y[:m], cand_r[:m], cand_box[:m], cand_id[:m], out_t[a0:a0 + nr], out_v[a0:a0 + nr],
-            t_lo, t_hi, discs,
+            grid,
+            clear,
+            ox,
+            oy,
+            dirs[:nr],
+            axis + roff[a0],
+            dangle,
+            srange[s],
+            ids[r],
+            cand_x[:m],
+            cand_y[:m],
+            cand_r[:m],
+            cand_box[:m],
+            cand_id[:m],
+            out_t[a0 : a0 + nr],
+            out_v[a0 : a0 + nr],
+            t_lo,
+            t_hi,
+            discs,
         )
 
 
@@ -398,8 +432,9 @@ class SimrobotWorld:
         self.srob = np.array([s.robot for s in infos], dtype=np.int64)
         scale = {i: r.scale for i, r in enumerate(robots)}
         # the sensor sits on the body, so it scales with the robot; its range does not (seed)
-        self.spos = np.array([[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res]
-                              for s in infos]).reshape(-1, 2)
+        self.spos = np.array(
+            [[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res] for s in infos]
+        ).reshape(-1, 2)
         self.saxis = np.array([s.axis for s in infos], dtype=float)
         self.srange = np.array([s.range / res for s in infos], dtype=float)
         self.rstart = np.zeros(len(infos) + 1, dtype=np.int64)
@@ -436,7 +471,7 @@ class SimrobotWorld:
         _cell_box(vx, vy, self.box[i])
 
     def _outline(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        v = self.verts[self.vstart[i]:self.vstart[i + 1]]
+        v = self.verts[self.vstart[i] : self.vstart[i + 1]]
         x, y, h = self.pose[i]
         c, s = math.cos(h), math.sin(h)
         return x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]
@@ -494,8 +529,22 @@ class SimrobotWorld:
         before = self.crashed.copy()
         hit_by = np.zeros(len(self.names), dtype=np.int64)
         _step_robots(
-            self.grid, self.pose, self.vel, self.accel, self.wheel_r, self.la, self.lb, self.power, self.crashed,
-            self.verts, self.vstart, self.cells, self.ncells, self.box, self.dt, hit_by,
+            self.grid,
+            self.pose,
+            self.vel,
+            self.accel,
+            self.wheel_r,
+            self.la,
+            self.lb,
+            self.power,
+            self.crashed,
+            self.verts,
+            self.vstart,
+            self.cells,
+            self.ncells,
+            self.box,
+            self.dt,
+            hit_by,
         )
         # robot-on-robot crashes both (applied after everyone moved, as the seed)
         self.crashed |= hit_by > 0
@@ -516,9 +565,26 @@ class SimrobotWorld:
         bucket_start = np.zeros(self.nbx * self.nby + 1, dtype=np.int64)
         np.cumsum(counts, out=bucket_start[1:])
         _sense(
-            self.grid, self.clear, self.pose, self.radius, self.box, self.srob, self.spos, self.saxis, self.rstart,
-            self.roff, self.rcos, self.rsin, self.srange, self.ids[:n], bucket_start, order.astype(np.int64),
-            self.nbx, self.nby, self.ray_t, self.ray_v,
+            self.grid,
+            self.clear,
+            self.pose,
+            self.radius,
+            self.box,
+            self.srob,
+            self.spos,
+            self.saxis,
+            self.rstart,
+            self.roff,
+            self.rcos,
+            self.rsin,
+            self.srange,
+            self.ids[:n],
+            bucket_start,
+            order.astype(np.int64),
+            self.nbx,
+            self.nby,
+            self.ray_t,
+            self.ray_v,
         )
         _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
         self._sensed_at = self.step_count

@@ -337,8 +337,22 @@ def _reuse_discs(ox, oy, dx, dy, t, discs, nd):
 
 @numba.njit(**_FAST)
 def cast_scan_fast(
-    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box, cand_id,
-    out_t, out_v,
+    grid,
+    clear,
+    ox,
+    oy,
+    directions,
+    angle0,
+    dangle,
+    max_range,
+    self_id,
+    cand_x,
+    cand_y,
+    cand_r,
+    cand_box,
+    cand_id,
+    out_t,
+    out_v,
 ):
     """All rays of one sensor from ``(ox, oy)`` with the fast caster. Ray ``i`` has unit direction
     ``directions[i]`` at angle ``angle0 + i * dangle`` (an evenly spread fan, as every sensor).
@@ -348,15 +362,49 @@ def cast_scan_fast(
     (``inf``/0 for no hit within ``max_range``)."""
     n = directions.shape[0]
     cast_scan_fast_into(
-        grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box,
-        cand_id, out_t, out_v, np.empty(n), np.empty(n), np.empty((256, 3)),
+        grid,
+        clear,
+        ox,
+        oy,
+        directions,
+        angle0,
+        dangle,
+        max_range,
+        self_id,
+        cand_x,
+        cand_y,
+        cand_r,
+        cand_box,
+        cand_id,
+        out_t,
+        out_v,
+        np.empty(n),
+        np.empty(n),
+        np.empty((256, 3)),
     )
 
 
 @numba.njit(**_FAST)
 def cast_scan_fast_into(
-    grid, clear, ox, oy, directions, angle0, dangle, max_range, self_id, cand_x, cand_y, cand_r, cand_box, cand_id,
-    out_t, out_v, t_lo, t_hi, discs,
+    grid,
+    clear,
+    ox,
+    oy,
+    directions,
+    angle0,
+    dangle,
+    max_range,
+    self_id,
+    cand_x,
+    cand_y,
+    cand_r,
+    cand_box,
+    cand_id,
+    out_t,
+    out_v,
+    t_lo,
+    t_hi,
+    discs,
 ):
     """:func:`cast_scan_fast` with the caller's scratch (no allocation per scan, for a caller
     casting many scans): ``t_lo``/``t_hi`` hold at least one entry per ray, ``discs`` the free

@@ -42,7 +42,12 @@ def draw_tracks(
         h, w = shade.shape
         x0, y0 = float(origin[0]), float(origin[1])
         ax.imshow(
-            shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower", interpolation="nearest",
+            shade,
+            cmap="gray",
+            vmin=0.0,
+            vmax=1.0,
+            origin="lower",
+            interpolation="nearest",
             extent=(x0, x0 + w * resolution, y0, y0 + h * resolution),
         )
     for name, xy in tracks.items():

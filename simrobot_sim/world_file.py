@@ -103,9 +103,7 @@ def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarra
             elif mode in ("RGB", "RGBA"):
                 rgb = np.asarray(img.convert("RGB"), dtype=np.int16)
                 if np.any(rgb[..., 0] != rgb[..., 1]) or np.any(rgb[..., 1] != rgb[..., 2]):
-                    raise InputError.at(
-                        path, None, f"colour image ({mode}): maps must be black and white or greyscale"
-                    )
+                    raise InputError.at(path, None, f"colour image ({mode}): maps must be black and white or greyscale")
                 grey = rgb[..., 0].astype(np.uint8)
             else:
                 raise InputError.at(path, None, f"unsupported image mode {mode!r}: use a 1-bit or greyscale PNG/BMP")
@@ -157,10 +155,29 @@ def _check_keys(entry: dict, allowed: set[str], where: str) -> None:
 
 _SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "resolution"}
 _ROBOT_KEYS = {
-    "name", "color", "shape", "scale", "position", "heading", "power", "R", "la", "lb", "sensors", "controller",
+    "name",
+    "color",
+    "shape",
+    "scale",
+    "position",
+    "heading",
+    "power",
+    "R",
+    "la",
+    "lb",
+    "sensors",
+    "controller",
 }
 _WORLD_KEYS = {
-    "map", "resolution", "origin", "dt", "steps_limit", "lockstep", "lockstep_timeout", "history_steps", "robots",
+    "map",
+    "resolution",
+    "origin",
+    "dt",
+    "steps_limit",
+    "lockstep",
+    "lockstep_timeout",
+    "history_steps",
+    "robots",
 }
 
 

@@ -143,8 +143,10 @@ class SimrobotWorldNode(SimWorldNode):
         io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
         io.subs = [
             self.create_subscription(
-                TwistStamped if self.cmd_vel_stamped else Twist, f"/{name}/cmd_vel",
-                lambda m, i=i: self._on_cmd_vel(i, m), COMMAND_QOS,
+                TwistStamped if self.cmd_vel_stamped else Twist,
+                f"/{name}/cmd_vel",
+                lambda m, i=i: self._on_cmd_vel(i, m),
+                COMMAND_QOS,
             ),
             self.create_subscription(
                 JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
@@ -183,7 +185,7 @@ class SimrobotWorldNode(SimWorldNode):
             m.action = Marker.ADD
             m.scale.x = max(model.resolution, 0.002)
             m.color = color_msg(*model.colors[i])
-            verts = model.verts[model.vstart[i]:model.vstart[i + 1]] * model.resolution
+            verts = model.verts[model.vstart[i] : model.vstart[i + 1]] * model.resolution
             m.points = [Point(x=float(x), y=float(y)) for x, y in np.vstack([verts, verts[:1]])]
             out.markers.append(m)
         return out
@@ -201,8 +203,11 @@ class SimrobotWorldNode(SimWorldNode):
             msg = msg.twist
         v, w = msg.linear.x, msg.angular.z
         if not command_ok(v, w):
-            self.warn_throttled(f"cmd_vel{i}", f"/{self.model.names[i]}/cmd_vel ignored: v={v!r} w={w!r} is not "
-                                f"finite or absurdly large (|value| > {ABSURD_COMMAND:g})")
+            self.warn_throttled(
+                f"cmd_vel{i}",
+                f"/{self.model.names[i]}/cmd_vel ignored: v={v!r} w={w!r} is not "
+                f"finite or absurdly large (|value| > {ABSURD_COMMAND:g})",
+            )
             return
         try:
             self.model.set_cmd_vel(i, v, w)
@@ -222,8 +227,11 @@ class SimrobotWorldNode(SimWorldNode):
             )
             return
         if not command_ok(*msg.velocity):
-            self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
-                                f"absurdly large (|value| > {ABSURD_COMMAND:g} rad/s)")
+            self.warn_throttled(
+                f"wheel{i}",
+                f"/{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
+                f"absurdly large (|value| > {ABSURD_COMMAND:g} rad/s)",
+            )
             return
         try:
             self.model.set_wheel_speeds(i, float(msg.velocity[0]), float(msg.velocity[1]))

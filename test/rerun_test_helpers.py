@@ -67,8 +67,13 @@ def create_messages(steps: int = 50, ns: str = "") -> list[tuple[str, object, fl
     """A Create driving a quarter circle: map markers, overhead pose, odom, scan, sonar, bump, cliff."""
     pre = f"/{ns}" if ns else ""
     fp = f"{ns}/" if ns else ""
-    walls = Marker(ns="walls", id=0, type=Marker.LINE_LIST, action=Marker.ADD,
-                   points=[Point(x=-2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=2.0)])
+    walls = Marker(
+        ns="walls",
+        id=0,
+        type=Marker.LINE_LIST,
+        action=Marker.ADD,
+        points=[Point(x=-2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=-2.0), Point(x=2.0, y=2.0)],
+    )
     walls.header.frame_id = "map"
     walls.scale.x = 0.03
     walls.color.a = 1.0
@@ -77,8 +82,7 @@ def create_messages(steps: int = 50, ns: str = "") -> list[tuple[str, object, fl
     beacon.pose.position.x, beacon.pose.position.y = 1.5, 1.0
     beacon.scale.x = beacon.scale.y = beacon.scale.z = 0.1
     beacon.color.r, beacon.color.a = 1.0, 1.0
-    msgs: list[tuple[str, object, float]] = [
-        (f"{pre}/map_markers", MarkerArray(markers=[walls, beacon]), 0.0)]
+    msgs: list[tuple[str, object, float]] = [(f"{pre}/map_markers", MarkerArray(markers=[walls, beacon]), 0.0)]
     for k in range(steps):
         t = 0.02 * k
         yaw = 0.5 * math.pi * k / steps
@@ -95,8 +99,13 @@ def create_messages(steps: int = 50, ns: str = "") -> list[tuple[str, object, fl
         odom.pose.pose.orientation = quat(yaw)
         msgs.append((f"{pre}/odom", odom, t))
         if k % 5 == 0:
-            scan = LaserScan(angle_min=-2 * math.pi / 3, angle_max=2 * math.pi / 3,
-                             angle_increment=4 * math.pi / 3 / 680, range_min=0.02, range_max=4.0)
+            scan = LaserScan(
+                angle_min=-2 * math.pi / 3,
+                angle_max=2 * math.pi / 3,
+                angle_increment=4 * math.pi / 3 / 680,
+                range_min=0.02,
+                range_max=4.0,
+            )
             scan.header.stamp, scan.header.frame_id = stamp(t), f"{fp}laser"
             ranges = np.full(681, 2.0, dtype=np.float32)
             ranges[:100] = np.inf  # no return
@@ -105,8 +114,9 @@ def create_messages(steps: int = 50, ns: str = "") -> list[tuple[str, object, fl
             sonar = Range(radiation_type=Range.ULTRASOUND, min_range=0.02, max_range=3.0, range=1.25)
             sonar.header.stamp, sonar.header.frame_id = stamp(t), f"{fp}sonar_front"
             msgs.append((f"{pre}/sonar/front", sonar, t))
-        bump = Range(radiation_type=Range.INFRARED, min_range=0.0, max_range=0.0,
-                     range=-math.inf if 20 <= k < 30 else math.inf)
+        bump = Range(
+            radiation_type=Range.INFRARED, min_range=0.0, max_range=0.0, range=-math.inf if 20 <= k < 30 else math.inf
+        )
         bump.header.stamp, bump.header.frame_id = stamp(t), f"{fp}bump_left"
         msgs.append((f"{pre}/bump/left", bump, t))
         cliff = Illuminance(illuminance=1.5 if k == 40 else 21.5)
@@ -121,8 +131,7 @@ def arm_messages(stl: Path, steps: int = 10) -> list[tuple[str, object, float]]:
         t = 0.1 * k
         js = JointState(name=["q1", "q2"], position=[0.1 * k, -0.05 * k], velocity=[1.0, -0.5], effort=[])
         js.header.stamp = stamp(t)
-        link = Marker(ns="links", id=1, type=Marker.MESH_RESOURCE, action=Marker.ADD,
-                      mesh_resource=f"file://{stl}")
+        link = Marker(ns="links", id=1, type=Marker.MESH_RESOURCE, action=Marker.ADD, mesh_resource=f"file://{stl}")
         link.header.frame_id, link.header.stamp = "world", stamp(t)
         link.pose.position.z = 0.3
         link.pose.orientation = quat(0.1 * k)

@@ -50,22 +50,25 @@ def test_expressions_and_degrees_are_evaluated():
     assert cfg.view.limits == (-0.4, 1.0, -0.8, 1.8, -0.4, 1.0) and cfg.view.azimuth == 40
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda r: r["dh"].update(d=[0.29, 0, 0, 0.30, 0]), "dh.d"),
-    (lambda r: r.update(joint_types="rrxrrr"), "joint_types[2]"),
-    (lambda r: r.update(joint_types="rrr"), "joint_types"),
-    (lambda r: r["dh"].update(alpha=[0, 0, "pi/q", 0, 0, 0]), "dh.alpha[2]"),
-    (lambda r: r["dh"].update(a=[0, 0, ".nan", 0, 0, 0]), "dh.a[2]"),
-    (lambda r: r["limits"]["position"].__setitem__(3, [1.0, -1.0]), "limits.position[3]"),
-    (lambda r: r["limits"].update(velocity=[1, 1, 1, 0, 1, 1]), "limits.velocity[3]"),
-    (lambda r: r["dynamics"]["inertia"].__setitem__(1, [[1, 2, 0], [0, 1, 0], [0, 0, 1]]), "dynamics.inertia[1]"),
-    (lambda r: r["links"][2]["elements"][0].update(color=[1.5, 0, 0]), "links[2].elements[0].color"),
-    (lambda r: r["links"][3].update(link=9), "links[3].link"),
-    (lambda r: r.pop("dh"), "dh"),
-    (lambda r: r.update(dof=0), "dof"),
-    (lambda r: r.update(base=[[1, 0, 0], [0, 1, 0]]), "base"),
-    (lambda r: r.update(colour="red"), "colour"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda r: r["dh"].update(d=[0.29, 0, 0, 0.30, 0]), "dh.d"),
+        (lambda r: r.update(joint_types="rrxrrr"), "joint_types[2]"),
+        (lambda r: r.update(joint_types="rrr"), "joint_types"),
+        (lambda r: r["dh"].update(alpha=[0, 0, "pi/q", 0, 0, 0]), "dh.alpha[2]"),
+        (lambda r: r["dh"].update(a=[0, 0, ".nan", 0, 0, 0]), "dh.a[2]"),
+        (lambda r: r["limits"]["position"].__setitem__(3, [1.0, -1.0]), "limits.position[3]"),
+        (lambda r: r["limits"].update(velocity=[1, 1, 1, 0, 1, 1]), "limits.velocity[3]"),
+        (lambda r: r["dynamics"]["inertia"].__setitem__(1, [[1, 2, 0], [0, 1, 0], [0, 0, 1]]), "dynamics.inertia[1]"),
+        (lambda r: r["links"][2]["elements"][0].update(color=[1.5, 0, 0]), "links[2].elements[0].color"),
+        (lambda r: r["links"][3].update(link=9), "links[3].link"),
+        (lambda r: r.pop("dh"), "dh"),
+        (lambda r: r.update(dof=0), "dof"),
+        (lambda r: r.update(base=[[1, 0, 0], [0, 1, 0]]), "base"),
+        (lambda r: r.update(colour="red"), "colour"),
+    ],
+)
 def test_bad_config_fields_are_named_with_file_and_index(tmp_path, edit, field):
     path = write_irb120(tmp_path, edit)
     with pytest.raises(InputError) as info:
@@ -122,12 +125,14 @@ def test_binary_stl_whose_header_starts_with_solid_is_read_as_binary(tmp_path):
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.floats(-1e6, 1e6, allow_nan=False, width=32), min_size=9, max_size=9),
-       st.sampled_from(["{:.6e}", "{:.9g}", "{:f}", "{!r}", "{:+.3E}"]))
+@given(
+    st.lists(st.floats(-1e6, 1e6, allow_nan=False, width=32), min_size=9, max_size=9),
+    st.sampled_from(["{:.6e}", "{:.9g}", "{:f}", "{!r}", "{:+.3E}"]),
+)
 def test_ascii_numbers_in_any_notation_parse_like_python(values, fmt):
     text = "solid t\nfacet normal 0 0 1\nouter loop\n"
     for k in range(3):
-        text += "vertex " + " ".join(fmt.format(v) for v in values[3 * k:3 * k + 3]) + "\n"
+        text += "vertex " + " ".join(fmt.format(v) for v in values[3 * k : 3 * k + 3]) + "\n"
     text += "endloop\nendfacet\nendsolid t\n"
     parsed = parse_stl(text.encode())
     expected = np.array([float(fmt.format(v)) for v in values], dtype=np.float32).reshape(1, 3, 3)
@@ -194,9 +199,16 @@ def test_shipped_scene_has_objects_and_a_second_arm():
 
 def test_bad_scene_entries_are_named(tmp_path):
     path = tmp_path / "scene.yaml"
-    path.write_text(yaml.safe_dump({"objects": [
-        {"name": "a", "mesh": str(config_path("arm/meshes/scene/box.stl"))},
-        {"name": "a", "mesh": str(config_path("arm/meshes/scene/box.stl"))}]}))
+    path.write_text(
+        yaml.safe_dump(
+            {
+                "objects": [
+                    {"name": "a", "mesh": str(config_path("arm/meshes/scene/box.stl"))},
+                    {"name": "a", "mesh": str(config_path("arm/meshes/scene/box.stl"))},
+                ]
+            }
+        )
+    )
     with pytest.raises(InputError, match=r"scene\.yaml.*'objects\[1\]\.name'.*twice"):
         load_scene(path)
     path.write_text(yaml.safe_dump({"arms": [{"name": "b", "config": "missing.yaml"}]}))

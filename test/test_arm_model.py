@@ -134,11 +134,18 @@ def write_config(folder: Path, **overrides) -> Path:
         "dof": 4,
         "base": {"xyz": [0.1, -0.2, 0.3], "rpy": [0.1, 0.2, 0.3]},
         "joint_types": "rprr",
-        "dh": {"theta": [0.1, 0.3, -0.2, 0.0], "d": [0.3, 0.2, 0.05, 0.1],
-               "a": [0.05, 0.25, 0.2, 0.0], "alpha": ["-pi/2", "pi/2", 0.3, "pi/2"]},
+        "dh": {
+            "theta": [0.1, 0.3, -0.2, 0.0],
+            "d": [0.3, 0.2, 0.05, 0.1],
+            "a": [0.05, 0.25, 0.2, 0.0],
+            "alpha": ["-pi/2", "pi/2", 0.3, "pi/2"],
+        },
         "limits": {"position": [[-3, 3], [0.0, 0.5], [-2, 2], [-3, 3]], "velocity": [1, 0.5, 1, 2]},
-        "dynamics": {"mass": [2.0, 1.5, 1.0, 0.5],
-                     "cog": rng.uniform(-0.1, 0.1, size=(4, 3)).tolist(), "inertia": inertia},
+        "dynamics": {
+            "mass": [2.0, 1.5, 1.0, 0.5],
+            "cog": rng.uniform(-0.1, 0.1, size=(4, 3)).tolist(),
+            "inertia": inertia,
+        },
         "links": [{"link": 1, "elements": [{"mesh": "x.stl"}]}],
     }
     raw.update(overrides)
@@ -193,9 +200,11 @@ def test_batched_variants_equal_single_calls(shipped):
     np.testing.assert_allclose(shipped.fkine_batch(Q), [shipped.fkine(q) for q in Q], atol=1e-14)
     np.testing.assert_allclose(shipped.jacob0_batch(Q), [shipped.jacob0(q) for q in Q], atol=1e-14)
     QD, QDD = rng.normal(size=Q.shape), rng.normal(size=Q.shape)
-    np.testing.assert_allclose(shipped.rne_batch(Q, QD, QDD),
-                               [shipped.rne(q, qd, qdd) for q, qd, qdd in zip(Q, QD, QDD, strict=True)],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        shipped.rne_batch(Q, QD, QDD),
+        [shipped.rne(q, qd, qdd) for q, qd, qdd in zip(Q, QD, QDD, strict=True)],
+        atol=1e-12,
+    )
 
 
 def test_jacobian_matches_oracle_and_finite_differences(arm4):
@@ -224,7 +233,7 @@ def test_shipped_jacobians_match_finite_differences(shipped):
     for k in range(shipped.n):
         dq = np.zeros(shipped.n)
         dq[k] = h
-        dp = (oracle_frames(shipped.config, q + dq)[-1][:3, 3] - oracle_frames(shipped.config, q - dq)[-1][:3, 3])
+        dp = oracle_frames(shipped.config, q + dq)[-1][:3, 3] - oracle_frames(shipped.config, q - dq)[-1][:3, 3]
         np.testing.assert_allclose(J[:3, k], dp / (2 * h), atol=1e-7)
 
 
@@ -272,8 +281,7 @@ def test_rne_of_shipped_arms_matches_lagrangian_oracle(shipped):
     rng = np.random.default_rng(8)
     q = random_q(shipped, rng)
     qd, qdd = rng.normal(size=shipped.n), rng.normal(size=shipped.n)
-    np.testing.assert_allclose(shipped.rne(q, qd, qdd), oracle_torque(shipped.config, q, qd, qdd),
-                               atol=1e-6, rtol=1e-6)
+    np.testing.assert_allclose(shipped.rne(q, qd, qdd), oracle_torque(shipped.config, q, qd, qdd), atol=1e-6, rtol=1e-6)
     np.testing.assert_allclose(shipped.inertia(q), oracle_mass_matrix(shipped.config, q), atol=1e-10)
 
 

@@ -60,9 +60,12 @@ def run(executor, world, steps):
 def trajectory(points, names=JOINTS) -> JointTrajectory:
     msg = JointTrajectory(joint_names=list(names))
     for t, positions in points:
-        msg.points.append(JointTrajectoryPoint(
-            positions=[float(p) for p in positions],
-            time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9)))))
+        msg.points.append(
+            JointTrajectoryPoint(
+                positions=[float(p) for p in positions],
+                time_from_start=Duration(sec=int(t), nanosec=int(round((t % 1) * 1e9))),
+            )
+        )
     return msg
 
 
@@ -76,9 +79,14 @@ def test_trajectory_reaches_its_points_on_time_within_velocity_limits(executor, 
     arm = world.arm("")
     goal1 = [0.3, -0.2, 0.1, 0.4, -0.3, 0.5]
     goal2 = [0.6, 0.2, -0.3, 0.0, 0.5, -0.5]
-    publish_and_wait(executor, test, "joint_trajectory", JointTrajectory,
-                     trajectory([(1.0, goal1), (2.0, goal2)]),
-                     lambda: np.allclose(arm.motion.goal, goal2))
+    publish_and_wait(
+        executor,
+        test,
+        "joint_trajectory",
+        JointTrajectory,
+        trajectory([(1.0, goal1), (2.0, goal2)]),
+        lambda: np.allclose(arm.motion.goal, goal2),
+    )
     start = world.sim_time
     run(executor, world, 200)
     assert spin_until(executor, lambda: states.msgs and stamp_seconds(states.last) >= start + 2.0 - 1e-9)
@@ -96,8 +104,14 @@ def test_too_fast_trajectory_is_followed_at_the_velocity_limit(executor, make_no
     states = collect(executor, test, JointState, "joint_states")
     arm = world.arm("")
     goal = [1.5, 0.0, 0.0, 0.0, 0.0, 0.0]  # 1.5 rad in 0.1 s: 15 rad/s against 4.36 rad/s
-    publish_and_wait(executor, test, "joint_trajectory", JointTrajectory, trajectory([(0.1, goal)]),
-                     lambda: np.allclose(arm.motion.goal, goal))
+    publish_and_wait(
+        executor,
+        test,
+        "joint_trajectory",
+        JointTrajectory,
+        trajectory([(0.1, goal)]),
+        lambda: np.allclose(arm.motion.goal, goal),
+    )
     run(executor, world, 100)
     assert spin_until(executor, lambda: len(states.msgs) >= 50)
     positions = np.array([m.position for m in states.msgs])
@@ -112,8 +126,7 @@ def test_joint_command_is_clamped_to_limits_and_moved_within_velocity_limits(exe
     states = collect(executor, test, JointState, "joint_states")
     arm = world.arm("")
     command = JointState(name=["joint_3", "joint_1"], position=[2.0, -1.0])  # joint_3 max is +70°
-    publish_and_wait(executor, test, "joint_command", JointState, command,
-                     lambda: arm.motion.goal[0] == -1.0)
+    publish_and_wait(executor, test, "joint_command", JointState, command, lambda: arm.motion.goal[0] == -1.0)
     np.testing.assert_allclose(arm.motion.goal, [-1.0, 0, math.radians(70), 0, 0, 0])
     run(executor, world, 100)
     assert spin_until(executor, lambda: len(states.msgs) >= 50)
@@ -207,7 +220,7 @@ def test_markers_carry_meshes_colours_alpha_and_fk_poses(executor, make_node):
     frames = arm.fkine_all(world.arm("").motion.q)
     for marker, element in zip(meshes, arm.elements, strict=True):
         assert marker.mesh_resource.startswith("file:///")
-        assert Path(marker.mesh_resource[len("file://"):]).is_file()
+        assert Path(marker.mesh_resource[len("file://") :]).is_file()
         assert marker.header.frame_id == "world"
         r, g, b, a = element.element.color
         assert (marker.color.r, marker.color.g, marker.color.b) == pytest.approx((r, g, b))

@@ -42,8 +42,13 @@ def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
 def compiled_kernels(ros):
     """Compile (or load from cache) every numba kernel of the world before any test runs: the
     client's timeouts are wall-clock, and a first compile on a cold cache can take longer."""
-    world = make_world({"map_file": str(config_path("create/example.map")), "real_time_factor": 0.0,
-                        "config_file": str(config_path("create/example_config.txt"))})
+    world = make_world(
+        {
+            "map_file": str(config_path("create/example.map")),
+            "real_time_factor": 0.0,
+            "config_file": str(config_path("create/example_config.txt")),
+        }
+    )
     world.model.set_velocity(0.2, 0.5)
     world.step(20)
     model = world.model
@@ -185,8 +190,10 @@ def test_reading_without_a_robot_times_out_clearly(executor, make_node):
 
 def test_standalone_client_with_its_own_spinner_thread(executor):
     # The world runs paced at twice real time in its own thread, as another process would.
-    world = CreateWorldNode(namespace="solo", parameter_overrides=[
-        Parameter("map_file", value=""), Parameter("real_time_factor", value=2.0)])
+    world = CreateWorldNode(
+        namespace="solo",
+        parameter_overrides=[Parameter("map_file", value=""), Parameter("real_time_factor", value=2.0)],
+    )
     executor.add_node(world)
     world.start_pacing()
     stop = threading.Event()
@@ -218,9 +225,21 @@ def test_first_command_of_a_fresh_client_reaches_a_world_in_another_process(tmp_
 
     root = Path(__file__).resolve().parent.parent
     world = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from create_sim.world_node import main; sys.exit(main())",
-         "--ros-args", "-p", "map_file:=''", "-r", "__ns:=/fresh"],
-        env=dict(os.environ, PYTHONPATH=str(root)), cwd=root, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-c",
+            "import sys; from create_sim.world_node import main; sys.exit(main())",
+            "--ros-args",
+            "-p",
+            "map_file:=''",
+            "-r",
+            "__ns:=/fresh",
+        ],
+        env=dict(os.environ, PYTHONPATH=str(root)),
+        cwd=root,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     robot = CreateRobot(namespace="fresh", timeout=30.0)
     try:
         assert robot.set_fwd_vel_ang_vel(0.3, 0.0) == (0.3, 0.0)

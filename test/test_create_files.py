@@ -28,7 +28,8 @@ def test_every_map_row_type_is_read():
         "wall 2.30 1.59 4.46 2.71\n"
         "line -4.612 -1 2.905 -1.95\n"
         "beacon 1.267 -1.310 [1.0 0.5 0.0] beac04\n"
-        "virtwall 2.560 -3.390 -2.725 2\n")
+        "virtwall 2.560 -3.390 -2.725 2\n"
+    )
     np.testing.assert_array_equal(world.walls, [[2.30, 1.59, 4.46, 2.71]])
     np.testing.assert_array_equal(world.lines, [[-4.612, -1, 2.905, -1.95]])
     np.testing.assert_array_equal(world.beacon_xy, [[1.267, -1.310]])
@@ -45,7 +46,8 @@ def test_comments_blank_rows_whitespace_and_keyword_case():
         "  WALL\t0 0   1 1   % trailing comment\n"
         "\tWall 1 1 2 2\t\n"
         "LiNe 0 0 0 1%no space before the comment\n"
-        "%wall 9 9 9 9\n")
+        "%wall 9 9 9 9\n"
+    )
     np.testing.assert_array_equal(world.walls, [[0, 0, 1, 1], [1, 1, 2, 2]])
     np.testing.assert_array_equal(world.lines, [[0, 0, 0, 1]])
 
@@ -70,23 +72,26 @@ def test_unrecognised_row_warns_with_file_and_line_and_is_skipped():
     assert len(world.walls) == 2
 
 
-@pytest.mark.parametrize(("row", "value"), [
-    ("wall 0 0 1", "needs 4 numbers"),
-    ("wall 0 0 1 1 5", "got 5"),
-    ("wall 0 0 1 NaN", "'NaN'"),
-    ("line 0 inf 1 1", "'inf'"),
-    ("line 0 abc 1 1", "'abc'"),
-    ("virtwall 0 0 0 4", "'4'"),
-    ("virtwall 0 0 0 0", "'0'"),
-    ("virtwall 0 0 0 1.5", "'1.5'"),
-    ("virtwall 0 0 0", "needs 4 numbers"),
-    ("beacon 0 0 1 0 0 id", "x y \\[r g b\\] id"),
-    ("beacon 0 0 [1 0] id", "3 values"),
-    ("beacon 0 0 [1 0 2] id", "b = 2.0 is outside 0..1"),
-    ("beacon 0 0 [1 0 0]", "one word"),
-    ("beacon 0 0 [1 0 0] two words", "one word"),
-    ("beacon x 0 [1 0 0] id", "'x'"),
-])
+@pytest.mark.parametrize(
+    ("row", "value"),
+    [
+        ("wall 0 0 1", "needs 4 numbers"),
+        ("wall 0 0 1 1 5", "got 5"),
+        ("wall 0 0 1 NaN", "'NaN'"),
+        ("line 0 inf 1 1", "'inf'"),
+        ("line 0 abc 1 1", "'abc'"),
+        ("virtwall 0 0 0 4", "'4'"),
+        ("virtwall 0 0 0 0", "'0'"),
+        ("virtwall 0 0 0 1.5", "'1.5'"),
+        ("virtwall 0 0 0", "needs 4 numbers"),
+        ("beacon 0 0 1 0 0 id", "x y \\[r g b\\] id"),
+        ("beacon 0 0 [1 0] id", "3 values"),
+        ("beacon 0 0 [1 0 2] id", "b = 2.0 is outside 0..1"),
+        ("beacon 0 0 [1 0 0]", "one word"),
+        ("beacon 0 0 [1 0 0] two words", "one word"),
+        ("beacon x 0 [1 0 0] id", "'x'"),
+    ],
+)
 def test_bad_value_in_a_known_row_names_file_line_and_value(row, value):
     with pytest.raises(InputError, match=rf"^rooms\.map:3: .*{value}"):
         parse_map(f"% header\nwall 0 0 1 1\n{row}\n", "rooms.map")
@@ -115,10 +120,10 @@ def test_shipped_example_map_loads_without_warnings():
 
 # ------------------------------------------------------------------------------------------ config
 def test_every_config_row_is_read_and_unlisted_sensors_are_noise_free():
-    config = parse_quietly("% SensorName NoiseMean NoiseStandardDev\n"
-                           "  odometry 0.092 0.05  % trailing\n"
-                           "SONAR\t0\t0.004\n"
-                           "com_delay 0.1\n", parse_config)
+    config = parse_quietly(
+        "% SensorName NoiseMean NoiseStandardDev\n  odometry 0.092 0.05  % trailing\nSONAR\t0\t0.004\ncom_delay 0.1\n",
+        parse_config,
+    )
     assert config.noise["odometry"] == (0.092, 0.05)
     assert config.noise["sonar"] == (0.0, 0.004)
     assert config.noise["lidar"] == (0.0, 0.0)
@@ -128,14 +133,19 @@ def test_every_config_row_is_read_and_unlisted_sensors_are_noise_free():
 def test_default_config_is_ideal():
     config = NoiseConfig()
     assert config.com_delay == 0.0
-    assert all(config.noise[name] == (0.0, 0.0)
-               for name in ("wall", "cliff", "odometry", "sonar", "lidar", "camera"))
+    assert all(config.noise[name] == (0.0, 0.0) for name in ("wall", "cliff", "odometry", "sonar", "lidar", "camera"))
 
 
 def test_shipped_configs_hold_the_seed_example_values_and_an_ideal_robot():
     example = load_config(config_path("create/example_config.txt"))
-    assert example.noise == {"wall": (0.0, 0.01), "cliff": (3.0, 6.9), "odometry": (-0.02, 0.06),
-                             "sonar": (0.0, 0.004), "lidar": (0.0, 0.001), "camera": (0.0, 0.02)}
+    assert example.noise == {
+        "wall": (0.0, 0.01),
+        "cliff": (3.0, 6.9),
+        "odometry": (-0.02, 0.06),
+        "sonar": (0.0, 0.004),
+        "lidar": (0.0, 0.001),
+        "camera": (0.0, 0.02),
+    }
     assert example.com_delay == 0.12
     assert load_config(config_path("create/ideal_config.txt")) == NoiseConfig()
 
@@ -152,14 +162,17 @@ def test_unrecognised_config_row_warns_and_is_skipped():
     assert config.noise["wall"] == (0.0, 0.01)
 
 
-@pytest.mark.parametrize(("row", "value"), [
-    ("wall 0", "needs 2 numbers"),
-    ("lidar 0 nan", "'nan'"),
-    ("camera 0 -0.1", "std '-0.1' must be >= 0"),
-    ("com_delay", "needs 1 number"),
-    ("com_delay soon", "'soon'"),
-    ("com_delay -1", "'-1' must be >= 0"),
-])
+@pytest.mark.parametrize(
+    ("row", "value"),
+    [
+        ("wall 0", "needs 2 numbers"),
+        ("lidar 0 nan", "'nan'"),
+        ("camera 0 -0.1", "std '-0.1' must be >= 0"),
+        ("com_delay", "needs 1 number"),
+        ("com_delay soon", "'soon'"),
+        ("com_delay -1", "'-1' must be >= 0"),
+    ],
+)
 def test_bad_config_value_names_file_line_and_value(row, value):
     with pytest.raises(InputError, match=rf"^c\.cfg:2: .*{value}"):
         parse_config(f"cliff 3 6.9\n{row}\n", "c.cfg")
@@ -173,8 +186,9 @@ def test_missing_config_file_is_named(tmp_path):
 # ------------------------------------------------------------------------------------------ properties
 finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False)
 unit = st.floats(min_value=0.0, max_value=1.0)
-ids = st.text(alphabet=st.characters(codec="ascii", categories=("L", "N")) | st.sampled_from("_-."),
-              min_size=1, max_size=8)
+ids = st.text(
+    alphabet=st.characters(codec="ascii", categories=("L", "N")) | st.sampled_from("_-."), min_size=1, max_size=8
+)
 
 
 @st.composite
@@ -184,18 +198,25 @@ def maps(draw):
     n_beacons = draw(st.integers(0, 4))
     n_virt = draw(st.integers(0, 3))
     return CreateMap(
-        walls=np.array(draw(st.lists(st.lists(finite, min_size=4, max_size=4),
-                                     min_size=n_walls, max_size=n_walls))).reshape(-1, 4),
-        lines=np.array(draw(st.lists(st.lists(finite, min_size=4, max_size=4),
-                                     min_size=n_lines, max_size=n_lines))).reshape(-1, 4),
-        beacon_xy=np.array(draw(st.lists(st.lists(finite, min_size=2, max_size=2),
-                                         min_size=n_beacons, max_size=n_beacons))).reshape(-1, 2),
-        beacon_rgb=np.array(draw(st.lists(st.lists(unit, min_size=3, max_size=3),
-                                          min_size=n_beacons, max_size=n_beacons))).reshape(-1, 3),
+        walls=np.array(
+            draw(st.lists(st.lists(finite, min_size=4, max_size=4), min_size=n_walls, max_size=n_walls))
+        ).reshape(-1, 4),
+        lines=np.array(
+            draw(st.lists(st.lists(finite, min_size=4, max_size=4), min_size=n_lines, max_size=n_lines))
+        ).reshape(-1, 4),
+        beacon_xy=np.array(
+            draw(st.lists(st.lists(finite, min_size=2, max_size=2), min_size=n_beacons, max_size=n_beacons))
+        ).reshape(-1, 2),
+        beacon_rgb=np.array(
+            draw(st.lists(st.lists(unit, min_size=3, max_size=3), min_size=n_beacons, max_size=n_beacons))
+        ).reshape(-1, 3),
         beacon_ids=draw(st.lists(ids, min_size=n_beacons, max_size=n_beacons)),
-        virtwalls=np.array([[*draw(st.lists(finite, min_size=3, max_size=3)),
-                             draw(st.sampled_from([1.0, 2.0, 3.0]))] for _ in range(n_virt)]
-                           ).reshape(-1, 4),
+        virtwalls=np.array(
+            [
+                [*draw(st.lists(finite, min_size=3, max_size=3)), draw(st.sampled_from([1.0, 2.0, 3.0]))]
+                for _ in range(n_virt)
+            ]
+        ).reshape(-1, 4),
     )
 
 
@@ -226,10 +247,16 @@ def test_valid_maps_round_trip(world, data):
 
 
 @settings(max_examples=100, deadline=None)
-@given(noise=st.fixed_dictionaries({
-    name: st.tuples(finite, st.floats(min_value=0.0, max_value=1e3))
-    for name in ("wall", "cliff", "odometry", "sonar", "lidar", "camera")}),
-    delay=st.floats(min_value=0.0, max_value=10.0), data=st.data())
+@given(
+    noise=st.fixed_dictionaries(
+        {
+            name: st.tuples(finite, st.floats(min_value=0.0, max_value=1e3))
+            for name in ("wall", "cliff", "odometry", "sonar", "lidar", "camera")
+        }
+    ),
+    delay=st.floats(min_value=0.0, max_value=10.0),
+    data=st.data(),
+)
 def test_valid_configs_round_trip(noise, delay, data):
     config = NoiseConfig(noise=dict(noise), com_delay=delay)
     assert parse_quietly(restyle(config.to_text(), data), parse_config) == config
@@ -238,11 +265,14 @@ def test_valid_configs_round_trip(noise, delay, data):
 garbage_rows = st.lists(
     st.one_of(
         st.text(max_size=40),
-        st.builds(lambda k, rest: f"{k} {rest}",
-                  st.sampled_from(["wall", "LINE", "beacon", "virtwall", "com_delay", "lidar",
-                                   "imu", "cliff"]),
-                  st.text(alphabet="0123456789.-+eE[], \tnaifNI%abc", max_size=30))),
-    max_size=8)
+        st.builds(
+            lambda k, rest: f"{k} {rest}",
+            st.sampled_from(["wall", "LINE", "beacon", "virtwall", "com_delay", "lidar", "imu", "cliff"]),
+            st.text(alphabet="0123456789.-+eE[], \tnaifNI%abc", max_size=30),
+        ),
+    ),
+    max_size=8,
+)
 
 
 @settings(max_examples=300, deadline=None)
@@ -258,7 +288,6 @@ def test_garbage_never_raises_anything_but_input_error(rows):
                 assert str(error).startswith("junk.txt:")
                 continue
         if parser is parse_map:
-            assert all(np.isfinite(a).all() for a in (result.walls, result.lines, result.beacon_xy,
-                                                        result.virtwalls))
+            assert all(np.isfinite(a).all() for a in (result.walls, result.lines, result.beacon_xy, result.virtwalls))
         else:
             assert all(math.isfinite(m) and s >= 0 for m, s in result.noise.values())

@@ -56,8 +56,7 @@ def test_straight_line_distance_is_exact():
     assert robot.velocity == pytest.approx((0.2, 0.0))
 
 
-@pytest.mark.parametrize(("w", "expected_y", "expected_theta"), [(0.5, 0.4, math.pi / 2),
-                                                                  (-0.5, -0.4, -math.pi / 2)])
+@pytest.mark.parametrize(("w", "expected_y", "expected_theta"), [(0.5, 0.4, math.pi / 2), (-0.5, -0.4, -math.pi / 2)])
 def test_arc_radius_and_direction(w, expected_y, expected_theta):
     """v = 0.2, |w| = 0.5: a quarter circle of radius 0.4 to the left (CCW) or right (CW)."""
     robot = CreateModel(world())
@@ -75,14 +74,17 @@ def test_turning_in_place_keeps_position_and_wraps_heading():
     assert theta == pytest.approx(4.0 - 2 * math.pi)
 
 
-@pytest.mark.parametrize(("command", "applied"), [
-    ((0.3, 1.0), (0.3, 1.0)),  # within limits: unchanged
-    ((1.0, 0.0), (0.5, 0.0)),
-    ((-1.0, 0.0), (-0.5, 0.0)),
-    ((0.0, 5.0), (0.0, 0.5 / 0.129)),  # the original turned this into 0.5 m/s straight ahead
-    ((0.5, 1.0), ((0.5 + 0.5 - 0.129) / 2, (0.5 - (0.5 - 0.129)) / 0.258)),
-    ((1e9, -1e10), (0.0, -0.5 / 0.129)),
-])
+@pytest.mark.parametrize(
+    ("command", "applied"),
+    [
+        ((0.3, 1.0), (0.3, 1.0)),  # within limits: unchanged
+        ((1.0, 0.0), (0.5, 0.0)),
+        ((-1.0, 0.0), (-0.5, 0.0)),
+        ((0.0, 5.0), (0.0, 0.5 / 0.129)),  # the original turned this into 0.5 m/s straight ahead
+        ((0.5, 1.0), ((0.5 + 0.5 - 0.129) / 2, (0.5 - (0.5 - 0.129)) / 0.258)),
+        ((1e9, -1e10), (0.0, -0.5 / 0.129)),
+    ],
+)
 def test_each_wheel_is_clamped_on_its_own(command, applied):
     robot = CreateModel(world())
     assert robot.set_velocity(*command) == pytest.approx(applied)
@@ -131,8 +133,7 @@ def test_slides_along_a_wall_with_friction():
     assert robot.bumps() == (False, True)  # the wall is 45° to the right of the heading
 
 
-@pytest.mark.parametrize("walls", [[[-1, 1, 3, 1]], [[-1, 1, 1, 1], [1, 1, 3, 1]],
-                                   [[-1, 1, 1, 1], [1, 1, 3, 0.999]]])
+@pytest.mark.parametrize("walls", [[[-1, 1, 3, 1]], [[-1, 1, 1, 1], [1, 1, 3, 1]], [[-1, 1, 1, 1], [1, 1, 3, 0.999]]])
 def test_slides_past_the_joint_of_a_wall_made_of_segments(walls):
     """A joint between wall segments is not an obstacle: same slide as along one long wall."""
     heading, v, gap = math.radians(20), 0.3, 0.01
@@ -185,8 +186,9 @@ def test_backing_away_from_a_wall_is_free():
 
 
 def test_driving_off_an_open_map_keeps_working():
-    robot = CreateModel(world(walls=[[1, -1, 1, 1]], beacons=[(2, 0, (1, 0, 0), "b")],
-                              lines=[[0, 0, 1, 0]]), pose=(0, 0, math.pi))
+    robot = CreateModel(
+        world(walls=[[1, -1, 1, 1]], beacons=[(2, 0, (1, 0, 0), "b")], lines=[[0, 0, 1, 0]]), pose=(0, 0, math.pi)
+    )
     drive(robot, 0.5, 0.0, 200.0, dt=0.1)
     assert robot.pose[0] == pytest.approx(-100.0)
     assert np.isinf(robot.lidar()).all() and np.isinf(robot.sonar()).all()
@@ -271,12 +273,21 @@ def test_odometry_distance_stops_when_blocked():
 
 
 # ------------------------------------------------------------------------------------------ bumps
-@pytest.mark.parametrize(("angle_deg", "expected"), [
-    (0, (True, True)), (20, (True, True)), (-20, (True, True)),
-    (60, (True, False)), (30, (True, False)),
-    (-60, (False, True)), (-85, (False, True)),
-    (95, (False, False)), (180, (False, False)), (-120, (False, False)),
-])
+@pytest.mark.parametrize(
+    ("angle_deg", "expected"),
+    [
+        (0, (True, True)),
+        (20, (True, True)),
+        (-20, (True, True)),
+        (60, (True, False)),
+        (30, (True, False)),
+        (-60, (False, True)),
+        (-85, (False, True)),
+        (95, (False, False)),
+        (180, (False, False)),
+        (-120, (False, False)),
+    ],
+)
 def test_bumps_by_contact_side(angle_deg, expected):
     robot = CreateModel(world(walls=[tangent_wall(math.radians(angle_deg))]))
     assert robot.bumps() == expected
@@ -298,14 +309,17 @@ def radial_line(angle_deg: float, heading: float = 0.0) -> list[float]:
     return [0.0, 0.0, 0.3 * math.cos(a), 0.3 * math.sin(a)]
 
 
-@pytest.mark.parametrize(("angle_deg", "expected"), [
-    (60, [1.5, 21.5, 21.5, 21.5]),
-    (13, [21.5, 1.5, 21.5, 21.5]),
-    (-13, [21.5, 21.5, 1.5, 21.5]),
-    (-60, [21.5, 21.5, 21.5, 1.5]),
-    (0, [21.5, 21.5, 21.5, 21.5]),
-    (90, [21.5, 21.5, 21.5, 21.5]),
-])
+@pytest.mark.parametrize(
+    ("angle_deg", "expected"),
+    [
+        (60, [1.5, 21.5, 21.5, 21.5]),
+        (13, [21.5, 1.5, 21.5, 21.5]),
+        (-13, [21.5, 21.5, 1.5, 21.5]),
+        (-60, [21.5, 21.5, 21.5, 1.5]),
+        (0, [21.5, 21.5, 21.5, 21.5]),
+        (90, [21.5, 21.5, 21.5, 21.5]),
+    ],
+)
 def test_cliff_reads_a_line_under_each_sensor(angle_deg, expected):
     robot = CreateModel(world(lines=[radial_line(angle_deg)]))
     np.testing.assert_array_equal(robot.cliff_signals(), expected)
@@ -329,8 +343,7 @@ def test_cliff_noise_is_drawn_per_sensor():
 
 
 # ------------------------------------------------------------------------------------------ IR wall
-@pytest.mark.parametrize(("wall_y", "seen"), [(-0.17, True), (-0.2, True), (-0.21, False),
-                                              (-0.3, False)])
+@pytest.mark.parametrize(("wall_y", "seen"), [(-0.17, True), (-0.2, True), (-0.21, False), (-0.3, False)])
 def test_ir_wall_sensor_looks_right_from_the_front_right(wall_y, seen):
     # The sensor sits 0.104 m right of the centre; its range is 0.1 m.
     robot = CreateModel(world(walls=[[-1, wall_y, 1, wall_y]]))
@@ -360,8 +373,11 @@ def test_sonar_out_of_range_and_too_close():
 
 
 def test_sonar_noise_keeps_in_range_readings_in_range():
-    robot = CreateModel(world(walls=[[2.9 + R, -5, 2.9 + R, 5], [-5, 0.05 + R, 5, 0.05 + R]]),
-                        noisy(sonar=(0.0, 1.0)), rng=np.random.default_rng(3))
+    robot = CreateModel(
+        world(walls=[[2.9 + R, -5, 2.9 + R, 5], [-5, 0.05 + R, 5, 0.05 + R]]),
+        noisy(sonar=(0.0, 1.0)),
+        rng=np.random.default_rng(3),
+    )
     readings = np.array([robot.sonar()[:2] for _ in range(500)])
     assert ((readings >= 0.02) & (readings <= 3.0)).all()
     assert len(np.unique(readings[:, 0])) > 2
@@ -390,8 +406,7 @@ def test_lidar_index_zero_is_the_right_side():
 def test_lidar_clamps_close_readings_and_adds_per_beam_noise():
     robot = CreateModel(world(walls=[[R, -1, R, 1]]))
     assert robot.lidar()[340] == pytest.approx(0.02)
-    robot = CreateModel(world(walls=[[2, -10, 2, 10]]), noisy(lidar=(0.0, 0.01)),
-                        rng=np.random.default_rng(4))
+    robot = CreateModel(world(walls=[[2, -10, 2, 10]]), noisy(lidar=(0.0, 0.01)), rng=np.random.default_rng(4))
     scan = robot.lidar()
     assert np.isinf(scan[0])
     assert abs(scan[340] - (2 - R)) < 0.05 and len(np.unique(scan[300:380])) == 80
@@ -407,11 +422,18 @@ def test_camera_sees_a_beacon_in_front_with_case_kept_id():
 
 
 def test_camera_does_not_see_behind_walls_out_of_view_or_range():
-    robot = CreateModel(world(walls=[[1, -0.5, 1, 0.5]],
-                              beacons=[(2, 0, (1, 0, 0), "hidden"), (2, 1.5, (1, 0, 0), "visible"),
-                                       (0.5, 1.0, (1, 0, 0), "outside_fov"),
-                                       (6.2, 0.0, (1, 0, 0), "far"),
-                                       (-2, 0, (1, 0, 0), "behind")]))
+    robot = CreateModel(
+        world(
+            walls=[[1, -0.5, 1, 0.5]],
+            beacons=[
+                (2, 0, (1, 0, 0), "hidden"),
+                (2, 1.5, (1, 0, 0), "visible"),
+                (0.5, 1.0, (1, 0, 0), "outside_fov"),
+                (6.2, 0.0, (1, 0, 0), "far"),
+                (-2, 0, (1, 0, 0), "behind"),
+            ],
+        )
+    )
     assert [s.id for s in robot.camera()] == ["visible"]
 
 
@@ -428,19 +450,22 @@ def test_camera_noise_is_proportional():
 
 
 # ------------------------------------------------------------------------------------------ virtual wall
-@pytest.mark.parametrize(("emitter", "walls", "expected"), [
-    ([1.0, 0.0, math.pi, 1], [], True),  # in the field, 0.84 m away
-    ([1.0, 0.0, math.pi, 1], [[0.5, -1, 0.5, 1]], False),  # a wall between
-    ([1.0, 0.0, math.pi / 2, 1], [], False),  # beam points elsewhere, beyond the halo
-    ([0.3, 0.3, math.pi / 2, 1], [], True),  # halo (0.33 m)
-    ([0.3, 0.3, math.pi / 2, 1], [[0.0, 0.25, 0.6, 0.25]], False),  # halo blocked by a wall
-    ([3.0, 0.0, math.pi, 1], [], False),  # 2.84 m: beyond setting 1's 2.13 m
-    ([3.0, 0.0, math.pi, 2], [], True),  # within setting 2's 5.56 m
-    ([7.0, 0.0, math.pi, 2], [], False),
-    ([7.0, 0.0, math.pi, 3], [], True),  # setting 3 reaches 8.08 m
-    ([2.0, 0.3, math.pi, 1], [], True),  # 9.3° off the beam: inside setting 1's ±9.45°
-    ([2.0, 0.4, math.pi, 1], [], False),  # 12.3° off the beam
-])
+@pytest.mark.parametrize(
+    ("emitter", "walls", "expected"),
+    [
+        ([1.0, 0.0, math.pi, 1], [], True),  # in the field, 0.84 m away
+        ([1.0, 0.0, math.pi, 1], [[0.5, -1, 0.5, 1]], False),  # a wall between
+        ([1.0, 0.0, math.pi / 2, 1], [], False),  # beam points elsewhere, beyond the halo
+        ([0.3, 0.3, math.pi / 2, 1], [], True),  # halo (0.33 m)
+        ([0.3, 0.3, math.pi / 2, 1], [[0.0, 0.25, 0.6, 0.25]], False),  # halo blocked by a wall
+        ([3.0, 0.0, math.pi, 1], [], False),  # 2.84 m: beyond setting 1's 2.13 m
+        ([3.0, 0.0, math.pi, 2], [], True),  # within setting 2's 5.56 m
+        ([7.0, 0.0, math.pi, 2], [], False),
+        ([7.0, 0.0, math.pi, 3], [], True),  # setting 3 reaches 8.08 m
+        ([2.0, 0.3, math.pi, 1], [], True),  # 9.3° off the beam: inside setting 1's ±9.45°
+        ([2.0, 0.4, math.pi, 1], [], False),  # 12.3° off the beam
+    ],
+)
 def test_virtual_wall_halo_field_and_blocking(emitter, walls, expected):
     robot = CreateModel(world(walls=walls, virtwalls=[emitter]))
     assert robot.virtual_wall() is expected
@@ -468,14 +493,15 @@ def free_pose(robot_map: CreateMap, rng: np.random.Generator) -> tuple[float, fl
             continue
 
 
-commands = st.lists(st.tuples(st.floats(-2.0, 2.0), st.floats(-10.0, 10.0),
-                              st.sampled_from([0.01, 0.01, 0.05, 0.3])),
-                    min_size=50, max_size=50)
+commands = st.lists(
+    st.tuples(st.floats(-2.0, 2.0), st.floats(-10.0, 10.0), st.sampled_from([0.01, 0.01, 0.05, 0.3])),
+    min_size=50,
+    max_size=50,
+)
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2**32 - 1), n_walls=st.integers(1, 25), sequence=commands,
-       room=st.booleans())
+@given(seed=st.integers(0, 2**32 - 1), n_walls=st.integers(1, 25), sequence=commands, room=st.booleans())
 def test_never_inside_a_wall(seed, n_walls, sequence, room):
     rng = np.random.default_rng(seed)
     walls = random_walls(rng, n_walls)
@@ -528,9 +554,11 @@ def test_grid_culled_lidar_agrees_with_brute_force(seed, n_walls):
 
 
 def test_example_map_full_run_stays_valid():
-    robot = CreateModel(load_map(config_path("create/example.map")),
-                        load_config(config_path("create/example_config.txt")),
-                        rng=np.random.default_rng(5))
+    robot = CreateModel(
+        load_map(config_path("create/example.map")),
+        load_config(config_path("create/example_config.txt")),
+        rng=np.random.default_rng(5),
+    )
     rng = np.random.default_rng(6)
     for _ in range(40):
         drive(robot, *rng.uniform([-0.5, -2], [0.5, 2]), 0.5)

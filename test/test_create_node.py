@@ -39,29 +39,72 @@ virtwall -1.5 -1.5 0.785 1
 """
 
 SENSOR_TOPICS = {
-    "odom": Odometry, "overhead_pose": PoseStamped, "bump/left": Range, "bump/right": Range,
-    "wall": Range, "virtual_wall": Range, "cliff/left": Illuminance, "cliff/front_left": Illuminance,
-    "cliff/front_right": Illuminance, "cliff/right": Illuminance, "sonar/front": Range,
-    "sonar/left": Range, "sonar/back": Range, "sonar/right": Range, "scan": LaserScan,
-    "camera/beacons": MarkerArray, "buttons": Joy, "battery_state": BatteryState,
+    "odom": Odometry,
+    "overhead_pose": PoseStamped,
+    "bump/left": Range,
+    "bump/right": Range,
+    "wall": Range,
+    "virtual_wall": Range,
+    "cliff/left": Illuminance,
+    "cliff/front_left": Illuminance,
+    "cliff/front_right": Illuminance,
+    "cliff/right": Illuminance,
+    "sonar/front": Range,
+    "sonar/left": Range,
+    "sonar/back": Range,
+    "sonar/right": Range,
+    "scan": LaserScan,
+    "camera/beacons": MarkerArray,
+    "buttons": Joy,
+    "battery_state": BatteryState,
 }
-DEFAULT_RATES = {"odom": 50, "overhead_pose": 50, "bump/left": 50, "bump/right": 50, "wall": 50,
-                 "virtual_wall": 50, "cliff/left": 50, "cliff/front_left": 50, "cliff/front_right": 50,
-                 "cliff/right": 50, "sonar/front": 20, "sonar/left": 20, "sonar/back": 20, "sonar/right": 20,
-                 "scan": 10, "camera/beacons": 10, "buttons": 10, "battery_state": 1}
-FRAMES = {"odom": "odom", "overhead_pose": "map", "bump/left": "bump_left", "bump/right": "bump_right",
-          "wall": "wall_ir", "virtual_wall": "virtual_wall_ir", "cliff/left": "cliff_left",
-          "cliff/front_left": "cliff_front_left", "cliff/front_right": "cliff_front_right",
-          "cliff/right": "cliff_right", "sonar/front": "sonar_front", "sonar/left": "sonar_left",
-          "sonar/back": "sonar_back", "sonar/right": "sonar_right", "scan": "laser",
-          "buttons": "base_link", "battery_state": "base_link"}
+DEFAULT_RATES = {
+    "odom": 50,
+    "overhead_pose": 50,
+    "bump/left": 50,
+    "bump/right": 50,
+    "wall": 50,
+    "virtual_wall": 50,
+    "cliff/left": 50,
+    "cliff/front_left": 50,
+    "cliff/front_right": 50,
+    "cliff/right": 50,
+    "sonar/front": 20,
+    "sonar/left": 20,
+    "sonar/back": 20,
+    "sonar/right": 20,
+    "scan": 10,
+    "camera/beacons": 10,
+    "buttons": 10,
+    "battery_state": 1,
+}
+FRAMES = {
+    "odom": "odom",
+    "overhead_pose": "map",
+    "bump/left": "bump_left",
+    "bump/right": "bump_right",
+    "wall": "wall_ir",
+    "virtual_wall": "virtual_wall_ir",
+    "cliff/left": "cliff_left",
+    "cliff/front_left": "cliff_front_left",
+    "cliff/front_right": "cliff_front_right",
+    "cliff/right": "cliff_right",
+    "sonar/front": "sonar_front",
+    "sonar/left": "sonar_left",
+    "sonar/back": "sonar_back",
+    "sonar/right": "sonar_right",
+    "scan": "laser",
+    "buttons": "base_link",
+    "battery_state": "base_link",
+}
 
 
 class Rig:
     """A world plus a probe node in one executor; ``step`` advances sim time deterministically."""
 
-    def __init__(self, executor, make_node, tmp_path, map_text: str = ROOM, config_text: str | None = None,
-                 **params) -> None:
+    def __init__(
+        self, executor, make_node, tmp_path, map_text: str = ROOM, config_text: str | None = None, **params
+    ) -> None:
         self.executor = executor
         map_file = tmp_path / "world.map"
         map_file.write_text(map_text)
@@ -320,10 +363,17 @@ def test_initial_pose_inside_a_wall_is_a_clear_error(ros, tmp_path):
         make_world({"map_file": str(map_file), "initial_pose": [1.9, 0.0, 0.0]})
 
 
-@pytest.mark.parametrize(("name", "value"), [
-    ("rate.scan", -1.0), ("rate.bump", 1000.0), ("cmd_vel_timeout", -0.5), ("real_time_factor", -1.0),
-    ("initial_pose", [0.0, 0.0]), ("initial_pose", [0.0, math.nan, 0.0]),
-])
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        ("rate.scan", -1.0),
+        ("rate.bump", 1000.0),
+        ("cmd_vel_timeout", -0.5),
+        ("real_time_factor", -1.0),
+        ("initial_pose", [0.0, 0.0]),
+        ("initial_pose", [0.0, math.nan, 0.0]),
+    ],
+)
 def test_parameter_out_of_range_is_a_clear_error(ros, name, value):
     with pytest.raises(InputError, match=f"'{name}'"):
         make_world({"map_file": "", name: value})
@@ -396,8 +446,10 @@ def test_namespace_prefixes_robot_frames(executor, make_node, tmp_path):
     assert scan.last.header.frame_id == "robot2/laser"
     # Each robot has its own odometry frame (REP-105 with a prefix per robot).
     assert odom.last.header.frame_id == "robot2/odom" and odom.last.child_frame_id == "robot2/base_link"
-    explicit = CreateWorldNode(namespace="robot3", parameter_overrides=[
-        Parameter("map_file", value=""), Parameter("frame_prefix", value="kitchen/create_")])
+    explicit = CreateWorldNode(
+        namespace="robot3",
+        parameter_overrides=[Parameter("map_file", value=""), Parameter("frame_prefix", value="kitchen/create_")],
+    )
     assert explicit.frame("laser") == "kitchen/create_laser"
     explicit.destroy_node()
 
@@ -436,15 +488,19 @@ def test_seeded_noise_does_not_depend_on_who_listens(executor, make_node, tmp_pa
     config.write_text("odometry -0.02 0.06\nsonar 0 0.004\nlidar 0 0.001\ncamera 0 0.02\ncliff 3 6.9\nwall 0 0.01\n")
     map_file = tmp_path / "room.map"
     map_file.write_text(ROOM)
-    params = [Parameter("map_file", value=str(map_file)), Parameter("config_file", value=str(config)),
-              Parameter("seed", value=7)]
+    params = [
+        Parameter("map_file", value=str(map_file)),
+        Parameter("config_file", value=str(config)),
+        Parameter("seed", value=7),
+    ]
     heard = CreateWorldNode(namespace="heard", parameter_overrides=params)
     alone = CreateWorldNode(namespace="alone", parameter_overrides=params)
     probe = make_node("noise_probe")
     executor.add_node(heard)
     executor.add_node(alone)
-    collectors = [Collector(probe, msg_type, f"/heard/{topic}", SENSOR_QOS)
-                  for topic, msg_type in SENSOR_TOPICS.items()]
+    collectors = [
+        Collector(probe, msg_type, f"/heard/{topic}", SENSOR_QOS) for topic, msg_type in SENSOR_TOPICS.items()
+    ]
     odom = Collector(probe, Odometry, "/alone/odom", SENSOR_QOS)
     for c in [*collectors, odom]:
         assert wait_for_match(executor, c.subscription)
@@ -484,9 +540,21 @@ def test_create_world_process_serves_another_process(executor, make_node, rtf):
     """The README's two-terminal use: `robot_sims create_world` and the user's own node."""
     root = Path(__file__).resolve().parent.parent
     world = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from create_sim.world_node import main; sys.exit(main())",
-         "--ros-args", "-p", f"real_time_factor:={rtf}", "-r", "__ns:=/e2e"],
-        env=dict(os.environ, PYTHONPATH=str(root)), cwd=root, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-c",
+            "import sys; from create_sim.world_node import main; sys.exit(main())",
+            "--ros-args",
+            "-p",
+            f"real_time_factor:={rtf}",
+            "-r",
+            "__ns:=/e2e",
+        ],
+        env=dict(os.environ, PYTHONPATH=str(root)),
+        cwd=root,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         probe = make_node("user_node")
         odom = Collector(probe, Odometry, "/e2e/odom", SENSOR_QOS)

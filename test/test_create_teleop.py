@@ -32,7 +32,12 @@ class Terminal:
         env = dict(os.environ, PYTHONPATH=str(ROOT))
         self.process = subprocess.Popen(
             [sys.executable, "-m", "create_sim.teleop", "--ros-args", *ros_args],
-            stdin=slave, stdout=slave, stderr=subprocess.PIPE, env=env, cwd=ROOT)
+            stdin=slave,
+            stdout=slave,
+            stderr=subprocess.PIPE,
+            env=env,
+            cwd=ROOT,
+        )
         os.close(slave)
         self.output = b""
 
@@ -106,8 +111,14 @@ def test_keys_publish_the_seed_manual_control_velocities(terminal, executor, mak
 
 
 def test_teleop_refuses_to_run_without_a_terminal():
-    result = subprocess.run([sys.executable, "-m", "create_sim.teleop"], stdin=subprocess.DEVNULL,
-                            capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                            cwd=ROOT, timeout=60)
+    result = subprocess.run(
+        [sys.executable, "-m", "create_sim.teleop"],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        cwd=ROOT,
+        timeout=60,
+    )
     assert result.returncode != 0
     assert "terminal" in result.stderr

@@ -20,9 +20,15 @@ ROOT = Path(__file__).resolve().parent.parent
 def run_exe(name: str, *args: str, **popen) -> subprocess.Popen:
     """``robot_sims <name> args...`` from this checkout, in its own process."""
     code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
-    return subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, text=True,
-                            env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
+    return subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        cwd=ROOT,
+        text=True,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        **popen,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +52,9 @@ def bad_inputs(garbage: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     }
 
 
-@pytest.mark.parametrize("name", ["create_world", "simrobot_world", "arm", "record", "replay",
-                                  "bag_to_rerun", "draw_tracks"])
+@pytest.mark.parametrize(
+    "name", ["create_world", "simrobot_world", "arm", "record", "replay", "bag_to_rerun", "draw_tracks"]
+)
 def test_bad_input_exits_2_naming_the_file(name, garbage, tmp_path):
     args, named = bad_inputs(garbage, tmp_path)[name]
     process = run_exe(name, *args)
@@ -62,11 +69,14 @@ def test_unparsable_ros_arguments_exit_2_without_a_traceback():
     assert process.returncode == 2 and "invalid ROS arguments" in err and "Traceback" not in err, err
 
 
-@pytest.mark.parametrize("name,args", [
-    ("create_world", []),
-    ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),
-    ("arm", []),
-])
+@pytest.mark.parametrize(
+    "name,args",
+    [
+        ("create_world", []),
+        ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),
+        ("arm", []),
+    ],
+)
 def test_worlds_stop_cleanly_on_sigterm(name, args, executor, make_node):
     process = run_exe(name, "--ros-args", "-p", "real_time_factor:=1.0", *args)
     try:

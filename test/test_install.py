@@ -9,8 +9,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 EXECUTABLES = [
-    "create_world", "create_teleop", "create_bump_turn", "simrobot_world", "simrobot_avoid",
-    "arm", "record", "replay", "bag_to_rerun", "draw_tracks",
+    "create_world",
+    "create_teleop",
+    "create_bump_turn",
+    "simrobot_world",
+    "simrobot_avoid",
+    "arm",
+    "record",
+    "replay",
+    "bag_to_rerun",
+    "draw_tracks",
 ]
 
 
@@ -19,8 +27,18 @@ def prefix(tmp_path_factory):
     prefix = tmp_path_factory.mktemp("prefix")
     subprocess.run(
         # --ignore-installed: never uninstall the developer's editable install on the way.
-        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--ignore-installed",
-         "--prefix", str(prefix), str(ROOT)],
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--ignore-installed",
+            "--prefix",
+            str(prefix),
+            str(ROOT),
+        ],
         check=True,
         timeout=600,
     )
@@ -44,12 +62,17 @@ def test_ament_index_and_share_files_are_installed(prefix):
 def test_umbrella_command_lists_the_executables():
     out = subprocess.run(
         [sys.executable, "-c", "import sys; from sim_runtime import cli; sys.argv=['rs', '--help']; cli.main()"],
-        capture_output=True, text=True, check=True, cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT,
     ).stdout
     for name in EXECUTABLES:
         assert name in out
     bad = subprocess.run(
         [sys.executable, "-c", "import sys; from sim_runtime.cli import run; sys.exit(run('no_such_exe', []))"],
-        capture_output=True, text=True, cwd=ROOT,
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
     )
     assert bad.returncode == 2 and "unknown executable 'no_such_exe'" in bad.stderr

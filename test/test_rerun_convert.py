@@ -53,8 +53,9 @@ def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_
     assert f"rerun {out}" in printed.out
     assert "100.0%" in printed.err  # the progress bar reached the end
 
-    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=rerun_env,
-                            capture_output=True, text=True, timeout=120)
+    verify = subprocess.run(
+        [rerun_cli(), "rrd", "verify", str(out)], env=rerun_env, capture_output=True, text=True, timeout=120
+    )
     assert verify.returncode == 0, verify.stderr
 
     assert len(rrc.RrdReader(out).blueprints()) == 1  # the layout opens with the file
@@ -74,8 +75,9 @@ def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_
 
     scans = column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")
     assert len(scans) == 10 and all(len(s) == 581 for s in scans)  # 681 beams, 100 without return
-    assert scans[0][-1] == pytest.approx([2.0 * math.cos(2 * math.pi / 3), 2.0 * math.sin(2 * math.pi / 3), 0.0],
-                                         abs=1e-5)  # in the laser frame, left-most beam
+    assert scans[0][-1] == pytest.approx(
+        [2.0 * math.cos(2 * math.pi / 3), 2.0 * math.sin(2 * math.pi / 3), 0.0], abs=1e-5
+    )  # in the laser frame, left-most beam
     laser_mount = column(ents["/world/robots/robot/laser"], "Transform3D:translation")
     assert laser_mount == [[pytest.approx([0.16, 0.0, 0.0])]]
 
@@ -89,8 +91,9 @@ def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_
 
     errors = column(ents["/plots/robot/odom_error/position_m"], "Scalars:scalars")
     assert len(errors) == 50
-    assert errors[-1][0] == pytest.approx(0.02 * math.hypot(math.sin(0.5 * math.pi * 49 / 50),
-                                                            1 - math.cos(0.5 * math.pi * 49 / 50)), rel=1e-3)
+    assert errors[-1][0] == pytest.approx(
+        0.02 * math.hypot(math.sin(0.5 * math.pi * 49 / 50), 1 - math.cos(0.5 * math.pi * 49 / 50)), rel=1e-3
+    )
 
 
 def test_long_track_is_split_into_continuous_segments(tmp_path):
@@ -160,8 +163,9 @@ def test_truncated_bag_converts_what_is_intact(tmp_path, rerun_env):
         warnings.simplefilter("always")
         out = bag_to_rerun(cut, tmp_path / "cut.rrd", progress=False)
     assert any("cut.mcap" in str(w.message) for w in caught)
-    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=rerun_env,
-                            capture_output=True, text=True, timeout=120)
+    verify = subprocess.run(
+        [rerun_cli(), "rrd", "verify", str(out)], env=rerun_env, capture_output=True, text=True, timeout=120
+    )
     assert verify.returncode == 0, verify.stderr
 
 

@@ -43,8 +43,9 @@ class ToyWorld(SimWorldNode):
         self.pub_pose.publish(msg)
 
     def _publish_scan(self) -> None:
-        msg = LaserScan(angle_min=-math.pi / 2, angle_max=math.pi / 2, angle_increment=math.pi / 2,
-                        range_min=0.02, range_max=4.0)
+        msg = LaserScan(
+            angle_min=-math.pi / 2, angle_max=math.pi / 2, angle_increment=math.pi / 2, range_min=0.02, range_max=4.0
+        )
         msg.header.stamp, msg.header.frame_id = self.stamp(), "toy/laser"
         msg.ranges = float32_array(np.array([1.0, math.inf, 1.0]))
         self.pub_scan.publish(msg)

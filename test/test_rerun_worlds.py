@@ -47,8 +47,11 @@ def record_world(executor, world, bag_dir, steps: int, chunk: int = 10, before_s
         qos.depth = 200
         if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL and pub.topic_name != "/clock":
             latched.append(pub.topic_name)
-        subs.append(recorder.create_subscription(
-            pub.msg_type, pub.topic_name, lambda data, t=pub.topic_name, tid=tid: write(t, tid, data), qos, raw=True))
+        subs.append(
+            recorder.create_subscription(
+                pub.msg_type, pub.topic_name, lambda data, t=pub.topic_name, tid=tid: write(t, tid, data), qos, raw=True
+            )
+        )
     for sub in subs:
         assert wait_for_match(executor, sub)
     # maps published before the recorder existed arrive a little later: wait for them
@@ -81,8 +84,9 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
 
     out = bag_to_rerun(bag, tmp_path / "create.rrd", progress=False)
     env = private_rerun_env(tmp_path / "rerun_home")
-    verify = subprocess.run([rerun_cli(), "rrd", "verify", str(out)], env=env, capture_output=True,
-                            text=True, timeout=120)
+    verify = subprocess.run(
+        [rerun_cli(), "rrd", "verify", str(out)], env=env, capture_output=True, text=True, timeout=120
+    )
     assert verify.returncode == 0, verify.stderr
     ents = load_entities(out)
     walls = column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")[0]
@@ -105,8 +109,9 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
 
 def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_path):
     simrobot = pytest.importorskip("simrobot_sim.world_node")
-    world = simrobot.SimrobotWorldNode(parameter_overrides=[
-        Parameter("world_file", value=str(config_path("simrobot/demo.yaml")))])
+    world = simrobot.SimrobotWorldNode(
+        parameter_overrides=[Parameter("world_file", value=str(config_path("simrobot/demo.yaml")))]
+    )
     executor.add_node(world)
     bag = tmp_path / "simrobot_bag"
     record_world(executor, world, bag, steps=20, chunk=1)  # 20 steps of 1 s, in-process avoid controllers
@@ -135,8 +140,7 @@ def test_arm_bag_logs_each_mesh_once_then_transforms(executor, tmp_path):
     record_world(executor, world, bag, steps=100)  # 1 s at 20 Hz: 20 marker arrays
 
     ents = load_entities(bag_to_rerun(bag, tmp_path / "arm.rrd", progress=False))
-    meshes = [e for e in ents if e.startswith("/world/markers/robot_markers/")
-              and column(ents[e], "Asset3D:blob")]
+    meshes = [e for e in ents if e.startswith("/world/markers/robot_markers/") and column(ents[e], "Asset3D:blob")]
     assert len(meshes) >= len(world.arms[0].arm.elements) - 1  # every STL element (axes are not meshes)
     for entity in meshes:
         assert len(column(ents[entity], "Asset3D:blob")) == 1  # logged once

@@ -64,11 +64,20 @@ def collect(node, executor, specs):
 def test_topics_carry_sensor_pose_and_map_data(executor, make_node):
     world = two_robot_world(executor)
     node = make_node("probe")
-    got = collect(node, executor, [
-        ("/a/front", Range, SENSOR_QOS), ("/a/front/obstacle", UInt8, SENSOR_QOS), ("/a/scan", LaserScan, SENSOR_QOS),
-        ("/a/odom", Odometry, SENSOR_QOS), ("/a/pose", PoseStamped, SENSOR_QOS), ("/a/crashed", Bool, LATCHED_QOS),
-        ("/map", OccupancyGrid, LATCHED_QOS), ("/robots", MarkerArray, SENSOR_QOS),
-    ])
+    got = collect(
+        node,
+        executor,
+        [
+            ("/a/front", Range, SENSOR_QOS),
+            ("/a/front/obstacle", UInt8, SENSOR_QOS),
+            ("/a/scan", LaserScan, SENSOR_QOS),
+            ("/a/odom", Odometry, SENSOR_QOS),
+            ("/a/pose", PoseStamped, SENSOR_QOS),
+            ("/a/crashed", Bool, LATCHED_QOS),
+            ("/map", OccupancyGrid, LATCHED_QOS),
+            ("/robots", MarkerArray, SENSOR_QOS),
+        ],
+    )
     world.step()
     assert spin_until(executor, lambda: all(c.msgs for c in got.values()) and got["/a/scan"].last.header.stamp.sec == 1)
 
@@ -225,8 +234,12 @@ def test_lockstep_runs_are_identical_under_cpu_load(ros):
 
 
 def test_lockstep_waits_for_commands_then_times_out_with_a_warning(executor, make_node):
-    spec = WorldSpec(walls=box_walls(), robots=(RobotSpec("mute", (0.5, 0.5)), RobotSpec("talker", (1.0, 0.5))),
-                     lockstep=True, lockstep_timeout=0.3)
+    spec = WorldSpec(
+        walls=box_walls(),
+        robots=(RobotSpec("mute", (0.5, 0.5)), RobotSpec("talker", (1.0, 0.5))),
+        lockstep=True,
+        lockstep_timeout=0.3,
+    )
     world = SimrobotWorldNode(spec)
     executor.add_node(world)
     node = make_node("talker_ctl")

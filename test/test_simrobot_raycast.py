@@ -19,7 +19,7 @@ def random_walls(rng: np.random.Generator, nx: int, ny: int, rects: int, specks:
     for _ in range(rects):
         x, y = rng.integers(0, nx), rng.integers(0, ny)
         w, h = rng.integers(1, 25, 2)
-        walls[x:x + w, y:y + h] = True
+        walls[x : x + w, y : y + h] = True
     walls.flat[rng.integers(0, nx * ny, specks)] = True
     return walls
 
@@ -39,8 +39,13 @@ def test_fast_caster_matches_exact_on_random_maps_with_robots(seed):
     )
     while len(robots) < 25:
         x, y = rng.uniform(0.05, nx / 100 - 0.05), rng.uniform(0.05, ny / 100 - 0.05)
-        spec = RobotSpec(f"r{len(robots)}", (x, y), heading=rng.uniform(-math.pi, math.pi),
-                         scale=float(rng.uniform(0.5, 3.0)), sensors=sensors)
+        spec = RobotSpec(
+            f"r{len(robots)}",
+            (x, y),
+            heading=rng.uniform(-math.pi, math.pi),
+            scale=float(rng.uniform(0.5, 3.0)),
+            sensors=sensors,
+        )
         try:  # placement rejects robots on walls or on each other: keep drawing
             SimrobotWorld(WorldSpec(walls=walls, robots=(*robots, spec)))
         except ValueError:
@@ -53,15 +58,15 @@ def test_fast_caster_matches_exact_on_random_maps_with_robots(seed):
         fast_t, fast_v = world.ray_t.copy(), world.ray_v.copy()
         for k, s in enumerate(world.sensors):
             ox, oy, axis = world.sensor_origin(k)
-            angles = axis + world.roff[world.rstart[k]:world.rstart[k + 1]]
+            angles = axis + world.roff[world.rstart[k] : world.rstart[k + 1]]
             dirs = np.column_stack([np.cos(angles), np.sin(angles)])
             exact_t = np.empty(len(angles))
             exact_v = np.empty(len(angles), dtype=np.int64)
             raycast.cast_scan_exact(
                 world.grid, ox / 0.01, oy / 0.01, dirs, s.range / 0.01, s.robot + 2, exact_t, exact_v
             )
-            got_t = fast_t[world.rstart[k]:world.rstart[k + 1]]
-            got_v = fast_v[world.rstart[k]:world.rstart[k + 1]]
+            got_t = fast_t[world.rstart[k] : world.rstart[k + 1]]
+            got_v = fast_v[world.rstart[k] : world.rstart[k + 1]]
             both = np.isfinite(exact_t) & np.isfinite(got_t)
             # a miss and a hit may differ only at the very end of the range
             one = np.isfinite(exact_t) != np.isfinite(got_t)
@@ -93,8 +98,22 @@ def test_fast_and_exact_single_rays_agree(seed, angle, ox, oy):
     raycast.cast_scan_exact(grid, ox, oy, d, 150.0, 0, et, ev)
     empty = np.empty(0)
     raycast.cast_scan_fast(
-        grid, clear, ox, oy, d, angle, 0.0, 150.0, 0, empty, empty, empty, np.empty((0, 4)), np.empty(0, np.int64),
-        ft, fv,
+        grid,
+        clear,
+        ox,
+        oy,
+        d,
+        angle,
+        0.0,
+        150.0,
+        0,
+        empty,
+        empty,
+        empty,
+        np.empty((0, 4)),
+        np.empty(0, np.int64),
+        ft,
+        fv,
     )
     if math.isfinite(et[0]):
         assert ft[0] == pytest.approx(et[0], abs=1.0)

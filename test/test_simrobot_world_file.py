@@ -47,8 +47,12 @@ def test_shipped_demo_world_loads_with_seed_defaults():
 
 
 def test_defaults_and_units(tmp_path):
-    spec = load_world(write_world(tmp_path, [{"name": "a", "position": [0.5, 0.5], "heading": 90,
-                                              "sensors": [{"name": "s", "type": "laser"}]}]))
+    spec = load_world(
+        write_world(
+            tmp_path,
+            [{"name": "a", "position": [0.5, 0.5], "heading": 90, "sensors": [{"name": "s", "type": "laser"}]}],
+        )
+    )
     r = spec.robots[0]
     assert r.heading == pytest.approx(math.pi / 2)  # degrees in the file, radians inside
     assert r.shape[2] == (0.04, 0.0) and r.color == (1.0, 1.0, 0.0) and r.power
@@ -111,15 +115,17 @@ def test_grey_rgb_image_is_accepted(tmp_path):
 
 
 def test_robot_on_an_obstacle_names_it(tmp_path):
-    spec = load_world(write_world(tmp_path, [{"name": "a", "position": [0.5, 0.5]},
-                                             {"name": "walker", "position": [1.52, 0.5]}]))
+    spec = load_world(
+        write_world(tmp_path, [{"name": "a", "position": [0.5, 0.5]}, {"name": "walker", "position": [1.52, 0.5]}])
+    )
     with pytest.raises(InputError, match=r"robots\[1\] \('walker'\).*obstacle"):
         SimrobotWorld(spec)
 
 
 def test_overlapping_robots_error_names_both(tmp_path):
-    spec = load_world(write_world(tmp_path, [{"name": "first", "position": [0.5, 0.5]},
-                                             {"name": "second", "position": [0.52, 0.5]}]))
+    spec = load_world(
+        write_world(tmp_path, [{"name": "first", "position": [0.5, 0.5]}, {"name": "second", "position": [0.52, 0.5]}])
+    )
     with pytest.raises(InputError, match=r"'second'.*overlaps robot 'first'"):
         SimrobotWorld(spec)
 

@@ -32,14 +32,14 @@ from mcap.records import (
     SummaryOffset,
 )
 
-__all__ = ['McapFile']
+__all__ = ["McapFile"]
 
-MAGIC = b'\x89MCAP0\r\n'
-_MESSAGE_HEAD = struct.Struct('<BQHIQQ')  # opcode, length, channel, sequence, log, publish
+MAGIC = b"\x89MCAP0\r\n"
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, log, publish
 _COMPRESSORS = {
-    'zstd': zstandard.ZstdCompressor(level=1).compress,
-    'lz4': lz4.frame.compress,
-    '': None,
+    "zstd": zstandard.ZstdCompressor(level=1).compress,
+    "lz4": lz4.frame.compress,
+    "": None,
 }
 
 
@@ -57,8 +57,7 @@ class McapFile:
     bytes or on `flush()`.
     """
 
-    def __init__(self, stream: IO[bytes], *, profile: str, library: str, compression: str,
-                 chunk_size: int) -> None:
+    def __init__(self, stream: IO[bytes], *, profile: str, library: str, compression: str, chunk_size: int) -> None:
         self._out = stream
         self._pos = 0
         self._compression = compression
@@ -92,8 +91,13 @@ class McapFile:
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int, metadata: dict[str, str]) -> int:
         """Register a channel (topic); returns its id."""
-        channel = Channel(id=len(self._channels) + 1, topic=topic, message_encoding=message_encoding,
-                          schema_id=schema_id, metadata=metadata)
+        channel = Channel(
+            id=len(self._channels) + 1,
+            topic=topic,
+            message_encoding=message_encoding,
+            schema_id=schema_id,
+            metadata=metadata,
+        )
         self._channels.append(channel)
         self._counts[channel.id] = 0
         self._chunk += _record_bytes(channel)
@@ -127,11 +131,16 @@ class McapFile:
             return
         data = bytes(self._chunk)
         compressed = self._compress(data) if self._compress else data
-        chunk = _record_bytes(Chunk(
-            message_start_time=self._chunk_start, message_end_time=self._chunk_end,
-            uncompressed_size=len(data), uncompressed_crc=zlib.crc32(data),
-            compression=self._compression, data=compressed,
-        ))
+        chunk = _record_bytes(
+            Chunk(
+                message_start_time=self._chunk_start,
+                message_end_time=self._chunk_end,
+                uncompressed_size=len(data),
+                uncompressed_crc=zlib.crc32(data),
+                compression=self._compression,
+                data=compressed,
+            )
+        )
         chunk_offset = self._pos
         index_offset = chunk_offset + len(chunk)
         parts = []
@@ -139,17 +148,26 @@ class McapFile:
         for channel_id, flat in self._index.items():
             offsets[channel_id] = index_offset + sum(len(p) for p in parts)
             # MessageIndex record: channel id, byte length of (log time, offset) pairs, pairs
-            parts.append(struct.pack(f'<BQHI{len(flat)}Q', Opcode.MESSAGE_INDEX, 6 + 8 * len(flat),
-                                     channel_id, 8 * len(flat), *flat))
-        indexes = b''.join(parts)
+            parts.append(
+                struct.pack(
+                    f"<BQHI{len(flat)}Q", Opcode.MESSAGE_INDEX, 6 + 8 * len(flat), channel_id, 8 * len(flat), *flat
+                )
+            )
+        indexes = b"".join(parts)
         self._write(chunk + indexes)
-        self._chunk_indexes.append(ChunkIndex(
-            message_start_time=self._chunk_start, message_end_time=self._chunk_end,
-            chunk_start_offset=chunk_offset, chunk_length=len(chunk),
-            message_index_offsets=offsets, message_index_length=len(indexes),
-            compression=self._compression, compressed_size=len(compressed),
-            uncompressed_size=len(data),
-        ))
+        self._chunk_indexes.append(
+            ChunkIndex(
+                message_start_time=self._chunk_start,
+                message_end_time=self._chunk_end,
+                chunk_start_offset=chunk_offset,
+                chunk_length=len(chunk),
+                message_index_offsets=offsets,
+                message_index_length=len(indexes),
+                compression=self._compression,
+                compressed_size=len(compressed),
+                uncompressed_size=len(data),
+            )
+        )
         if self._message_count == 0:
             self._start, self._end = self._chunk_start, self._chunk_end
         else:
@@ -179,29 +197,39 @@ class McapFile:
         self._write(_record_bytes(DataEnd(data_section_crc=0)))
         summary_start = self._pos
         stats = Statistics(
-            message_count=self._message_count, schema_count=len(self._schemas),
-            channel_count=len(self._channels), attachment_count=0,
-            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
-            message_start_time=self._start, message_end_time=self._end,
+            message_count=self._message_count,
+            schema_count=len(self._schemas),
+            channel_count=len(self._channels),
+            attachment_count=0,
+            metadata_count=len(self._metadata_indexes),
+            chunk_count=len(self._chunk_indexes),
+            message_start_time=self._start,
+            message_end_time=self._end,
             channel_message_counts=dict(self._counts),
         )
         groups = [
-            (Opcode.SCHEMA, self._schemas), (Opcode.CHANNEL, self._channels),
-            (Opcode.STATISTICS, [stats]), (Opcode.CHUNK_INDEX, self._chunk_indexes),
+            (Opcode.SCHEMA, self._schemas),
+            (Opcode.CHANNEL, self._channels),
+            (Opcode.STATISTICS, [stats]),
+            (Opcode.CHUNK_INDEX, self._chunk_indexes),
             (Opcode.METADATA_INDEX, self._metadata_indexes),
         ]
-        body = b''
+        body = b""
         offsets = []
         for opcode, records in groups:
             if records:
                 data = _record_bytes(*records)
-                offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + len(body),
-                                             group_length=len(data)))
+                offsets.append(
+                    SummaryOffset(group_opcode=opcode, group_start=summary_start + len(body), group_length=len(data))
+                )
                 body += data
         offset_start = summary_start + len(body)
         body += _record_bytes(*offsets)
         crc = zlib.crc32(body)
-        crc = zlib.crc32(struct.pack('<BQQQ', Opcode.FOOTER, 20, summary_start, offset_start), crc)
-        self._write(body + _record_bytes(Footer(summary_start=summary_start, summary_offset_start=offset_start,
-                                                summary_crc=crc)) + MAGIC)
+        crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, offset_start), crc)
+        self._write(
+            body
+            + _record_bytes(Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=crc))
+            + MAGIC
+        )
         self._out.flush()

@@ -39,7 +39,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from sim_runtime.errors import InputError
 
-__all__ = ['Bag', 'BagMessage', 'BagWarning', 'UnknownMessageType', 'open_bag']
+__all__ = ["Bag", "BagMessage", "BagWarning", "UnknownMessageType", "open_bag"]
 
 
 class BagWarning(UserWarning):
@@ -53,23 +53,22 @@ class UnknownMessageType(LookupError):
 _MESSAGE_CLASSES: dict[str, Any] = {}
 
 
-def message_class(type_name: str, topic: str = '?') -> Any:
+def message_class(type_name: str, topic: str = "?") -> Any:
     """The rclpy message class for ``pkg/msg/Type`` (cached); UnknownMessageType if missing."""
     cls = _MESSAGE_CLASSES.get(type_name)
     if cls is None:
         # What rosidl_runtime_py.utilities.get_message does (that package is not installed
         # from the wheels we use): import `pkg.msg` and take the class.
-        parts = type_name.split('/')
+        parts = type_name.split("/")
         if len(parts) == 2:
-            parts = [parts[0], 'msg', parts[1]]
+            parts = [parts[0], "msg", parts[1]]
         try:
             if len(parts) != 3 or not all(parts):
-                raise ValueError('expected pkg/msg/Type')
-            cls = getattr(importlib.import_module(f'{parts[0]}.{parts[1]}'), parts[2])
+                raise ValueError("expected pkg/msg/Type")
+            cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
         except (AttributeError, ImportError, ValueError) as exc:
             raise UnknownMessageType(
-                f'cannot deserialise topic {topic!r}: message type {type_name!r} is not '
-                f'installed ({exc})'
+                f"cannot deserialise topic {topic!r}: message type {type_name!r} is not installed ({exc})"
             ) from None
         _MESSAGE_CLASSES[type_name] = cls
     return cls
@@ -78,11 +77,9 @@ def message_class(type_name: str, topic: str = '?') -> Any:
 class BagMessage:
     """One recorded message: raw CDR `data` plus `msg`, deserialised on first access."""
 
-    __slots__ = ('_msg', 'data', 'log_time_ns', 'publish_time_ns', 'topic', 'type')
+    __slots__ = ("_msg", "data", "log_time_ns", "publish_time_ns", "topic", "type")
 
-    def __init__(
-        self, topic: str, type_name: str, log_time_ns: int, publish_time_ns: int, data: bytes
-    ) -> None:
+    def __init__(self, topic: str, type_name: str, log_time_ns: int, publish_time_ns: int, data: bytes) -> None:
         self.topic = topic
         self.type = type_name
         self.log_time_ns = log_time_ns
@@ -100,10 +97,7 @@ class BagMessage:
         return self._msg
 
     def __repr__(self) -> str:
-        return (
-            f'BagMessage({self.topic!r}, {self.type!r}, log_time_ns={self.log_time_ns}, '
-            f'{len(self.data)} bytes)'
-        )
+        return f"BagMessage({self.topic!r}, {self.type!r}, log_time_ns={self.log_time_ns}, {len(self.data)} bytes)"
 
 
 @dataclass
@@ -121,7 +115,7 @@ class _FileInfo:
 
 
 def _split_number(path: Path) -> tuple[int, str]:
-    match = re.search(r'_(\d+)\.mcap$', path.name)
+    match = re.search(r"_(\d+)\.mcap$", path.name)
     return (int(match.group(1)) if match else -1, path.name)
 
 
@@ -146,11 +140,9 @@ class Bag:
         for info in self._infos:
             for cid, ch in info.channels.items():
                 schema = info.schemas.get(ch.schema_id)
-                self.topics.setdefault(ch.topic, schema.name if schema else '')
+                self.topics.setdefault(ch.topic, schema.name if schema else "")
                 self.topic_metadata.setdefault(ch.topic, dict(ch.metadata))
-                self.topic_counts[ch.topic] = self.topic_counts.get(ch.topic, 0) + (
-                    info.counts.get(cid, 0)
-                )
+                self.topic_counts[ch.topic] = self.topic_counts.get(ch.topic, 0) + (info.counts.get(cid, 0))
         starts = [i.start_ns for i in self._infos if i.start_ns is not None]
         ends = [i.end_ns for i in self._infos if i.end_ns is not None]
         #: log time of the first / last message (0 for an empty bag)
@@ -164,13 +156,13 @@ class Bag:
 
     def _index(self, path: Path) -> _FileInfo:
         try:
-            with path.open('rb') as stream:
+            with path.open("rb") as stream:
                 summary = SeekingReader(stream).get_summary()
         except Exception as exc:  # noqa: BLE001 - any unreadable summary: scan instead
             summary = None
             reason = str(exc) or type(exc).__name__
         else:
-            reason = 'no summary statistics' if summary is not None else 'no summary section'
+            reason = "no summary statistics" if summary is not None else "no summary section"
         if summary is not None and summary.statistics is not None:
             stats = summary.statistics
             has_messages = stats.message_count > 0
@@ -184,7 +176,7 @@ class Bag:
                 stats.message_end_time if has_messages else None,
                 sorted(summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)),
             )
-        _warn(f'{path}: not a finished MCAP file ({reason}); reading what is intact')
+        _warn(f"{path}: not a finished MCAP file ({reason}); reading what is intact")
         info = _FileInfo(path, False)
         for record in self._scan(info):
             if isinstance(record, Message):
@@ -199,7 +191,7 @@ class Bag:
 
         Fills `info.channels` / `info.schemas` as they appear.
         """
-        with info.path.open('rb') as stream:
+        with info.path.open("rb") as stream:
             reader = StreamReader(stream, emit_chunks=True)
             records = reader.records
             while True:
@@ -210,8 +202,8 @@ class Bag:
                 except Exception as exc:  # noqa: BLE001 - any parse failure means "cut here"
                     if not quiet:
                         _warn(
-                            f'{info.path}: data ends or is corrupt at byte {stream.tell()} '
-                            f'({str(exc) or type(exc).__name__}); later messages are lost'
+                            f"{info.path}: data ends or is corrupt at byte {stream.tell()} "
+                            f"({str(exc) or type(exc).__name__}); later messages are lost"
                         )
                     return
                 if isinstance(record, Chunk):
@@ -219,7 +211,7 @@ class Bag:
                         inner = breakup_chunk(record, validate_crc=True)
                     except Exception as exc:  # noqa: BLE001 - bad CRC / compression
                         if not quiet:
-                            _warn(f'{info.path}: skipping a corrupt chunk ({exc})')
+                            _warn(f"{info.path}: skipping a corrupt chunk ({exc})")
                         continue
                 else:
                     inner = [record]
@@ -236,7 +228,7 @@ class Bag:
         self, info: _FileInfo, topics: set[str] | None, start: int | None, end: int | None
     ) -> Iterator[BagMessage]:
         types = {
-            cid: (info.schemas[ch.schema_id].name if ch.schema_id in info.schemas else '')
+            cid: (info.schemas[ch.schema_id].name if ch.schema_id in info.schemas else "")
             for cid, ch in info.channels.items()
         }
         if info.intact and (info.chunk_indexes or not info.counts):
@@ -250,17 +242,13 @@ class Bag:
                 continue
             if topics is not None and channel.topic not in topics:
                 continue
-            if (start is not None and rec.log_time < start) or (
-                end is not None and rec.log_time > end
-            ):
+            if (start is not None and rec.log_time < start) or (end is not None and rec.log_time > end):
                 continue
             types.setdefault(
                 rec.channel_id,
-                info.schemas[channel.schema_id].name if channel.schema_id in info.schemas else '',
+                info.schemas[channel.schema_id].name if channel.schema_id in info.schemas else "",
             )
-            yield BagMessage(
-                channel.topic, types[rec.channel_id], rec.log_time, rec.publish_time, rec.data
-            )
+            yield BagMessage(channel.topic, types[rec.channel_id], rec.log_time, rec.publish_time, rec.data)
 
     def _chunked_messages(
         self,
@@ -276,28 +264,29 @@ class Bag:
         chunks whose time ranges overlap are merged; a corrupt chunk is skipped with a warning.
         """
         wanted = {
-            cid: (ch.topic, types.get(cid, ''))
+            cid: (ch.topic, types.get(cid, ""))
             for cid, ch in info.channels.items()
             if topics is None or ch.topic in topics
         }
         lo = -1 if start is None else start
         hi = 2**64 if end is None else end
         chunks = [
-            c for c in info.chunk_indexes
-            if c.message_end_time >= lo and c.message_start_time <= hi
+            c
+            for c in info.chunk_indexes
+            if c.message_end_time >= lo
+            and c.message_start_time <= hi
             and (not c.message_index_offsets or any(k in wanted for k in c.message_index_offsets))
         ]
         pending: list[tuple[int, int, BagMessage]] = []  # heap over overlapping chunks
         order = 0
-        with info.path.open('rb') as stream:
+        with info.path.open("rb") as stream:
             for chunk_index in chunks:
                 while pending and pending[0][0] < chunk_index.message_start_time:
                     yield heapq.heappop(pending)[2]
                 try:
                     records = _chunk_records(stream, chunk_index)
                 except Exception as exc:  # noqa: BLE001 - CRC, decompression, short read
-                    _warn(f'{info.path}: skipping a corrupt chunk at byte '
-                          f'{chunk_index.chunk_start_offset} ({exc})')
+                    _warn(f"{info.path}: skipping a corrupt chunk at byte {chunk_index.chunk_start_offset} ({exc})")
                     continue
                 for cid, log_time, publish_time, data in _messages_in(records):
                     meta = wanted.get(cid)
@@ -326,15 +315,15 @@ class Bag:
 
     def __repr__(self) -> str:
         return (
-            f'Bag({str(self.path)!r}, {len(self.topics)} topics, {self.message_count} messages, '
-            f'{self.duration_ns / 1e9:.3f} s)'
+            f"Bag({str(self.path)!r}, {len(self.topics)} topics, {self.message_count} messages, "
+            f"{self.duration_ns / 1e9:.3f} s)"
         )
 
 
 _DECOMPRESS = {
-    '': lambda data, _size: data,
-    'zstd': lambda data, size: zstandard.ZstdDecompressor().decompress(data, max_output_size=size),
-    'lz4': lambda data, _size: lz4.frame.decompress(data),
+    "": lambda data, _size: data,
+    "zstd": lambda data, size: zstandard.ZstdDecompressor().decompress(data, max_output_size=size),
+    "lz4": lambda data, _size: lz4.frame.decompress(data),
 }
 
 
@@ -343,15 +332,15 @@ def _chunk_records(stream: Any, index: ChunkIndex) -> bytes:
     stream.seek(index.chunk_start_offset + 9)  # opcode + record length
     chunk = Chunk.read(ReadDataStream(stream))
     if chunk.compression not in _DECOMPRESS:
-        raise ValueError(f'unsupported chunk compression {chunk.compression!r}')
+        raise ValueError(f"unsupported chunk compression {chunk.compression!r}")
     data = _DECOMPRESS[chunk.compression](chunk.data, chunk.uncompressed_size)
     if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
-        raise ValueError('chunk CRC mismatch')
+        raise ValueError("chunk CRC mismatch")
     return data
 
 
-_MESSAGE_HEAD = struct.Struct('<HIQQ')  # channel id, sequence, log time, publish time
-_RECORD_HEAD = struct.Struct('<BQ')
+_MESSAGE_HEAD = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
+_RECORD_HEAD = struct.Struct("<BQ")
 _OP_MESSAGE = 0x05
 
 
@@ -365,7 +354,7 @@ def _messages_in(records: bytes) -> Iterator[tuple[int, int, int, bytes]]:
         pos = body + length
         if op == _OP_MESSAGE:
             cid, _seq, log_time, publish_time = unpack_message(records, body)
-            yield cid, log_time, publish_time, records[body + 22:pos]
+            yield cid, log_time, publish_time, records[body + 22 : pos]
 
 
 def open_bag(path: str | Path) -> Bag:
@@ -375,28 +364,28 @@ def open_bag(path: str | Path) -> Bag:
     """
     path = Path(path)
     if path.is_file():
-        if path.suffix != '.mcap':
-            raise InputError.at(path, None, 'not an MCAP file (expected a .mcap file or a bag folder)')
+        if path.suffix != ".mcap":
+            raise InputError.at(path, None, "not an MCAP file (expected a .mcap file or a bag folder)")
         return Bag(path, [path], None)
     if not path.is_dir():
-        raise InputError.at(path, None, 'no such bag folder or .mcap file')
+        raise InputError.at(path, None, "no such bag folder or .mcap file")
     metadata = None
-    meta_path = path / 'metadata.yaml'
+    meta_path = path / "metadata.yaml"
     files: list[Path] = []
     if meta_path.is_file():
         try:
-            metadata = yaml.safe_load(meta_path.read_text())['rosbag2_bagfile_information']
-            listed = [path / p for p in metadata.get('relative_file_paths') or []]
+            metadata = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
+            listed = [path / p for p in metadata.get("relative_file_paths") or []]
         except (yaml.YAMLError, KeyError, TypeError) as exc:
-            _warn(f'{meta_path}: unreadable ({exc}); using the .mcap files in the folder')
+            _warn(f"{meta_path}: unreadable ({exc}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
             if f.is_file():
                 files.append(f)
             else:
-                _warn(f'{meta_path}: lists {f.name}, which is missing')
+                _warn(f"{meta_path}: lists {f.name}, which is missing")
     # Splits not in metadata.yaml: the recorder was killed before it could write it.
-    files += [f for f in sorted(path.glob('*.mcap'), key=_split_number) if f not in files]
+    files += [f for f in sorted(path.glob("*.mcap"), key=_split_number) if f not in files]
     if not files:
-        raise InputError.at(path, None, 'bag folder holds no .mcap files')
+        raise InputError.at(path, None, "bag folder holds no .mcap files")
     return Bag(path, files, metadata)

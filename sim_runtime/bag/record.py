@@ -47,10 +47,10 @@ from sim_runtime.bag.writer import BagWriteError, BagWriter, qos_profiles_yaml
 from sim_runtime.errors import InputError
 from sim_runtime.run import init_ros, make_executor, split_ros_args
 
-__all__ = ['Recorder', 'default_bag_name', 'main', 'offered_qos_dict', 'parse_args']
+__all__ = ["Recorder", "default_bag_name", "main", "offered_qos_dict", "parse_args"]
 
-CLOCK_TOPIC = '/clock'
-_GRAPH_TOPICS = frozenset({'/rosout', '/parameter_events'})
+CLOCK_TOPIC = "/clock"
+_GRAPH_TOPICS = frozenset({"/rosout", "/parameter_events"})
 #: Subscription queue: deep enough to ride out CPU contention at 20k msg/s (DDS allocates
 #: samples only when they queue up).
 RECORD_DEPTH = 10_000
@@ -60,24 +60,22 @@ _PENDING_LIMIT = 100_000
 def offered_qos_dict(qos: QoSProfile) -> dict[str, Any]:
     """A publisher's offered QoS as the dict `qos_profiles_yaml` takes (rosbag2 field names)."""
     return {
-        'history': qos.history.name.lower(),
-        'depth': qos.depth,
-        'reliability': qos.reliability.name.lower(),
-        'durability': qos.durability.name.lower(),
-        'deadline': qos.deadline.nanoseconds,
-        'lifespan': qos.lifespan.nanoseconds,
-        'liveliness': qos.liveliness.name.lower(),
-        'liveliness_lease_duration': qos.liveliness_lease_duration.nanoseconds,
-        'avoid_ros_namespace_conventions': qos.avoid_ros_namespace_conventions,
+        "history": qos.history.name.lower(),
+        "depth": qos.depth,
+        "reliability": qos.reliability.name.lower(),
+        "durability": qos.durability.name.lower(),
+        "deadline": qos.deadline.nanoseconds,
+        "lifespan": qos.lifespan.nanoseconds,
+        "liveliness": qos.liveliness.name.lower(),
+        "liveliness_lease_duration": qos.liveliness_lease_duration.nanoseconds,
+        "avoid_ros_namespace_conventions": qos.avoid_ros_namespace_conventions,
     }
 
 
 def adapted_qos(offered: Sequence[QoSProfile]) -> QoSProfile:
     """Subscription QoS that matches every offering publisher (rosbag2's adaptation)."""
     best_effort = any(q.reliability == ReliabilityPolicy.BEST_EFFORT for q in offered)
-    latched = bool(offered) and all(
-        q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered
-    )
+    latched = bool(offered) and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=RECORD_DEPTH,
@@ -88,7 +86,7 @@ def adapted_qos(offered: Sequence[QoSProfile]) -> QoSProfile:
 
 def clock_ns(cdr: bytes) -> int:
     """Time in a serialised rosgraph_msgs/Clock, in ns (CDR: 4-byte header, int32, uint32)."""
-    sec, nanosec = struct.unpack_from('<iI' if cdr[1] == 1 else '>iI', cdr, 4)
+    sec, nanosec = struct.unpack_from("<iI" if cdr[1] == 1 else ">iI", cdr, 4)
     return sec * 1_000_000_000 + nanosec
 
 
@@ -102,7 +100,7 @@ class _Subscribed:
 
 
 def _is_hidden(topic: str) -> bool:
-    return any(part.startswith('_') for part in topic.split('/'))
+    return any(part.startswith("_") for part in topic.split("/"))
 
 
 class Recorder(Node):
@@ -121,23 +119,23 @@ class Recorder(Node):
         topics: Sequence[str] = (),
         *,
         exclude: str | None = None,
-        clock: str = 'auto',
+        clock: str = "auto",
         discovery_period: float = 0.2,
-        node_name: str = 'recorder',
+        node_name: str = "recorder",
         **node_kwargs: Any,
     ) -> None:
         super().__init__(node_name, **node_kwargs)
-        if clock not in ('auto', 'sim', 'wall'):
-            raise InputError(f'--clock {clock!r}: expected auto, sim or wall')
+        if clock not in ("auto", "sim", "wall"):
+            raise InputError(f"--clock {clock!r}: expected auto, sim or wall")
         self.writer = writer
-        self._names = {t if t.startswith('/') else '/' + t for t in topics}
+        self._names = {t if t.startswith("/") else "/" + t for t in topics}
         try:
             self._patterns = [re.compile(t) for t in topics]
             self._exclude = re.compile(exclude) if exclude else None
         except re.error as exc:
-            raise InputError(f'bad topic regular expression {exc.pattern!r}: {exc}') from None
+            raise InputError(f"bad topic regular expression {exc.pattern!r}: {exc}") from None
         self._clock_mode = clock
-        self._sim: bool | None = None if clock == 'auto' else clock == 'sim'
+        self._sim: bool | None = None if clock == "auto" else clock == "sim"
         self._sim_ns: int | None = None
         self._pending: list[tuple[int, bytes, int]] = []  # held until the time source is known
         self._graph_topic_ids: set[int] = set()
@@ -179,13 +177,11 @@ class Recorder(Node):
                 continue
             type_name = types[0]
             if len(types) > 1:
-                self.get_logger().warning(
-                    f'topic {name} has several types {types}; recording {type_name}'
-                )
+                self.get_logger().warning(f"topic {name} has several types {types}; recording {type_name}")
             try:
                 msg_type = message_class(type_name, name)
             except UnknownMessageType as exc:
-                self.get_logger().warning(f'not recording: {exc}')
+                self.get_logger().warning(f"not recording: {exc}")
                 self._ignored.add(name)
                 continue
             offered = [p.qos_profile for p in publishers]
@@ -199,8 +195,8 @@ class Recorder(Node):
                 missing = self.writer.missing_definitions(tid)
                 if missing:
                     self.get_logger().warning(
-                        f'topic {name}: no .msg installed for {", ".join(missing)}; '
-                        'their definitions are rebuilt from the Python types where installed'
+                        f"topic {name}: no .msg installed for {', '.join(missing)}; "
+                        "their definitions are rebuilt from the Python types where installed"
                     )
                 self.topic_ids[name] = tid
                 if name in _GRAPH_TOPICS:
@@ -210,14 +206,17 @@ class Recorder(Node):
             qos = adapted_qos(offered)
             self._subs[name] = _Subscribed(
                 self.create_subscription(msg_type, name, self._callback(name, tid), qos, raw=True),
-                msg_type, tid, qos, self.count_publishers(name),
+                msg_type,
+                tid,
+                qos,
+                self.count_publishers(name),
             )
-            self.get_logger().info(f'recording {name} [{type_name}]' if recorded else
-                                   f'following {name} for sim time')
+            self.get_logger().info(f"recording {name} [{type_name}]" if recorded else f"following {name} for sim time")
 
     def _offering_publishers(self, name: str) -> list[Any]:
         return [
-            p for p in self.get_publishers_info_by_topic(name)
+            p
+            for p in self.get_publishers_info_by_topic(name)
             if p.node_name != self.get_name() or p.node_namespace != self.get_namespace()
         ]
 
@@ -236,8 +235,8 @@ class Recorder(Node):
         if (qos.reliability, qos.durability) == (sub.qos.reliability, sub.qos.durability):
             return
         self.get_logger().warning(
-            f'{name}: a new publisher offers {qos.reliability.name.lower()}/'
-            f'{qos.durability.name.lower()}; resubscribing to receive from it'
+            f"{name}: a new publisher offers {qos.reliability.name.lower()}/"
+            f"{qos.durability.name.lower()}; resubscribing to receive from it"
         )
         old = sub.subscription
         # Subscribe anew before dropping the old one: nothing falls in between (a message
@@ -267,9 +266,7 @@ class Recorder(Node):
     def _decide_time_source(self) -> bool:
         """Sim time if a /clock publisher exists when the first data message arrives."""
         self._sim = self.count_publishers(CLOCK_TOPIC) > 0
-        self.get_logger().info(
-            'recording with sim time from /clock' if self._sim else 'recording with wall time'
-        )
+        self.get_logger().info("recording with sim time from /clock" if self._sim else "recording with wall time")
         return self._sim
 
     def _write(self, tid: int, data: bytes) -> None:
@@ -320,7 +317,7 @@ class Recorder(Node):
 
     def _fail(self, exc: BagWriteError) -> None:
         self.error = exc
-        self.get_logger().error(f'{exc}; recording stopped')
+        self.get_logger().error(f"{exc}; recording stopped")
         for sub in self._subs.values():
             self.destroy_subscription(sub.subscription)
         self._subs.clear()
@@ -342,28 +339,39 @@ class Recorder(Node):
 
 def default_bag_name(now: datetime | None = None) -> str:
     """`rosbag2_YYYY_MM_DD-HH_MM_SS` (local time), as ros2 bag record names bags."""
-    return (now or datetime.now()).strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
+    return (now or datetime.now()).strftime("rosbag2_%Y_%m_%d-%H_%M_%S")
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     """Our command-line flags (ROS arguments already removed)."""
-    parser = argparse.ArgumentParser(
-        prog='robot_sims record', description='Record topics into a rosbag2 MCAP bag.'
+    parser = argparse.ArgumentParser(prog="robot_sims record", description="Record topics into a rosbag2 MCAP bag.")
+    parser.add_argument("topics", nargs="*", help="topic names or regular expressions (default: all)")
+    parser.add_argument("-o", "--output", help="bag folder to create (default rosbag2_<date-time>)")
+    parser.add_argument("-e", "--exclude", help="regular expression of topics not to record")
+    parser.add_argument(
+        "--compression", choices=("zstd", "lz4", "none"), default="zstd", help="MCAP chunk compression (default zstd)"
     )
-    parser.add_argument('topics', nargs='*', help='topic names or regular expressions (default: all)')
-    parser.add_argument('-o', '--output', help='bag folder to create (default rosbag2_<date-time>)')
-    parser.add_argument('-e', '--exclude', help='regular expression of topics not to record')
-    parser.add_argument('--compression', choices=('zstd', 'lz4', 'none'), default='zstd',
-                        help='MCAP chunk compression (default zstd)')
-    parser.add_argument('-b', '--max-bag-size', type=int, default=0,
-                        help='start a new .mcap split after this many bytes (0 = never)')
-    parser.add_argument('-d', '--max-bag-duration', type=float, default=0.0,
-                        help='start a new .mcap split after this many seconds (0 = never)')
-    parser.add_argument('--clock', choices=('auto', 'sim', 'wall'), default='auto',
-                        help='message times: sim time from /clock, wall time, or auto (default)')
-    parser.add_argument('--reindex', metavar='BAG',
-                        help='recover BAG after a crash (rewrite unfinished .mcap splits, rebuild '
-                             'metadata.yaml) and exit')
+    parser.add_argument(
+        "-b", "--max-bag-size", type=int, default=0, help="start a new .mcap split after this many bytes (0 = never)"
+    )
+    parser.add_argument(
+        "-d",
+        "--max-bag-duration",
+        type=float,
+        default=0.0,
+        help="start a new .mcap split after this many seconds (0 = never)",
+    )
+    parser.add_argument(
+        "--clock",
+        choices=("auto", "sim", "wall"),
+        default="auto",
+        help="message times: sim time from /clock, wall time, or auto (default)",
+    )
+    parser.add_argument(
+        "--reindex",
+        metavar="BAG",
+        help="recover BAG after a crash (rewrite unfinished .mcap splits, rebuild metadata.yaml) and exit",
+    )
     return parser.parse_args(list(argv))
 
 
@@ -373,7 +381,7 @@ def _output_folder(output: str | None) -> Path:
     base = default_bag_name()
     folder, n = Path(base), 1
     while folder.exists():  # two recordings started within one second
-        folder, n = Path(f'{base}-{n}'), n + 1
+        folder, n = Path(f"{base}-{n}"), n + 1
     return folder
 
 
@@ -384,7 +392,7 @@ def main(args: Sequence[str] | None = None) -> int:
     if opts.reindex:
         from sim_runtime.bag.writer import reindex
 
-        print(f'recovered {opts.reindex}: wrote {reindex(opts.reindex)}')
+        print(f"recovered {opts.reindex}: wrote {reindex(opts.reindex)}")
         return 0
     try:
         writer = BagWriter(
@@ -394,12 +402,12 @@ def main(args: Sequence[str] | None = None) -> int:
             max_bag_duration_ns=int(opts.max_bag_duration * 1e9),
         )
     except InputError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     try:
         stop = init_ros(ros_argv)
     except InputError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         writer.close()
         shutil.rmtree(writer.folder)  # created a moment ago and empty: leave nothing behind
         return 2
@@ -408,14 +416,14 @@ def main(args: Sequence[str] | None = None) -> int:
         recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)
         executor = make_executor()
         executor.add_node(recorder)
-        print(f'recording to {writer.folder} (Ctrl-C to stop)', file=sys.stderr)
+        print(f"recording to {writer.folder} (Ctrl-C to stop)", file=sys.stderr)
         # With no timeout the events executor never returns to Python to see Ctrl-C.
         while stop.running and not recorder.done.done():
             executor.spin_until_future_complete(recorder.done, timeout_sec=0.5)
     except ExternalShutdownException:
         pass
     except InputError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         writer.close()
         return 2
     finally:
@@ -427,11 +435,11 @@ def main(args: Sequence[str] | None = None) -> int:
         if rclpy.ok():
             rclpy.shutdown()
     if recorder is not None and recorder.error is not None:
-        print(f'error: {recorder.error}; the bag holds what was written before', file=sys.stderr)
+        print(f"error: {recorder.error}; the bag holds what was written before", file=sys.stderr)
         return 1
-    print(f'wrote {writer.message_count} messages to {writer.folder}', file=sys.stderr)
+    print(f"wrote {writer.message_count} messages to {writer.folder}", file=sys.stderr)
     return 0
 
 
-if __name__ == '__main__':
+if __name__ == "__main__":
     sys.exit(main())

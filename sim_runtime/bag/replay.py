@@ -47,9 +47,9 @@ from sim_runtime.bag.reader import Bag, BagMessage, UnknownMessageType, message_
 from sim_runtime.errors import InputError
 from sim_runtime.run import init_ros, make_executor, split_ros_args
 
-__all__ = ['PlayStats', 'Player', 'main', 'play_bag', 'replay_qos']
+__all__ = ["PlayStats", "Player", "main", "play_bag", "replay_qos"]
 
-CLOCK_TOPIC = '/clock'
+CLOCK_TOPIC = "/clock"
 _CLOCK_TICK_NS = 10_000_000
 _BATCH = 64  # messages handed from the reading thread to the playing thread at a time
 _READ_AHEAD = 64  # batches
@@ -69,16 +69,15 @@ def replay_qos(offered_yaml: str) -> QoSProfile:
     profiles = [p for p in profiles if isinstance(p, dict)]
 
     def all_are(key: str, value: str) -> bool:
-        return bool(profiles) and all(str(p.get(key, '')).lower() == value for p in profiles)
+        return bool(profiles) and all(str(p.get(key, "")).lower() == value for p in profiles)
 
-    latched = all_are('durability', 'transient_local')
-    depths = [int(p.get('depth') or 0) for p in profiles if p.get('history') == 'keep_last']
+    latched = all_are("durability", "transient_local")
+    depths = [int(p.get("depth") or 0) for p in profiles if p.get("history") == "keep_last"]
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=max(depths) if depths and max(depths) > 0 else (1 if latched else 10),
         reliability=(
-            ReliabilityPolicy.BEST_EFFORT if all_are('reliability', 'best_effort')
-            else ReliabilityPolicy.RELIABLE
+            ReliabilityPolicy.BEST_EFFORT if all_are("reliability", "best_effort") else ReliabilityPolicy.RELIABLE
         ),
         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
     )
@@ -116,14 +115,14 @@ class Player(Node):
         exclude: str | None = None,
         remap: dict[str, str] | None = None,
         start_paused: bool = False,
-        node_name: str = 'player',
+        node_name: str = "player",
         **node_kwargs: Any,
     ) -> None:
         super().__init__(node_name, **node_kwargs)
         if not rate > 0:
-            raise InputError(f'--rate {rate}: must be > 0')
+            raise InputError(f"--rate {rate}: must be > 0")
         if start_offset < 0 or (duration is not None and duration < 0):
-            raise InputError(f'--start-offset {start_offset} / --duration {duration}: must be ≥ 0')
+            raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0")
         self.bag = bag
         self.rate = rate
         self.loop = loop
@@ -133,26 +132,21 @@ class Player(Node):
         try:
             excluded = re.compile(exclude) if exclude else None
         except re.error as exc:
-            raise InputError(f'--exclude {exclude!r}: {exc}') from None
-        wanted = None if not topics else {t if t.startswith('/') else '/' + t for t in topics}
+            raise InputError(f"--exclude {exclude!r}: {exc}") from None
+        wanted = None if not topics else {t if t.startswith("/") else "/" + t for t in topics}
         self._publishers_by_topic: dict[str, Any] = {}
         for topic, type_name in sorted(bag.topics.items()):
-            if (wanted is not None and topic not in wanted) or (
-                excluded is not None and excluded.fullmatch(topic)
-            ):
+            if (wanted is not None and topic not in wanted) or (excluded is not None and excluded.fullmatch(topic)):
                 continue
             try:
                 msg_type = message_class(type_name, topic)
             except UnknownMessageType as exc:
-                self.get_logger().warning(f'skipping topic: {exc}')
+                self.get_logger().warning(f"skipping topic: {exc}")
                 continue
-            qos = replay_qos(bag.topic_metadata.get(topic, {}).get('offered_qos_profiles', ''))
-            self._publishers_by_topic[topic] = self.create_publisher(
-                msg_type, remap.get(topic, topic), qos
-            )
+            qos = replay_qos(bag.topic_metadata.get(topic, {}).get("offered_qos_profiles", ""))
+            self._publishers_by_topic[topic] = self.create_publisher(msg_type, remap.get(topic, topic), qos)
         self._clock_pub = (
-            None if CLOCK_TOPIC in self._publishers_by_topic
-            else self.create_publisher(Clock, CLOCK_TOPIC, 10)
+            None if CLOCK_TOPIC in self._publishers_by_topic else self.create_publisher(Clock, CLOCK_TOPIC, 10)
         )
         self.stats = PlayStats()
         self.finished = Future()
@@ -161,10 +155,10 @@ class Player(Node):
         self._steps = 0
         self._stop = False
         self._thread: threading.Thread | None = None
-        self.create_service(Trigger, '~/pause', self._srv_pause)
-        self.create_service(Trigger, '~/resume', self._srv_resume)
-        self.create_service(SetBool, '~/set_paused', self._srv_set_paused)
-        self.create_service(Trigger, '~/step', self._srv_step)
+        self.create_service(Trigger, "~/pause", self._srv_pause)
+        self.create_service(Trigger, "~/resume", self._srv_resume)
+        self.create_service(SetBool, "~/set_paused", self._srv_set_paused)
+        self.create_service(Trigger, "~/step", self._srv_step)
 
     @property
     def topic_publishers(self) -> dict[str, Any]:
@@ -200,29 +194,29 @@ class Player(Node):
 
     def _srv_pause(self, _req: Any, res: Any) -> Any:
         self.set_paused(True)
-        res.success, res.message = True, 'paused'
+        res.success, res.message = True, "paused"
         return res
 
     def _srv_resume(self, _req: Any, res: Any) -> Any:
         self.set_paused(False)
-        res.success, res.message = True, 'playing'
+        res.success, res.message = True, "playing"
         return res
 
     def _srv_set_paused(self, req: Any, res: Any) -> Any:
         self.set_paused(bool(req.data))
-        res.success, res.message = True, 'paused' if req.data else 'playing'
+        res.success, res.message = True, "paused" if req.data else "playing"
         return res
 
     def _srv_step(self, _req: Any, res: Any) -> Any:
         self.step()
-        res.success, res.message = True, 'stepped'
+        res.success, res.message = True, "stepped"
         return res
 
     # -- playback ------------------------------------------------------------------------
 
     def start(self) -> None:
         """Start playing in a background thread (``finished`` completes at the end)."""
-        self._thread = threading.Thread(target=self._run, name='bag-player', daemon=True)
+        self._thread = threading.Thread(target=self._run, name="bag-player", daemon=True)
         self._thread.start()
 
     def _messages(self) -> Iterator[BagMessage]:
@@ -241,9 +235,7 @@ class Player(Node):
         def read() -> None:
             batch: list[BagMessage] = []
             try:
-                for m in self.bag.messages(
-                    topics=list(self._publishers_by_topic), start=self._begin, end=self._end
-                ):
+                for m in self.bag.messages(topics=list(self._publishers_by_topic), start=self._begin, end=self._end):
                     batch.append(m)
                     if len(batch) >= _BATCH:
                         if not put(batch):
@@ -254,7 +246,7 @@ class Player(Node):
             except BaseException as exc:  # noqa: BLE001 - handed to the playing thread
                 put(exc)
 
-        threading.Thread(target=read, name='bag-reader', daemon=True).start()
+        threading.Thread(target=read, name="bag-reader", daemon=True).start()
         while True:
             item = batches.get()
             if item is None:
@@ -271,10 +263,10 @@ class Player(Node):
         while True:
             with self._cond:
                 if self._stop:
-                    return 'stop'
+                    return "stop"
                 if self._steps:
                     self._steps -= consume_step
-                    return 'step'
+                    return "step"
                 if self._paused:
                     paused_at = time.perf_counter_ns()
                     while self._paused and not self._stop and not self._steps:
@@ -285,7 +277,7 @@ class Player(Node):
             target = self._wall(bag_ns)
             remaining = target - now
             if remaining <= 0:
-                return 'due'
+                return "due"
             if remaining > _FINE_NS:
                 # Coarse: wake early, or at once on pause/step/stop.
                 with self._cond:
@@ -316,28 +308,26 @@ class Player(Node):
                     while self._clock_pub is not None and self._last_clock + _CLOCK_TICK_NS < m.log_time_ns:
                         tick = self._last_clock + _CLOCK_TICK_NS
                         how = self._wait(tick, consume_step=False)
-                        if how == 'stop':
+                        if how == "stop":
                             return
-                        if how == 'step':  # a step goes straight to the next message
+                        if how == "step":  # a step goes straight to the next message
                             break
                         self._publish_clock(tick)
                     how = self._wait(m.log_time_ns)
-                    if how == 'stop':
+                    if how == "stop":
                         return
-                    if how == 'step':  # continue the schedule from this message
+                    if how == "step":  # continue the schedule from this message
                         self._origin_bag = m.log_time_ns
                         self._origin_wall = time.perf_counter_ns()
                     self._publish_clock(m.log_time_ns)
                     self._publishers_by_topic[m.topic].publish(m.data)
                     self.stats.published += 1
-                    if how == 'due':
-                        self.stats.lateness_ns.append(
-                            time.perf_counter_ns() - self._wall(m.log_time_ns)
-                        )
+                    if how == "due":
+                        self.stats.lateness_ns.append(time.perf_counter_ns() - self._wall(m.log_time_ns))
                 if not self.loop:
                     return
         except Exception as exc:  # noqa: BLE001 - report, then let the caller see it finished
-            self.get_logger().error(f'replay failed: {exc!r}')
+            self.get_logger().error(f"replay failed: {exc!r}")
             if not self.finished.done():
                 self.finished.set_exception(exc)
         finally:
@@ -368,12 +358,9 @@ def play_bag(
     try:
         if wait_for_subscribers:
             deadline = time.monotonic() + match_timeout
-            while any(
-                p.get_subscription_count() < wait_for_subscribers
-                for p in player.topic_publishers.values()
-            ):
+            while any(p.get_subscription_count() < wait_for_subscribers for p in player.topic_publishers.values()):
                 if time.monotonic() > deadline:
-                    raise TimeoutError(f'replay: subscribers did not match within {match_timeout} s')
+                    raise TimeoutError(f"replay: subscribers did not match within {match_timeout} s")
                 executor.spin_once(timeout_sec=0.01)
         player.start()
         while not player.finished.done():
@@ -390,28 +377,26 @@ def play_bag(
 def _parse_remaps(items: Sequence[str]) -> dict[str, str]:
     remap = {}
     for item in items:
-        old, sep, new = item.partition(':=')
+        old, sep, new = item.partition(":=")
         if not sep or not old or not new:
-            raise InputError(f'--remap {item!r}: expected OLD:=NEW')
-        remap[old if old.startswith('/') else '/' + old] = new
+            raise InputError(f"--remap {item!r}: expected OLD:=NEW")
+        remap[old if old.startswith("/") else "/" + old] = new
     return remap
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog='robot_sims replay', description='Play back a bag.')
-    parser.add_argument('bag', help='bag folder or .mcap file')
-    parser.add_argument('-r', '--rate', type=float, default=1.0, help='playback speed factor')
-    parser.add_argument('-l', '--loop', action='store_true', help='play again and again')
-    parser.add_argument('--start-offset', type=float, default=0.0, metavar='S',
-                        help='start S seconds into the bag')
-    parser.add_argument('--duration', type=float, default=None, metavar='D',
-                        help='play only D seconds of the bag')
-    parser.add_argument('--topics', nargs='+', default=None, help='only these topics')
-    parser.add_argument('--exclude', help='regular expression of topics not to play')
-    parser.add_argument('--remap', nargs='+', default=[], metavar='OLD:=NEW',
-                        help='publish topic OLD as NEW')
-    parser.add_argument('--start-paused', action='store_true',
-                        help='start paused (use the ~/resume or ~/step services)')
+    parser = argparse.ArgumentParser(prog="robot_sims replay", description="Play back a bag.")
+    parser.add_argument("bag", help="bag folder or .mcap file")
+    parser.add_argument("-r", "--rate", type=float, default=1.0, help="playback speed factor")
+    parser.add_argument("-l", "--loop", action="store_true", help="play again and again")
+    parser.add_argument("--start-offset", type=float, default=0.0, metavar="S", help="start S seconds into the bag")
+    parser.add_argument("--duration", type=float, default=None, metavar="D", help="play only D seconds of the bag")
+    parser.add_argument("--topics", nargs="+", default=None, help="only these topics")
+    parser.add_argument("--exclude", help="regular expression of topics not to play")
+    parser.add_argument("--remap", nargs="+", default=[], metavar="OLD:=NEW", help="publish topic OLD as NEW")
+    parser.add_argument(
+        "--start-paused", action="store_true", help="start paused (use the ~/resume or ~/step services)"
+    )
     return parser.parse_args(list(argv))
 
 
@@ -424,19 +409,25 @@ def main(args: Sequence[str] | None = None) -> int:
         remap = _parse_remaps(opts.remap)
         stop = init_ros(ros_argv)
     except InputError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     sys.setswitchinterval(SWITCH_INTERVAL)
     player = None
     try:
         player = Player(
-            bag, rate=opts.rate, loop=opts.loop, start_offset=opts.start_offset,
-            duration=opts.duration, topics=opts.topics, exclude=opts.exclude, remap=remap,
+            bag,
+            rate=opts.rate,
+            loop=opts.loop,
+            start_offset=opts.start_offset,
+            duration=opts.duration,
+            topics=opts.topics,
+            exclude=opts.exclude,
+            remap=remap,
             start_paused=opts.start_paused,
         )
         executor = make_executor()
         executor.add_node(player)
-        print(f'playing {bag}', file=sys.stderr)
+        print(f"playing {bag}", file=sys.stderr)
         player.start()
         # A timeout lets the events executor return to Python so Ctrl-C is seen.
         while stop.running and not player.finished.done():
@@ -444,15 +435,15 @@ def main(args: Sequence[str] | None = None) -> int:
     except ExternalShutdownException:
         pass
     except InputError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     finally:
         if player is not None:
             player.stop()
             stats = player.stats
             print(
-                f'published {stats.published} messages, median lateness '
-                f'{stats.median_lateness_ms:.3f} ms', file=sys.stderr,
+                f"published {stats.published} messages, median lateness {stats.median_lateness_ms:.3f} ms",
+                file=sys.stderr,
             )
             player.destroy_node()
         if rclpy.ok():
@@ -460,5 +451,5 @@ def main(args: Sequence[str] | None = None) -> int:
     return 0
 
 
-if __name__ == '__main__':
+if __name__ == "__main__":
     sys.exit(main())

@@ -34,30 +34,30 @@ from sim_runtime.bag.msgdefs import full_definition
 from sim_runtime.errors import InputError
 
 __all__ = [
-    'BagWriteError',
-    'BagWriter',
-    'qos_profiles_yaml',
-    'reindex',
-    'write_metadata_from_files',
+    "BagWriteError",
+    "BagWriter",
+    "qos_profiles_yaml",
+    "reindex",
+    "write_metadata_from_files",
 ]
 
 METADATA_VERSION = 9
-ROS_DISTRO = 'jazzy'
-_LIBRARY = 'robot_sims.bag'
+ROS_DISTRO = "jazzy"
+_LIBRARY = "robot_sims.bag"
 _INFINITE_NS = 2**63 - 1
-_COMPRESSION = {'zstd': 'zstd', 'lz4': 'lz4', 'none': ''}
+_COMPRESSION = {"zstd": "zstd", "lz4": "lz4", "none": ""}
 
 #: Defaults for a QoS profile dict (rosbag2's "offered QoS" fields, Jazzy enum strings).
 QOS_DEFAULTS: dict[str, Any] = {
-    'history': 'unknown',
-    'depth': 0,
-    'reliability': 'reliable',
-    'durability': 'volatile',
-    'deadline': _INFINITE_NS,
-    'lifespan': _INFINITE_NS,
-    'liveliness': 'automatic',
-    'liveliness_lease_duration': _INFINITE_NS,
-    'avoid_ros_namespace_conventions': False,
+    "history": "unknown",
+    "depth": 0,
+    "reliability": "reliable",
+    "durability": "volatile",
+    "deadline": _INFINITE_NS,
+    "lifespan": _INFINITE_NS,
+    "liveliness": "automatic",
+    "liveliness_lease_duration": _INFINITE_NS,
+    "avoid_ros_namespace_conventions": False,
 }
 
 
@@ -66,7 +66,7 @@ class BagWriteError(OSError):
 
 
 def _duration_yaml(ns: int, indent: str) -> str:
-    return f'{indent}  sec: {ns // 1_000_000_000}\n{indent}  nsec: {ns % 1_000_000_000}\n'
+    return f"{indent}  sec: {ns // 1_000_000_000}\n{indent}  nsec: {ns % 1_000_000_000}\n"
 
 
 def qos_profiles_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
@@ -83,14 +83,14 @@ def qos_profiles_yaml(profiles: Sequence[Mapping[str, Any]]) -> str:
             f"  depth: {int(p['depth'])}\n"
             f"  reliability: {p['reliability']}\n"
             f"  durability: {p['durability']}\n"
-            f'  deadline:\n{_duration_yaml(int(p["deadline"]), "  ")}'
-            f'  lifespan:\n{_duration_yaml(int(p["lifespan"]), "  ")}'
+            f"  deadline:\n{_duration_yaml(int(p['deadline']), '  ')}"
+            f"  lifespan:\n{_duration_yaml(int(p['lifespan']), '  ')}"
             f"  liveliness: {p['liveliness']}\n"
-            f'  liveliness_lease_duration:\n'
-            f'{_duration_yaml(int(p["liveliness_lease_duration"]), "  ")}'
+            f"  liveliness_lease_duration:\n"
+            f"{_duration_yaml(int(p['liveliness_lease_duration']), '  ')}"
             f"  avoid_ros_namespace_conventions: {'true' if p['avoid_ros_namespace_conventions'] else 'false'}"
         )
-    return '\n'.join(lines)
+    return "\n".join(lines)
 
 
 @dataclass
@@ -122,7 +122,7 @@ class BagWriter:
         self,
         folder: str | Path,
         *,
-        compression: str = 'zstd',
+        compression: str = "zstd",
         max_bag_size: int = 0,
         max_bag_duration_ns: int = 0,
         chunk_size: int = 1024 * 1024,
@@ -132,22 +132,18 @@ class BagWriter:
     ) -> None:
         self.folder = Path(folder)
         if compression not in _COMPRESSION:
-            raise InputError(
-                f'compression {compression!r} is not one of {", ".join(_COMPRESSION)}'
-            )
+            raise InputError(f"compression {compression!r} is not one of {', '.join(_COMPRESSION)}")
         if max_bag_size < 0 or max_bag_duration_ns < 0:
-            raise InputError(
-                f'max bag size ({max_bag_size}) and duration ({max_bag_duration_ns}) must be ≥ 0'
-            )
+            raise InputError(f"max bag size ({max_bag_size}) and duration ({max_bag_duration_ns}) must be ≥ 0")
         if self.folder.exists():
-            raise InputError.at(self.folder, None, 'output folder exists; refusing to overwrite it')
+            raise InputError.at(self.folder, None, "output folder exists; refusing to overwrite it")
         self.folder.mkdir(parents=True)
         self._compression = _COMPRESSION[compression]
         self._max_size = max_bag_size
         self._max_duration = max_bag_duration_ns
         self._chunk_size = chunk_size
         self._flush_interval = flush_interval
-        self._open_stream = open_stream or (lambda p: p.open('wb'))
+        self._open_stream = open_stream or (lambda p: p.open("wb"))
         self._clock = clock
         self._topics: list[_Topic] = []
         self._missing: dict[int, tuple[str, ...]] = {}
@@ -165,7 +161,7 @@ class BagWriter:
 
     # -- topics and messages -------------------------------------------------------------
 
-    def add_topic(self, name: str, type_name: str, qos_yaml: str, type_hash: str = '') -> int:
+    def add_topic(self, name: str, type_name: str, qos_yaml: str, type_hash: str = "") -> int:
         """Register a topic; returns the id to `write` with. Schema text from installed `.msg`.
 
         `Definition.missing` of the schema is available as `missing_definitions(id)` so the
@@ -196,8 +192,10 @@ class BagWriter:
             stats = self._files[-1]
         try:
             self._writer.add_message(  # type: ignore[union-attr]
-                self._channel_ids[topic_id], log_time_ns,
-                log_time_ns if publish_time_ns is None else publish_time_ns, data,
+                self._channel_ids[topic_id],
+                log_time_ns,
+                log_time_ns if publish_time_ns is None else publish_time_ns,
+                data,
             )
         except OSError as exc:
             self._fail(exc)
@@ -241,15 +239,18 @@ class BagWriter:
             self._fail(exc)
 
     def _fail(self, exc: OSError) -> None:
-        self.error = BagWriteError(exc.errno, f'writing bag {self.folder} failed: {exc.strerror or exc}')
+        self.error = BagWriteError(exc.errno, f"writing bag {self.folder} failed: {exc.strerror or exc}")
         raise self.error from exc
 
     def _open_split(self) -> None:
-        name = f'{self.folder.name}_{len(self._files)}.mcap'
+        name = f"{self.folder.name}_{len(self._files)}.mcap"
         self._files.append(_FileStats(name))
         self._stream = self._open_stream(self.folder / name)
         self._writer = McapFile(
-            self._stream, profile='ros2', library=_LIBRARY, compression=self._compression,
+            self._stream,
+            profile="ros2",
+            library=_LIBRARY,
+            compression=self._compression,
             chunk_size=self._chunk_size,
         )
         self._schema_ids = {}
@@ -263,13 +264,13 @@ class BagWriter:
         assert self._writer is not None
         schema_id = self._schema_ids.get(topic.type)
         if schema_id is None:
-            schema_id = self._writer.add_schema(topic.type, 'ros2msg', topic.schema_text.encode())
+            schema_id = self._writer.add_schema(topic.type, "ros2msg", topic.schema_text.encode())
             self._schema_ids[topic.type] = schema_id
         self._channel_ids[tid] = self._writer.add_channel(
             topic.name,
-            'cdr',
+            "cdr",
             schema_id,
-            {'offered_qos_profiles': topic.qos_yaml, 'topic_type_hash': topic.type_hash},
+            {"offered_qos_profiles": topic.qos_yaml, "topic_type_hash": topic.type_hash},
         )
 
     def _finish_split(self) -> None:
@@ -279,8 +280,8 @@ class BagWriter:
             return
         try:
             writer.add_metadata(
-                'rosbag2',
-                {'serialized_metadata': self._metadata_yaml(), 'ros_distro': ROS_DISTRO},
+                "rosbag2",
+                {"serialized_metadata": self._metadata_yaml(), "ros_distro": ROS_DISTRO},
             )
             writer.finish()
         finally:
@@ -305,7 +306,7 @@ class BagWriter:
             try:
                 self._finish_split()
             except OSError as exc:
-                self.error = BagWriteError(exc.errno, f'finishing bag {self.folder} failed: {exc}')
+                self.error = BagWriteError(exc.errno, f"finishing bag {self.folder} failed: {exc}")
         else:
             stream, self._writer, self._stream = self._stream, None, None
             if stream is not None:
@@ -314,7 +315,7 @@ class BagWriter:
                 except OSError:
                     pass
         if self.error is None:
-            (self.folder / 'metadata.yaml').write_text(self._metadata_yaml())
+            (self.folder / "metadata.yaml").write_text(self._metadata_yaml())
         else:
             write_metadata_from_files(self.folder)
 
@@ -326,10 +327,7 @@ class BagWriter:
 
     def _metadata_yaml(self) -> str:
         return metadata_yaml(
-            [
-                (t.name, t.type, t.qos_yaml, t.type_hash, t.message_count)
-                for t in self._topics
-            ],
+            [(t.name, t.type, t.qos_yaml, t.type_hash, t.message_count) for t in self._topics],
             [(f.path, f.start_ns, f.end_ns, f.message_count) for f in self._files],
         )
 
@@ -347,56 +345,54 @@ def metadata_yaml(
     ends = [e for _p, _s, e, _n in files if e is not None]
     start = min(starts) if starts else 0
     info = {
-        'version': METADATA_VERSION,
-        'storage_identifier': 'mcap',
-        'duration': {'nanoseconds': (max(ends) - start) if ends else 0},
-        'starting_time': {'nanoseconds_since_epoch': start},
-        'message_count': sum(n for *_x, n in files),
-        'topics_with_message_count': [
+        "version": METADATA_VERSION,
+        "storage_identifier": "mcap",
+        "duration": {"nanoseconds": (max(ends) - start) if ends else 0},
+        "starting_time": {"nanoseconds_since_epoch": start},
+        "message_count": sum(n for *_x, n in files),
+        "topics_with_message_count": [
             {
-                'topic_metadata': {
-                    'name': name,
-                    'type': type_name,
-                    'serialization_format': 'cdr',
+                "topic_metadata": {
+                    "name": name,
+                    "type": type_name,
+                    "serialization_format": "cdr",
                     # The same profiles as the channel metadata: readers (rosbags) match
                     # metadata.yaml topics to MCAP channels on them.
-                    'offered_qos_profiles': yaml.safe_load(qos) or [],
-                    'type_description_hash': type_hash,
+                    "offered_qos_profiles": yaml.safe_load(qos) or [],
+                    "type_description_hash": type_hash,
                 },
-                'message_count': count,
+                "message_count": count,
             }
             for name, type_name, qos, type_hash, count in topics
         ],
         # Chunk compression is internal to MCAP; rosbag2 fills these only for its own
         # file/message compression, which we do not use.
-        'compression_format': '',
-        'compression_mode': '',
-        'relative_file_paths': [p for p, *_x in files],
-        'files': [
+        "compression_format": "",
+        "compression_mode": "",
+        "relative_file_paths": [p for p, *_x in files],
+        "files": [
             {
-                'path': p,
-                'starting_time': {'nanoseconds_since_epoch': s or 0},
-                'duration': {'nanoseconds': (e - s) if s is not None and e is not None else 0},
-                'message_count': n,
+                "path": p,
+                "starting_time": {"nanoseconds_since_epoch": s or 0},
+                "duration": {"nanoseconds": (e - s) if s is not None and e is not None else 0},
+                "message_count": n,
             }
             for p, s, e, n in files
         ],
-        'custom_data': None,
-        'ros_distro': ROS_DISTRO,
+        "custom_data": None,
+        "ros_distro": ROS_DISTRO,
     }
-    return yaml.safe_dump(
-        {'rosbag2_bagfile_information': info}, sort_keys=False, default_flow_style=False
-    )
+    return yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False, default_flow_style=False)
 
 
 def _recover_split(path: Path, bag: Any, info: Any) -> None:
     """Rewrite an unfinished split as a finished MCAP file holding its intact messages."""
     from mcap.records import Message
 
-    tmp = path.with_suffix('.mcap.recovering')
-    with tmp.open('wb') as stream:
+    tmp = path.with_suffix(".mcap.recovering")
+    with tmp.open("wb") as stream:
         writer = Writer(stream, compression=CompressionType.ZSTD)
-        writer.start(profile='ros2', library=_LIBRARY)
+        writer.start(profile="ros2", library=_LIBRARY)
         schema_ids: dict[int, int] = {}
         channel_ids: dict[int, int] = {}
         for rec in bag._scan(info, quiet=True):  # noqa: SLF001 - same package
@@ -408,8 +404,10 @@ def _recover_split(path: Path, bag: Any, info: Any) -> None:
                 if schema is not None and schema.id not in schema_ids:
                     schema_ids[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
                 channel_ids[rec.channel_id] = writer.register_channel(
-                    channel.topic, channel.message_encoding,
-                    schema_ids.get(channel.schema_id, 0), dict(channel.metadata),
+                    channel.topic,
+                    channel.message_encoding,
+                    schema_ids.get(channel.schema_id, 0),
+                    dict(channel.metadata),
                 )
             writer.add_message(channel_ids[rec.channel_id], rec.log_time, rec.data, rec.publish_time, rec.sequence)
         writer.finish()
@@ -429,7 +427,7 @@ def reindex(folder: str | Path) -> Path:
 
     folder = Path(folder)
     with warnings.catch_warnings():
-        warnings.simplefilter('ignore', BagWarning)
+        warnings.simplefilter("ignore", BagWarning)
         bag = open_bag(folder)
         for info in bag._infos:  # noqa: SLF001 - same package
             if not info.intact:
@@ -447,22 +445,32 @@ def write_metadata_from_files(folder: str | Path) -> Path:
     from sim_runtime.bag.reader import BagWarning, open_bag
 
     folder = Path(folder)
-    meta = folder / 'metadata.yaml'
+    meta = folder / "metadata.yaml"
     meta.unlink(missing_ok=True)
     with warnings.catch_warnings():
-        warnings.simplefilter('ignore', BagWarning)
+        warnings.simplefilter("ignore", BagWarning)
         bag = open_bag(folder)
         topics = []
         for name, type_name in bag.topics.items():
             chmeta = bag.topic_metadata.get(name, {})
-            topics.append((
-                name, type_name, chmeta.get('offered_qos_profiles', ''),
-                chmeta.get('topic_type_hash', ''), bag.topic_counts.get(name, 0),
-            ))
+            topics.append(
+                (
+                    name,
+                    type_name,
+                    chmeta.get("offered_qos_profiles", ""),
+                    chmeta.get("topic_type_hash", ""),
+                    bag.topic_counts.get(name, 0),
+                )
+            )
         files = []
         for info in bag._infos:  # noqa: SLF001 - same package
-            files.append((
-                info.path.name, info.start_ns, info.end_ns, sum(info.counts.values()),
-            ))
+            files.append(
+                (
+                    info.path.name,
+                    info.start_ns,
+                    info.end_ns,
+                    sum(info.counts.values()),
+                )
+            )
     meta.write_text(metadata_yaml(topics, files))
     return meta

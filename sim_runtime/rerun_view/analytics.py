@@ -42,19 +42,27 @@ def private_rerun_env(folder: str | os.PathLike, base: dict[str, str] | None = N
     """
     home = Path(folder).resolve()
     env = {k: v for k, v in (os.environ if base is None else base).items() if k not in _DROP}
-    env.update({
-        "HOME": str(home),
-        "XDG_CONFIG_HOME": str(home / ".config"),
-        "XDG_DATA_HOME": str(home / ".local" / "share"),
-        "XDG_CACHE_HOME": str(home / ".cache"),
-        "TELEMETRY_ENABLED": "false",
-    })
+    env.update(
+        {
+            "HOME": str(home),
+            "XDG_CONFIG_HOME": str(home / ".config"),
+            "XDG_DATA_HOME": str(home / ".local" / "share"),
+            "XDG_CACHE_HOME": str(home / ".cache"),
+            "TELEMETRY_ENABLED": "false",
+        }
+    )
     for key in ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME"):
         Path(env[key]).mkdir(parents=True, exist_ok=True)
     config = home / ".config" / "rerun" / "analytics.json"
     if not _disabled_in(config):
-        subprocess.run([rerun_cli(), "analytics", "disable"], env=env, check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=60)
+        subprocess.run(
+            [rerun_cli(), "analytics", "disable"],
+            env=env,
+            check=True,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            timeout=60,
+        )
     return env
 
 
@@ -67,8 +75,9 @@ def _disabled_in(config: Path) -> bool:
 
 def analytics_disabled(env: dict[str, str]) -> bool:
     """True if ``rerun analytics config`` run with ``env`` reports analytics disabled."""
-    out = subprocess.run([rerun_cli(), "analytics", "config"], env=env, check=True,
-                         capture_output=True, text=True, timeout=60).stdout
+    out = subprocess.run(
+        [rerun_cli(), "analytics", "config"], env=env, check=True, capture_output=True, text=True, timeout=60
+    ).stdout
     return json.loads(out).get("analytics_enabled") is False
 
 

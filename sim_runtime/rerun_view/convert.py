@@ -86,8 +86,7 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
     for topic, kind in sorted(skipped.items()):
         if topic in ROS_INTERNAL_TOPICS:
             continue
-        warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped",
-                      stacklevel=2)
+        warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped", stacklevel=2)
     wanted = [t for t in bag.topics if t not in skipped]
 
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=None)
@@ -96,8 +95,11 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
     rec.save(out_path)
     rec.send_recording_name(Path(bag.path).name)
 
-    bar = Progress(sum(bag.topic_counts.get(t, 0) for t in wanted), f"bag_to_rerun {Path(bag.path).name}") \
-        if progress else None
+    bar = (
+        Progress(sum(bag.topic_counts.get(t, 0) for t in wanted), f"bag_to_rerun {Path(bag.path).name}")
+        if progress
+        else None
+    )
     done = 0
     try:
         for m in bag.messages(topics=wanted):
@@ -109,8 +111,11 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
                 skipped[m.topic] = m.type
                 continue
             except Exception as err:  # noqa: BLE001 - one undecodable message must not end the run
-                warnings.warn(f"{bag.path}: topic {m.topic} at log time {m.log_time_ns} ns: cannot "
-                              f"deserialise {m.type} ({err}); message skipped", stacklevel=2)
+                warnings.warn(
+                    f"{bag.path}: topic {m.topic} at log time {m.log_time_ns} ns: cannot "
+                    f"deserialise {m.type} ({err}); message skipped",
+                    stacklevel=2,
+                )
                 continue
             if m.topic in skipped:
                 continue
@@ -132,7 +137,8 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
 def main(args: list[str] | None = None) -> None:
     """Entry point ``bag_to_rerun``."""
     parser = argparse.ArgumentParser(
-        prog="bag_to_rerun", description="Convert a bag (folder or .mcap) into a Rerun .rrd recording.")
+        prog="bag_to_rerun", description="Convert a bag (folder or .mcap) into a Rerun .rrd recording."
+    )
     parser.add_argument("bag", help="bag folder or .mcap file")
     parser.add_argument("-o", "--output", help="output .rrd (default: <bag>.rrd beside the bag)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")

@@ -23,6 +23,7 @@ SUBSCRIPTION_DEPTH = 100
 DISCOVERY_PERIOD = 2.0
 """Seconds (wall clock) between looks for new topics published by other nodes."""
 
+
 @dataclass
 class LiveView:
     """What :func:`attach_live_view` set up: the recording, the logger, the subscriptions."""
@@ -41,7 +42,8 @@ class LiveView:
             return
         self.logger.add_topics({topic: type_name(msg_type)})
         self.subscriptions[topic] = self.node.create_subscription(
-            msg_type, topic, lambda msg, t=topic: self._on_message(t, msg), qos)
+            msg_type, topic, lambda msg, t=topic: self._on_message(t, msg), qos
+        )
         self.update_layout()
 
     def update_layout(self) -> None:
@@ -81,8 +83,14 @@ class LiveView:
         self.recording.flush()
 
 
-def attach_live_view(node: Node, spawn: bool = True, connect: str | None = None, *,
-                     recording: rr.RecordingStream | None = None, discover: bool = True) -> LiveView:
+def attach_live_view(
+    node: Node,
+    spawn: bool = True,
+    connect: str | None = None,
+    *,
+    recording: rr.RecordingStream | None = None,
+    discover: bool = True,
+) -> LiveView:
     """Stream ``node``'s topics to Rerun as they are published.
 
     Where the data goes: ``recording`` if given (tests pass one saving to a file), else a new

@@ -62,32 +62,57 @@ _deg = math.radians
 
 def _edge(angle_deg: float, yaw_deg: float | None = None) -> tuple[float, float, float]:
     a = _deg(angle_deg)
-    return (CREATE_RADIUS * math.cos(a), CREATE_RADIUS * math.sin(a),
-            _deg(angle_deg if yaw_deg is None else yaw_deg))
+    return (CREATE_RADIUS * math.cos(a), CREATE_RADIUS * math.sin(a), _deg(angle_deg if yaw_deg is None else yaw_deg))
 
 
 CREATE_SENSOR_MOUNTS: dict[str, tuple[float, float, float]] = {
     "laser": (CREATE_RADIUS, 0.0, 0.0),
     "camera": (0.13, 0.0, 0.0),
-    "sonar_front": _edge(0), "sonar_left": _edge(90), "sonar_back": _edge(180), "sonar_right": _edge(-90),
+    "sonar_front": _edge(0),
+    "sonar_left": _edge(90),
+    "sonar_back": _edge(180),
+    "sonar_right": _edge(-90),
     "wall_ir": _edge(-40.5, -90.0),
     "virtual_wall_ir": _edge(0),
-    "bump_left": _edge(45), "bump_right": _edge(-45),
-    "cliff_left": _edge(60), "cliff_front_left": _edge(18),
-    "cliff_front_right": _edge(-18), "cliff_right": _edge(-60),
+    "bump_left": _edge(45),
+    "bump_right": _edge(-45),
+    "cliff_left": _edge(60),
+    "cliff_front_left": _edge(18),
+    "cliff_front_right": _edge(-18),
+    "cliff_right": _edge(-60),
 }
 """Create sensor frame → mount (x, y, yaw) on ``base_link``, from seed-facts/create.md (the Create
 world publishes no tf); sonar ranges are measured from the body's edge, so sonar frames sit there."""
 
 TRUTH_POSE_TOPICS = ("overhead_pose", "pose")
 STATIC_MARKER_TOPICS = ("map_markers", "scene_markers")
-ROBOT_COLORS = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (255, 127, 14),
-                (23, 190, 207), (227, 119, 194), (140, 86, 75)]
+ROBOT_COLORS = [
+    (31, 119, 180),
+    (214, 39, 40),
+    (44, 160, 44),
+    (148, 103, 189),
+    (255, 127, 14),
+    (23, 190, 207),
+    (227, 119, 194),
+    (140, 86, 75),
+]
 EVENT_COLOR = (230, 30, 30)
 
 # visualization_msgs/Marker type and action constants (avoid importing the message at module load)
 ARROW, CUBE, SPHERE, CYLINDER, LINE_STRIP, LINE_LIST, CUBE_LIST, SPHERE_LIST, POINTS, TEXT, MESH, TRIANGLES = (
-    0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11)
+    0,
+    1,
+    2,
+    3,
+    4,
+    5,
+    6,
+    7,
+    8,
+    9,
+    10,
+    11,
+)
 DELETE, DELETEALL = 2, 3
 
 
@@ -148,8 +173,9 @@ PLOT_ORDER = ("odom_error", "joint_states/position", "range", "cliff", "cmd_vel"
 
 def _plot_order(group: str) -> tuple[int, str]:
     # The plots a user looks at first come first; battery and buttons last.
-    rank = next((i for i, key in enumerate(PLOT_ORDER) if f"/{key}" in f"/{group.removeprefix('plots/')}"),
-                len(PLOT_ORDER))
+    rank = next(
+        (i for i, key in enumerate(PLOT_ORDER) if f"/{key}" in f"/{group.removeprefix('plots/')}"), len(PLOT_ORDER)
+    )
     return rank, group
 
 
@@ -178,8 +204,7 @@ class _Track:
         self.points.append((x, y))
         strip = np.zeros((len(self.points), 3), dtype=np.float32)
         strip[:, :2] = self.points
-        rec.log(f"{self.entity}/{self.segment}",
-                rr.LineStrips3D([strip], radii=self.radius, colors=[self.color]))
+        rec.log(f"{self.entity}/{self.segment}", rr.LineStrips3D([strip], radii=self.radius, colors=[self.color]))
 
 
 @dataclass
@@ -206,8 +231,9 @@ class RerunLogger:
     an ``overhead_pose`` topic); more can be added later with :meth:`add_topics`.
     """
 
-    def __init__(self, recording: rr.RecordingStream, topics: dict[str, str] | None = None, *,
-                 batch_scalars: bool = False) -> None:
+    def __init__(
+        self, recording: rr.RecordingStream, topics: dict[str, str] | None = None, *, batch_scalars: bool = False
+    ) -> None:
         self.rec = recording
         self._t_ns = 0
         # Converting a bag, scalars are kept and sent as columns by flush(): a log call per sample
@@ -264,19 +290,26 @@ class RerunLogger:
         """
         robots = sorted(set(self._topic_robots) | set(self._robots))
         background = rrb.Background(kind="SolidColor", color=[255, 255, 255])
-        tabs = [rrb.Spatial3DView(
-            origin="/world", name="Global", background=background,
-            eye_controls=self._top_down_eye())]
-        tabs += [rrb.Spatial3DView(origin=f"/world/robots/{r}", contents="/world/**", name=f"{r} (robot-centred)",
-                                   background=background) for r in robots]
-        plots = [rrb.TimeSeriesView(origin=f"/{g}", name=g.removeprefix("plots/"))
-                 for g in sorted(self.plot_groups, key=_plot_order)]
+        tabs = [
+            rrb.Spatial3DView(origin="/world", name="Global", background=background, eye_controls=self._top_down_eye())
+        ]
+        tabs += [
+            rrb.Spatial3DView(
+                origin=f"/world/robots/{r}", contents="/world/**", name=f"{r} (robot-centred)", background=background
+            )
+            for r in robots
+        ]
+        plots = [
+            rrb.TimeSeriesView(origin=f"/{g}", name=g.removeprefix("plots/"))
+            for g in sorted(self.plot_groups, key=_plot_order)
+        ]
         events = rrb.TextLogView(origin="/events", name="Events")
         side = rrb.Vertical(rrb.Tabs(*plots, name="Plots"), events, row_shares=[2, 1]) if plots else events
         return rrb.Blueprint(
             rrb.Horizontal(rrb.Tabs(*tabs, active_tab=0), side, column_shares=[3, 2]),
             rrb.TimePanel(timeline=TIMELINE, play_state="following", state="collapsed"),
-            collapse_panels=True)
+            collapse_panels=True,
+        )
 
     def _top_down_eye(self) -> rrb.EyeControls3D | None:
         """Look straight down on the map from high enough to see it all; None (the viewer frames
@@ -287,8 +320,12 @@ class RerunLogger:
         height = 1.1 * max(extent, 1.0)
         # Slightly south of the target, so +y is up on screen; the viewer flips a near-vertical
         # eye (offset 1 % of the height showed the map upside down, 5 % is right).
-        return rrb.EyeControls3D(kind="Orbital", position=[centre[0], centre[1] - 0.05 * height, height],
-                                 look_target=[centre[0], centre[1], 0.0], eye_up=[0.0, 0.0, 1.0])
+        return rrb.EyeControls3D(
+            kind="Orbital",
+            position=[centre[0], centre[1] - 0.05 * height, height],
+            look_target=[centre[0], centre[1], 0.0],
+            eye_up=[0.0, 0.0, 1.0],
+        )
 
     def _grow_map(self, xy: np.ndarray) -> None:
         if len(xy):
@@ -313,10 +350,14 @@ class RerunLogger:
             known = self._topic_robots
             color = robot_color(key, known) if key in known else ROBOT_COLORS[len(self._robots) % len(ROBOT_COLORS)]
             is_create = name in self._create_namespaces
-            robot = _Robot(key, color, is_create,
-                           _Track(f"world/tracks/{key}/truth", color, 0.01),
-                           _Track(f"world/tracks/{key}/odom", tuple(c // 2 + 100 for c in color), 0.006),
-                           expects_truth=self._has_truth_topic(key))
+            robot = _Robot(
+                key,
+                color,
+                is_create,
+                _Track(f"world/tracks/{key}/truth", color, 0.01),
+                _Track(f"world/tracks/{key}/odom", tuple(c // 2 + 100 for c in color), 0.006),
+                expects_truth=self._has_truth_topic(key),
+            )
             self._robots[key] = robot
             self.layout_version += 1
             self._log_body(robot)
@@ -328,8 +369,7 @@ class RerunLogger:
             a = np.linspace(0.0, 2 * math.pi, 49)
             circle = np.column_stack([CREATE_RADIUS * np.cos(a), CREATE_RADIUS * np.sin(a), np.zeros_like(a)])
             heading = np.array([[0.0, 0.0, 0.0], [CREATE_RADIUS, 0.0, 0.0]])
-            self.rec.log(entity, rr.LineStrips3D([circle, heading], radii=0.008, colors=[robot.color]),
-                         static=True)
+            self.rec.log(entity, rr.LineStrips3D([circle, heading], radii=0.008, colors=[robot.color]), static=True)
         else:  # the outline comes from the world's /robots markers; draw the heading
             heading = np.array([[0.0, 0.0, 0.0], [DEFAULT_HEADING_LENGTH, 0.0, 0.0]])
             self.rec.log(entity, rr.LineStrips3D([heading], radii=0.008, colors=[robot.color]), static=True)
@@ -464,8 +504,10 @@ class RerunLogger:
         # The seed's GUI draws five beams across the field of view: rays for those.
         idx = np.linspace(0, ranges.size - 1, 5).round().astype(int) if ranges.size else np.zeros(0, int)
         reach = np.where(np.isfinite(ranges[idx]) & (ranges[idx] > 0), ranges[idx], msg.range_max)
-        rays = [np.array([[0.0, 0.0, 0.0], [d * math.cos(t), d * math.sin(t), 0.0]])
-                for d, t in zip(reach, angles[idx], strict=True)]
+        rays = [
+            np.array([[0.0, 0.0, 0.0], [d * math.cos(t), d * math.sin(t), 0.0]])
+            for d, t in zip(reach, angles[idx], strict=True)
+        ]
         self.rec.log(f"{entity}/{name}_rays", rr.LineStrips3D(rays, radii=0.004, colors=[(230, 120, 120)]))
 
     def _range(self, topic: str, msg) -> None:
@@ -477,13 +519,16 @@ class RerunLogger:
             return
         r = msg.range
         if math.isfinite(r):
-            self.rec.log(f"{entity}/ray", rr.LineStrips3D([[[0, 0, 0], [r, 0, 0]]], radii=0.006,
-                                                          colors=[(255, 140, 0)]))
+            self.rec.log(
+                f"{entity}/ray", rr.LineStrips3D([[[0, 0, 0], [r, 0, 0]]], radii=0.006, colors=[(255, 140, 0)])
+            )
             self._scalar(f"plots/{robot}/range", _path_part(name), r)
         else:  # +inf: no echo within max_range (drawn faint to max_range); -inf: too close
             reach = msg.max_range if r > 0 else msg.min_range
-            self.rec.log(f"{entity}/ray", rr.LineStrips3D([[[0, 0, 0], [reach, 0, 0]]], radii=0.003,
-                                                          colors=[(200, 200, 200, 120)]))
+            self.rec.log(
+                f"{entity}/ray",
+                rr.LineStrips3D([[[0, 0, 0], [reach, 0, 0]]], radii=0.003, colors=[(200, 200, 200, 120)]),
+            )
 
     def _binary(self, topic: str, entity: str, robot: str, name: str, active: bool) -> None:
         if self._binary_state.get(topic) == active:
@@ -504,8 +549,11 @@ class RerunLogger:
 
     def _bool(self, topic: str, msg) -> None:
         robot = _namespace(topic) or "robot"
-        entity = f"world/robots/{robot}/{_path_part(_basename(topic))}" if robot in self._robots \
+        entity = (
+            f"world/robots/{robot}/{_path_part(_basename(topic))}"
+            if robot in self._robots
             else f"world/flags/{_topic_path(topic)}"
+        )
         self._binary(topic, entity, robot, _basename(topic), bool(msg.data))
 
     def _scalar_data(self, topic: str, msg) -> None:
@@ -557,11 +605,13 @@ class RerunLogger:
         local = np.column_stack([(cols + 0.5) * res, (rows + 0.5) * res, np.zeros(rows.size)])
         entity = f"world/{_topic_path(topic)}"
         self.rec.log(entity, _pose_transform(info.origin), static=True)
-        self.rec.log(f"{entity}/obstacles", rr.Points3D(local.astype(np.float32), radii=res * 0.6,
-                                                        colors=[(40, 40, 40)]), static=True)
+        self.rec.log(
+            f"{entity}/obstacles",
+            rr.Points3D(local.astype(np.float32), radii=res * 0.6, colors=[(40, 40, 40)]),
+            static=True,
+        )
         corners = np.array([[0, 0, 0], [w * res, 0, 0], [w * res, h * res, 0], [0, h * res, 0], [0, 0, 0]])
-        self.rec.log(f"{entity}/bounds", rr.LineStrips3D([corners], radii=res, colors=[(150, 150, 150)]),
-                     static=True)
+        self.rec.log(f"{entity}/bounds", rr.LineStrips3D([corners], radii=res, colors=[(150, 150, 150)]), static=True)
 
     # ---------------------------------------------------------------- markers
     def _marker_array(self, topic: str, msg) -> None:
@@ -608,8 +658,7 @@ class RerunLogger:
         if m.type in (SPHERE, TEXT):
             label = [m.text] if m.text else None
             radius = m.scale.x / 2 if m.type == SPHERE else 0.01
-            shape = rr.Points3D([[0.0, 0.0, 0.0]], radii=radius, colors=[color], labels=label,
-                                show_labels=bool(label))
+            shape = rr.Points3D([[0.0, 0.0, 0.0]], radii=radius, colors=[color], labels=label, show_labels=bool(label))
         elif m.type == LINE_STRIP:
             shape = rr.LineStrips3D([pts], radii=width / 2, colors=[color])
         elif m.type == LINE_LIST:
@@ -617,19 +666,22 @@ class RerunLogger:
         elif m.type in (POINTS, SPHERE_LIST, CUBE_LIST):
             shape = rr.Points3D(pts, radii=width / 2, colors=colors)
         elif m.type == CUBE:
-            shape = rr.Boxes3D(half_sizes=[[m.scale.x / 2, m.scale.y / 2, m.scale.z / 2]], colors=[color],
-                               fill_mode="solid")
+            shape = rr.Boxes3D(
+                half_sizes=[[m.scale.x / 2, m.scale.y / 2, m.scale.z / 2]], colors=[color], fill_mode="solid"
+            )
         elif m.type == CYLINDER:
             shape = rr.Cylinders3D(lengths=[m.scale.z], radii=[m.scale.x / 2], colors=[color], fill_mode="solid")
         elif m.type == ARROW:
             if len(pts) >= 2:
                 shape = rr.Arrows3D(origins=pts[:1], vectors=pts[1:2] - pts[:1], radii=m.scale.x / 2, colors=[color])
             else:
-                shape = rr.Arrows3D(origins=[[0, 0, 0]], vectors=[[m.scale.x, 0, 0]], radii=m.scale.y / 2,
-                                    colors=[color])
+                shape = rr.Arrows3D(
+                    origins=[[0, 0, 0]], vectors=[[m.scale.x, 0, 0]], radii=m.scale.y / 2, colors=[color]
+                )
         elif m.type == TRIANGLES:
-            shape = rr.Mesh3D(vertex_positions=pts, vertex_colors=colors if len(colors) == len(pts) else None,
-                              albedo_factor=color)
+            shape = rr.Mesh3D(
+                vertex_positions=pts, vertex_colors=colors if len(colors) == len(pts) else None, albedo_factor=color
+            )
         else:
             return
         self.rec.log(entity, transform, shape, static=static)
@@ -648,8 +700,12 @@ class RerunLogger:
                 self.rec.log(entity, rr.Asset3D(path=path, albedo_factor=albedo), static=True)
         p, q = m.pose.position, m.pose.orientation
         scale = [m.scale.x or 1.0, m.scale.y or 1.0, m.scale.z or 1.0]
-        self.rec.log(entity, rr.Transform3D(translation=[p.x, p.y, p.z],
-                                            quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]), scale=scale))
+        self.rec.log(
+            entity,
+            rr.Transform3D(
+                translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]), scale=scale
+            ),
+        )
 
 
 HANDLERS: dict[str, str] = {

@@ -46,15 +46,20 @@ def _namespace(topic: str) -> str:
 def tracks_from_bag(bag_path: str | Path) -> TrackData:
     """Read the map and the robots' tracks from a bag (folder or .mcap)."""
     bag = open_bag(bag_path)
-    truth = {t for t, kind in bag.topics.items()
-             if t.rpartition("/")[2] in TRUTH_POSE_TOPICS and kind == "geometry_msgs/msg/PoseStamped"}
-    odom = {t for t, kind in bag.topics.items()
-            if t.rpartition("/")[2] == "odom" and kind == "nav_msgs/msg/Odometry"}
+    truth = {
+        t
+        for t, kind in bag.topics.items()
+        if t.rpartition("/")[2] in TRUTH_POSE_TOPICS and kind == "geometry_msgs/msg/PoseStamped"
+    }
+    odom = {t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "odom" and kind == "nav_msgs/msg/Odometry"}
     truth_robots = {_namespace(t) for t in truth}
     odom = {t for t in odom if _namespace(t) not in truth_robots}  # odometry only where no truth
     maps = {t for t, kind in bag.topics.items() if kind == "nav_msgs/msg/OccupancyGrid"}
-    markers = {t for t, kind in bag.topics.items()
-               if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"}
+    markers = {
+        t
+        for t, kind in bag.topics.items()
+        if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"
+    }
 
     points: dict[str, list[tuple[float, float]]] = {}
     grid = None
@@ -74,8 +79,10 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
             points.setdefault(_namespace(m.topic), []).append((pose.position.x, pose.position.y))
 
     names = sorted(points)
-    data = TrackData(tracks={n: np.array(points[n], dtype=float) for n in names},
-                     colors={n: tuple(c / 255 for c in robot_color(n, names)) for n in names})
+    data = TrackData(
+        tracks={n: np.array(points[n], dtype=float) for n in names},
+        colors={n: tuple(c / 255 for c in robot_color(n, names)) for n in names},
+    )
     if grid is not None:
         info = grid.info
         data.image = np.asarray(grid.data, dtype=np.int8).reshape(info.height, info.width)
@@ -102,8 +109,14 @@ def _rasterise(segments: np.ndarray, tracks: list[np.ndarray]) -> tuple[np.ndarr
     width = max(1, round(0.03 / RASTER_RESOLUTION))
     for (x0, y0), (x1, y1) in segments:
         # pixel (column, row) = cell (x, y) from the lower-left corner: row 0 is the lowest y
-        draw.line([((x0 - lo[0]) / RASTER_RESOLUTION, (y0 - lo[1]) / RASTER_RESOLUTION),
-                   ((x1 - lo[0]) / RASTER_RESOLUTION, (y1 - lo[1]) / RASTER_RESOLUTION)], fill=1, width=width)
+        draw.line(
+            [
+                ((x0 - lo[0]) / RASTER_RESOLUTION, (y0 - lo[1]) / RASTER_RESOLUTION),
+                ((x1 - lo[0]) / RASTER_RESOLUTION, (y1 - lo[1]) / RASTER_RESOLUTION),
+            ],
+            fill=1,
+            width=width,
+        )
     return np.array(img, dtype=bool), (float(lo[0]), float(lo[1]))
 
 
@@ -123,7 +136,6 @@ def main(args: list[str] | None = None) -> None:
         raise SystemExit(2) from err
     lengths = ", ".join(f"{n} {np.sum(np.hypot(*np.diff(t, axis=0).T)):.2f} m" for n, t in data.tracks.items())
     print(f"wrote {opts.output} ({lengths})")
-
 
 
 if __name__ == "__main__":
