@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from create_sim import mounts
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts, nearest_distance
 from create_sim.mapfile import CreateMap
@@ -46,8 +47,8 @@ class BeaconSighting:
 class CreateModel:
     """Kinematics, wall physics and every sensor of one Create in a map."""
 
-    RADIUS = 0.16
-    WHEEL_BASE = 0.258
+    RADIUS = mounts.RADIUS_M
+    WHEEL_BASE = mounts.WHEEL_BASE_M
     MAX_WHEEL_SPEED = 0.5
     FRICTION = 0.35  # kinetic friction μ against walls
     LIDAR_BEAMS = 681
@@ -56,17 +57,17 @@ class CreateModel:
     SONAR_RANGE = (0.02, 3.0)
     CAMERA_RANGE = 6.0
     CAMERA_HALF_FOV = math.radians(60.0)
-    CAMERA_OFFSET = 0.13
+    CAMERA_OFFSET = mounts.CAMERA_OFFSET_M
     IR_RANGE = 0.1
-    IR_MOUNT_ANGLE = -0.225 * math.pi  # on the perimeter, looking straight right
+    IR_MOUNT_ANGLE = mounts.IR_MOUNT_ANGLE_RAD  # on the perimeter, looking straight right
     VWALL_HALO = 0.45
     # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
     VWALL_FIELDS = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
-    BUMP_FRONT_HALF = 0.135 * math.pi
+    BUMP_FRONT_HALF = mounts.BUMP_FRONT_HALF_RAD
     CLIFF_FLOOR = 21.5
     CLIFF_LINE = 1.5
     # Cliff sensor windows on the perimeter, relative to the heading, order [L, FL, FR, R].
-    CLIFF_WINDOWS = np.array([[0.295, 0.37], [0.04, 0.105], [-0.105, -0.04], [-0.37, -0.295]]) * math.pi
+    CLIFF_WINDOWS = np.array(mounts.CLIFF_WINDOWS_RAD)
     BATTERY_VOLTAGE = 17.2
     BATTERY_CURRENT = -3.0
     BATTERY_CHARGE = 3.0  # Ah
@@ -97,7 +98,8 @@ class CreateModel:
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
-        self._sonar_fan = (np.array([1.0, 0.0, -1.0, 0.0]), np.array([0.0, 1.0, 0.0, -1.0]))
+        sonar = np.array(mounts.SONAR_BEARINGS_RAD)
+        self._sonar_fan = (np.round(np.cos(sonar), 15), np.round(np.sin(sonar), 15))
         self._ir_fan = (np.array([0.0]), np.array([-1.0]))  # looking straight right
         self._normals = np.empty(0)
         self._normals_used = 0

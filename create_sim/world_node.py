@@ -53,6 +53,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
+from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -87,8 +88,6 @@ DEFAULT_RATES: dict[str, float] = {
     "battery": 1.0,
 }
 
-SONAR_NAMES = ("front", "left", "back", "right")  # model.sonar() order
-CLIFF_NAMES = ("left", "front_left", "front_right", "right")  # model.cliff_signals() order
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 
 
