@@ -27,6 +27,7 @@ EXECUTABLES = {
     "replay": "sim_runtime.bag.replay:main",
     "bag_to_rerun": "sim_runtime.rerun_view.convert:main",
     "draw_tracks": "sim_runtime.rerun_view.tracks:main",
+    "studio": "studio.app:main",
 }
 
 WRAPPER = """#!{python}
@@ -70,7 +71,7 @@ setup(
     description="Simulated robot drivers for ROS 2 Jazzy: iRobot Create, SIMROBOT worlds, serial arms, MCAP bags",
     license="BSD-3-Clause",
     python_requires=">=3.10",
-    packages=find_packages(include=["sim_runtime*", "create_sim*", "simrobot_sim*", "arm_sim*"]),
+    packages=find_packages(include=["sim_runtime*", "create_sim*", "simrobot_sim*", "arm_sim*", "studio*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -88,11 +89,12 @@ setup(
         "pyyaml",
         "pillow",
         "matplotlib",
+        "nicegui>=3.18",  # robot_sims studio (web app)
     ],
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
-        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support", "selenium>=4.20"],
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },
