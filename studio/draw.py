@@ -58,8 +58,8 @@ class View:
         if len(xs) == 0:
             return
         lo_x, hi_x, lo_y, hi_y = xs.min() - margin_m, xs.max() + margin_m, ys.min() - margin_m, ys.max() + margin_m
-        self.centre_x, self.centre_y = (lo_x + hi_x) / 2, (lo_y + hi_y) / 2
-        self.scale = min(max(min(self.width_px / (hi_x - lo_x), self.height_px / (hi_y - lo_y)), 5.0), 2000.0)
+        self.centre_x, self.centre_y = float(lo_x + hi_x) / 2, float(lo_y + hi_y) / 2
+        self.scale = float(min(max(min(self.width_px / (hi_x - lo_x), self.height_px / (hi_y - lo_y)), 5.0), 2000.0))
 
 
 def _f(v: float) -> str:

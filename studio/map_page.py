@@ -71,8 +71,8 @@ class MapMakerPage:
                         on_mouse=self.on_mouse,
                         sanitize=False,
                     )
-                    .classes("studio-map-view border")
-                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fff")
+                    .classes("studio-map-view")
+                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fff;outline:1px solid #bbb")
                 )
                 self.preview = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):

@@ -51,14 +51,19 @@ def parse_controller(spec: str) -> tuple[str, str]:
     return name.strip(), target.strip()
 
 
+def _yaml_string(value: str) -> str:
+    """A parameter value rcl reads back as exactly this string (YAML single quotes; '' = empty)."""
+    return "'" + value.replace("'", "''") + "'"
+
+
 def world_ros_args(ns: str, map_file: str, config_file: str, pose: tuple[float, float, float]) -> list[str]:
     """``--ros-args`` of a Create world in namespace ``ns`` ('' = root) with these files and pose.
 
     A namespaced world publishes its clock as ``<ns>/clock`` so several worlds share a domain."""
     args = [
         "--ros-args",
-        "-p", f"map_file:={map_file}",
-        "-p", f"config_file:={config_file}",
+        "-p", f"map_file:={_yaml_string(map_file)}",
+        "-p", f"config_file:={_yaml_string(config_file)}",
         "-p", f"initial_pose:=[{pose[0]!r}, {pose[1]!r}, {pose[2]!r}]",
     ]  # fmt: skip
     if ns:

@@ -129,8 +129,8 @@ class SimulatorPage:
                         on_mouse=self.on_mouse,
                         sanitize=False,
                     )
-                    .classes("studio-view border")
-                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fafafa")
+                    .classes("studio-view")
+                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fafafa;outline:1px solid #bbb")
                 )
                 self.dynamic = self.image.add_layer()
                 self.overlay = self.image.add_layer()
@@ -198,14 +198,12 @@ class SimulatorPage:
     def build_world_panel(self) -> None:
         ws = self.studio.workspace
         with ui.expansion("New world", icon="add").classes("w-full border studio-new-world"):
-            maps = ["", *ws.files((".map", ".txt"))]
-            configs = ["", *ws.files((".cfg", ".txt", ".config"))]
-            self.world_map = ui.select(
-                maps, value="", label="map file ('' = empty)", with_input=True, new_value_mode="add-unique"
-            ).classes("w-full studio-world-map")
-            self.world_config = ui.select(
-                configs, value="", label="config file ('' = noise-free)", with_input=True, new_value_mode="add-unique"
-            ).classes("w-full")
+            self.world_map = ui.input("map file (empty = open floor)", autocomplete=ws.files((".map", ".txt"))).classes(
+                "w-full studio-world-map"
+            )
+            self.world_config = ui.input(
+                "config file (empty = noise-free)", autocomplete=ws.files((".cfg", ".txt", ".config"))
+            ).classes("w-full studio-world-config")
             with ui.row().classes("gap-2 no-wrap"):
                 self.world_x = ui.number("x (m)", value=0.0, step=0.1).classes("w-20")
                 self.world_y = ui.number("y (m)", value=0.0, step=0.1).classes("w-20")
@@ -270,7 +268,11 @@ class SimulatorPage:
             self.frames += 1
 
     def dynamic_svg(self, st) -> str:
-        parts = []
+        v = self.view  # the transform, for tools and tests that map pixels back to metres
+        parts = [
+            f'<g class="view" data-centre-x="{float(v.centre_x)!r}" data-centre-y="{float(v.centre_y)!r}" '
+            f'data-scale="{float(v.scale)!r}"/>'
+        ]
         for ns, other in self.studio.ros.robots.items():
             if ns != self.selected and other.pose is not None:
                 parts.append(draw.robot_svg(self.view, other.pose, selected=False, label=ns))
@@ -429,8 +431,8 @@ class SimulatorPage:
             ns = "/" + ns
         self.world_label.set_text("")
         try:
-            map_file = str(ws.path(self.world_map.value)) if self.world_map.value else ""
-            config_file = str(ws.path(self.world_config.value)) if self.world_config.value else ""
+            map_file = str(ws.path(self.world_map.value)) if (self.world_map.value or "").strip() else ""
+            config_file = str(ws.path(self.world_config.value)) if (self.world_config.value or "").strip() else ""
             pose = tuple(float(v.value or 0.0) for v in (self.world_x, self.world_y, self.world_theta))
         except InputError as err:
             self.world_label.set_text(f"error: {err}")
