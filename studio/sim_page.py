@@ -182,7 +182,9 @@ class SimulatorPage:
                         ui.button("Start", on_click=self.start_controller).props("dense").classes(
                             "studio-controller-start"
                         )
-                        ui.button("Stop", on_click=self.stop_controller).props("dense outline")
+                        ui.button("Stop", on_click=self.stop_controller).props("dense outline").classes(
+                            "studio-controller-stop"
+                        )
                     self.controller_label = ui.label("").classes("text-sm")
                 with ui.card().classes("w-full"):
                     with ui.row().classes("items-center gap-2"):

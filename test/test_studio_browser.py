@@ -252,6 +252,25 @@ def test_dragging_in_set_position_mode_sets_the_pose(browser, listener):
     click_text(browser, "Pan", ".studio-mouse-mode")
 
 
+def test_start_runs_create_bump_turn_on_the_selected_robot_and_stop_ends_it(browser, listener):
+    executor, odom, _pose = listener
+    find(browser, ".studio-controller-start").click()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x > 0.2, timeout=30.0), (
+        "the controller did not drive"
+    )
+    find(browser, ".studio-controller-stop").click()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+
+
+def test_a_world_on_a_missing_map_shows_its_one_line_error(browser, studio_url):
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-new-world").click()
+    type_into(browser, ".studio-world-map", "missing.map")
+    type_into(browser, ".studio-world-ns", "/bad")
+    find(browser, ".studio-start-world").click()
+    wait(browser, lambda d: "map file not found" in find(d, ".studio-world-error").text, timeout=30.0)
+
+
 def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, workspace):
     open_page(browser, studio_url + "/config")
     type_into(browser, ".studio-lidar-std", "0.05")
