@@ -119,7 +119,9 @@ class SimulatorPage:
     def build(self) -> None:
         studio = self.studio
         nav("/")
-        ui.keyboard(on_key=self.on_key)
+        # Keys still drive after a click on a button or checkbox (those lose focus at once, see
+        # drive_button); only typing in a text field is left alone.
+        ui.keyboard(on_key=self.on_key, ignore=["input", "select", "textarea"])
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
                 self.image = (
@@ -156,15 +158,19 @@ class SimulatorPage:
                 self.build_world_panel()
                 with ui.card().classes("w-full"):
                     ui.label("Manual control (arrows/WASD, space = stop)").classes("font-bold")
-                    with ui.grid(columns=3).classes("gap-1 w-40"):
-                        ui.element()
-                        ui.button("▲", on_click=lambda: self.change(1, 0)).props("dense").classes("studio-forward")
-                        ui.element()
-                        ui.button("◀", on_click=lambda: self.change(0, 1)).props("dense")
-                        ui.button("■", on_click=self.stop).props("dense color=red").classes("studio-stop")
-                        ui.button("▶", on_click=lambda: self.change(0, -1)).props("dense")
-                        ui.element()
-                        ui.button("▼", on_click=lambda: self.change(-1, 0)).props("dense")
+                    with ui.row().classes("items-center gap-6"):
+                        with ui.grid(columns=3).classes("gap-1 w-40"):
+                            ui.element()
+                            self.drive_button("▲", 1, 0).classes("studio-forward")
+                            ui.element()
+                            self.drive_button("◀", 0, 1)
+                            self.drive_button("■", 0, 0).props("color=red").classes("studio-stop")
+                            self.drive_button("▶", 0, -1)
+                            ui.element()
+                            self.drive_button("▼", -1, 0)
+                        ui.joystick(
+                            on_move=self.on_joystick, on_end=lambda _: self.stop(), color="#1565c0", size=70
+                        ).classes("w-28 h-28 bg-slate-100 rounded-full")
                     self.command_label = ui.label("v 0.00 m/s, ω 0.00 rad/s").classes("font-mono text-sm")
                     with ui.row().classes("items-center gap-2"):
                         ui.switch("Play", on_change=lambda e: self.press(0, e.value))
@@ -221,9 +227,17 @@ class SimulatorPage:
         ros = self.studio.ros
         return None if ros is None or self.selected is None else ros.robots.get(self.selected)
 
-    def on_select(self, e) -> None:
+    async def on_select(self, e) -> None:
         self.selected = e.value
         self.view_dirty = True
+        if self.robot() is None:
+            return
+        try:  # show the selected world's speed
+            rtf = await self.studio.ros.get_parameter(self.selected, "real_time_factor")
+        except TimeoutError:
+            return
+        if rtf is not None and float(rtf) in RTF_OPTIONS and float(rtf) != self.rtf_select.value:
+            self.rtf_select.set_value(float(rtf))
 
     def slow_tick(self) -> None:
         ros = self.studio.ros
@@ -374,11 +388,39 @@ class SimulatorPage:
         else:
             self.change(*change)
 
+    def drive_button(self, text: str, linear: int, angular: int) -> ui.button:
+        """An arrow button (■ = stop); it gives the focus back so Space does not press it again."""
+
+        def clicked() -> None:
+            if linear or angular:
+                self.change(linear, angular)
+            else:
+                self.stop()
+            ui.run_javascript("document.activeElement && document.activeElement.blur()")
+
+        return ui.button(text, on_click=clicked).props("dense")
+
+    def on_joystick(self, e) -> None:
+        """Joystick: up/down = forward speed, left/right = turn rate, up to the teleop limits."""
+        if self.selected is None or self.robot() is None or e.x is None or e.y is None:
+            return
+        if self.controller_running():
+            return
+        v = round(e.y * MAX_LINEAR_STEPS * LINEAR_STEP, 2)
+        w = round(-e.x * MAX_ANGULAR_STEPS * ANGULAR_STEP, 2)
+        self.steps[self.selected] = [0, 0]
+        self.studio.ros.drive(self.selected, v, w)
+        self.command_label.set_text(f"v {v:.2f} m/s, ω {w:.2f} rad/s")
+
+    def controller_running(self) -> bool:
+        child = self.studio.running_controllers.get(self.selected or "")
+        return child is not None and child.running
+
     def change(self, linear: int, angular: int) -> None:
         if self.selected is None or self.robot() is None:
             ui.notify("no robot selected", type="warning")
             return
-        if self.selected in self.studio.running_controllers and self.studio.running_controllers[self.selected].running:
+        if self.controller_running():
             ui.notify("a controller is driving: Stop it for manual control", type="warning")
             return
         steps = self.steps.setdefault(self.selected, [0, 0])

@@ -30,6 +30,7 @@ if not (CHROMIUM.exists() and Path(CHROMEDRIVER).exists()):
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import ElementNotInteractableException  # noqa: E402
 from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
@@ -123,10 +124,19 @@ def click_at(driver, image, x_m: float, y_m: float) -> None:
 
 
 def type_into(driver, css: str, text: str) -> None:
-    field = find(driver, f"{css} input")
-    field.send_keys(Keys.CONTROL, "a")
-    field.send_keys(Keys.BACKSPACE)
-    field.send_keys(text)
+    """Replace a text field's contents, once it takes input (an expansion may still be opening)."""
+
+    def typed(d) -> bool:
+        field = find(d, f"{css} input")
+        try:
+            field.send_keys(Keys.CONTROL, "a")
+            field.send_keys(Keys.BACKSPACE)
+            field.send_keys(text)
+        except ElementNotInteractableException:
+            return False
+        return True
+
+    wait(driver, typed)
 
 
 def view_transform(driver) -> tuple[float, float, float]:
@@ -172,7 +182,13 @@ def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, wo
     click_at(browser, image, 2.0, -1.5)
     click_text(browser, "Beacon", ".studio-tools")
     click_at(browser, image, 1.0, 0.5)
-    wait(browser, lambda d: "4 walls, 0 lines, 1 beacons" in d.page_source)
+    click_text(browser, "Line", ".studio-tools")
+    click_at(browser, image, -1.8, -0.5)
+    click_at(browser, image, 0.5, -0.5)
+    click_text(browser, "Virtual wall", ".studio-tools")
+    click_at(browser, image, 1.8, -1.3)
+    click_at(browser, image, 1.8, 0.0)
+    wait(browser, lambda d: "4 walls, 1 lines, 1 beacons, 1 virtual walls" in d.page_source)
     type_into(browser, ".studio-map-file", "box.map")
     find(browser, ".studio-map-save").click()
     wait(browser, lambda d: "saved box.map" in find(d, ".studio-map-message").text)
@@ -182,6 +198,8 @@ def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, wo
     corners = {(x, y) for wall in world.walls.tolist() for x, y in (wall[:2], wall[2:])}
     assert corners == {(-2.0, 1.5), (2.0, 1.5), (2.0, -1.5), (-2.0, -1.5)}
     assert world.beacon_ids == ["b1"] and world.beacon_xy.tolist() == [[1.0, 0.5]]
+    assert world.lines.tolist() == [[-1.8, -0.5, 0.5, -0.5]]
+    assert world.virtwalls.tolist() == [[1.8, -1.3, pytest.approx(math.pi / 2), 2.0]]
 
     find(browser, ".studio-map-save").click()  # a second save must not overwrite silently
     wait(browser, lambda d: "file exists" in find(d, ".studio-map-message").text)
@@ -225,7 +243,6 @@ def test_the_keyboard_drives_the_create_forward(browser, listener):
     assert spin_until(executor, lambda: odom.last.pose.pose.position.x > 0.05, timeout=15.0)
     ActionChains(browser).send_keys(" ").perform()
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
-    screenshot(browser, "simulator")
 
 
 def test_dragging_in_set_position_mode_sets_the_pose(browser, listener):
@@ -258,6 +275,9 @@ def test_start_runs_create_bump_turn_on_the_selected_robot_and_stop_ends_it(brow
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x > 0.2, timeout=30.0), (
         "the controller did not drive"
     )
+    if os.environ.get("STUDIO_SCREENSHOTS"):  # a stretch of track for the picture
+        spin_until(executor, lambda: odom.last.pose.pose.position.y > 0.8, timeout=10.0)
+        screenshot(browser, "simulator")
     find(browser, ".studio-controller-stop").click()
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
 
