@@ -68,7 +68,7 @@ from sim_runtime.paths import config_path, resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
-from sim_runtime.world_node import SimWorldNode
+from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
 """Fixed physics rate (Hz), independent of ``real_time_factor``."""
@@ -92,11 +92,6 @@ DEFAULT_RATES: dict[str, float] = {
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 
 
-def _frame_prefix(namespace: str) -> str:
-    ns = namespace.strip("/")
-    return f"{ns}/" if ns else ""
-
-
 class CreateWorldNode(SimWorldNode):
     """The simulated Create: parameters → :class:`CreateModel`, model state → messages."""
 
@@ -104,6 +99,7 @@ class CreateWorldNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
+            self.note_compiling("create_sim.geometry", "create_sim.sensing", "create_sim.physics")
             self.model = self._make_model()
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
@@ -121,6 +117,7 @@ class CreateWorldNode(SimWorldNode):
         self._publish_static_transforms()
         self._make_inputs()
         self._publish_map_markers()
+        self.get_logger().info(self._summary())
 
     # ---------------------------------------------------------------- parameters
     def _declare_parameters(self) -> None:
@@ -186,7 +183,7 @@ class CreateWorldNode(SimWorldNode):
             )
             for name, default in DEFAULT_RATES.items()
         }
-        self.prefix = prefix or _frame_prefix(self.get_namespace())
+        self.prefix = prefix or namespace_prefix(self.get_namespace())
         self.map_file = self._resolve(map_file, "map_file")
         self.config_file = self._resolve(config_file, "config_file")
         self.world = self._load_world(self.map_file)
@@ -220,6 +217,16 @@ class CreateWorldNode(SimWorldNode):
             return load_config(path)
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
+
+    def _summary(self) -> str:
+        w = self.world
+        counts = (
+            f"{len(w.walls)} walls, {len(w.lines)} lines, {len(w.beacon_ids)} beacons, {len(w.virtwalls)} virtual walls"
+        )
+        return (
+            f"map {self.map_file or '(empty)'} ({counts}); config {self.config_file or '(noise-free)'}; "
+            f"robot at {list(self.initial_pose)}, frames {self.frame('base_link')}; {self.pace_text()}"
+        )
 
     def _change_map(self, value: str) -> None:
         """Live ``map_file``: the robot stays where it is, stopped; refused if that is inside a wall."""
