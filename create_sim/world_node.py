@@ -36,6 +36,7 @@ after its measurement (its stamp stays the measurement time, so the latency is v
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
 from collections.abc import Callable
@@ -65,7 +66,7 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
@@ -270,18 +271,23 @@ class CreateWorldNode(SimWorldNode):
 
     # ---------------------------------------------------------------- topics
     def _make_publishers(self) -> None:
-        pub = self.create_publisher
-        self.pub_odom = pub(Odometry, "odom", SENSOR_PUBLISHER_QOS)
-        self.pub_overhead = pub(PoseStamped, "overhead_pose", SENSOR_PUBLISHER_QOS)
-        self.pub_bump = [pub(Range, f"bump/{side}", SENSOR_PUBLISHER_QOS) for side in ("left", "right")]
-        self.pub_wall = pub(Range, "wall", SENSOR_PUBLISHER_QOS)
-        self.pub_virtual_wall = pub(Range, "virtual_wall", SENSOR_PUBLISHER_QOS)
-        self.pub_cliff = [pub(Illuminance, f"cliff/{n}", SENSOR_PUBLISHER_QOS) for n in CLIFF_NAMES]
-        self.pub_sonar = [pub(Range, f"sonar/{n}", SENSOR_PUBLISHER_QOS) for n in SONAR_NAMES]
-        self.pub_scan = pub(LaserScan, "scan", SENSOR_PUBLISHER_QOS)
-        self.pub_camera = pub(MarkerArray, "camera/beacons", SENSOR_PUBLISHER_QOS)
-        self.pub_buttons = pub(Joy, "buttons", SENSOR_PUBLISHER_QOS)
-        self.pub_battery = pub(BatteryState, "battery_state", SENSOR_PUBLISHER_QOS)
+        def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
+            if qos is not SENSOR_PUBLISHER_QOS:
+                return self.create_publisher(msg_type, topic, qos)
+            # a copy: rclpy writes the overrides into the profile it is given
+            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+
+        self.pub_odom = pub(Odometry, "odom")
+        self.pub_overhead = pub(PoseStamped, "overhead_pose")
+        self.pub_bump = [pub(Range, f"bump/{side}") for side in ("left", "right")]
+        self.pub_wall = pub(Range, "wall")
+        self.pub_virtual_wall = pub(Range, "virtual_wall")
+        self.pub_cliff = [pub(Illuminance, f"cliff/{n}") for n in CLIFF_NAMES]
+        self.pub_sonar = [pub(Range, f"sonar/{n}") for n in SONAR_NAMES]
+        self.pub_scan = pub(LaserScan, "scan")
+        self.pub_camera = pub(MarkerArray, "camera/beacons")
+        self.pub_buttons = pub(Joy, "buttons")
+        self.pub_battery = pub(BatteryState, "battery_state")
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
         self._make_templates()
 

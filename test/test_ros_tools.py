@@ -350,3 +350,11 @@ def test_simrobot_topics_follow_the_namespace(executor, make_node):
     assert odom.last.header.frame_id == "sim1/r1/odom"
     topics = {name for name, _ in probe.get_topic_names_and_types()}
     assert {"/sim1/map", "/sim1/robots", "/sim1/r1/cmd_vel"} <= topics
+
+
+def test_a_sensor_publishers_qos_can_be_overridden_at_start_as_in_any_ros_driver(executor, tmp_path):
+    from rclpy.qos import ReliabilityPolicy
+
+    world = create_world(executor, tmp_path, **{"qos_overrides./scan.publisher.reliability": "best_effort"})
+    assert world.pub_scan.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert world.pub_odom.qos_profile.reliability == ReliabilityPolicy.RELIABLE
