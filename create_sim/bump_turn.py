@@ -91,7 +91,12 @@ def demo(
     from sim_runtime.run import drain, private_ros
     from sim_runtime.testing import wait_for_match
 
-    overrides = [Parameter("real_time_factor", value=0.0), Parameter("seed", value=seed)]
+    # No localisation node runs in the demo: the world publishes the true map -> odom itself.
+    overrides = [
+        Parameter("real_time_factor", value=0.0),
+        Parameter("seed", value=seed),
+        Parameter("publish_map_tf", value=True),
+    ]
     if map_file is not None:
         overrides.append(Parameter("map_file", value=str(map_file)))
     with private_ros() as (context, executor):
