@@ -56,10 +56,8 @@ class _Spec(NamedTuple):
     on_change: Callable[[Any], None] | None
 
 
-def _descriptor(
-    default: Any, description: str, live: bool, bounds: tuple[float, float] | None, constraints: str
-) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description, read_only=not live, additional_constraints=constraints)
+def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float, float] | None) -> ParameterDescriptor:
+    descriptor = ParameterDescriptor(description=description, read_only=not live)
     if bounds is not None:
         lo, hi = bounds
         if isinstance(default, float):
