@@ -76,7 +76,7 @@ def main() -> int:
     from sensor_msgs.msg import LaserScan
 
     from sim_runtime.msgs import time_from_msg
-    from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_QOS
+    from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS
     from sim_runtime.run import make_executor
     from sim_runtime.testing import spin_until
 
@@ -102,7 +102,7 @@ def main() -> int:
         lambda m: arrivals.setdefault(f"{time_from_msg(m.header.stamp):.9f}", time.time()),
         ANY_PUBLISHER_QOS,
     )
-    cmd = node.create_publisher(Twist, "/cmd_vel", COMMAND_QOS)
+    cmd = node.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
     driver = None
     try:
         assert spin_until(executor, lambda: len(arrivals) > 5, timeout=60.0), "no scans from create_world"

@@ -35,7 +35,7 @@ from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
 from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
-from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_QOS, LATCHED_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
 from sim_runtime.run import make_executor
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
@@ -149,8 +149,8 @@ class _Robot:
             self.subs.append(
                 sub(Illuminance, s.topic(f"cliff/{name}"), lambda m, n=name: s.cliffs.__setitem__(n, m.illuminance), q)
             )
-        self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_QOS)
-        self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_QOS)
+        self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
+        self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
         self.reset = node.create_client(Trigger, s.topic("reset"))
         self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
         self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")

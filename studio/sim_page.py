@@ -179,7 +179,7 @@ class SimulatorPage:
                     with ui.row().classes("items-center gap-2"):
                         self.rtf_select = ui.select(
                             RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
-                        ).classes("w-48")
+                        ).classes("w-48 studio-rtf")
                 with ui.card().classes("w-full"):
                     ui.label("Autonomous").classes("font-bold")
                     with ui.row().classes("items-center gap-2"):

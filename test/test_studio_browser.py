@@ -29,6 +29,7 @@ if not (CHROMIUM.exists() and Path(CHROMEDRIVER).exists()):
 
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
+from rcl_interfaces.srv import GetParameters  # noqa: E402
 from selenium import webdriver  # noqa: E402
 from selenium.common.exceptions import ElementNotInteractableException  # noqa: E402
 from selenium.webdriver.chrome.service import Service  # noqa: E402
@@ -36,11 +37,12 @@ from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.common.keys import Keys  # noqa: E402
 from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+from visualization_msgs.msg import MarkerArray  # noqa: E402
 
 from create_sim.configfile import load_config  # noqa: E402
 from create_sim.mapfile import load_map  # noqa: E402
 from sim_runtime.msgs import yaw_from_quaternion  # noqa: E402
-from sim_runtime.qos import ANY_PUBLISHER_QOS  # noqa: E402
+from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS  # noqa: E402
 from sim_runtime.testing import Collector, spin_until  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -288,7 +290,8 @@ def test_a_world_on_a_missing_map_shows_its_one_line_error(browser, studio_url):
     type_into(browser, ".studio-world-map", "missing.map")
     type_into(browser, ".studio-world-ns", "/bad")
     find(browser, ".studio-start-world").click()
-    wait(browser, lambda d: "map file not found" in find(d, ".studio-world-error").text, timeout=30.0)
+    error = wait(browser, lambda d: find(d, ".studio-world-error").text, timeout=30.0)
+    assert error.startswith("error: ") and "missing.map" in error and "\n" not in error
 
 
 def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, workspace):
@@ -303,6 +306,52 @@ def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, works
     assert config.noise["lidar"] == (0.0, 0.05)
     assert config.com_delay == 0.1
     assert config.noise["sonar"] == (0.0, 0.0)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "applied it to" in find(d, ".studio-config-message").text, timeout=20.0)
+    assert "applied it to the world in /box" in find(browser, ".studio-config-message").text
+
+
+def test_apply_to_the_running_world_loads_the_map_or_shows_why_not(browser, studio_url, workspace, listener):
+    executor, _odom, pose = listener
+    node = executor.get_nodes()[0]
+    markers = Collector(node, MarkerArray, f"{NS}/map_markers", LATCHED_QOS)
+    assert spin_until(executor, lambda: markers.last is not None, timeout=10.0)
+    x, y = pose.last.pose.position.x, pose.last.pose.position.y
+    (workspace / "box2.map").write_text((workspace / "box.map").read_text() + "wall -3 2 3 2\n")
+    (workspace / "blocked.map").write_text(f"wall {x - 1} {y} {x + 1} {y}\n")
+
+    def walls() -> int:
+        return sum(len(m.points) // 2 for m in markers.last.markers if m.ns == "walls")
+
+    open_page(browser, studio_url + "/map")
+    type_into(browser, ".studio-map-file", "box2.map")
+    find(browser, ".studio-map-load").click()
+    wait(browser, lambda d: "loaded box2.map" in find(d, ".studio-map-message").text)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "applied it to the world in /box" in find(d, ".studio-map-message").text)
+    assert spin_until(executor, lambda: walls() == 5, timeout=10.0)
+
+    type_into(browser, ".studio-map-file", "blocked.map")
+    find(browser, ".studio-map-load").click()
+    wait(browser, lambda d: "loaded blocked.map" in find(d, ".studio-map-message").text)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "inside a wall" in find(d, ".studio-map-message").text)
+    assert walls() == 5  # the world kept its map
+
+
+def test_the_speed_selector_sets_the_worlds_real_time_factor(browser, studio_url, listener):
+    executor, _odom, _pose = listener
+    client = executor.get_nodes()[0].create_client(GetParameters, f"{NS}/create_world/get_parameters")
+
+    def rtf() -> float:
+        future = client.call_async(GetParameters.Request(names=["real_time_factor"]))
+        assert spin_until(executor, future.done, timeout=10.0)
+        return future.result().values[0].double_value
+
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-rtf").click()
+    wait(browser, lambda d: d.find_element(By.XPATH, "//*[contains(@class,'q-item') and contains(., '2×')]")).click()
+    assert spin_until(executor, lambda: rtf() == 2.0, timeout=10.0)
 
 
 def test_save_data_records_the_run_into_a_new_folder(browser, studio_url, workspace):
