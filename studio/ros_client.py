@@ -129,7 +129,7 @@ class _Robot:
     """A RobotState plus the ROS entities that feed it and command it."""
 
     def __init__(self, node: Node, ns: str, node_name: str) -> None:
-        self.state = RobotState(ns=ns, node_name=node_name)
+        self.state = RobotState(ns=ns, node_name=node_name, last_heard=time.monotonic())
         s = self.state
         sub, q = node.create_subscription, ANY_PUBLISHER_QOS
         self.subs = [
@@ -155,6 +155,14 @@ class _Robot:
         self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
         self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")
         self.get_params = node.create_client(GetParameters, f"{node_name}/get_parameters")
+
+    def destroy(self, node: Node) -> None:
+        for sub in self.subs:
+            node.destroy_subscription(sub)
+        for pub in (self.cmd_vel, self.set_pose):
+            node.destroy_publisher(pub)
+        for client in (self.reset, *self.buttons, self.set_params, self.get_params):
+            node.destroy_client(client)
 
     def _on_pose(self, msg: PoseStamped) -> None:
         s = self.state
@@ -216,7 +224,17 @@ class StudioRos:
                 raise
 
     def _discover(self) -> None:
-        """Follow every namespace with a Create world (an ``overhead_pose`` PoseStamped topic)."""
+        """Follow every namespace with a Create world (an ``overhead_pose`` PoseStamped topic);
+        forget a world whose publisher has gone (stopped, or restarted under another node)."""
+        now = time.monotonic()
+        for ns, robot in list(self._robots.items()):
+            if (
+                self.node.count_publishers(robot.state.topic("overhead_pose")) == 0
+                and now - robot.state.last_heard > 2.0
+            ):
+                robot.destroy(self.node)
+                del self._robots[ns]
+                self.robots = {k: v for k, v in self.robots.items() if k != ns}
         for topic, types in self.node.get_topic_names_and_types():
             if not topic.endswith("/overhead_pose") or POSE_TYPE not in types:
                 continue

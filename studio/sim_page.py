@@ -301,7 +301,7 @@ class SimulatorPage:
             bumps=st.bumps,
             cliffs=st.cliffs,
             sightings=st.sightings,
-            track=np.array(st.track) if "track" in self.layers else None,
+            track=np.array(list(st.track)) if "track" in self.layers else None,  # list(): one atomic copy
         )
         parts.append(draw.sensors_svg(self.view, readings, self.layers))
         parts.append(draw.robot_svg(self.view, st.pose, selected=True, label=self.selected or ""))
@@ -373,6 +373,7 @@ class SimulatorPage:
             else:
                 theta = st.pose[2] if st.pose else 0.0
             self.studio.ros.set_pose(self.selected, x, y, theta)
+            st.track.clear()  # no line across the jump
             ui.notify(f"set_pose x={x:.2f} y={y:.2f} θ={theta:.2f}")
 
     # ---------------------------------------------------------------- driving
@@ -481,8 +482,10 @@ class SimulatorPage:
         except InputError as err:
             self.world_label.set_text(f"error: {err}")
             return
-        if ns in studio.worlds and studio.worlds[ns].running:
-            self.world_label.set_text(f"error: a world the studio started already runs in {ns or '/'}: stop it first")
+        if (ns in studio.worlds and studio.worlds[ns].running) or ns in studio.ros.robots:
+            self.world_label.set_text(
+                f"error: a world already runs in {ns or '/'}: give another namespace (e.g. /robot2) or stop it"
+            )
             return
         child = Child(
             f"create_world {ns or '/'}",
