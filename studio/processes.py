@@ -88,7 +88,8 @@ class Child:
             start_new_session=True,  # Ctrl-C in the studio's terminal reaches the studio only
             env=os.environ.copy(),
         )
-        threading.Thread(target=self._read, daemon=True).start()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         assert self.process.stdout is not None
@@ -101,6 +102,7 @@ class Child:
 
     def error_line(self) -> str:
         """The child's ``error: …`` line (or last line) once it has ended."""
+        self._reader.join(timeout=1.0)  # its last lines may still be in the pipe
         errors = [line for line in self.output if line.startswith("error")]
         return (errors or list(self.output) or [f"exited with status {self.process.returncode}"])[-1]
 

@@ -251,6 +251,10 @@ class SimulatorPage:
         st = self.robot()
         if st is not None:
             self.status.set_content(status_html(self.selected, st))
+        for ns, world in list(self.studio.worlds.items()):
+            if not world.running:  # a world that ended (bad map, pose in a wall): its one-line error
+                self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
+                del self.studio.worlds[ns]
         child = self.studio.running_controllers.get(self.selected or "")
         self.controller_label.set_text(
             f"{child.label} running"
@@ -493,13 +497,16 @@ class SimulatorPage:
             cwd=ws.root,
         )
         studio.worlds[ns] = child
-        for _ in range(100):  # a bad map or pose ends the world at once with its one-line error
+        self.world_label.set_text(f"starting a world in {ns or '/'}…")
+        for _ in range(200):  # a bad map or pose ends the world with its one-line error (shown by slow_tick)
             await asyncio.sleep(0.05)
             if not child.running:
-                self.world_label.set_text(child.error_line())
                 return
             if ns in studio.ros.robots:
                 break
+        else:
+            return
+        self.world_label.set_text("")
         self.selected = ns
         self.fitted.discard(ns)
         self.view_dirty = True

@@ -290,8 +290,8 @@ def test_a_world_on_a_missing_map_shows_its_one_line_error(browser, studio_url):
     type_into(browser, ".studio-world-map", "missing.map")
     type_into(browser, ".studio-world-ns", "/bad")
     find(browser, ".studio-start-world").click()
-    error = wait(browser, lambda d: find(d, ".studio-world-error").text, timeout=30.0)
-    assert error.startswith("error: ") and "missing.map" in error and "\n" not in error
+    error = wait(browser, lambda d: "error" in (t := find(d, ".studio-world-error").text) and t, timeout=60.0)
+    assert error.startswith("/bad: error: ") and "missing.map" in error and "\n" not in error
 
 
 def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, workspace):
@@ -352,6 +352,22 @@ def test_the_speed_selector_sets_the_worlds_real_time_factor(browser, studio_url
     find(browser, ".studio-rtf").click()
     wait(browser, lambda d: d.find_element(By.XPATH, "//*[contains(@class,'q-item') and contains(., '2×')]")).click()
     assert spin_until(executor, lambda: rtf() == 2.0, timeout=10.0)
+
+
+def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and_goes_when_it_stops(
+    browser, studio_url
+):
+    code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
+    args = ["--ros-args", "-r", "__ns:=/other", "-r", "/clock:=/other/clock", "-p", "initial_pose:=[3.0, 0.0, 0.0]"]
+    other = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, stdout=subprocess.DEVNULL)
+    try:
+        open_page(browser, studio_url + "/")
+        drawn = "return [...document.querySelectorAll('.studio-view text')].map(t => t.textContent)"
+        wait(browser, lambda d: "/other" in d.execute_script(drawn) and "/box" in d.execute_script(drawn), timeout=30.0)
+    finally:
+        other.terminate()
+        other.wait(timeout=20)
+    wait(browser, lambda d: "/other" not in d.execute_script(drawn), timeout=30.0)
 
 
 def test_save_data_records_the_run_into_a_new_folder(browser, studio_url, workspace):
