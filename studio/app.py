@@ -6,7 +6,6 @@ import argparse
 import ipaddress
 import sys
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
@@ -130,7 +129,3 @@ def nav(current: str) -> None:
             link = ui.link(text, target).classes("text-base")
             if target == current:
                 link.classes("font-bold no-underline")
-
-
-def workspace_root_hint(workspace: Workspace) -> str:
-    return f"files are relative to {Path(workspace.root)}"
