@@ -252,7 +252,7 @@ from rclpy.parameter import Parameter
 import rclpy
 from create_sim.world_node import CreateWorldNode
 from sensor_msgs.msg import LaserScan
-from sim_runtime.qos import SENSOR_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import make_executor
 
 rclpy.init()
@@ -261,7 +261,7 @@ world = CreateWorldNode(parameter_overrides=[Parameter("map_file", value=sys.arg
                                              Parameter("real_time_factor", value=0.0)])
 listener = rclpy.create_node("cold_start_listener")
 got = []
-listener.create_subscription(LaserScan, "scan", got.append, SENSOR_QOS)
+listener.create_subscription(LaserScan, "scan", got.append, SENSOR_SUBSCRIBER_QOS)
 executor = make_executor()
 executor.add_node(world)
 executor.add_node(listener)

@@ -18,7 +18,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Range
 
 from sim_runtime.msgs import time_from_msg
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
 
 FORWARD_SPEED = 0.3  # m/s
@@ -34,10 +34,12 @@ class BumpTurnNode(Node):
     def __init__(self, node_name: str = "create_bump_turn", **node_kwargs) -> None:
         super().__init__(node_name, **node_kwargs)
         self.rng = np.random.default_rng(self.declare_parameter("seed", 0).value)
-        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_QOS)
+        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self.pressed = {"left": False, "right": False}
         for side in self.pressed:
-            self.create_subscription(Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_QOS)
+            self.create_subscription(
+                Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_SUBSCRIBER_QOS
+            )
         self.state = "forward"
         self.state_end = 0.0  # sim time at which "back" or "turn" ends
         self.hit: set[str] = set()  # bumpers pressed since the last bump began

@@ -29,7 +29,7 @@ import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.node import Node
 
-from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 
 LINEAR_STEP = 0.1  # m/s per key press, as the seed
 ANGULAR_STEP = 0.5  # rad/s per key press, as the seed
@@ -85,7 +85,7 @@ class TeleopNode(Node):
         self.stamped = self.declare_parameter("cmd_vel_stamped", False).value
         self.repeat_rate = float(self.declare_parameter("repeat_rate", 5.0).value)
         msg_type = TwistStamped if self.stamped else Twist
-        self.publisher = self.create_publisher(msg_type, "cmd_vel", COMMAND_QOS)
+        self.publisher = self.create_publisher(msg_type, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self.linear_steps = 0
         self.angular_steps = 0
 

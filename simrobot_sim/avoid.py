@@ -19,7 +19,7 @@ from sensor_msgs.msg import JointState, Range
 
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
 
 #: alg2's constants: 20 cm, [0 0.5] and [0.5 0.5] rad/s.
@@ -47,8 +47,8 @@ class AvoidNode(Node):
             raise InputError(f"parameter 'threshold' = {self.threshold!r} is invalid: must be > 0 m")
         self._cmd = JointState()
         self._cmd.name = ["left_wheel", "right_wheel"]
-        self.publisher = self.create_publisher(JointState, "wheel_cmd", COMMAND_QOS)
-        self.subscription = self.create_subscription(Range, self.sensor, self._on_range, SENSOR_QOS)
+        self.publisher = self.create_publisher(JointState, "wheel_cmd", COMMAND_PUBLISHER_QOS)
+        self.subscription = self.create_subscription(Range, self.sensor, self._on_range, SENSOR_SUBSCRIBER_QOS)
 
     def _on_range(self, msg: Range) -> None:
         speeds = self.turn if msg.range < self.threshold else self.straight

@@ -53,7 +53,7 @@ from sim_runtime.msgs import (
     quaternion_from_yaw,
     time_from_msg,
 )
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.world_node import SimWorldNode
 from simrobot_sim.model import SimrobotWorld
@@ -92,7 +92,7 @@ class SimrobotWorldNode(SimWorldNode):
         self._io = [self._make_robot_io(i) for i in range(n)]
         self._map_pub = self.create_publisher(OccupancyGrid, "/map", LATCHED_QOS)
         self._map_pub.publish(self._map_msg())
-        self._robots_pub = self.create_publisher(MarkerArray, "/robots", SENSOR_QOS)
+        self._robots_pub = self.create_publisher(MarkerArray, "/robots", SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
@@ -119,7 +119,7 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)
-                pub = self.create_publisher(LaserScan, f"/{name}/{s.name}", SENSOR_QOS)
+                pub = self.create_publisher(LaserScan, f"/{name}/{s.name}", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "laser", pub, None))
                 io.msgs.append((msg, None))
             else:
@@ -129,15 +129,15 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.field_of_view = float(s.beamwidth)
                 msg.min_range = 0.0
                 msg.max_range = float(s.range)
-                pub = self.create_publisher(Range, f"/{name}/{s.name}", SENSOR_QOS)
-                obst_pub = self.create_publisher(UInt8, f"/{name}/{s.name}/obstacle", SENSOR_QOS)
+                pub = self.create_publisher(Range, f"/{name}/{s.name}", SENSOR_PUBLISHER_QOS)
+                obst_pub = self.create_publisher(UInt8, f"/{name}/{s.name}/obstacle", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "ultrasonic", pub, obst_pub))
                 io.msgs.append((msg, UInt8()))
-        io.odom_pub = self.create_publisher(Odometry, f"/{name}/odom", SENSOR_QOS)
+        io.odom_pub = self.create_publisher(Odometry, f"/{name}/odom", SENSOR_PUBLISHER_QOS)
         io.odom = Odometry()
         io.odom.header.frame_id = f"{name}/odom"
         io.odom.child_frame_id = f"{name}/base_link"
-        io.pose_pub = self.create_publisher(PoseStamped, f"/{name}/pose", SENSOR_QOS)
+        io.pose_pub = self.create_publisher(PoseStamped, f"/{name}/pose", SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
         io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
@@ -146,10 +146,10 @@ class SimrobotWorldNode(SimWorldNode):
                 TwistStamped if self.cmd_vel_stamped else Twist,
                 f"/{name}/cmd_vel",
                 lambda m, i=i: self._on_cmd_vel(i, m),
-                COMMAND_QOS,
+                COMMAND_SUBSCRIBER_QOS,
             ),
             self.create_subscription(
-                JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
+                JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_SUBSCRIBER_QOS
             ),
         ]
         io.services = [
