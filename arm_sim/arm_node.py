@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import struct
+import sys
 
 import numpy as np
 from geometry_msgs.msg import Point, PoseStamped
@@ -496,4 +497,4 @@ def main(args: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
