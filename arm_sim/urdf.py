@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import NamedTuple
 from xml.sax.saxutils import quoteattr
 
+import numba
 import numpy as np
 
 from arm_sim.robot_config import RobotConfig, load_robot_config
@@ -156,19 +157,25 @@ def joint_transforms(tree: ArmTree, q: np.ndarray) -> np.ndarray:
 
     What robot_state_publisher sends on ``/tf`` for ``joint_states`` = q: link_{k-1} → link_k.
     """
-    q = np.asarray(q, dtype=float)
-    c, s = np.cos(q), np.sin(q)
-    motion = np.zeros((len(q), 4, 4))
-    motion[:, 3, 3] = 1.0
-    motion[:, 2, 2] = 1.0
-    revolute = ~tree.prismatic
-    # Revolute: Rz(q); prismatic: Tz(q).
-    motion[:, 0, 0] = np.where(revolute, c, 1.0)
-    motion[:, 1, 1] = motion[:, 0, 0]
-    motion[:, 0, 1] = np.where(revolute, -s, 0.0)
-    motion[:, 1, 0] = np.where(revolute, s, 0.0)
-    motion[:, 2, 3] = np.where(revolute, 0.0, q)
-    return tree.moving_origins @ motion
+    out = np.empty_like(tree.moving_origins)
+    _joint_transforms_into(out, tree.moving_origins, tree.prismatic, np.asarray(q, dtype=float))
+    return out
+
+
+@numba.njit(cache=True)
+def _joint_transforms_into(out, origins, prismatic, q):
+    """out[i] = origins[i] @ (Rz(q[i]) for a revolute joint, Tz(q[i]) for a prismatic one)."""
+    out[:] = origins
+    for i in range(q.shape[0]):
+        if prismatic[i]:
+            for r in range(3):
+                out[i, r, 3] += q[i] * origins[i, r, 2]
+        else:
+            c = math.cos(q[i])
+            s = math.sin(q[i])
+            for r in range(3):
+                out[i, r, 0] = c * origins[i, r, 0] + s * origins[i, r, 1]
+                out[i, r, 1] = c * origins[i, r, 1] - s * origins[i, r, 0]
 
 
 def fixed_transforms(tree: ArmTree) -> tuple[TreeJoint, ...]:
