@@ -193,14 +193,19 @@ except Exception:  # SIGTERM from the benchmark ends the listener
 """
 
 
-def bench_node(map_path: str, pose, budget: float, subscribed: bool) -> Rate:
+def bench_node(map_path: str, pose, budget: float, subscribed: bool, tf: bool = True) -> Rate:
     """Simulated seconds per wall second of the world node at real_time_factor 0, default rates.
 
     With ``subscribed`` a listener in another process (as a user's controller would be) takes
     every topic the world publishes, so every sensor is built, serialised and sent; without it
-    the world skips the sensors nobody listens to.
+    the world skips the sensors nobody listens to. ``tf=False`` runs the world as if tf2_msgs were
+    not installed (no /tf, /tf_static), to measure what TF costs.
     """
     import rclpy
+
+    import sim_runtime.tf
+
+    saved, sim_runtime.tf.TFMessage = sim_runtime.tf.TFMessage, (sim_runtime.tf.TFMessage if tf else None)
     from rclpy.parameter import Parameter
 
     from create_sim.world_node import CreateWorldNode
@@ -244,6 +249,7 @@ def bench_node(map_path: str, pose, budget: float, subscribed: bool) -> Rate:
             listener.terminate()
             listener.wait(10)
         rclpy.shutdown()
+        sim_runtime.tf.TFMessage = saved
 
 
 _COLD_START = r"""

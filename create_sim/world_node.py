@@ -36,6 +36,7 @@ after its measurement (its stamp stays the measurement time, so the latency is v
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
 from collections.abc import Callable
@@ -65,10 +66,10 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
-from sim_runtime.world_node import SimWorldNode
+from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
 """Fixed physics rate (Hz), independent of ``real_time_factor``."""
@@ -92,11 +93,6 @@ DEFAULT_RATES: dict[str, float] = {
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 
 
-def _frame_prefix(namespace: str) -> str:
-    ns = namespace.strip("/")
-    return f"{ns}/" if ns else ""
-
-
 class CreateWorldNode(SimWorldNode):
     """The simulated Create: parameters → :class:`CreateModel`, model state → messages."""
 
@@ -104,6 +100,7 @@ class CreateWorldNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
+            self.note_compiling("create_sim.geometry", "create_sim.sensing", "create_sim.physics")
             self.model = self._make_model()
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
@@ -121,6 +118,7 @@ class CreateWorldNode(SimWorldNode):
         self._publish_static_transforms()
         self._make_inputs()
         self._publish_map_markers()
+        self.get_logger().info(self._summary())
 
     # ---------------------------------------------------------------- parameters
     def _declare_parameters(self) -> None:
@@ -186,7 +184,7 @@ class CreateWorldNode(SimWorldNode):
             )
             for name, default in DEFAULT_RATES.items()
         }
-        self.prefix = prefix or _frame_prefix(self.get_namespace())
+        self.prefix = prefix or namespace_prefix(self.get_namespace())
         self.map_file = self._resolve(map_file, "map_file")
         self.config_file = self._resolve(config_file, "config_file")
         self.world = self._load_world(self.map_file)
@@ -220,6 +218,16 @@ class CreateWorldNode(SimWorldNode):
             return load_config(path)
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
+
+    def _summary(self) -> str:
+        w = self.world
+        counts = (
+            f"{len(w.walls)} walls, {len(w.lines)} lines, {len(w.beacon_ids)} beacons, {len(w.virtwalls)} virtual walls"
+        )
+        return (
+            f"map {self.map_file or '(empty)'} ({counts}); config {self.config_file or '(noise-free)'}; "
+            f"robot at {list(self.initial_pose)}, frames {self.frame('base_link')}; {self.pace_text()}"
+        )
 
     def _change_map(self, value: str) -> None:
         """Live ``map_file``: the robot stays where it is, stopped; refused if that is inside a wall."""
@@ -263,18 +271,23 @@ class CreateWorldNode(SimWorldNode):
 
     # ---------------------------------------------------------------- topics
     def _make_publishers(self) -> None:
-        pub = self.create_publisher
-        self.pub_odom = pub(Odometry, "odom", SENSOR_PUBLISHER_QOS)
-        self.pub_overhead = pub(PoseStamped, "overhead_pose", SENSOR_PUBLISHER_QOS)
-        self.pub_bump = [pub(Range, f"bump/{side}", SENSOR_PUBLISHER_QOS) for side in ("left", "right")]
-        self.pub_wall = pub(Range, "wall", SENSOR_PUBLISHER_QOS)
-        self.pub_virtual_wall = pub(Range, "virtual_wall", SENSOR_PUBLISHER_QOS)
-        self.pub_cliff = [pub(Illuminance, f"cliff/{n}", SENSOR_PUBLISHER_QOS) for n in CLIFF_NAMES]
-        self.pub_sonar = [pub(Range, f"sonar/{n}", SENSOR_PUBLISHER_QOS) for n in SONAR_NAMES]
-        self.pub_scan = pub(LaserScan, "scan", SENSOR_PUBLISHER_QOS)
-        self.pub_camera = pub(MarkerArray, "camera/beacons", SENSOR_PUBLISHER_QOS)
-        self.pub_buttons = pub(Joy, "buttons", SENSOR_PUBLISHER_QOS)
-        self.pub_battery = pub(BatteryState, "battery_state", SENSOR_PUBLISHER_QOS)
+        def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
+            if qos is not SENSOR_PUBLISHER_QOS:
+                return self.create_publisher(msg_type, topic, qos)
+            # a copy: rclpy writes the overrides into the profile it is given
+            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+
+        self.pub_odom = pub(Odometry, "odom")
+        self.pub_overhead = pub(PoseStamped, "overhead_pose")
+        self.pub_bump = [pub(Range, f"bump/{side}") for side in ("left", "right")]
+        self.pub_wall = pub(Range, "wall")
+        self.pub_virtual_wall = pub(Range, "virtual_wall")
+        self.pub_cliff = [pub(Illuminance, f"cliff/{n}") for n in CLIFF_NAMES]
+        self.pub_sonar = [pub(Range, f"sonar/{n}") for n in SONAR_NAMES]
+        self.pub_scan = pub(LaserScan, "scan")
+        self.pub_camera = pub(MarkerArray, "camera/beacons")
+        self.pub_buttons = pub(Joy, "buttons")
+        self.pub_battery = pub(BatteryState, "battery_state")
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
         self._make_templates()
 

@@ -9,10 +9,12 @@ matches any publisher. Maps, robot descriptions and ``/tf_static`` are latched (
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
+    QoSPolicyKind,
     QoSProfile,
     ReliabilityPolicy,
     qos_profile_sensor_data,
 )
+from rclpy.qos_overriding_options import QoSOverridingOptions
 
 #: Sensor and state publishers: reliable, volatile, a short queue (REP-2003's system default).
 SENSOR_PUBLISHER_QOS = QoSProfile(
@@ -20,6 +22,12 @@ SENSOR_PUBLISHER_QOS = QoSProfile(
     depth=10,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
+)
+
+#: Lets users change a sensor publisher's QoS at start, as with any rclcpp/rclpy driver:
+#: ``-p qos_overrides./scan.publisher.reliability:=best_effort`` (read-only parameters).
+SENSOR_QOS_OVERRIDES = QoSOverridingOptions(
+    policy_kinds=(QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 )
 
 #: Subscribers to sensor streams: best effort, keep last 5 (SensorDataQoS); matches any publisher.

@@ -24,6 +24,12 @@ from sim_runtime.qos import CLOCK_QOS
 MAX_CATCH_UP_STEPS = 50
 
 
+def namespace_prefix(namespace: str) -> str:
+    """The frame prefix a node's namespace gives its robot frames: ``/robot1`` → ``robot1/``, ``/`` → ``''``."""
+    ns = namespace.strip("/")
+    return f"{ns}/" if ns else ""
+
+
 class _Scheduled:
     """A callback run whenever sim time crosses a multiple of its period."""
 
