@@ -27,7 +27,7 @@ from arm_sim.arm_node import ArmNode
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.paths import config_path, mesh_uri
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS, TF_QOS
-from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
+from sim_runtime.testing import Collector, TfBuffer, drain, spin_until, wait_for_match
 
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 
@@ -299,54 +299,6 @@ def test_demo_follows_the_trajectory_and_reaches_the_target(tmp_path):
 # --- robot_description, /tf, /tf_static -----------------------------------------------------
 
 
-def transform_matrix(t) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = matrix_from_quaternion(t.rotation)
-    T[:3, 3] = [t.translation.x, t.translation.y, t.translation.z]
-    return T
-
-
-class TfBuffer:
-    """A minimal tf2 buffer: static transforms, and moving ones per stamp; lookups chain parents.
-
-    tf2_ros is not on PyPI; this keeps what a listener of /tf and /tf_static would know.
-    """
-
-    def __init__(self, node, executor) -> None:
-        self.static: dict[str, tuple[str, np.ndarray]] = {}
-        self.moving: dict[tuple[str, float], tuple[str, np.ndarray]] = {}
-        self.static_sub = Collector(node, TFMessage, "/tf_static", LATCHED_QOS)
-        self.moving_sub = Collector(node, TFMessage, "/tf", TF_QOS)
-        assert wait_for_match(executor, self.static_sub.subscription)
-        assert wait_for_match(executor, self.moving_sub.subscription)
-
-    def update(self) -> None:
-        for msg in self.static_sub.msgs:
-            for t in msg.transforms:
-                self.static[t.child_frame_id] = (t.header.frame_id, transform_matrix(t.transform))
-        for msg in self.moving_sub.msgs:
-            for t in msg.transforms:
-                key = (t.child_frame_id, stamp_seconds(t))
-                self.moving[key] = (t.header.frame_id, transform_matrix(t.transform))
-
-    def lookup(self, root: str, frame: str, stamp: float) -> np.ndarray:
-        """Pose of ``frame`` in ``root`` at ``stamp`` (exact stamps: sim time needs no interpolation)."""
-        self.update()
-        T = np.eye(4)
-        while frame != root:
-            parent, local = self.static.get(frame) or self.moving[(frame, stamp)]
-            T = local @ T
-            frame = parent
-        return T
-
-    def can_lookup(self, root: str, frame: str, stamp: float) -> bool:
-        try:
-            self.lookup(root, frame, stamp)
-        except KeyError:
-            return False
-        return True
-
-
 def pose_matrix(msg: PoseStamped) -> np.ndarray:
     T = np.eye(4)
     T[:3, :3] = matrix_from_quaternion(msg.pose.orientation)
@@ -369,49 +321,68 @@ def test_every_arm_has_a_latched_robot_description_that_matches_its_motion(execu
         np.testing.assert_allclose(urdf.get_transform(f"{prefix}tool0", "world"), arm.arm.fkine(q), atol=1e-9)
 
 
+def tf_buffer(executor, node) -> TfBuffer:
+    buffer = TfBuffer(node)
+    for subscription in buffer.subscriptions:
+        assert wait_for_match(executor, subscription)
+    return buffer
+
+
+def synced(tf: TfBuffer, poses: Collector, tool: str, now: float) -> bool:
+    """The newest end-effector pose and the tool's moving parent frame are both from ``now``."""
+    return (
+        bool(poses.msgs)
+        and stamp_seconds(poses.last) == pytest.approx(now)
+        and tf.can_transform("world", tool)
+        and tf.stamp.get(tf.chain(tool)[1]) == pytest.approx(now)
+    )
+
+
 def test_tf_chains_every_arms_tool_frame_to_world_at_its_end_effector_pose(executor, make_node):
     world = make_arm_node(executor, scene_file="arm/workcell.yaml")
     test = make_node()
-    tf = TfBuffer(test, executor)
+    tf = tf_buffer(executor, test)
+    moving = Collector(test, TFMessage, "/tf", TF_QOS)
+    assert wait_for_match(executor, moving.subscription)
     poses = {prefix: collect(executor, test, PoseStamped, prefix + "end_effector_pose") for prefix in ("", "csa/")}
     states = collect(executor, test, JointState, "joint_states")
-    world.arm("").on_joint_command(JointState(position=[0.4, -0.3, 0.2, 0.5, -0.6, 0.7]))
-    world.arm("csa/").on_joint_command(JointState(name=["joint_2", "joint_4"], position=[0.5, -0.8]))
-    run(executor, world, 30)
-    assert spin_until(
-        executor, lambda: all(len(c.msgs) >= 15 for c in poses.values()) and len(tf.moving_sub.msgs) >= 15
-    )
-    # /tf goes with every joint state, stamped with its sim time
-    assert {stamp_seconds(m) for m in states.msgs} <= {
-        stamp_seconds(t) for m in tf.moving_sub.msgs for t in m.transforms
-    }
-    last = stamp_seconds(poses[""].last)
-    assert spin_until(executor, lambda: all(tf.can_lookup("world", f"{p}tool0", last) for p in poses))
-    for prefix, collector in poses.items():
-        for msg in collector.msgs[-15:]:
-            T = tf.lookup("world", f"{prefix}tool0", stamp_seconds(msg))
-            expected = pose_matrix(msg)
+    commands = [
+        ([0.4, -0.3, 0.2, 0.5, -0.6, 0.7], [0.5, -0.8]),
+        ([-1.0, 0.6, -0.9, -1.2, 1.1, -2.0], [-0.7, 1.1]),
+    ]
+    seen = []
+    for irb, csa in commands:
+        world.arm("").on_joint_command(JointState(position=irb))
+        world.arm("csa/").on_joint_command(JointState(name=["joint_2", "joint_4"], position=csa))
+        run(executor, world, 30)
+        now = world.sim_time
+        for prefix, collector in poses.items():
+            tool = f"{prefix}tool0"
+            assert spin_until(executor, lambda c=collector, t=tool, n=now: synced(tf, c, t, n)), prefix
+            T = tf.lookup("world", tool)
+            expected = pose_matrix(collector.last)
             assert np.abs(T[:3, 3] - expected[:3, 3]).max() <= 1e-6
             assert np.abs(T[:3, :3] - expected[:3, :3]).max() <= 1e-6
-    # the arm really moved, and the scene objects have their frames
-    assert not np.allclose(pose_matrix(poses[""].msgs[0]), pose_matrix(poses[""].msgs[-1]))
-    table = tf.lookup("world", "table", 0.0)
-    np.testing.assert_allclose(table[:3, 3], [0.55, 0.0, 0.0], atol=1e-12)
+            seen.append(T)
+    assert not np.allclose(seen[0], seen[2]) and not np.allclose(seen[1], seen[3])  # the arms moved
+    # /tf goes with every joint state, stamped with its sim time
+    tf_stamps = {stamp_seconds(t) for m in moving.msgs for t in m.transforms}
+    assert {stamp_seconds(m) for m in states.msgs} <= tf_stamps
+    assert tf.chain("csa/tool0") == ["csa/tool0", *(f"csa/link_{k}" for k in range(7, 0, -1)), "csa/base_link", "world"]
+    np.testing.assert_allclose(tf.lookup("world", "table")[:3, 3], [0.55, 0.0, 0.0], atol=1e-12)
 
 
 def test_tf_of_a_namespaced_arm_carries_the_namespace_in_its_frames(executor, make_node):
     world = ArmNode(namespace="/cell1", parameter_overrides=[Parameter("scene_file", value="arm/workcell.yaml")])
     executor.add_node(world)
     test = make_node()
-    tf = TfBuffer(test, executor)
+    tf = tf_buffer(executor, test)
     pose = collect(executor, test, PoseStamped, "/cell1/csa/end_effector_pose")
     run(executor, world, 2)
-    assert spin_until(
-        executor, lambda: pose.msgs and tf.can_lookup("world", "cell1/csa/tool0", stamp_seconds(pose.last))
-    )
-    T = tf.lookup("world", "cell1/csa/tool0", stamp_seconds(pose.last))
-    np.testing.assert_allclose(T, pose_matrix(pose.last), atol=1e-6)
-    assert "cell1/base_link" in tf.static and "cell1/table" in tf.static
+    tool = "cell1/csa/tool0"
+    assert spin_until(executor, lambda: pose.msgs and tf.can_transform("world", tool) and "cell1/table" in tf.parent)
+    np.testing.assert_allclose(tf.lookup("world", tool), pose_matrix(pose.last), atol=1e-6)
+    assert tf.chain("cell1/link_1")[-2:] == ["cell1/base_link", "world"]
 
 
 # --- parameters, as ros2 param set/get/describe reach them ------------------------------------
