@@ -60,6 +60,25 @@ def mesh_uri(path: str | os.PathLike[str]) -> str:
     return path.as_uri()
 
 
+def mesh_path(uri: str) -> Path | None:
+    """The local file a mesh URI names: ``file://`` (or a bare path), or ``package://<package>/…``
+    through the ament index, as RViz resolves it; None where it cannot be resolved here."""
+    from urllib.parse import unquote, urlparse
+
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+    parsed = urlparse(uri)
+    if parsed.scheme in ("file", ""):
+        return Path(unquote(parsed.path))
+    if parsed.scheme == "package":
+        try:
+            share = Path(get_package_share_directory(parsed.netloc, print_warning=False))
+        except (PackageNotFoundError, OSError, ValueError):
+            return None
+        return share / unquote(parsed.path).lstrip("/")
+    return None
+
+
 def _relative_to(path: Path, folder: Path) -> Path | None:
     try:
         return path.relative_to(folder)

@@ -14,7 +14,7 @@ from ament_index_python.packages import get_package_share_directory
 
 from arm_sim.robot_config import load_robot_config
 from arm_sim.urdf import arm_urdf
-from sim_runtime.paths import config_path, mesh_uri
+from sim_runtime.paths import config_path, mesh_path, mesh_uri
 
 MESH = "arm/meshes/irb120/IRB120_base.stl"
 
@@ -77,3 +77,12 @@ def test_an_installed_arms_urdf_uses_package_uris_a_ros_tool_resolves_to_the_sam
 
     urdf = yourdfpy.URDF.load(io.StringIO(text), load_meshes=True, filename_handler=resolve)
     assert len(urdf.scene.geometry) == 7
+
+
+def test_mesh_path_reads_back_both_kinds_of_uri(installed, tmp_path, monkeypatch):
+    installed_mesh = installed / "share/robot_sims/config" / MESH
+    assert mesh_path(mesh_uri(config_path(MESH))) == installed_mesh
+    mine = tmp_path / "my mesh.stl"
+    assert mesh_path(mesh_uri(mine)) == mine.resolve()
+    assert mesh_path("package://no_such_package/x.stl") is None
+    assert mesh_path("https://example.org/x.stl") is None
