@@ -488,3 +488,17 @@ def test_old_parameter_names_on_the_command_line_warn_and_still_name_a_bad_file(
     assert "'robot_config' is deprecated: use 'robot_config_file'" in done.stderr
     assert "'alpha' is deprecated: use 'marker_alpha'" in done.stderr
     assert str(missing) in done.stderr and "Traceback" not in done.stderr
+
+
+def test_without_tf2_msgs_the_arm_says_tf_is_off_once_and_keeps_working(executor, make_node, monkeypatch, capfd):
+    import sim_runtime.tf
+
+    monkeypatch.setattr(sim_runtime.tf, "TFMessage", None)
+    world = make_arm_node(executor, scene_file="arm/workcell.yaml")
+    test = make_node()
+    states = collect(executor, test, JointState, "csa/joint_states")
+    description = collect(executor, test, String, "robot_description", LATCHED_QOS)
+    run(executor, world, 4)
+    assert spin_until(executor, lambda: states.msgs and description.msgs)
+    err = capfd.readouterr().err
+    assert err.count("TF is off") == 1 and "tf2_msgs is not installed" in err
