@@ -68,7 +68,7 @@ from sim_runtime.msgs import (
 from sim_runtime.paths import config_path, resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
 from sim_runtime.run import run_nodes
-from sim_runtime.tf import TfBroadcaster, transform_msg
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
@@ -525,6 +525,11 @@ class CreateWorldNode(SimWorldNode):
                 power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH,
             ),
         }
+        if self.tf.publisher is not None:
+            moving = [(self.frame("odom"), self.frame("base_link"))]
+            if self.publish_map_tf:
+                moving.append(("map", self.frame("odom")))
+            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
         self._templates: dict[Publisher, Callable[[], Any]] = templates
         self._reusable: dict[Publisher, Any] = {}
 
@@ -605,12 +610,15 @@ class CreateWorldNode(SimWorldNode):
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
             self._send(self.pub_odom, msg)
         if self.tf.heard():
-            transforms = [transform_msg(self.frame("odom"), self.frame("base_link"), x, y, yaw=theta)]
+            msg = self._message(self.tf.publisher)
+            odom_to_base = msg.transforms[0]
+            odom_to_base.header.stamp = stamp
+            set_planar(odom_to_base, x, y, theta)
             if self.publish_map_tf:
-                transforms.append(self._map_to_odom(x, y, theta))
-            for t in transforms:
-                t.header.stamp = stamp
-            self._send(self.tf.publisher, self.tf.message(transforms))
+                map_to_odom = msg.transforms[1]
+                map_to_odom.header.stamp = stamp
+                set_planar(map_to_odom, *self._map_to_odom(x, y, theta))
+            self._send(self.tf.publisher, msg)
 
     def _odometry_covariances(self, v: float, w: float) -> tuple[np.ndarray, np.ndarray]:
         """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the noisy odometry.
@@ -629,14 +637,12 @@ class CreateWorldNode(SimWorldNode):
         twist[35] = (std * w) ** 2
         return pose, twist
 
-    def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float):
-        """Ground truth ``map → odom``: where the odometry frame's origin really is."""
+    def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float) -> tuple[float, float, float]:
+        """Ground truth ``map → odom`` (x, y, yaw): where the odometry frame's origin really is."""
         x, y, theta = self.model.pose.tolist()
         yaw = theta - odom_theta
         c, s = math.cos(yaw), math.sin(yaw)
-        return transform_msg(
-            "map", self.frame("odom"), x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw=yaw
-        )
+        return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
 
     def _publish_static_transforms(self) -> None:
         base = self.frame("base_link")

@@ -31,7 +31,6 @@ alg2) in this process, in the same executor.
 from __future__ import annotations
 
 import array
-import math
 import time
 
 import numpy as np
@@ -56,7 +55,7 @@ from sim_runtime.msgs import (
 from sim_runtime.paths import resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
-from sim_runtime.tf import TfBroadcaster, transform_msg
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
@@ -379,9 +378,7 @@ class SimrobotWorldNode(SimWorldNode):
         if self.tf.heard():
             for t, (ox, oy, oh) in zip(self._odom_tf, odom_poses.tolist(), strict=True):
                 t.header.stamp = stamp
-                tr = t.transform
-                tr.translation.x, tr.translation.y = ox, oy
-                tr.rotation.z, tr.rotation.w = math.sin(0.5 * oh), math.cos(0.5 * oh)
+                set_planar(t, ox, oy, oh)
             self.tf.send(self._odom_tf)
         self._published_wall = self._republished_wall = time.monotonic()
 
