@@ -25,14 +25,21 @@ def config_path(relative: str) -> Path:
 
 
 def package_share_dir() -> Path | None:
-    """``share/robot_sims`` as the ament index finds it (AMENT_PREFIX_PATH), or None."""
-    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    """``share/robot_sims`` as the ament index finds it (AMENT_PREFIX_PATH), or None (also
+    without ROS at all: the URDF and the models work there too)."""
+    share = _share_dir(PACKAGE_NAME)
+    return share.resolve() if share is not None and share.is_dir() else None
 
+
+def _share_dir(package: str) -> Path | None:
     try:
-        share = Path(get_package_share_directory(PACKAGE_NAME, print_warning=False))
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    except ImportError:
+        return None
+    try:
+        return Path(get_package_share_directory(package, print_warning=False))
     except (PackageNotFoundError, OSError, ValueError):
         return None
-    return share.resolve() if share.is_dir() else None
 
 
 def mesh_uri(path: str | os.PathLike[str]) -> str:
@@ -65,17 +72,12 @@ def mesh_path(uri: str) -> Path | None:
     through the ament index, as RViz resolves it; None where it cannot be resolved here."""
     from urllib.parse import unquote, urlparse
 
-    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-
     parsed = urlparse(uri)
     if parsed.scheme in ("file", ""):
         return Path(unquote(parsed.path))
     if parsed.scheme == "package":
-        try:
-            share = Path(get_package_share_directory(parsed.netloc, print_warning=False))
-        except (PackageNotFoundError, OSError, ValueError):
-            return None
-        return share / unquote(parsed.path).lstrip("/")
+        share = _share_dir(parsed.netloc)
+        return None if share is None else share / unquote(parsed.path).lstrip("/")
     return None
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import shutil
+import sys
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
@@ -86,3 +87,9 @@ def test_mesh_path_reads_back_both_kinds_of_uri(installed, tmp_path, monkeypatch
     assert mesh_path(mesh_uri(mine)) == mine.resolve()
     assert mesh_path("package://no_such_package/x.stl") is None
     assert mesh_path("https://example.org/x.stl") is None
+
+
+def test_without_ros_at_all_meshes_get_file_uris(installed, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ament_index_python.packages", None)  # as where ROS is not installed
+    assert mesh_uri(config_path(MESH)) == config_path(MESH).resolve().as_uri()
+    assert mesh_path(f"package://robot_sims/config/{MESH}") is None
