@@ -28,6 +28,7 @@ from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -35,6 +36,7 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
 from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -96,6 +98,7 @@ class CreateWorldNode(SimWorldNode):
         self.tf = TfBroadcaster(self)
         self._make_publishers()
         self._publish_static_transforms()
+        self.create_publisher(String, "robot_description", LATCHED_QOS).publish(String(data=create_urdf(self.prefix)))
         self._make_inputs()
         self._publish_map_markers()
         self.get_logger().info(self._summary())
