@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
+import socket
 import sys
 from dataclasses import dataclass, field
 
@@ -24,8 +25,16 @@ class Studio:
     ros: object = None  # studio.ros_client.StudioRos once the app has started
     worlds: dict[str, Child] = field(default_factory=dict)  # namespace → world the studio started
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
+    selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
     recording_to: str = ""
+
+    def default_robot(self, names: list[str], current: str | None) -> str | None:
+        """What a robot selector shows: its current choice, else the studio's, else the first."""
+        for choice in (current, self.selected):
+            if choice in names:
+                return choice
+        return names[0] if names else None
 
     def stop_children(self) -> None:
         children = [self.recorder, *self.running_controllers.values(), *self.worlds.values()]
@@ -81,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
         controllers.update(parse_controller(spec) for spec in options.controller)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
+        return 2
+    try:  # a taken port or unknown address: one line, not uvicorn's traceback
+        with socket.create_server((options.host, options.port)):
+            pass
+    except OSError as err:
+        print(f"error: cannot listen on {options.host}:{options.port}: {err.strerror or err}", file=sys.stderr)
         return 2
     warning = host_warning(options.host)
     if warning:

@@ -404,7 +404,8 @@ class MapMakerPage:
         ros = self.studio.ros
         names = ros.namespaces() if ros is not None else []
         if names != list(self.world_select.options):
-            self.world_select.set_options({ns: ns or "/" for ns in names}, value=names[0] if names else None)
+            value = self.studio.default_robot(names, self.world_select.value)
+            self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)
 
     async def apply_to_world(self) -> None:
         ns = self.world_select.value

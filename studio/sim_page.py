@@ -229,6 +229,8 @@ class SimulatorPage:
 
     async def on_select(self, e) -> None:
         self.selected = e.value
+        if e.value is not None:
+            self.studio.selected = e.value
         self.view_dirty = True
         if self.robot() is None:
             return
@@ -245,7 +247,7 @@ class SimulatorPage:
             return
         names = ros.namespaces()
         if names != list(self.robot_select.options):
-            value = self.selected if self.selected in names else (names[0] if names else None)
+            value = self.studio.default_robot(names, self.selected)
             self.robot_select.set_options({ns: ns or "/" for ns in names}, value=value)
         self.no_world.set_visibility(not names)
         st = self.robot()
@@ -507,7 +509,9 @@ class SimulatorPage:
         else:
             return
         self.world_label.set_text("")
-        self.selected = ns
+        self.selected = self.studio.selected = ns
+        if ns in self.robot_select.options:
+            self.robot_select.set_value(ns)
         self.fitted.discard(ns)
         self.view_dirty = True
         ui.notify(f"world started in {ns or '/'}")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -226,3 +227,18 @@ def test_the_view_maps_pixels_back_to_the_same_world_point():
     px, py = view.to_px(0.3, 0.7)
     assert view.to_world(float(px), float(py)) == (pytest.approx(0.3), pytest.approx(0.7))
     assert draw.hex_rgb(draw.rgb_hex((1.0, 0.5, 0.0))) == (1.0, 0.502, 0.0)
+
+
+def test_a_taken_port_is_one_error_line_and_status_2(tmp_path):
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        result = subprocess.run(
+            [sys.executable, "-m", "studio", "--workspace", str(tmp_path), "--port", str(port)],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=60,
+        )
+    assert result.returncode == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith(f"error: cannot listen on 127.0.0.1:{port}: ")
