@@ -119,8 +119,14 @@ class SimulatorPage:
     def build(self) -> None:
         studio = self.studio
         nav("/")
-        # Keys still drive after a click on a button or checkbox (those lose focus at once, see
-        # drive_button); only typing in a text field is left alone.
+        # Keys still drive after a click on a button, switch or checkbox: a clicked control gives the
+        # focus back at once, so Space stops the robot instead of pressing Record again. Only
+        # typing in a text field is left alone.
+        ui.add_body_html(
+            "<script>document.addEventListener('pointerup', (e) => {"
+            " const c = e.target.closest && e.target.closest('button, .q-toggle, .q-checkbox, .q-btn');"
+            " if (c) setTimeout(() => document.activeElement && document.activeElement.blur(), 0); });</script>"
+        )
         ui.keyboard(on_key=self.on_key, ignore=["input", "select", "textarea"])
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
@@ -396,14 +402,13 @@ class SimulatorPage:
             self.change(*change)
 
     def drive_button(self, text: str, linear: int, angular: int) -> ui.button:
-        """An arrow button (■ = stop); it gives the focus back so Space does not press it again."""
+        """An arrow button (■ = stop)."""
 
         def clicked() -> None:
             if linear or angular:
                 self.change(linear, angular)
             else:
                 self.stop()
-            ui.run_javascript("document.activeElement && document.activeElement.blur()")
 
         return ui.button(text, on_click=clicked).props("dense")
 

@@ -240,10 +240,16 @@ def test_a_new_world_on_the_saved_map_shows_the_lidar_hitting_its_walls(browser,
 
 def test_the_keyboard_drives_the_create_forward(browser, listener):
     executor, odom, _pose = listener
-    browser.execute_script("document.activeElement && document.activeElement.blur()")
-    ActionChains(browser).send_keys(Keys.ARROW_UP).perform()
+    find(browser, ".studio-forward").click()  # 0.1 m/s; the keys must still work after a click
+    wait(browser, lambda d: d.execute_script("return document.activeElement === document.body"))  # focus given back
+    ActionChains(browser).send_keys(Keys.ARROW_UP).perform()  # 0.2 m/s
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.2), timeout=15.0)
     assert spin_until(executor, lambda: odom.last.pose.pose.position.x > 0.05, timeout=15.0)
-    ActionChains(browser).send_keys(" ").perform()
+    ActionChains(browser).send_keys(" ").perform()  # stop, without pressing the clicked button again
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    ActionChains(browser).send_keys("w").perform()  # WASD as create_teleop
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.1), timeout=15.0)
+    ActionChains(browser).send_keys(Keys.ENTER).perform()
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
 
 
