@@ -14,6 +14,8 @@ from studio.processes import Child, parse_controller
 from studio.workspace import Workspace
 
 DEFAULT_CONTROLLERS = {"create_bump_turn": "create_bump_turn"}
+WHEEL_JS = "(e) => emit({dy: e.deltaY, x: e.offsetX, y: e.offsetY, w: e.target.clientWidth, h: e.target.clientHeight})"
+"""A view's wheel events, reduced to what zooming needs (pixel position, scroll direction)."""
 
 
 @dataclass

@@ -53,6 +53,13 @@ class View:
         """Zoom about the image centre, within 5..2000 px/m."""
         self.scale = min(max(self.scale * factor, 5.0), 2000.0)
 
+    def zoom_at(self, px: float, py: float, factor: float) -> None:
+        """Zoom keeping the world point under pixel (px, py) where it is (the mouse wheel)."""
+        x, y = self.to_world(px, py)
+        self.zoom(factor)
+        self.centre_x = x - (px - self.width_px / 2) / self.scale
+        self.centre_y = y + (py - self.height_px / 2) / self.scale
+
     def fit(self, xs: np.ndarray, ys: np.ndarray, margin_m: float = 0.5) -> None:
         """Centre and scale so that the points (plus a margin) fill the image."""
         if len(xs) == 0:

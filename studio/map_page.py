@@ -11,7 +11,7 @@ from nicegui import ui
 from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import Studio, nav
+from studio.app import WHEEL_JS, Studio, nav
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
 from studio.workspace import MAX_UPLOAD_BYTES
 
@@ -74,6 +74,7 @@ class MapMakerPage:
                     .classes("studio-map-view")
                     .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fff;outline:1px solid #bbb")
                 )
+                self.image.on("wheel.prevent", self.on_wheel, js_handler=WHEEL_JS, throttle=0.05)
                 self.preview = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
                     ui.select(GRID_STEPS, value=self.grid, label="snap to grid", on_change=self.on_grid).classes("w-32")
@@ -177,6 +178,13 @@ class MapMakerPage:
     def zoom(self, factor: float) -> None:
         self.view.zoom(factor)
         self.redraw()
+
+    def on_wheel(self, e) -> None:
+        a = e.args
+        if a.get("w") and a.get("h"):
+            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
+            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+            self.redraw()
 
     def fit(self) -> None:
         w = self.doc.to_map()

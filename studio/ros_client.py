@@ -267,7 +267,7 @@ class StudioRos:
         msg.pose = pose_msg(x, y, theta)
         self._robots[ns].set_pose.publish(msg)
 
-    async def _call(self, client, request, timeout: float = 5.0):
+    async def _call(self, client, request, timeout: float = 15.0):
         if not client.wait_for_service(timeout_sec=0.0):
             deadline = time.monotonic() + timeout
             while not client.service_is_ready():

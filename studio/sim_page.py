@@ -13,7 +13,7 @@ from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import Studio, nav
+from studio.app import WHEEL_JS, Studio, nav
 from studio.processes import Child, controller_command, executable_command, world_ros_args
 
 VIEW_SIZE = (800, 600)
@@ -140,6 +140,7 @@ class SimulatorPage:
                     .classes("studio-view")
                     .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fafafa;outline:1px solid #bbb")
                 )
+                self.image.on("wheel.prevent", self.on_wheel, js_handler=WHEEL_JS, throttle=0.05)
                 self.dynamic = self.image.add_layer()
                 self.overlay = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
@@ -326,6 +327,13 @@ class SimulatorPage:
     def zoom(self, factor: float) -> None:
         self.view.zoom(factor)
         self.view_dirty = True
+
+    def on_wheel(self, e) -> None:
+        a = e.args
+        if a.get("w") and a.get("h"):
+            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
+            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+            self.view_dirty = True
 
     def fit(self) -> None:
         st = self.robot()

@@ -242,3 +242,11 @@ def test_a_taken_port_is_one_error_line_and_status_2(tmp_path):
     assert result.returncode == 2
     (line,) = result.stderr.strip().splitlines()
     assert line.startswith(f"error: cannot listen on 127.0.0.1:{port}: ")
+
+
+def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
+    view = draw.View(centre_x=1.0, centre_y=2.0, scale=50.0)
+    before = view.to_world(620.0, 130.0)
+    view.zoom_at(620.0, 130.0, 1.2)
+    assert view.scale == 60.0
+    assert view.to_world(620.0, 130.0) == (pytest.approx(before[0]), pytest.approx(before[1]))
