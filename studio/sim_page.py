@@ -398,7 +398,8 @@ class SimulatorPage:
 
     # ---------------------------------------------------------------- driving
     def on_key(self, e) -> None:
-        if not e.action.keydown or e.modifiers.ctrl or e.modifiers.alt or e.modifiers.meta:
+        # One step per press: a held key (auto-repeat) does not run the speed up to the limit.
+        if not e.action.keydown or e.action.repeat or e.modifiers.ctrl or e.modifiers.alt or e.modifiers.meta:
             return
         name = e.key.name if len(e.key.name) > 1 else e.key.name.lower()
         if name not in KEYS:
