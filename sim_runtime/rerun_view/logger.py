@@ -652,9 +652,18 @@ class RerunLogger:
                 self._mount(robot, leaf, mount)  # a sensor drawn before its mount arrived
 
     # ---------------------------------------------------------------- plots and events
-    def _scalar(self, tab: str, robot: str, name: str, value: float, color: tuple[int, int, int] | None = None) -> None:
-        """Plot ``value`` as series ``name`` of ``robot`` in plot tab ``tab``."""
-        entity = f"plots/{tab}/{_path_part(robot)}/{_path_part(name)}"
+    def _scalar(
+        self,
+        tab: str,
+        robot: str,
+        key: str,
+        value: float,
+        color: tuple[int, int, int] | None = None,
+        name: str | None = None,
+    ) -> None:
+        """Plot ``value`` as series ``key`` (legend: ``name``, default the key) of ``robot`` in tab ``tab``."""
+        entity = f"plots/{tab}/{_path_part(robot)}/{_path_part(key)}"
+        name = name or key
         series = self._series.get(entity)
         if series is None:
             if color is None:
@@ -824,10 +833,10 @@ class RerunLogger:
                 self._robot_pose(robot, x, y, yaw)
             else:
                 color = self._robot_series_color(robot)
-                self._scalar("odom_error", robot.name, "position (m)", math.hypot(x - truth[0], y - truth[1]), color)
-                self._scalar(
-                    "odom_error", robot.name, "heading (rad)", math.remainder(yaw - truth[2], 2 * math.pi), None
-                )
+                error = math.hypot(x - truth[0], y - truth[1])
+                self._scalar("odom_error", robot.name, "position_m", error, color, "position (m)")
+                error = math.remainder(yaw - truth[2], 2 * math.pi)
+                self._scalar("odom_error", robot.name, "heading_rad", error, _darker(color), "heading (rad)")
         self._set_time(now)
 
     def _robot_series_color(self, robot: _Robot) -> tuple[int, int, int] | None:
@@ -971,15 +980,16 @@ class RerunLogger:
 
     def _battery(self, topic: str, msg) -> None:
         robot = _namespace(topic) or "robot"
-        self._scalar("battery", robot, "voltage (V)", msg.voltage)
-        self._scalar("battery", robot, "charge (%)", 100.0 * msg.percentage)
+        self._scalar("battery", robot, "voltage_v", msg.voltage, name="voltage (V)")
+        self._scalar("battery", robot, "charge_percent", 100.0 * msg.percentage, name="charge (%)")
 
     def _joy(self, topic: str, msg) -> None:
         robot = _namespace(topic) or "robot"
+        base = _basename(topic)
         for i, value in enumerate(msg.buttons):
-            self._scalar("buttons", robot, f"{_basename(topic)} button {i}", float(value))
+            self._scalar("buttons", robot, f"{base}_button{i}", float(value), name=f"{base} button {i}")
         for i, value in enumerate(msg.axes):
-            self._scalar("buttons", robot, f"{_basename(topic)} axis {i}", float(value))
+            self._scalar("buttons", robot, f"{base}_axis{i}", float(value), name=f"{base} axis {i}")
 
     def _twist_stamped(self, topic: str, msg) -> None:
         self._twist(topic, msg.twist)
@@ -988,8 +998,9 @@ class RerunLogger:
         robot = _namespace(topic) or "robot"
         r = self._robots.get(robot)
         color = self._robot_series_color(r) if r else None
-        self._scalar("commands", robot, f"{_basename(topic)} linear (m/s)", twist.linear.x, color)
-        self._scalar("commands", robot, f"{_basename(topic)} angular (rad/s)", twist.angular.z, _darker(color))
+        base = _basename(topic)
+        self._scalar("commands", robot, f"{base}_linear_x", twist.linear.x, color, f"{base} linear (m/s)")
+        self._scalar("commands", robot, f"{base}_angular_z", twist.angular.z, _darker(color), f"{base} angular (rad/s)")
 
     def _joint_state(self, topic: str, msg) -> None:
         names = list(msg.name) or [f"joint{i + 1}" for i in range(len(msg.position))]
@@ -998,7 +1009,7 @@ class RerunLogger:
             r = self._robots.get(ns or "robot")
             color = self._robot_series_color(r) if r else None
             for side, value, c in zip(("left", "right"), msg.velocity, (color, _darker(color)), strict=False):
-                self._scalar("commands", ns or "robot", f"wheel {side} (rad/s)", float(value), c)
+                self._scalar("commands", ns or "robot", f"wheel_{side}", float(value), c, f"wheel {side} (rad/s)")
             return
         for field_name in ("position", "velocity", "effort"):
             values = getattr(msg, field_name)
