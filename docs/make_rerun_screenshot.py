@@ -151,7 +151,7 @@ def _sheet(rows: list[tuple[str, list[tuple[str, Image.Image]]]]) -> Image.Image
     for view_name, tiles in rows:
         x = 8
         for moment, tile in tiles:
-            draw.text((x, y + 4), f"{view_name} — {moment}", fill="black")
+            draw.text((x, y + 4), f"{view_name}: {moment}", fill="black")
             sheet.paste(tile, (x, y + caption))
             x += tile.width + 8
         y += max(t.height for _, t in tiles) + caption + 8

@@ -27,7 +27,7 @@ from rerun_test_helpers import (
     write_bag,
 )
 from sensor_msgs.msg import Range
-from std_msgs.msg import String
+from std_msgs.msg import Bool, String
 
 from create_sim import mounts
 from sim_runtime.bag.reader import BagWarning
@@ -316,3 +316,20 @@ def test_odometry_is_aligned_with_truth_even_when_it_comes_first(tmp_path):
     assert not [e for e in ents if e.startswith("/plots/odom_error")]  # no error at all: nothing plotted
     odom_track = column(ents["/top/map/tracks/robot/odom/0"], "LineStrips2D:strips")[-1][0]
     assert odom_track[-1] == pytest.approx([1.0, 2.9], abs=1e-5)  # each odometry pose waited for its truth
+
+
+def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
+    msgs = simrobot_messages() + [
+        ("/r1/crashed", Bool(data=False), 0.0),
+        ("/r1/crashed", Bool(data=True), 3.0),
+        ("/r1/crashed", Bool(data=False), 4.5),
+    ]
+    ents = load_entities(
+        bag_to_rerun(write_bag(tmp_path / "s.mcap", sorted(msgs, key=lambda m: m[2])), tmp_path / "s.rrd")
+    )
+    events = ents["/events/r1"]
+    assert [t[0] for t in column(events, "TextLog:text")] == ["r1: crashed", "r1: crash cleared"]
+    assert [lv[0] for lv in column(events, "TextLog:level")] == ["WARN", "INFO"]
+    marks = ents["/top/map/marks/r1/crashes"]
+    assert column(marks, "Points2D:labels") == [["crash 3.0 s"]]
+    assert column(marks, "Points2D:positions")[0][0] == pytest.approx([0.3, 0.0])  # r1's pose at 3 s

@@ -136,6 +136,8 @@ def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_pat
 
     data = tracks_from_bag(bag)
     assert sorted(data.tracks) == sorted(world.model.names)
+    # draw_tracks' PNG uses the same colours as the Rerun views: the world file's
+    assert {n: tuple(round(255 * c) for c in rgb) for n, rgb in data.colors.items()} == colors
     assert data.image.shape == (world.spec.walls.shape[1], world.spec.walls.shape[0])
 
 

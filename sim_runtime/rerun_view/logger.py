@@ -43,6 +43,7 @@ from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 from urllib.parse import unquote, urlparse
 
 import numpy as np
@@ -219,6 +220,40 @@ def robots_in_topics(topics: Iterable[str]) -> list[str]:
     return sorted(names)
 
 
+class Outline(NamedTuple):
+    """A robot's outline drawn by its world (SIMROBOT's ``/robots``): where and in which colour."""
+
+    centre: np.ndarray
+    color: tuple[int, int, int]
+    size_m: float
+
+
+def robot_outlines(markers) -> list[Outline]:
+    """The outlines in a ``/robots`` MarkerArray: each marker's points are on its pose (the robot's)."""
+    outlines = []
+    for m in markers:
+        pts = _points(m.points)[:, :2]
+        if m.action != 0 or not len(pts):
+            continue
+        yaw = yaw_from_quaternion(m.pose.orientation)
+        c, s = math.cos(yaw), math.sin(yaw)
+        local = pts.mean(axis=0)
+        centre = np.array(
+            [m.pose.position.x + c * local[0] - s * local[1], m.pose.position.y + s * local[0] + c * local[1]]
+        )
+        outlines.append(Outline(centre, _rgba(m.color)[:3], float(np.max(np.linalg.norm(pts, axis=1)))))
+    return outlines
+
+
+def outline_at(outlines: list[Outline], x: float, y: float) -> Outline | None:
+    """The outline whose centre is nearest (x, y), if within SIMROBOT_MATCH_M."""
+    if not outlines:
+        return None
+    dist = [math.hypot(o.centre[0] - x, o.centre[1] - y) for o in outlines]
+    best = int(np.argmin(dist))
+    return outlines[best] if dist[best] <= SIMROBOT_MATCH_M else None
+
+
 def robot_color(name: str, names: list[str]) -> tuple[int, int, int]:
     """The colour of a robot the world gives none (rgb 0–255): by its place in the sorted names."""
     index = names.index(name) if name in names else len(names)
@@ -309,7 +344,7 @@ class RerunLogger:
         self._robots: dict[str, _Robot] = {}
         self._create_namespaces: set[str] = set()
         self._outlined = False  # the world draws its robots' outlines in colour (SIMROBOT's /robots)
-        self._outlines: list[tuple[np.ndarray, tuple[int, int, int], float]] = []  # centre, colour, size
+        self._outlines: list[Outline] = []
         self._marker_entities: dict[str, set[str]] = {}
         self._static_meshes: dict[str, str] = {}
         self._binary_state: dict[str, bool] = {}
@@ -589,17 +624,11 @@ class RerunLogger:
 
     def _match_outlines(self) -> None:
         """Give each SIMROBOT robot the colour of the ``/robots`` outline around its pose."""
-        if not self._outlines:
-            return
         for robot in self._robots.values():
-            if robot.color is not None or robot.pose is None:
-                continue
-            xy = np.array(robot.pose[:2])
-            dist = [float(np.linalg.norm(c - xy)) for c, _, _ in self._outlines]
-            best = int(np.argmin(dist))
-            if dist[best] <= SIMROBOT_MATCH_M:
-                _, color, size = self._outlines[best]
-                self._set_color(robot, color, size)
+            if robot.color is None and robot.pose is not None:
+                outline = outline_at(self._outlines, *robot.pose[:2])
+                if outline is not None:
+                    self._set_color(robot, outline.color, outline.size_m)
 
     def _frame_entity(self, frame_id: str) -> str:
         """The entity of a frame: the map, the 3-D world, a robot, or a sensor mounted on a robot."""
@@ -904,8 +933,10 @@ class RerunLogger:
                 shape = _arc(fov, r) if fov > 0 else np.array([[0, 0], [r, 0]], dtype=np.float32)
                 self.rec.log(
                     f"{entity}/hit",
-                    rr.LineStrips2D([shape], radii=rr.Radius.ui_points(3.0), colors=[HIT_COLOR], draw_order=35),
-                    rr.Points2D([[r, 0.0]], radii=rr.Radius.ui_points(3.5), colors=[HIT_COLOR], draw_order=36),
+                    rr.LineStrips2D(
+                        [shape], radii=rr.Radius.ui_points(3.0 if fov > 0 else 1.2), colors=[HIT_COLOR], draw_order=35
+                    ),
+                    rr.Points2D([[r, 0.0]], radii=rr.Radius.ui_points(4.0), colors=[HIT_COLOR], draw_order=36),
                 )
             else:
                 self.rec.log(f"{entity}/hit", rr.Clear(recursive=False))
@@ -1080,21 +1111,7 @@ class RerunLogger:
             self._marker_entities[topic] = seen
 
     def _outlines_from(self, markers) -> None:
-        outlines = []
-        for m in markers:
-            pts = _points(m.points)[:, :2]
-            if m.action == 0 and len(pts):
-                # points are on the marker's pose (the robot's): its centre on the map
-                yaw = yaw_from_quaternion(m.pose.orientation)
-                c, s = math.cos(yaw), math.sin(yaw)
-                local = pts.mean(axis=0)
-                centre = np.array([m.pose.position.x, m.pose.position.y]) + [
-                    c * local[0] - s * local[1],
-                    s * local[0] + c * local[1],
-                ]
-                size = float(np.max(np.linalg.norm(pts, axis=1)))
-                outlines.append((centre, _rgba(m.color)[:3], size))
-        self._outlines = outlines
+        self._outlines = robot_outlines(markers)
         self._match_outlines()
 
     def _marker_2d(self, entity: str, m, static: bool, is_map: bool) -> bool:
