@@ -113,9 +113,9 @@ SERIES_COLORS = [
     (44, 160, 44),
     (214, 39, 40),
     (148, 103, 189),
-    (23, 190, 207),
     (140, 86, 75),
     (227, 119, 194),
+    (23, 190, 207),
 ]
 """Distinct colours for the series of one plot (tab10's, without grey and olive)."""
 
@@ -801,10 +801,11 @@ class RerunLogger:
         p = msg.pose.position
         if base == WORLD:
             self._grow_world(np.array([[p.x, p.y, p.z]]))
-            axes = rr.TransformAxes3D(AXES_LENGTH_M if _basename(topic) not in PATH_TOPICS else 0.6 * AXES_LENGTH_M)
-            label = rr.Points3D([[0, 0, 0]], radii=0.004, colors=[HEADING_COLOR], labels=[_basename(topic)])
-            self.rec.log(entity, _pose_transform(msg.pose), axes, label)
-            if _basename(topic) in PATH_TOPICS:
+            if _basename(topic) not in PATH_TOPICS:  # a target: axes and its name
+                label = rr.Points3D([[0, 0, 0]], radii=0.006, colors=[HEADING_COLOR], labels=[_basename(topic)])
+                self.rec.log(entity, _pose_transform(msg.pose), rr.TransformAxes3D(AXES_LENGTH_M), label)
+            else:  # the flange: small axes and the path it followed
+                self.rec.log(entity, _pose_transform(msg.pose), rr.TransformAxes3D(0.6 * AXES_LENGTH_M))
                 path = self._paths.setdefault(
                     topic, _Track(f"{WORLD}/paths/{_topic_path(topic)}", (230, 120, 0), 2.0, dims=3)
                 )
