@@ -165,6 +165,7 @@ def test_live_view_of_the_create_world(executor, tmp_path):
     out = tmp_path / "live.rrd"
     rec.save(out)
     view = attach_live_view(world, recording=rec, discover=False)
+    assert "/tf_static" in view.subscriptions  # sensor mounts from TF, as RViz gets them
     for _ in range(10):  # 1 s, as run_nodes does at real_time_factor 0: step, then handle callbacks
         world.step(10)
         drain(executor)

@@ -377,7 +377,7 @@ class RerunLogger:
         for topic in topics:
             if _basename(topic) == "overhead_pose":
                 self._create_namespaces.add(_namespace(topic))
-            if topic.strip("/") == "robots":
+            if _basename(topic) == "robots":
                 self._outlined = True
 
     @property
@@ -1101,7 +1101,7 @@ class RerunLogger:
                 self._marker_3d(entity, m, static)
             else:
                 grew |= self._marker_2d(entity, m, static, base == MAP and label == "map_markers")
-        if topic.strip("/") == "robots":
+        if _basename(topic) == "robots":
             self._outlines_from(markers)
         if grew:
             self._log_grid()

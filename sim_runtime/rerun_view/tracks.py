@@ -60,7 +60,9 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
         for t, kind in bag.topics.items()
         if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"
     }
-    outline_topics = {t for t, kind in bag.topics.items() if t == "/robots" and kind.endswith("/MarkerArray")}
+    outline_topics = {
+        t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "robots" and kind.endswith("/MarkerArray")
+    }
     outlines = []
 
     points: dict[str, list[tuple[float, float]]] = {}
