@@ -121,10 +121,10 @@ def test_events_have_levels_and_are_logged_on_and_off(tmp_path):
         )
     )
     assert events == [
-        ("robot: bump_left on", "INFO"),
-        ("robot: bump_left off", "INFO"),
-        ("robot: cliff_left on", "INFO"),
-        ("robot: cliff_left off", "INFO"),
+        ("    0.40 s  robot: bump_left on", "INFO"),
+        ("    0.60 s  robot: bump_left off", "INFO"),
+        ("    0.80 s  robot: cliff_left on", "INFO"),
+        ("    0.82 s  robot: cliff_left off", "INFO"),
     ]
 
 
@@ -328,7 +328,10 @@ def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
         bag_to_rerun(write_bag(tmp_path / "s.mcap", sorted(msgs, key=lambda m: m[2])), tmp_path / "s.rrd")
     )
     events = ents["/events/r1"]
-    assert [t[0] for t in column(events, "TextLog:text")] == ["r1: crashed", "r1: crash cleared"]
+    assert [t[0] for t in column(events, "TextLog:text")] == [
+        "    3.00 s  r1: crashed",
+        "    4.50 s  r1: crash cleared",
+    ]
     assert [lv[0] for lv in column(events, "TextLog:level")] == ["WARN", "INFO"]
     marks = ents["/top/map/marks/r1/crashes"]
     assert column(marks, "Points2D:labels") == [["crash 3.0 s"]]

@@ -84,6 +84,9 @@ SIMROBOT_HEADING_M = 0.1
 SIMROBOT_MATCH_M = 0.3
 """A ``/robots`` outline belongs to the robot whose pose is nearest its centre, within this."""
 AXES_LENGTH_M = 0.15
+MARK_MERGE_NS = 500_000_000
+MARK_MERGE_M = 0.3
+"""Contacts this close in time and place make one mark (a frontal hit presses both bumpers)."""
 
 TRUTH_POSE_TOPICS = ("overhead_pose", "pose")
 STATIC_MARKER_TOPICS = ("map_markers", "scene_markers")
@@ -306,6 +309,7 @@ class _Robot:
     mounts: dict[str, Mount] = field(default_factory=dict)  # sensor leaf → mount drawn
     heading_m: float = SIMROBOT_HEADING_M
     marks: dict[str, list[tuple[float, float, str]]] = field(default_factory=dict)
+    last_mark: dict[str, tuple[int, float, float]] = field(default_factory=dict)
 
 
 @dataclass
@@ -438,7 +442,7 @@ class RerunLogger:
             side.append(rrb.Tabs(*plots, name="Plots"))
         if self.has_events:
             columns = rrb.TextLogColumns(
-                timeline_columns=[rrb.encodings.TimelineColumn(TIMELINE)],
+                timeline_columns=[rrb.encodings.TimelineColumn(TIMELINE, visible=False)],
                 text_log_columns=[rrb.encodings.TextLogColumn("LogLevel"), rrb.encodings.TextLogColumn("Body")],
             )
             side.append(rrb.TextLogView(origin="/events", name="Events", columns=columns))
@@ -752,11 +756,18 @@ class RerunLogger:
         if not self.has_events:
             self.has_events = True
             self.layout_version += 1
-        self.rec.log(f"events/{_path_part(robot)}", rr.TextLog(f"{robot}: {text}", level=level))
+        # The time is in the text too: the viewer's time column is too narrow to read.
+        line = f"{self._t_ns / 1e9:8.2f} s  {robot}: {text}"
+        self.rec.log(f"events/{_path_part(robot)}", rr.TextLog(line, level=level))
 
     def _mark(self, robot: _Robot, kind: str, x: float, y: float, text: str) -> None:
         """A mark that stays on the map: a cross where it happened, labelled with what and when."""
         marks = robot.marks.setdefault(kind, [])
+        if robot.last_mark.get(kind) is not None:
+            t, mx, my = robot.last_mark[kind]
+            if self._t_ns - t < MARK_MERGE_NS and math.hypot(x - mx, y - my) < MARK_MERGE_M:
+                return  # both bumpers of one frontal hit: one mark
+        robot.last_mark[kind] = (self._t_ns, x, y)
         marks.append((x, y, f"{text} {_seconds(self._t_ns)}"))
         color, half = (CRASH_COLOR, 0.05) if kind == "crashes" else (CONTACT_COLOR, 0.035)
         strips = [s for mx, my, _ in marks for s in _cross(mx, my, half)]
