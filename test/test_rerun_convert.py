@@ -336,3 +336,18 @@ def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
     marks = ents["/top/map/marks/r1/crashes"]
     assert column(marks, "Points2D:labels") == [["crash 3.0 s"]]
     assert column(marks, "Points2D:positions")[0][0] == pytest.approx([0.3, 0.0])  # r1's pose at 3 s
+
+
+def test_a_frontal_hit_pressing_both_bumpers_leaves_one_mark(tmp_path):
+    msgs = create_messages()
+    for topic, msg, t in list(msgs):
+        if topic == "/bump/left":
+            right = Range(radiation_type=msg.radiation_type, min_range=0.0, max_range=0.0, range=msg.range)
+            right.header.stamp, right.header.frame_id = msg.header.stamp, "bump_right"
+            msgs.append(("/bump/right", right, t))
+    ents = load_entities(
+        bag_to_rerun(write_bag(tmp_path / "b.mcap", sorted(msgs, key=lambda m: m[2])), tmp_path / "b.rrd")
+    )
+    assert column(ents["/top/map/marks/robot/contacts"], "Points2D:labels")[-1] == ["bump 0.4 s"]
+    texts = [t[0] for t in column(ents["/events/robot"], "TextLog:text")]
+    assert sum("on" in t.split(": ")[1] for t in texts) == 3  # both bumpers (and the cliff) still in the log
