@@ -90,6 +90,19 @@ def _show_tab(viewer, view_id: str) -> None:
         viewer.client.set_blueprint(bp.blueprint, store_id=bp.store_id)
 
 
+def _settled(client, view_id: str | None = None, max_size: int | None = None) -> bytes:
+    """A screenshot once the picture stops changing: the viewer fetches a recording's chunks on
+    demand, so right after a time change some entities are not drawn yet."""
+    previous = None
+    deadline = time.monotonic() + 20
+    while True:
+        png = client.take_screenshot(view_id, max_size=max_size)
+        if png == previous or time.monotonic() > deadline:
+            return png
+        previous = png
+        time.sleep(1.0)
+
+
 def _png(data: bytes) -> Image.Image:
     return Image.open(io.BytesIO(data)).convert("RGB")
 
@@ -121,7 +134,7 @@ def screenshots(viewer: HeadlessViewer, rrd: Path, name: str) -> list[Path]:
         tiles = []
         for label, fraction in MOMENTS:
             at(fraction)
-            tiles.append((label, _png(client.take_screenshot(view.view_id, max_size=TILE))))
+            tiles.append((label, _png(_settled(client, view.view_id, TILE))))
         rows.append((view.name, tiles))
     path = DOCS / f"rerun_{name}_views.png"
     _sheet(rows).save(path, optimize=True)
@@ -131,7 +144,7 @@ def screenshots(viewer: HeadlessViewer, rrd: Path, name: str) -> list[Path]:
     # notifications have faded by now.
     _show_tab(viewer, spatial[0].view_id)
     at(1.0)
-    full = _png(client.take_screenshot())
+    full = _png(_settled(client))
     full = full.resize((FULL_WIDTH, round(full.height * FULL_WIDTH / full.width)), Image.LANCZOS)
     path = DOCS / f"rerun_{name}.png"
     full.save(path, optimize=True)
