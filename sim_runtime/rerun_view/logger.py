@@ -624,7 +624,6 @@ class RerunLogger:
             track.color = color
             track.log(self.rec)
         self._log_body(robot)
-        self.layout_version += 1
 
     def _match_outlines(self) -> None:
         """Give each SIMROBOT robot the colour of the ``/robots`` outline around its pose."""
