@@ -28,6 +28,7 @@ EXECUTABLES = {
     "replay": "sim_runtime.bag.replay:main",
     "bag_to_rerun": "sim_runtime.rerun_view.convert:main",
     "draw_tracks": "sim_runtime.rerun_view.tracks:main",
+    "urdf": "arm_sim.urdf:main",
 }
 
 WRAPPER = """#!{python}
@@ -103,7 +104,7 @@ setup(
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
-        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support", "yourdfpy"],
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },

@@ -56,10 +56,8 @@ class _Spec(NamedTuple):
     on_change: Callable[[Any], None] | None
 
 
-def _descriptor(
-    default: Any, description: str, live: bool, bounds: tuple[float, float] | None, constraints: str
-) -> ParameterDescriptor:
-    descriptor = ParameterDescriptor(description=description, read_only=not live, additional_constraints=constraints)
+def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float, float] | None) -> ParameterDescriptor:
+    descriptor = ParameterDescriptor(description=description, read_only=not live)
     if bounds is not None:
         lo, hi = bounds
         if isinstance(default, float):
@@ -105,7 +103,6 @@ class CheckedNode(Node):
                 return lo <= v <= hi and (inner is None or inner(v))
 
         spec = _Spec(default, check or (lambda _v: True), description, on_change if live else None)
-        constraints = f"{bounds[0]:g} to {bounds[1]:g}" if bounds is not None else ""
         override = self._parameter_overrides.get(name)
         if override is not None:
             given = override.value
@@ -115,7 +112,7 @@ class CheckedNode(Node):
             # The override takes the declared type (an integer for a float parameter, say) so
             # that rclpy's fixed-type check accepts it.
             self._parameter_overrides[name] = Parameter(name, value=value)
-        declared = self.declare_parameter(name, default, _descriptor(default, description, live, bounds, constraints))
+        declared = self.declare_parameter(name, default, _descriptor(default, description, live, bounds))
         self._checked[name] = spec
         return like(default, declared.value)
 

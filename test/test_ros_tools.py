@@ -358,3 +358,58 @@ def test_a_sensor_publishers_qos_can_be_overridden_at_start_as_in_any_ros_driver
     world = create_world(executor, tmp_path, **{"qos_overrides./scan.publisher.reliability": "best_effort"})
     assert world.pub_scan.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
     assert world.pub_odom.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+
+
+def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and_replay_latches_them(
+    executor, make_node, tmp_path
+):
+    from sim_runtime.bag.reader import open_bag
+    from sim_runtime.bag.record import Recorder
+    from sim_runtime.bag.replay import Player
+    from sim_runtime.bag.writer import BagWriter
+
+    world = create_world(executor, tmp_path, frame_prefix="late/")
+    step(executor, world, 10)  # /tf_static went out before anyone recorded
+    recorder = Recorder(BagWriter(tmp_path / "bag"), ["/tf", "/tf_static"], node_name="tf_recorder")
+    executor.add_node(recorder)
+    assert spin_until(executor, lambda: {"/tf", "/tf_static"} <= set(recorder.topic_ids))
+    probe = make_node("tf_probe")
+    tf_probe = TfBuffer(probe)  # subscribing to /tf makes the world publish it
+    assert spin_until(executor, lambda: world.tf.heard())
+    step(executor, world, 10)
+    assert spin_until(executor, lambda: recorder.writer.message_count >= 3)
+    recorder.close()
+    executor.remove_node(recorder)
+    recorder.destroy_node()
+    bag = open_bag(tmp_path / "bag")
+    static = [m.msg for m in bag.messages() if m.topic == "/tf_static"]
+    assert {t.child_frame_id for t in static[0].transforms} == {f"late/{n}" for n in SENSOR_MOUNTS}
+    assert any(m.topic == "/tf" for m in bag.messages())
+    assert "transient_local" in bag.topic_metadata["/tf_static"]["offered_qos_profiles"]
+
+    # replayed, the static transforms stay latched: a listener joining after the replay started gets them
+    executor.remove_node(world)
+    world.destroy_node()
+    player = Player(open_bag(tmp_path / "bag"), node_name="tf_player", topics=["/tf_static"], rate=100.0)
+    executor.add_node(player)
+    player.start()
+    assert spin_until(executor, player.finished.done, timeout=10.0)
+    late = TfBuffer(make_node("late_listener"))
+    assert spin_until(executor, lambda: "late/laser" in late.parent)
+    assert tf_probe.parent
+
+
+def test_the_create_publishes_a_latched_robot_description_with_every_sensor_frame(executor, make_node, tmp_path):
+    import yourdfpy
+    from std_msgs.msg import String
+
+    from sim_runtime.qos import LATCHED_QOS
+
+    create_world(executor, tmp_path, frame_prefix="robot1/")
+    description = Collector(make_node("robot_state_publisher"), String, "robot_description", LATCHED_QOS)
+    assert spin_until(executor, lambda: description.msgs)
+    urdf = tmp_path / "create.urdf"
+    urdf.write_text(description.last.data)
+    robot = yourdfpy.URDF.load(str(urdf), load_meshes=False)
+    assert {f"robot1/{name}" for name in SENSOR_MOUNTS} <= set(robot.link_map)
+    assert robot.base_link == "robot1/base_link"
