@@ -127,6 +127,7 @@ def screenshots(viewer: HeadlessViewer, rrd: Path, name: str) -> list[Path]:
         client.set_time("sim_time", duration=(start + fraction * (end - start)) / 1e9, play_state="paused")
 
     written = []
+    opening = client.get_blueprint()  # the layout as the recording opens, restored at the end
     spatial = [v for v in state.views if v.view_class in ("2D", "3D")]
     rows = []
     for view in spatial:
@@ -142,7 +143,7 @@ def screenshots(viewer: HeadlessViewer, rrd: Path, name: str) -> list[Path]:
 
     # The whole viewer as it opens (first tab, end of the run), taken last: the viewer's start-up
     # notifications have faded by now.
-    _show_tab(viewer, spatial[0].view_id)
+    client.set_blueprint(opening.blueprint, store_id=opening.store_id)
     at(1.0)
     full = _png(_settled(client))
     full = full.resize((FULL_WIDTH, round(full.height * FULL_WIDTH / full.width)), Image.LANCZOS)
