@@ -42,9 +42,7 @@ import warnings
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import NamedTuple
-from urllib.parse import unquote, urlparse
 
 import numpy as np
 import rerun as rr
@@ -52,6 +50,7 @@ import rerun.blueprint as rrb
 
 from create_sim import mounts as create_mounts
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
+from sim_runtime.paths import mesh_path
 from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
 
 TIMELINE = "sim_time"
@@ -1214,8 +1213,7 @@ class RerunLogger:
         if self._static_meshes.get(entity) != uri:
             # The mesh is static: logged once per entity, later messages only move it.
             self._static_meshes[entity] = uri
-            parsed = urlparse(uri)
-            path = Path(unquote(parsed.path)) if parsed.scheme in ("file", "") else None
+            path = mesh_path(uri)  # file:// or package:// (an installed robot_sims publishes those)
             if path is None or not path.is_file():
                 warnings.warn(f"marker {entity}: mesh {uri!r} is not a local file; not drawn", stacklevel=2)
             else:
