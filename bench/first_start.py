@@ -43,7 +43,7 @@ def clear_numba_cache() -> int:
 
 
 def load() -> str:
-    return "load %.2f %.2f %.2f" % os.getloadavg()
+    return "load {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
 
 
 def time_to_first_scan(executor, node) -> tuple[float, int]:

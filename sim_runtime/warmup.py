@@ -38,14 +38,13 @@ def warm_simrobot() -> None:
     from simrobot_sim.model import SimrobotWorld
     from simrobot_sim.world_file import load_world
 
-    sensors = (
-        "      - {name: us, type: ultrasonic, position: [0.05, 0], axis: 0, beamwidth: 60, range: 0.3, resolution: 30}\n"
-        "      - {name: lz, type: laser, position: [0.05, 0], axis: 0, beamwidth: 90, range: 1.0, resolution: 31}\n"
+    sensor = "{{name: {0}, type: {1}, position: [0.05, 0], axis: 0, beamwidth: 60, range: 0.5, resolution: 30}}"
+    robot = "  - name: r{0}\n    position: [{1}, 1.55]\n    sensors:\n      - {2}\n      - {3}\n"
+    robots = "".join(
+        robot.format(i, x, sensor.format("us", "ultrasonic"), sensor.format("lz", "laser"))
+        for i, x in ((1, 1.3), (2, 1.8))
     )
-    world_text = (
-        f"map: {config_path('simrobot/demo_map.png')}\nresolution: 0.01\ndt: 1.0\nrobots:\n"
-        + "".join(f"  - name: r{i}\n    position: [{x}, 1.55]\n    sensors:\n{sensors}" for i, x in ((1, 1.3), (2, 1.8)))
-    )
+    world_text = f"map: {config_path('simrobot/demo_map.png')}\nresolution: 0.01\ndt: 1.0\nrobots:\n{robots}"
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "warmup.yaml"
         path.write_text(world_text)
@@ -74,8 +73,8 @@ def warm_arm() -> None:
     arm.ikine_batch(np.stack([arm.fkine(q)] * 2), np.tile(q, (2, 1)))
     Q = np.tile(q, (2, 1))
     arm.fkine_batch(Q), arm.jacob0_batch(Q), arm.rne_batch(Q, Q, Q)
-    ascii_stl = b"solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
-    parse_stl(ascii_stl)
+    triangle = b"facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+    parse_stl(b"solid t\n" + triangle + b"endsolid t\n")  # the ASCII reader
 
 
 WARMERS = {"create": warm_create, "simrobot": warm_simrobot, "arm": warm_arm}
