@@ -27,7 +27,7 @@ os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "f
 import rclpy  # noqa: E402
 from sensor_msgs.msg import LaserScan  # noqa: E402
 
-from sim_runtime.qos import SENSOR_QOS  # noqa: E402
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS  # noqa: E402
 from sim_runtime.run import make_executor  # noqa: E402
 
 PACKAGES = ("create_sim", "simrobot_sim", "arm_sim", "sim_runtime")
@@ -49,7 +49,7 @@ def load() -> str:
 def time_to_first_scan(executor, node) -> tuple[float, int]:
     """(wall seconds from launching create_world to its first /scan here, kernels it compiled)."""
     scans: list[LaserScan] = []
-    subscription = node.create_subscription(LaserScan, f"{NAMESPACE}/scan", scans.append, SENSOR_QOS)
+    subscription = node.create_subscription(LaserScan, f"{NAMESPACE}/scan", scans.append, SENSOR_SUBSCRIBER_QOS)
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_DEBUG_CACHE="1")
     code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
     start = time.monotonic()

@@ -45,7 +45,6 @@ import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
-from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -63,7 +62,7 @@ TURN_SPEED_RANGE = (0.025, 0.2)  # rad/s, turnAngle
 RADIUS_RANGE = (0.001, 2.0)  # m, SetFwdVelRadiusRoomba
 SONAR_NUMBERS = {1: "right", 2: "front", 3: "left", 4: "back"}  # the toolbox's ReadSonar numbering
 CLIFF_NAMES = ("left", "front_left", "front_right", "right")
-STOP_DELIVERY_TIMEOUT = 1.0  # s, wall: how long closing waits for the world to acknowledge the stop
+STOP_CONFIRM_TIMEOUT = 1.0  # s, wall: how long closing waits for the robot to report it has stopped
 
 # Standalone clients still open, stopped by SIGTERM before the process dies of it.
 _clients: weakref.WeakSet[CreateRobot] = weakref.WeakSet()
@@ -169,6 +168,8 @@ class CreateRobot:
         self._thread = None
         self._executor = None
         self._closed = False
+        self._odom_count = 0  # odometry messages received
+        self._heard = False  # the robot has shown a command of ours in its odometry
         self._owns_rclpy = False
         if node is None:
             if not rclpy.ok():
@@ -222,6 +223,8 @@ class CreateRobot:
         with self._cond:
             self._latest[topic] = msg
             self._updates += 1
+            if topic == "odom":
+                self._odom_count += 1
             if hasattr(msg, "header"):
                 self._sim_time = max(self._sim_time, time_from_msg(msg.header.stamp))
             self._cond.notify_all()
@@ -304,11 +307,45 @@ class CreateRobot:
                 atexit.unregister(self.close)
 
     def _send_stop(self) -> None:
-        """Zero velocity to whoever listens on cmd_vel, delivered before the node goes away."""
+        """Zero velocity to whoever listens on cmd_vel, confirmed before the node goes away.
+
+        The world's command subscription is best effort and acknowledges nothing, so the
+        confirmation is the robot's own odometry reporting zero velocity after the stop was sent.
+        The stop is repeated every 0.1 s until then, for at most ``STOP_CONFIRM_TIMEOUT`` seconds
+        (a robot that publishes no odometry gets the stop ten times).
+        """
         if not self.node.context.ok() or self._cmd_pub.get_subscription_count() == 0:
             return  # no world to stop
-        self._publish(0.0, 0.0)
-        self._cmd_pub.wait_for_all_acked(Duration(seconds=STOP_DELIVERY_TIMEOUT))
+        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        while time.monotonic() < deadline:
+            self._publish(0.0, 0.0)
+            with self._cond:
+                sent_after = self._odom_count
+            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(0.0, 0.0), timeout=0.1):
+                return
+
+    def _odom_is(self, v: float, w: float) -> bool:
+        """The newest odometry reports velocity (v, w)."""
+        twist = self._latest["odom"].twist.twist
+        return abs(twist.linear.x - v) < 1e-6 and abs(twist.angular.z - w) < 1e-6
+
+    def _await(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Wait up to ``timeout`` wall seconds for ``done()``, spinning in hosted mode; never raises."""
+        end = time.monotonic() + timeout
+        with self._cond:
+            while not done():
+                remaining = end - time.monotonic()
+                if remaining <= 0:
+                    return False
+                if self._thread:
+                    self._cond.wait(min(remaining, 0.02))
+                else:
+                    self._cond.release()
+                    try:
+                        self._spin()
+                    finally:
+                        self._cond.acquire()
+        return True
 
     def __enter__(self) -> CreateRobot:
         return self
@@ -359,7 +396,25 @@ class CreateRobot:
                 lambda: self._cmd_pub.get_subscription_count() > 0, "waiting for the world to subscribe to cmd_vel"
             )
         self._publish(v, w)
+        if not self._heard and self._thread is not None:
+            self._confirm_first_command(v, w)
         return v, w
+
+    def _confirm_first_command(self, v: float, w: float) -> None:
+        """Repeat the first command until the robot's odometry shows it (at most 1 s).
+
+        The world's command subscription is best effort: just after discovery our publisher may
+        see the world before the world sees it, and the world then drops what we send. A ported
+        MATLAB program commands once and waits, so that first command must arrive.
+        """
+        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        while time.monotonic() < deadline:
+            with self._cond:
+                sent_after = self._odom_count
+            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(v, w), timeout=0.1):
+                break
+            self._publish(v, w)
+        self._heard = True  # once only, also for a robot that publishes no odometry
 
     def _publish(self, v: float, w: float) -> None:
         twist = Twist()

@@ -332,7 +332,7 @@ def world_process():
 @pytest.mark.parametrize("ending", ENDINGS)
 def test_however_a_program_ends_the_robot_stops_and_python_exits_as_usual(ending, world_process, executor, make_node):
     program, stop_signal, status, shown = ENDINGS[ending]
-    odom = Collector(make_node("ending_probe"), Odometry, "/ending/odom", SENSOR_QOS)
+    odom = Collector(make_node("ending_probe"), Odometry, "/ending/odom", SENSOR_SUBSCRIBER_QOS)
     # The world is up (its first start may compile its kernels) and the robot stands still.
     assert spin_until(executor, lambda: odom.last is not None, timeout=120), "no odometry from create_world"
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=10)
@@ -350,7 +350,7 @@ def test_however_a_program_ends_the_robot_stops_and_python_exits_as_usual(ending
         assert moving(), f"the program never drove the robot: {student.communicate()[1]}"
         if stop_signal is not None:
             student.send_signal(stop_signal)
-        _out, err = student.communicate(timeout=30)
+        _out, err = student.communicate(timeout=60)
     finally:
         if student.poll() is None:
             student.kill()

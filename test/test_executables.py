@@ -118,3 +118,12 @@ def test_every_declared_executable_has_a_main_and_a_description():
         module, function = target.split(":")
         assert callable(getattr(importlib.import_module(module), function)), name
         assert what and "\n" not in what and len(what) < 80, name
+
+
+def test_the_executables_page_lists_each_executable_at_its_entry_point():
+    rows = {}
+    for line in (ROOT / "docs" / "executables.md").read_text().splitlines():
+        cells = [cell.strip().strip("`") for cell in line.strip().strip("|").split("|")]
+        if len(cells) == 3 and cells[0] in EXECUTABLES:
+            rows[cells[0]] = cells[1]
+    assert rows == {name: target for name, (target, _what) in EXECUTABLES.items()}
