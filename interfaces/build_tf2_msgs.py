@@ -11,6 +11,7 @@ import argparse
 import importlib.metadata
 import importlib.util
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -18,7 +19,6 @@ import sys
 import sysconfig
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -27,9 +27,9 @@ ENABLE_HINT = "install gcc g++ python3-dev to enable"
 
 
 def project_version() -> str:
-    with open(SOURCE / "pyproject.toml", "rb") as file:
-        data = tomllib.load(file)
-    return data["project"]["version"]
+    """The version in tf2_msgs/pyproject.toml (read without tomllib, which Python 3.10 lacks)."""
+    match = re.search(r'^version = "([^"]+)"', (SOURCE / "pyproject.toml").read_text(), re.MULTILINE)
+    return match.group(1) if match else ""
 
 
 def find_compiler(env_var: str, candidates: tuple[str, ...]) -> str | None:
@@ -65,7 +65,9 @@ def tf_off(reason: str) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--force", action="store_true", help="build even when tf2_msgs is importable already")
+    parser.add_argument(
+        "--force", action="store_true", help="build even when tf2_msgs is importable (e.g. after editing its files)"
+    )
     args = parser.parse_args(argv)
 
     if not args.force:
