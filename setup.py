@@ -95,7 +95,7 @@ setup(
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
-        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support", "yourdfpy"],
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },

@@ -1,37 +1,17 @@
-"""ROS 2 world node for the simulated iRobot Create (design.md §4).
+"""``create_world``: the simulated iRobot Create on ROS 2.
 
-The node is a thin mapping of :class:`create_sim.model.CreateModel` onto topics, parameters and
-services. Physics runs at a fixed 100 Hz whatever ``real_time_factor`` is; every sensor is
-published at its own rate (parameters ``rate.<sensor>``, Hz, 0 = never), stamped with the sim
-time at which it was measured.
+A thin mapping of :class:`create_sim.model.CreateModel` onto topics, parameters, services and TF;
+the interface (every topic, parameter and frame) is in ``docs/executables.md``. What the code
+below has to keep true:
 
-Parameters (besides ``real_time_factor`` and ``seed`` from :class:`SimWorldNode`):
-
-``map_file``        map in the seed's text format; default the shipped ``config/create/example.map``;
-                    ``""`` = an empty (open) map.
-``config_file``     noise/com_delay file in the seed's text format; ``""`` = noise-free, no delay.
-``initial_pose``    ``[x, y, theta]`` in ``map`` (m, rad); inside a wall is an error.
-``rate.<sensor>``   publication rate in Hz for ``bump, cliff, wall, virtual_wall, odom,
-                    overhead_pose, sonar, scan, camera, buttons, battery``.
-``cmd_vel_stamped`` subscribe ``TwistStamped`` instead of ``Twist`` on ``cmd_vel``.
-``cmd_vel_timeout`` seconds of sim time without a command after which the robot stops; 0 = hold
-                    the last command forever, as the seed does.
-``frame_prefix``    prefix of the robot's frames; default derived from the namespace
-                    (``/robot1`` → ``robot1/``, so ``robot1/base_link``).
-
-Commands: each wheel is limited to ±0.5 m/s (an over-limit command is clamped per wheel and
-v, ω recomputed, as the seed's keyboard control meant to). A command with a NaN/inf component,
-or a component whose magnitude exceeds :data:`sim_runtime.msgs.ABSURD_COMMAND` (1000 m/s or rad/s: a unit or
-uninitialised-variable bug, not a request to drive fast), is rejected with a throttled warning
-and leaves the state unchanged.
-
-Sensors nobody subscribes to are not built or published (most of the cost at
-``real_time_factor: 0``), except those that draw seeded noise: they are always evaluated, so a
-run with a given ``seed`` reads the same whoever listens.
-
-``com_delay`` (config file) delays both directions by that much sim time: a command takes
-effect ``com_delay`` after it is received, and each sensor message is published ``com_delay``
-after its measurement (its stamp stays the measurement time, so the latency is visible).
+- physics runs at a fixed 100 Hz whatever ``real_time_factor`` is; each sensor is published at its
+  own rate, stamped with the sim time at which it was measured;
+- a command with a NaN/inf component, or one above :data:`sim_runtime.msgs.ABSURD_COMMAND`, is
+  rejected with a throttled warning and leaves the state unchanged;
+- sensors nobody subscribes to are not built, except those that draw seeded noise: a run with a
+  given ``seed`` reads the same whoever listens;
+- ``com_delay`` delays both directions: a command takes effect ``com_delay`` after it arrives, a
+  message is published ``com_delay`` after its measurement and keeps the measurement's stamp.
 """
 
 from __future__ import annotations
@@ -48,6 +28,7 @@ from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -55,6 +36,7 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
 from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -68,7 +50,7 @@ from sim_runtime.msgs import (
 from sim_runtime.paths import config_path, resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
 from sim_runtime.run import run_nodes
-from sim_runtime.tf import TfBroadcaster, transform_msg
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
@@ -116,6 +98,7 @@ class CreateWorldNode(SimWorldNode):
         self.tf = TfBroadcaster(self)
         self._make_publishers()
         self._publish_static_transforms()
+        self.create_publisher(String, "robot_description", LATCHED_QOS).publish(String(data=create_urdf(self.prefix)))
         self._make_inputs()
         self._publish_map_markers()
         self.get_logger().info(self._summary())
@@ -406,7 +389,7 @@ class CreateWorldNode(SimWorldNode):
         return response
 
     def _on_button(self, index: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        # The seed's GUI buttons are toggles that stay down until pressed again (several may be down).
+        # The original GUI's buttons are toggles that stay down until pressed again (several may be down).
         self.buttons_state[index] = int(bool(request.data))
         response.success = True
         response.message = "pressed" if request.data else "released"
@@ -511,7 +494,7 @@ class CreateWorldNode(SimWorldNode):
             self.pub_buttons: stamped(Joy, self.frame("base_link")),
             self.pub_battery: stamped(
                 BatteryState,
-                self.frame("base_link"),  # the seed's battery readings are constants
+                self.frame("base_link"),  # the original's battery readings are constants
                 voltage=m.BATTERY_VOLTAGE,
                 current=m.BATTERY_CURRENT,
                 temperature=m.TEMPERATURE,
@@ -525,6 +508,11 @@ class CreateWorldNode(SimWorldNode):
                 power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH,
             ),
         }
+        if self.tf.publisher is not None:
+            moving = [(self.frame("odom"), self.frame("base_link"))]
+            if self.publish_map_tf:
+                moving.append(("map", self.frame("odom")))
+            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
         self._templates: dict[Publisher, Callable[[], Any]] = templates
         self._reusable: dict[Publisher, Any] = {}
 
@@ -605,12 +593,15 @@ class CreateWorldNode(SimWorldNode):
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
             self._send(self.pub_odom, msg)
         if self.tf.heard():
-            transforms = [transform_msg(self.frame("odom"), self.frame("base_link"), x, y, yaw=theta)]
+            msg = self._message(self.tf.publisher)
+            odom_to_base = msg.transforms[0]
+            odom_to_base.header.stamp = stamp
+            set_planar(odom_to_base, x, y, theta)
             if self.publish_map_tf:
-                transforms.append(self._map_to_odom(x, y, theta))
-            for t in transforms:
-                t.header.stamp = stamp
-            self._send(self.tf.publisher, self.tf.message(transforms))
+                map_to_odom = msg.transforms[1]
+                map_to_odom.header.stamp = stamp
+                set_planar(map_to_odom, *self._map_to_odom(x, y, theta))
+            self._send(self.tf.publisher, msg)
 
     def _odometry_covariances(self, v: float, w: float) -> tuple[np.ndarray, np.ndarray]:
         """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the noisy odometry.
@@ -629,14 +620,12 @@ class CreateWorldNode(SimWorldNode):
         twist[35] = (std * w) ** 2
         return pose, twist
 
-    def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float):
-        """Ground truth ``map → odom``: where the odometry frame's origin really is."""
+    def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float) -> tuple[float, float, float]:
+        """Ground truth ``map → odom`` (x, y, yaw): where the odometry frame's origin really is."""
         x, y, theta = self.model.pose.tolist()
         yaw = theta - odom_theta
         c, s = math.cos(yaw), math.sin(yaw)
-        return transform_msg(
-            "map", self.frame("odom"), x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw=yaw
-        )
+        return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
 
     def _publish_static_transforms(self) -> None:
         base = self.frame("base_link")

@@ -16,4 +16,5 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "replay": ("sim_runtime.bag.replay:main", "play a bag back with its original timing"),
     "bag_to_rerun": ("sim_runtime.rerun_view.convert:main", "convert a bag into a Rerun recording (.rrd)"),
     "draw_tracks": ("sim_runtime.rerun_view.tracks:main", "draw the map and every robot's track from a bag (PNG)"),
+    "urdf": ("arm_sim.urdf:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
 }

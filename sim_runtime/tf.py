@@ -49,6 +49,13 @@ def transform_msg(
     return msg
 
 
+def set_planar(t: TransformStamped, x: float, y: float, yaw: float) -> None:
+    """Move a planar transform in place (messages reused: no new objects per publication)."""
+    tr = t.transform
+    tr.translation.x, tr.translation.y = x, y
+    tr.rotation.z, tr.rotation.w = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+
+
 class TfBroadcaster:
     """``/tf`` and ``/tf_static`` publishers of one node, or nothing (with one log line) without tf2_msgs."""
 

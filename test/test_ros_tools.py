@@ -397,3 +397,19 @@ def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and
     late = TfBuffer(make_node("late_listener"))
     assert spin_until(executor, lambda: "late/laser" in late.parent)
     assert tf_probe.parent
+
+
+def test_the_create_publishes_a_latched_robot_description_with_every_sensor_frame(executor, make_node, tmp_path):
+    import yourdfpy
+    from std_msgs.msg import String
+
+    from sim_runtime.qos import LATCHED_QOS
+
+    create_world(executor, tmp_path, frame_prefix="robot1/")
+    description = Collector(make_node("robot_state_publisher"), String, "robot_description", LATCHED_QOS)
+    assert spin_until(executor, lambda: description.msgs)
+    urdf = tmp_path / "create.urdf"
+    urdf.write_text(description.last.data)
+    robot = yourdfpy.URDF.load(str(urdf), load_meshes=False)
+    assert {f"robot1/{name}" for name in SENSOR_MOUNTS} <= set(robot.link_map)
+    assert robot.base_link == "robot1/base_link"
