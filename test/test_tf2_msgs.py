@@ -10,8 +10,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,18 +23,6 @@ def load_build_script():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-@pytest.fixture(scope="module")
-def tf2_msgs():
-    """The installed tf2_msgs; skipped only where the setup step turned TF off for want of a compiler."""
-    if importlib.util.find_spec("tf2_msgs") is None:
-        missing = load_build_script().missing_build_tools()
-        if missing:
-            pytest.skip(f"TF is off on this machine: {missing}")
-    import tf2_msgs.msg
-
-    return tf2_msgs
 
 
 def test_tfmessage_on_the_graph_has_jazzys_type_hash(tf2_msgs, make_node):
