@@ -293,7 +293,7 @@ class SimrobotWorldNode(SimWorldNode):
     def ready_to_step(self) -> bool:
         """False once ``steps_limit`` is reached; in lockstep, also until every powered,
         non-crashed robot answered the current step or ``lockstep_timeout`` passed."""
-        if self.finished:
+        if not super().ready_to_step():
             return False
         if not self.lockstep:
             return True

@@ -114,9 +114,11 @@ def map_from_markers(msg: MarkerArray) -> CreateMap:
     )
 
 
-def parameter(name: str, value: float | str | list[float]) -> Parameter:
-    """An rcl_interfaces Parameter of a double, string or double array."""
-    if isinstance(value, str):
+def parameter(name: str, value: bool | float | str | list[float]) -> Parameter:
+    """An rcl_interfaces Parameter of a bool, double, string or double array."""
+    if isinstance(value, bool):
+        pv = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
+    elif isinstance(value, str):
         pv = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
     elif isinstance(value, list):
         pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[float(v) for v in value])
@@ -152,6 +154,7 @@ class _Robot:
         self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
         self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
         self.reset = node.create_client(Trigger, s.topic("reset"))
+        self.step = node.create_client(Trigger, s.topic("step"))
         self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
         self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")
         self.get_params = node.create_client(GetParameters, f"{node_name}/get_parameters")
@@ -284,11 +287,16 @@ class StudioRos:
         response = await self._call(self._robots[ns].reset, Trigger.Request())
         return response.message
 
+    async def step(self, ns: str) -> tuple[bool, str]:
+        """One physics step of a paused world: (done, the world's answer)."""
+        response = await self._call(self._robots[ns].step, Trigger.Request())
+        return response.success, response.message
+
     async def press(self, ns: str, button: int, down: bool) -> str:
         response = await self._call(self._robots[ns].buttons[button], SetBool.Request(data=down))
         return response.message
 
-    async def set_parameters(self, ns: str, values: dict[str, float | str | list[float]]) -> list[str]:
+    async def set_parameters(self, ns: str, values: dict[str, bool | float | str | list[float]]) -> list[str]:
         """Set the world's parameters; the reasons of refused ones (empty when all were taken)."""
         request = SetParameters.Request(parameters=[parameter(k, v) for k, v in values.items()])
         response = await self._call(self._robots[ns].set_params, request)

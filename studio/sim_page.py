@@ -187,6 +187,8 @@ class SimulatorPage:
                         self.rtf_select = ui.select(
                             RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
                         ).classes("w-48 studio-rtf")
+                        self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("studio-pause")
+                        ui.button("Step", on_click=self.step_once).props("dense outline").classes("studio-step")
                 with ui.card().classes("w-full"):
                     ui.label("Autonomous").classes("font-bold")
                     with ui.row().classes("items-center gap-2"):
@@ -477,6 +479,27 @@ class SimulatorPage:
         except TimeoutError as err:
             ui.notify(str(err), type="negative")
         self.robot().track.clear()
+
+    async def on_pause(self, e) -> None:
+        """Hold or release the selected world (its live ``paused`` parameter)."""
+        if self.robot() is None:
+            return
+        try:
+            refused = await self.studio.ros.set_parameters(self.selected, {"paused": bool(e.value)})
+        except TimeoutError as err:
+            refused = [str(err)]
+        for reason in refused:
+            ui.notify(reason, type="negative")
+
+    async def step_once(self) -> None:
+        """One physics step of the paused world (SimulatorGUI's step)."""
+        if self.robot() is None:
+            return
+        try:
+            done, message = await self.studio.ros.step(self.selected)
+        except TimeoutError as err:
+            done, message = False, str(err)
+        ui.notify(message, type="positive" if done else "negative")
 
     async def on_rtf(self, e) -> None:
         if self.robot() is None or e.value is None:

@@ -57,7 +57,9 @@ def step(executor, world, n: int) -> None:
 def create_world(executor, tmp_path, map_text: str = ROOM, **params) -> CreateWorldNode:
     map_file = tmp_path / "room.map"
     map_file.write_text(map_text)
-    world = CreateWorldNode(parameter_overrides=overrides(map_file=str(map_file), real_time_factor=0.0, **params))
+    world = CreateWorldNode(
+        parameter_overrides=overrides(**{"map_file": str(map_file), "real_time_factor": 0.0, **params})
+    )
     executor.add_node(world)
     return world
 
@@ -417,3 +419,28 @@ def test_the_create_publishes_a_latched_robot_description_with_every_sensor_fram
     robot = yourdfpy.URDF.load(str(urdf), load_meshes=False)
     assert {f"robot1/{name}" for name in SENSOR_MOUNTS} <= set(robot.link_map)
     assert robot.base_link == "robot1/base_link"
+
+
+def test_a_paused_world_holds_its_time_and_the_step_service_advances_one_physics_step(executor, make_node, tmp_path):
+    import time
+
+    from std_srvs.srv import Trigger
+
+    world = create_world(executor, tmp_path, real_time_factor=1.0)
+    probe = make_node("gui")
+    params = Params(executor, probe, "/create_world")
+    assert params.set("paused", True).successful
+    world.start_pacing()
+    world._pace_origin = (time.monotonic() - 1.0, 0.0)  # a second of wall time is due...
+    world._pace()
+    assert world.sim_time == 0.0  # ...but a paused world does not step
+    client = probe.create_client(Trigger, "step")
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    assert future.result().success and world.sim_time == pytest.approx(0.01)
+    assert params.set("paused", False).successful
+    assert spin_until(executor, lambda: world.sim_time > 0.05)
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    assert not future.result().success and "not paused" in future.result().message
