@@ -181,7 +181,7 @@ class CreateModel:
             raise ValueError(f"time step {dt} must be finite, >= 0 and <= {self.MAX_STEP_S:g} s")
         x0, y0, th0 = self._pose
         v, w = self._command
-        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
+        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION, self._contacts)
         self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0

@@ -11,7 +11,11 @@ import numpy as np
 from PIL import Image
 
 from sim_runtime.errors import InputError
+from sim_runtime.yamlfile import check_keys as _check_keys
 from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import read_bool as _bool
+from sim_runtime.yamlfile import read_number as _number
+from sim_runtime.yamlfile import read_pair as _pair
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
@@ -115,42 +119,6 @@ def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarra
         raise InputError.at(path, None, f"map image has shape {grey.shape}, expected a 2-D image")
     # image rows run top-down; matrix y runs bottom-up
     return np.ascontiguousarray((grey < threshold)[::-1].T)
-
-
-def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, allow_inf: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        raise InputError(f"{where}: must be finite, got {value!r}")
-    if positive and not x > 0:
-        raise InputError(f"{where}: must be > 0, got {value!r}")
-    if nonneg and x < 0:
-        raise InputError(f"{where}: must be >= 0, got {value!r}")
-    return x
-
-
-def _pair(value: Any, where: str) -> tuple[float, float]:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise InputError(f"{where}: expected [x, y], got {value!r}")
-    return (_number(value[0], f"{where}[0]"), _number(value[1], f"{where}[1]"))
-
-
-def _bool(value: Any, where: str) -> bool:
-    if isinstance(value, bool):
-        return value
-    if value in (0, 1):
-        return bool(value)
-    if isinstance(value, str) and value.lower() in ("on", "off"):
-        return value.lower() == "on"
-    raise InputError(f"{where}: expected true/false (or on/off), got {value!r}")
-
-
-def _check_keys(entry: dict, allowed: set[str], where: str) -> None:
-    unknown = sorted(set(entry) - allowed)
-    if unknown:
-        names = ", ".join(map(repr, unknown))
-        raise InputError(f"{where}: unknown field(s) {names}; allowed: {', '.join(sorted(allowed))}")
 
 
 _SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "resolution"}
