@@ -39,7 +39,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from sim_runtime.errors import InputError
 
-__all__ = ["Bag", "BagMessage", "BagWarning", "UnknownMessageType", "open_bag"]
+__all__ = ["Bag", "BagMessage", "BagWarning", "CorruptMessage", "UnknownMessageType", "open_bag"]
 
 
 class BagWarning(UserWarning):
@@ -50,7 +50,12 @@ class UnknownMessageType(LookupError):
     """A message's type has no installed Python message class, so it cannot be deserialised."""
 
 
+class CorruptMessage(InputError):
+    """A message's bytes are not a valid serialised message of its topic's type."""
+
+
 _MESSAGE_CLASSES: dict[str, Any] = {}
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 
 def message_class(type_name: str, topic: str = "?") -> Any:
@@ -63,9 +68,12 @@ def message_class(type_name: str, topic: str = "?") -> Any:
         if len(parts) == 2:
             parts = [parts[0], "msg", parts[1]]
         try:
-            if len(parts) != 3 or not all(parts):
+            # A bag names the module to import: only ROS message packages, never e.g. "os/path/join".
+            if len(parts) != 3 or parts[1] != "msg" or not all(_IDENTIFIER.match(p) for p in parts):
                 raise ValueError("expected pkg/msg/Type")
             cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
+            if not (isinstance(cls, type) and hasattr(cls, "get_fields_and_field_types")):
+                raise ValueError("not a ROS message class")
         except (AttributeError, ImportError, ValueError) as exc:
             raise UnknownMessageType(
                 f"cannot deserialise topic {topic!r}: message type {type_name!r} is not installed ({exc})"
@@ -89,11 +97,19 @@ class BagMessage:
 
     @property
     def msg(self) -> Any:
-        """The deserialised message; raises UnknownMessageType naming type and topic."""
+        """The deserialised message; raises UnknownMessageType naming type and topic, or
+        CorruptMessage (an InputError) when the bytes do not decode as that type."""
         if self._msg is None:
             from rclpy.serialization import deserialize_message
 
-            self._msg = deserialize_message(self.data, message_class(self.type, self.topic))
+            cls = message_class(self.type, self.topic)
+            try:
+                self._msg = deserialize_message(self.data, cls)
+            except Exception as exc:  # noqa: BLE001 - rmw raises its own error types
+                raise CorruptMessage(
+                    f"topic {self.topic} at log time {self.log_time_ns} ns: cannot deserialise "
+                    f"{len(self.data)} bytes as {self.type} ({exc})"
+                ) from None
         return self._msg
 
     def __repr__(self) -> str:

@@ -23,6 +23,7 @@ warning. From Python, `play_bag(...)` plays a bag in-process (tests use it).
 from __future__ import annotations
 
 import argparse
+import math
 import queue
 import re
 import sys
@@ -121,13 +122,14 @@ class Player(Node):
         super().__init__(node_name, **node_kwargs)
         if not rate > 0:
             raise InputError(f"--rate {rate}: must be > 0")
-        if start_offset < 0 or (duration is not None and duration < 0):
-            raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0")
+        if not (0 <= start_offset * 1e9 < math.inf) or (duration is not None and not duration >= 0):
+            raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0 (offset finite)")
         self.bag = bag
         self.rate = rate
         self.loop = loop
         self._begin = bag.start_ns + int(start_offset * 1e9)
-        self._end = None if duration is None else self._begin + int(duration * 1e9)
+        endless = duration is None or math.isinf(duration * 1e9)
+        self._end = None if endless else self._begin + int(duration * 1e9)
         remap = remap or {}
         try:
             excluded = re.compile(exclude) if exclude else None
