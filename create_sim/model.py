@@ -24,10 +24,10 @@ import numpy as np
 
 from create_sim import mounts
 from create_sim.configfile import NoiseConfig
-from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts, nearest_distance, new_contacts
+from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
-from create_sim.sensing import camera_view, range_fan, virtual_wall_seen
+from create_sim.sensing import bumper_hits, camera_view, range_fan, virtual_wall_seen
 from sim_runtime.errors import InputError
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
@@ -100,7 +100,6 @@ class CreateModel:
         self._vwall_angles = np.array([self.VWALL_FIELDS[s][1] for s in (1, 2, 3)])
         self._beacon_xy = np.ascontiguousarray(world.beacon_xy, dtype=np.float64).reshape(-1, 2)
         self._beacon_rgb = [tuple(float(c) for c in rgb) for rgb in world.beacon_rgb]
-        self._contacts = new_contacts(self.grid.segments.shape[0])
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
@@ -181,7 +180,7 @@ class CreateModel:
             raise ValueError(f"time step {dt} must be finite, >= 0 and <= {self.MAX_STEP_S:g} s")
         x0, y0, th0 = self._pose
         v, w = self._command
-        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION, self._contacts)
+        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
         self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0
@@ -235,26 +234,11 @@ class CreateModel:
         return mean + std * self._standard_normals(size)
 
     # ----------------------------------------------------------------------------- sensors
-    def _touching(self) -> tuple[np.ndarray, np.ndarray]:
-        """Closest points (xs, ys) of the walls within the contact skin of the body."""
-        x, y, _ = self._pose
-        n = grid_contacts(self.grid, x, y, self.RADIUS + CONTACT_SKIN, self._contacts)
-        return self._contacts.point_x[:n], self._contacts.point_y[:n]
-
     def bumps(self) -> tuple[bool, bool]:
         """(left, right) bumpers; a hit in front presses both."""
-        xs, ys = self._touching()
         x, y, th = self._pose
-        left = right = False
-        for cx, cy in zip(xs.tolist(), ys.tolist(), strict=True):
-            phi = wrap_angle(math.atan2(cy - y, cx - x) - th)
-            if abs(phi) < self.BUMP_FRONT_HALF:
-                return True, True
-            if self.BUMP_FRONT_HALF <= phi < 0.5 * math.pi:
-                left = True
-            elif -0.5 * math.pi < phi <= -self.BUMP_FRONT_HALF:
-                right = True
-        return left, right
+        left, right = bumper_hits(self.grid, x, y, th, self.RADIUS + CONTACT_SKIN, self.BUMP_FRONT_HALF)
+        return bool(left), bool(right)
 
     def cliff_signals(self) -> np.ndarray:
         """Cliff signal strengths (%) [left, front_left, front_right, right]: 21.5 floor, 1.5 line."""

@@ -171,16 +171,13 @@ def _substep(grid: SegmentGrid, x, y, th, v, w, h, radius, mu, contacts: Contact
 
 
 @numba.njit(cache=True)
-def advance(grid: SegmentGrid, x, y, th, v, w, dt, radius, mu, contacts: Contacts):
+def advance(grid: SegmentGrid, x, y, th, v, w, dt, radius, mu):
     """Pose (x, y, θ) after one physics step of dt at the intended (v, ω).
 
     Motion is cut into sub-steps of at most r/4 of travel, at most :data:`MAX_SUBSTEPS` of them
-    (the model refuses time steps long enough to need more). ``contacts`` is scratch room
-    (:func:`~create_sim.geometry.new_contacts` for the grid's walls), kept by the caller so that
-    a step allocates nothing; too small a one is replaced.
+    (the model refuses time steps long enough to need more).
     """
-    if contacts.segment.shape[0] < grid.segments.shape[0]:
-        contacts = new_contacts(grid.segments.shape[0])
+    contacts = new_contacts(grid.segments.shape[0])
     n_sub = max(1, int(math.ceil(min(abs(v) * dt / (0.25 * radius), MAX_SUBSTEPS))))
     h = dt / n_sub
     for _ in range(n_sub):

@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from create_sim.geometry import grid_cast, grid_cast_fan
+from create_sim.geometry import grid_cast, grid_cast_fan, grid_contacts, new_contacts
 
 
 @numba.njit(cache=True)
@@ -101,3 +101,26 @@ def range_fan(grid, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, to
         else:
             out[i] = min(max(d + (noise[i] if i < noise.shape[0] else 0.0), lo), hi)
     return out
+
+
+@numba.njit(cache=True)
+def bumper_hits(grid, x, y, heading, reach, front_half):
+    """(left, right) bumpers pressed by walls within ``reach`` of the centre (x, y).
+
+    A contact within ``front_half`` of straight ahead presses both; one further round on either
+    side, up to 90°, presses that side's bumper; contacts behind the axle press none.
+    """
+    contacts = new_contacts(grid.segments.shape[0])
+    n = grid_contacts(grid, x, y, reach, contacts)
+    left = False
+    right = False
+    for i in range(n):
+        phi = (math.atan2(contacts.point_y[i] - y, contacts.point_x[i] - x) - heading + math.pi) % (2.0 * math.pi)
+        phi -= math.pi
+        if abs(phi) < front_half:
+            return True, True
+        if front_half <= phi < 0.5 * math.pi:
+            left = True
+        elif -0.5 * math.pi < phi <= -front_half:
+            right = True
+    return left, right
