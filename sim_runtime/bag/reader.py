@@ -390,10 +390,11 @@ def open_bag(path: str | Path) -> Bag:
     files: list[Path] = []
     if meta_path.is_file():
         try:
-            metadata = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
+            metadata = yaml.safe_load(meta_path.read_text(encoding="utf-8", errors="replace"))
+            metadata = metadata["rosbag2_bagfile_information"]
             listed = [path / p for p in metadata.get("relative_file_paths") or []]
-        except (yaml.YAMLError, KeyError, TypeError) as exc:
-            _warn(f"{meta_path}: unreadable ({exc}); using the .mcap files in the folder")
+        except (yaml.YAMLError, KeyError, TypeError, AttributeError, ValueError, RecursionError, OSError) as exc:
+            _warn(f"{meta_path}: unreadable ({type(exc).__name__}: {exc}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
             if f.is_file():

@@ -37,10 +37,12 @@ from typing import Any
 
 import rclpy
 import yaml
+from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
+from rclpy.validate_topic_name import validate_topic_name
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
@@ -382,6 +384,12 @@ def _parse_remaps(items: Sequence[str]) -> dict[str, str]:
         old, sep, new = item.partition(":=")
         if not sep or not old or not new:
             raise InputError(f"--remap {item!r}: expected OLD:=NEW")
+        try:
+            validate_topic_name(new)
+        except InvalidTopicNameException as exc:
+            raise InputError(
+                f"--remap {item!r}: {new!r} is not a valid topic name ({str(exc).splitlines()[0]})"
+            ) from None
         remap[old if old.startswith("/") else "/" + old] = new
     return remap
 

@@ -11,7 +11,6 @@ import collections
 import json
 import multiprocessing as mp
 import os
-import queue
 import shutil
 import signal
 import sys
@@ -20,6 +19,7 @@ import time
 import traceback
 import warnings
 from dataclasses import dataclass, field
+from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any
 
@@ -84,7 +84,7 @@ def _signature(name: str, exc: BaseException) -> str:
 def _worker(
     seed_folder: str, seed: int, tasks: Any, results: Any, current: Any, started: Any, out: str, log: str
 ) -> None:
-    """Run inputs of the ranges put on ``tasks``; one result per input on ``results``."""
+    """Run inputs of the ranges put on ``tasks``; one result per input on the pipe ``results``."""
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
     os.dup2(fd, 1)
     os.dup2(fd, 2)
@@ -125,7 +125,7 @@ def _worker(
                 finally:
                     shutil.rmtree(folder, ignore_errors=True)
                 current.value = _IDLE
-                results.put((index, name, outcome, signature))
+                results.send((index, name, outcome, signature))  # synchronous: survives our crash
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
@@ -159,14 +159,28 @@ class _Slot:
         self.tasks = self.ctx.Queue()
         self.current = self.ctx.Value("q", _IDLE, lock=False)
         self.started = self.ctx.Value("d", time.monotonic(), lock=False)
-        seed_folder, seed, results, out = self.args
+        self.results, sender = self.ctx.Pipe(duplex=False)
+        seed_folder, seed, out = self.args
         log = str(Path(out) / f"worker-{self.number}.log")
         self.process = self.ctx.Process(
             target=_worker,
-            args=(seed_folder, seed, self.tasks, results, self.current, self.started, out, log),
+            args=(seed_folder, seed, self.tasks, sender, self.current, self.started, out, log),
             daemon=True,
         )
         self.process.start()
+        sender.close()
+
+    def receive(self, record: Any) -> None:
+        """Record every result waiting in the pipe (all of them, when the worker has died)."""
+        try:
+            while self.results.poll():
+                index, name, outcome, signature = self.results.recv()
+                record(index, name, outcome, signature)
+                self.done_upto = index + 1
+                if self.task is not None and index + 1 == self.task[1]:
+                    self.task = None
+        except (EOFError, OSError):
+            pass
 
     def give(self, task: tuple[int, int]) -> None:
         self.task = task
@@ -196,10 +210,9 @@ def run_campaign(
     prepare_seeds(seed_folder)
     seeds = Seeds.load(seed_folder)
     ctx = mp.get_context("spawn")
-    results = ctx.Queue()
     report = Report(seed=seed, workers=workers, out=str(out))
     begin = time.monotonic()
-    slots = [_Slot(ctx, (str(seed_folder), seed, results, str(out)), n) for n in range(workers)]
+    slots = [_Slot(ctx, (str(seed_folder), seed, str(out)), n) for n in range(workers)]
     next_index = 0
     finished = 0
     last_print = begin
@@ -227,6 +240,7 @@ def run_campaign(
                 shutil.rmtree(scratch, ignore_errors=True)
             record(index, name, outcome, f"{name}: {outcome} (exit code {slot.process.exitcode})")
         rest = (index + 1 if index != _IDLE else slot.done_upto, slot.task[1]) if slot.task else None
+        slot.results.close()
         slot.start()
         slot.task = None
         if rest and rest[0] < rest[1]:
@@ -242,23 +256,16 @@ def run_campaign(
                     slot.give(task)
             if all(slot.task is None for slot in slots):
                 break
-            try:
-                index, name, outcome, signature = results.get(timeout=0.2)
-            except queue.Empty:
-                pass
-            else:
-                record(index, name, outcome, signature)
-                for slot in slots:
-                    if slot.task and slot.task[0] <= index < slot.task[1]:
-                        slot.done_upto = index + 1
-                        if index + 1 == slot.task[1]:
-                            slot.task = None
+            ready = wait([slot.results for slot in slots if slot.task is not None], timeout=0.2)
+            for slot in slots:
+                if slot.results in ready:
+                    slot.receive(record)
             now = time.monotonic()
             for slot in slots:
                 if slot.task is None:
                     continue
                 if not slot.process.is_alive():
-                    _drain(results, record, slots)
+                    slot.receive(record)
                     if slot.task is not None:
                         lost(slot, "crash")
                 elif slot.current.value != _IDLE and now - slot.started.value > hang_seconds:
@@ -280,21 +287,6 @@ def run_campaign(
     report.seconds = time.monotonic() - begin
     (out / "summary.json").write_text(json.dumps(report.to_json(), indent=1), encoding="utf-8")
     return report
-
-
-def _drain(results: Any, record: Any, slots: list[_Slot]) -> None:
-    """Take the results a dead worker managed to send before it died."""
-    while True:
-        try:
-            index, name, outcome, signature = results.get(timeout=0.05)
-        except queue.Empty:
-            return
-        record(index, name, outcome, signature)
-        for slot in slots:
-            if slot.task and slot.task[0] <= index < slot.task[1]:
-                slot.done_upto = index + 1
-                if index + 1 == slot.task[1]:
-                    slot.task = None
 
 
 def replay(index: int, seed: int, out: str | Path = "out/fuzz") -> None:

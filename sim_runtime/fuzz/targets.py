@@ -8,6 +8,7 @@ state. Loading may also fail, but only with :class:`~sim_runtime.errors.InputErr
 
 from __future__ import annotations
 
+import os
 import random
 import shutil
 from collections.abc import Callable
@@ -499,6 +500,31 @@ TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case]]] =
 """Target name → (relative weight, case maker)."""
 
 
+def _selftest_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
+    """Checks the harness itself: every 7th input kills its process (as a segfault would),
+    every 5th raises a plain exception, the rest load or raise InputError."""
+    from sim_runtime.errors import InputError
+
+    number = rng.randrange(35)
+    (folder / "number.txt").write_text(str(number), encoding="utf-8")
+
+    def run() -> None:
+        if number % 7 == 0:
+            import ctypes
+
+            ctypes.string_at(0)  # SIGSEGV
+        if number % 5 == 0:
+            raise RuntimeError("selftest defect")
+        if number % 2:
+            raise InputError("selftest input error")
+
+    return Case(folder, run)
+
+
+if os.environ.get("ROBOT_SIMS_FUZZ_SELFTEST"):  # the harness's own test: its workers inherit this
+    TARGETS = {"selftest": (1.0, _selftest_case)}
+
+
 def target_of(index: int, seed: int) -> str:
     """Which target input ``index`` of a campaign exercises (deterministic)."""
     rng = random.Random(f"{seed}/{index}/target")
@@ -519,6 +545,8 @@ __all__ = ["TARGETS", "Case", "Defect", "Seeds", "make_case", "prepare_seeds", "
 
 def warm_up(seeds: Seeds, folder: Path) -> None:
     """Import and compile (numba) everything once on the unmutated seeds, before the hang clock runs."""
+    if "selftest" in TARGETS:
+        return
     rng = random.Random(0)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "w.map").write_text(seeds.maps[0], encoding="utf-8")
