@@ -26,6 +26,9 @@ DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, 
 #: Highest robot count whose ids fit the seed's uint8 matrix (ids 2-255).
 MAX_ROBOTS_UINT8 = 254
 
+#: Most rays one sensor may cast per reading.
+MAX_RAYS = 100_000
+
 SENSOR_TYPES = ("ultrasonic", "laser")
 CONTROLLERS = ("avoid",)
 
@@ -162,8 +165,10 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
     if kind not in SENSOR_TYPES:
         raise InputError(f"{where}.type: unknown sensor type {kind!r}; expected one of {', '.join(SENSOR_TYPES)}")
     rays = entry.get("resolution", 30)
-    if isinstance(rays, bool) or not isinstance(rays, int) or rays <= 0:
-        raise InputError(f"{where}.resolution: number of rays must be a positive integer, got {rays!r}")
+    if isinstance(rays, bool) or not isinstance(rays, int) or not 0 < rays <= MAX_RAYS:
+        raise InputError(
+            f"{where}.resolution: number of rays must be a positive integer (at most {MAX_RAYS}), got {rays!r}"
+        )
     beamwidth = _number(entry.get("beamwidth", 60.0), f"{where}.beamwidth", nonneg=True)
     if beamwidth > 360.0:
         raise InputError(f"{where}.beamwidth: at most 360 degrees, got {beamwidth!r}")
@@ -259,6 +264,15 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     if not isinstance(robots_in, list) or not robots_in:
         raise InputError(f"{source}: robots: at least one robot is required")
     robots = tuple(_robot(r, f"{source}: robots[{i}]") for i, r in enumerate(robots_in))
+    resolution = _number(data.get("resolution", 0.01), f"{source}: resolution", positive=True)
+    map_size_m = math.hypot(*walls.shape) * resolution
+    for i, r in enumerate(robots):
+        reach = max(math.hypot(x, y) for x, y in r.shape) * r.scale
+        if not reach <= map_size_m:  # also a size that overflowed to inf
+            raise InputError(
+                f"{source}: robots[{i}] ({r.name!r}).shape: the robot ({reach:.4g} m from its pivot, "
+                f"scale {r.scale:g}) is larger than the map ({map_size_m:.4g} m across)"
+            )
     names: dict[str, int] = {}
     for i, r in enumerate(robots):
         if r.name in names:
@@ -267,7 +281,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         names[r.name] = i
     return WorldSpec(
         walls=walls,
-        resolution=_number(data.get("resolution", 0.01), f"{source}: resolution", positive=True),
+        resolution=resolution,
         origin=_pair(data.get("origin", [0.0, 0.0]), f"{source}: origin"),
         dt=_number(data.get("dt", 1.0), f"{source}: dt", positive=True),
         steps_limit=steps,

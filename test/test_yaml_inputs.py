@@ -39,6 +39,8 @@ def world(**robot) -> dict:
         ({**world(), 7: 1}, r"field names must be text, got 7"),
         (world(sensors=[{"name": "s", None: 2}]), r"sensors\[0\]: field names must be text, got None"),
         ({**world(), "origin": [0, [1, 2]]}, r"origin\[1\]: expected a number"),
+        (world(sensors=[{"name": "s", "resolution": 2**31}]), r"sensors\[0\]\.resolution: .*at most 100000"),
+        (world(scale=1e300), r"robots\[0\] \('a'\)\.shape: the robot .* is larger than the map"),
     ],
 )
 def test_a_world_file_with_hostile_values_names_file_and_field(tmp_path, data, where):
