@@ -174,7 +174,10 @@ def test_unrecognised_config_row_warns_and_is_skipped():
         ("camera 0 -0.1", "std '-0.1' must be >= 0"),
         ("com_delay", "needs 1 number"),
         ("com_delay soon", "'soon'"),
-        ("com_delay -1", "'-1' must be >= 0"),
+        ("com_delay -1", "'-1' must be in 0..3600 s"),
+        ("com_delay 1e300", "'1e300' must be in 0..3600 s"),
+        ("camera 1e300 0", "camera noise '1e300 0' beyond ±1e\\+06"),
+        ("lidar 0 2e6", "lidar noise '0 2e6' beyond"),
     ],
 )
 def test_bad_config_value_names_file_line_and_value(row, value):

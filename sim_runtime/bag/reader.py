@@ -18,8 +18,11 @@ Python package is not installed: callers skip that topic.
 
 from __future__ import annotations
 
+import glob
 import heapq
 import importlib
+import importlib.util
+import os
 import re
 import struct
 import warnings
@@ -71,6 +74,8 @@ def message_class(type_name: str, topic: str = "?") -> Any:
             # A bag names the module to import: only ROS message packages, never e.g. "os/path/join".
             if len(parts) != 3 or parts[1] != "msg" or not all(_IDENTIFIER.match(p) for p in parts):
                 raise ValueError("expected pkg/msg/Type")
+            if not _is_message_package(parts[0]):
+                raise ImportError(f"{parts[0]} is not a ROS interface package")
             cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
             if not (isinstance(cls, type) and hasattr(cls, "get_fields_and_field_types")):
                 raise ValueError("not a ROS message class")
@@ -80,6 +85,16 @@ def message_class(type_name: str, topic: str = "?") -> Any:
             ) from None
         _MESSAGE_CLASSES[type_name] = cls
     return cls
+
+
+def _is_message_package(package: str) -> bool:
+    """Whether ``package`` is rosidl-generated (has its C type support library), found without
+    importing it: a bag must not make us run the top-level code of any module it names."""
+    spec = importlib.util.find_spec(package)
+    for location in (spec.submodule_search_locations or []) if spec is not None else []:
+        if glob.glob(os.path.join(glob.escape(location), f"{package}_s__rosidl_typesupport_c*")):
+            return True
+    return False
 
 
 class BagMessage:
