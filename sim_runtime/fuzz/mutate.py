@@ -227,8 +227,11 @@ def mutate_tree(rng: random.Random, tree: Any, rounds: int | None = None) -> Any
         elif op == 5:
             node = parent[key]
             if isinstance(node, (int, float)) and not isinstance(node, bool):
-                whole = int(node) if node == node and abs(node) < 1e18 else node
-                parent[key] = rng.choice((-node, node * 1e300, node + 1e-9, node * 1000, whole))
+                try:
+                    whole = int(node) if node == node and abs(node) < 1e18 else node
+                    parent[key] = rng.choice((-node, node * 1e300, node + 1e-9, node * 1000, whole))
+                except OverflowError:  # an integer beyond float range: make it bigger still
+                    parent[key] = node * 10**rng.randrange(400)
             else:
                 parent[key] = value
         else:
