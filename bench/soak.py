@@ -124,6 +124,8 @@ def run_world(name: str, args: list[str], sim_seconds: float, wall_limit: float,
         "wall_s": samples[-1][0],
         "rss_warm_mb": warm[2] / MB,
         "rss_end_mb": samples[-1][2] / MB,
+        # RSS at 25 %, 50 %, 75 % of the run after warm-up: a plateau or a steady climb?
+        "rss_quarters_mb": [after[min(len(after) - 1, len(after) * q // 4)][2] / MB for q in (1, 2, 3)],
         "rate_start": rate(after[:k]),
         "rate_end": rate(after[-k:]),
         "messages": total,
@@ -237,6 +239,8 @@ def main() -> None:
                 f"no drift {'met' if r['rate_end'] >= 0.8 * r['rate_start'] else 'MISSED'}, "
                 f"complete {'met' if r['dropped'] == 0 else r['missing']}"
             )
+            quarters = ", ".join(f"{m:.1f}" for m in r["rss_quarters_mb"])
+            print(f"{'':15s} RSS (MB) after warm-up at 25/50/75 %: {quarters}")
         f = flood(opts.flood_seconds, watcher)
         print(
             f"cmd_vel flood {opts.flood_seconds:g} s: {f['sent_per_s']:.0f} msg/s sent (a tenth NaN/inf/±1e300), "
