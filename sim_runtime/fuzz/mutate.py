@@ -231,7 +231,7 @@ def mutate_tree(rng: random.Random, tree: Any, rounds: int | None = None) -> Any
                     whole = int(node) if node == node and abs(node) < 1e18 else node
                     parent[key] = rng.choice((-node, node * 1e300, node + 1e-9, node * 1000, whole))
                 except OverflowError:  # an integer beyond float range: make it bigger still
-                    parent[key] = node * 10**rng.randrange(400)
+                    parent[key] = node * 10 ** rng.randrange(400)
             else:
                 parent[key] = value
         else:
