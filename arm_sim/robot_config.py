@@ -54,6 +54,10 @@ from sim_runtime.yamlfile import FieldReader, load_yaml
 
 MAX_JOINTS = 100
 """Most joints a config may declare (a guard against a typo such as 6000)."""
+MAX_LIMIT = 1e6
+"""Largest |joint limit| (rad or m) and joint speed (rad/s or m/s) a config may hold."""
+MIN_VELOCITY = 1e-9
+"""Slowest joint speed limit (rad/s or m/s)."""
 
 
 @dataclass(frozen=True)
@@ -216,10 +220,14 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     for i, (lo, hi) in enumerate(position):
         if not lo < hi:
             raise r.error(f"limits.position[{i}]", f"min must be below max, got [{lo}, {hi}]")
+        if max(abs(lo), abs(hi)) > MAX_LIMIT:
+            raise r.error(f"limits.position[{i}]", f"beyond ±{MAX_LIMIT:g}, got [{lo}, {hi}]")
     velocity = r.vector(r.require(limits, "velocity", "limits."), "limits.velocity", dof)
     for i, v in enumerate(velocity):
         if v <= 0:
             raise r.error(f"limits.velocity[{i}]", f"must be > 0, got {v}")
+        if not MIN_VELOCITY <= v <= MAX_LIMIT:  # 1e-320 rad/s makes every move last forever
+            raise r.error(f"limits.velocity[{i}]", f"must be within {MIN_VELOCITY:g}..{MAX_LIMIT:g}, got {v}")
 
     dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
     links = _read_links(r, r.require(raw, "links"), dof, mesh_folder)

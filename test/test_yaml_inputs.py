@@ -68,6 +68,8 @@ def irb120(edit) -> dict:
         (lambda r: r["dh"]["d"].__setitem__(1, "9" * 400), r"dh\.d\[1\]: expected a number or an expression"),
         (lambda r: r["dh"]["d"].__setitem__(1, "1e200 * 1e200"), r"dh\.d\[1\]: must be finite"),
         (lambda r: r["dh"]["a"].__setitem__(2, "1e308*10"), r"dh\.a\[2\]: must be finite"),
+        (lambda r: r["limits"]["velocity"].__setitem__(1, 1e-320), r"limits\.velocity\[1\]: must be within"),
+        (lambda r: r["limits"]["position"].__setitem__(0, [-1e300, 1e300]), r"limits\.position\[0\]: beyond"),
     ],
 )
 def test_a_robot_config_with_hostile_values_names_file_and_field(tmp_path, edit, where):
