@@ -19,7 +19,7 @@ expression string using ``pi`` and ``deg`` = pi/180, e.g. ``-pi/2`` or ``165*deg
       alpha: [-pi/2, 0, -pi/2, -pi/2, pi/2, 0]  # link twist
     limits:
       position: [[-165*deg, 165*deg], ...]   # [min, max] per joint
-      velocity: [250*deg, ...]               # maximum speed per joint (> 0)
+      velocity: [250*deg, ...]               # maximum speed per joint (1e-9..1e6)
     dynamics:                       # optional (without it efforts are zero)
       gravity: [0, 0, -9.81]        # world gravity, optional
       mass: [3.07, ...]             # per link 1..dof (kg)
