@@ -1,6 +1,6 @@
 """The simulated iRobot Create: a pure model (no ROS), usable from a notebook.
 
-Geometry and constants follow the original MATLAB toolbox (see ``seed-facts/create.md``); the
+Geometry and constants follow the original MATLAB toolbox (the iRobot Create Simulator); the
 original's bugs are fixed (wheel clamping, arc direction, odometry wrap and sign lag, IR false
 positives, shared cliff noise, exact-equality occlusion). Angles are radians, counter-clockwise,
 sensor angles relative to the heading; every noise draw comes from the ``rng`` given.

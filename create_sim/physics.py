@@ -1,6 +1,6 @@
 """Rigid-body motion of the circular Create among wall segments (numba kernel).
 
-Follows the seed's physics engine (driveNormal / drive1Wall / drive2Wall / driveCorner) with its
+Follows the original's physics engine (driveNormal / drive1Wall / drive2Wall / driveCorner) with its
 known errors fixed:
 
 * Free motion is the exact arc of constant (v, ω), with the lateral offset on the correct side
@@ -9,15 +9,15 @@ known errors fixed:
   points from its closest point (a wall's side or a corner) to the centre. Contacts that the
   intended velocity pushes into are "active".
 * One active contact on a wall's side: the robot slides along the wall; Coulomb-like friction from
-  the seed's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
+  the original's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
   μ·|v_n|/r from the turn rate, never reversing either (the original could *add* speed).
 * A contact at a wall's end (a corner) is rolled round: the robot keeps its whole tangential
-  speed (the seed's driveCorner, where friction acts on the turn rate only), so a robot meeting a
+  speed (the original's driveCorner, where friction acts on the turn rate only), so a robot meeting a
   free wall end close to head-on (within atan μ) is deflected round it instead of stopping dead.
 * Several active contacts (two walls, a wall and a corner, corners): slide along the first
   contact, from the most opposed, whose slide presses into no other contact; if there is none,
   stay put (stuck in the corner); the turn rate loses μ·Σ|v_n|/r. A corner's normal points from
-  the wall's end to the centre (the seed's extra "glancing" turn of the heading at a corner is
+  the wall's end to the centre (the original's extra "glancing" turn of the heading at a corner is
   not reproduced: the heading changes only with ω).
 * Whatever the commands, a step never ends overlapping a wall: motion is cut into sub-steps of at
   most r/4 (so the centre cannot cross a wall), any penetration is pushed out along the contact
@@ -49,7 +49,7 @@ def wrap_angle(a: float) -> float:
 
 @numba.njit(cache=True)
 def arc_motion(x, y, th, v, w, dt):
-    """Exact pose after driving at constant (v, ω) for dt (the seed's driveNormal, sign fixed)."""
+    """Exact pose after driving at constant (v, ω) for dt (the original's driveNormal, sign fixed)."""
     dth = w * dt
     if abs(dth) < 1e-12:
         # Straight line (the arc formula's limit); keeps tiny ω numerically exact.
