@@ -9,7 +9,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/config/fastdds_localhost.xml
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
-.PHONY: venv test demo bench lint clean
+.PHONY: venv test demo bench lint clean fuzz soak test-boundscheck
 
 venv: $(STAMP)
 
@@ -32,7 +32,25 @@ demo: venv
 
 bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"
-	set -e; for script in bench/*.py; do echo "== $$script"; $(PY) $$script; done
+	set -e; for script in $(filter-out bench/soak.py,$(wildcard bench/*.py)); do echo "== $$script"; $(PY) $$script; done
+
+# Mutation fuzzer over every input format: 100,000 inputs or 15 minutes on 2 worker processes;
+# defects (with their inputs) under out/fuzz/defects, counts in out/fuzz/summary.json.
+fuzz: venv
+	$(PY) -m sim_runtime.fuzz --inputs 100000 --seconds 900 --workers 2 --out out/fuzz
+
+# Soak: each world for an hour of sim time at real_time_factor 0, recorder on; a cmd_vel flood.
+soak: venv
+	$(PY) bench/soak.py
+
+# The model and kernel tests (and a fuzz sample) again with numba's bounds checks compiled in,
+# so an out-of-range index fails a test instead of corrupting memory. Own numba cache: cached
+# kernels compiled without the checks must not be reused.
+BOUNDSCHECK_TESTS := test/test_create_model.py test/test_create_files.py test/test_simrobot_model.py \
+	test/test_simrobot_raycast.py test/test_simrobot_world_file.py test/test_arm_model.py test/test_arm_inputs.py \
+	test/test_yaml_inputs.py test/test_fuzz.py
+test-boundscheck: venv
+	NUMBA_BOUNDSCHECK=1 NUMBA_CACHE_DIR=$(CURDIR)/out/numba-boundscheck $(PY) -m pytest -q -p no:cacheprovider $(BOUNDSCHECK_TESTS)
 
 clean:
 	rm -rf build *.egg-info out

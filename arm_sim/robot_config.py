@@ -19,7 +19,7 @@ expression string using ``pi`` and ``deg`` = pi/180, e.g. ``-pi/2`` or ``165*deg
       alpha: [-pi/2, 0, -pi/2, -pi/2, pi/2, 0]  # link twist
     limits:
       position: [[-165*deg, 165*deg], ...]   # [min, max] per joint
-      velocity: [250*deg, ...]               # maximum speed per joint (> 0)
+      velocity: [250*deg, ...]               # maximum speed per joint (1e-9..1e6)
     dynamics:                       # optional (without it efforts are zero)
       gravity: [0, 0, -9.81]        # world gravity, optional
       mass: [3.07, ...]             # per link 1..dof (kg)
@@ -42,9 +42,7 @@ as RoboClass's STL export convention. Every error names the file, the field and 
 
 from __future__ import annotations
 
-import ast
 import math
-import operator
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,12 +50,14 @@ from typing import Any
 
 import numpy as np
 
-from sim_runtime.errors import InputError
-from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import FieldReader, load_yaml
 
-_CONSTANTS = {"pi": math.pi, "deg": math.pi / 180.0}
-_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
-_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+MAX_JOINTS = 100
+"""Most joints a config may declare (a guard against a typo such as 6000)."""
+MAX_LIMIT = 1e6
+"""Largest |joint limit| (rad or m) and joint speed (rad/s or m/s) a config may hold."""
+MIN_VELOCITY = 1e-9
+"""Slowest joint speed limit (rad/s or m/s)."""
 
 
 @dataclass(frozen=True)
@@ -111,68 +111,6 @@ class RobotConfig:
     view: ViewInfo = field(default_factory=ViewInfo)
 
 
-class _Reader:
-    """Field access that turns every problem into an InputError naming file, field and index."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-
-    def error(self, where: str, message: str) -> InputError:
-        return InputError.at(self.path, None, f"field '{where}': {message}")
-
-    def number(self, value: Any, where: str) -> float:
-        if isinstance(value, bool):
-            raise self.error(where, f"expected a number, got {value!r}")
-        if isinstance(value, (int, float)):
-            result = float(value)
-        elif isinstance(value, str):
-            try:
-                result = float(_evaluate(ast.parse(value.strip(), mode="eval").body))
-            except (SyntaxError, ValueError, KeyError, ZeroDivisionError):
-                raise self.error(
-                    where, f"expected a number or an expression of numbers, pi and deg, got {value!r}"
-                ) from None
-        else:
-            raise self.error(where, f"expected a number, got {value!r}")
-        if not math.isfinite(result):
-            raise self.error(where, f"must be finite, got {value!r}")
-        return result
-
-    def vector(self, value: Any, where: str, length: int | None = None) -> np.ndarray:
-        if not isinstance(value, (list, tuple)):
-            raise self.error(where, f"expected a list of numbers, got {value!r}")
-        if length is not None and len(value) != length:
-            raise self.error(where, f"expected {length} values, got {len(value)}")
-        return np.array([self.number(v, f"{where}[{i}]") for i, v in enumerate(value)])
-
-    def matrix(self, value: Any, where: str, rows: int, cols: int) -> np.ndarray:
-        if not isinstance(value, (list, tuple)) or len(value) != rows:
-            raise self.error(where, f"expected a {rows}x{cols} matrix (list of {rows} rows), got {value!r}")
-        return np.array([self.vector(row, f"{where}[{i}]", cols) for i, row in enumerate(value)])
-
-    def require(self, mapping: dict, key: str, where: str = "") -> Any:
-        if key not in mapping:
-            raise self.error(f"{where}{key}", "missing")
-        return mapping[key]
-
-    def mapping(self, value: Any, where: str) -> dict:
-        if not isinstance(value, dict):
-            raise self.error(where, f"expected a mapping (key: value), got {value!r}")
-        return value
-
-
-def _evaluate(node: ast.AST) -> float:
-    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
-        return node.value
-    if isinstance(node, ast.Name):
-        return _CONSTANTS[node.id]
-    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-        return _BINARY[type(node.op)](_evaluate(node.left), _evaluate(node.right))
-    if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-        return _UNARY[type(node.op)](_evaluate(node.operand))
-    raise ValueError("unsupported expression")
-
-
 def transform_from_xyz_rpy(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
     """4x4 transform: translation ``xyz`` and rotation Rz(yaw) Ry(pitch) Rx(roll)."""
     cr, sr = math.cos(rpy[0]), math.sin(rpy[0])
@@ -188,12 +126,10 @@ def transform_from_xyz_rpy(xyz: np.ndarray, rpy: np.ndarray) -> np.ndarray:
     return T
 
 
-def read_transform(reader: _Reader, value: Any, where: str) -> np.ndarray:
+def read_transform(reader: FieldReader, value: Any, where: str) -> np.ndarray:
     """A pose field: {xyz, rpy} (both optional) or a 4x4 homogeneous matrix."""
     if isinstance(value, dict):
-        unknown = set(value) - {"xyz", "rpy"}
-        if unknown:
-            raise reader.error(where, f"unknown keys {sorted(unknown)}; use xyz and rpy")
+        reader.mapping(value, where, {"xyz", "rpy"})
         xyz = reader.vector(value.get("xyz", [0, 0, 0]), f"{where}.xyz", 3)
         rpy = reader.vector(value.get("rpy", [0, 0, 0]), f"{where}.rpy", 3)
         return transform_from_xyz_rpy(xyz, rpy)
@@ -207,7 +143,7 @@ def read_transform(reader: _Reader, value: Any, where: str) -> np.ndarray:
     return T
 
 
-def read_color(reader: _Reader, value: Any, where: str) -> tuple[float, float, float, float]:
+def read_color(reader: FieldReader, value: Any, where: str) -> tuple[float, float, float, float]:
     """RGB or RGBA in 0..1 -> RGBA tuple."""
     if not isinstance(value, (list, tuple)) or len(value) not in (3, 4):
         raise reader.error(where, f"expected [r, g, b] or [r, g, b, a] in 0..1, got {value!r}")
@@ -223,7 +159,7 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     """Read and check a robot configuration file; raises InputError naming file, field and index."""
     path = Path(path).resolve()
     raw = load_yaml(path, "robot config")
-    r = _Reader(path)
+    r = FieldReader(path, expressions=True)
     raw = r.mapping(raw, "<top level>")
     known = {
         "name",
@@ -245,13 +181,11 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
 
     name = str(r.require(raw, "name"))
     mesh_folder = (path.parent / str(raw.get("mesh_folder", "."))).resolve()
-    dof = r.require(raw, "dof")
-    if isinstance(dof, bool) or not isinstance(dof, int) or dof < 1:
-        raise r.error("dof", f"expected a whole number >= 1, got {dof!r}")
+    dof = r.integer(r.require(raw, "dof"), "dof", minimum=1, maximum=MAX_JOINTS)
     base = read_transform(r, raw.get("base", {}), "base")
 
     types = r.require(raw, "joint_types")
-    types = "".join(types) if isinstance(types, (list, tuple)) else str(types)
+    types = "".join(map(str, types)) if isinstance(types, (list, tuple)) else str(types)
     if len(types) != dof:
         raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {types!r}")
     for i, t in enumerate(types):
@@ -286,10 +220,14 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     for i, (lo, hi) in enumerate(position):
         if not lo < hi:
             raise r.error(f"limits.position[{i}]", f"min must be below max, got [{lo}, {hi}]")
+        if max(abs(lo), abs(hi)) > MAX_LIMIT:
+            raise r.error(f"limits.position[{i}]", f"beyond ±{MAX_LIMIT:g}, got [{lo}, {hi}]")
     velocity = r.vector(r.require(limits, "velocity", "limits."), "limits.velocity", dof)
     for i, v in enumerate(velocity):
         if v <= 0:
             raise r.error(f"limits.velocity[{i}]", f"must be > 0, got {v}")
+        if not MIN_VELOCITY <= v <= MAX_LIMIT:  # 1e-320 rad/s makes every move last forever
+            raise r.error(f"limits.velocity[{i}]", f"must be within {MIN_VELOCITY:g}..{MAX_LIMIT:g}, got {v}")
 
     dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
     links = _read_links(r, r.require(raw, "links"), dof, mesh_folder)
@@ -315,7 +253,7 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     )
 
 
-def _read_dynamics(r: _Reader, raw: Any, dof: int) -> Dynamics:
+def _read_dynamics(r: FieldReader, raw: Any, dof: int) -> Dynamics:
     if raw is None:
         return Dynamics(
             mass=np.zeros(dof),
@@ -343,7 +281,7 @@ def _read_dynamics(r: _Reader, raw: Any, dof: int) -> Dynamics:
     return Dynamics(mass=mass, cog=cog, inertia=inertia, gravity=gravity)
 
 
-def _read_links(r: _Reader, raw: Any, dof: int, mesh_folder: Path) -> tuple[tuple[MeshElement, ...], ...]:
+def _read_links(r: FieldReader, raw: Any, dof: int, mesh_folder: Path) -> tuple[tuple[MeshElement, ...], ...]:
     if not isinstance(raw, (list, tuple)):
         raise r.error("links", f"expected a list of links, got {raw!r}")
     links: list[tuple[MeshElement, ...] | None] = [None] * (dof + 1)
@@ -374,7 +312,7 @@ def _read_links(r: _Reader, raw: Any, dof: int, mesh_folder: Path) -> tuple[tupl
     return tuple(link or () for link in links)
 
 
-def _read_view(r: _Reader, raw: Any) -> ViewInfo:
+def _read_view(r: FieldReader, raw: Any) -> ViewInfo:
     if raw is None:
         return ViewInfo()
     raw = r.mapping(raw, "view")

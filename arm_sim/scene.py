@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from arm_sim.robot_config import _Reader, read_color, read_transform
+from arm_sim.robot_config import read_color, read_transform
 from arm_sim.stl import load_stl
-from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import FieldReader, load_yaml
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -64,7 +64,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read a scene file and its meshes; raises InputError naming file, field and index."""
     path = Path(path).resolve()
     raw = load_yaml(path, "scene file")
-    r = _Reader(path)
+    r = FieldReader(path, expressions=True)
     raw = r.mapping(raw if raw is not None else {}, "<top level>")
     unknown = set(raw) - {"objects", "arms"}
     if unknown:
@@ -109,13 +109,13 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     return Scene(path=path, objects=tuple(objects), arms=tuple(arms))
 
 
-def _list(r: _Reader, value, where: str) -> list:
+def _list(r: FieldReader, value, where: str) -> list:
     if not isinstance(value, list):
         raise r.error(where, f"expected a list, got {value!r}")
     return value
 
 
-def _name(r: _Reader, entry: dict, where: str, seen: set[str]) -> str:
+def _name(r: FieldReader, entry: dict, where: str, seen: set[str]) -> str:
     name = r.require(entry, "name", f"{where}.")
     if not isinstance(name, str) or not _NAME.match(name):
         raise r.error(f"{where}.name", f"expected a name of letters, digits and _, got {name!r}")

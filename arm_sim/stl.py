@@ -74,6 +74,8 @@ def _copy_binary_vertices(buf, out_bytes, out_floats, count):
     """Copy the 36 vertex bytes of every 50-byte record (one pass, no unaligned numpy path) and
     return the first triangle with a NaN/inf coordinate, or -1."""
     bad = -1
+    # Never past either buffer, whatever ``count`` says (the caller has checked it matches).
+    count = min(count, (buf.shape[0] - 84) // 50, out_floats.shape[0] // 9, out_bytes.shape[0] // 36)
     for k in range(count):
         src = 84 + 50 * k + 12
         dst = 36 * k
@@ -166,7 +168,8 @@ def _parse_float(buf, i, pow10):
             i += 1
         edigits = 0
         while i < n and 48 <= buf[i] <= 57:
-            exp = exp * 10 + (buf[i] - 48)
+            if exp < 100_000:  # beyond any float exponent; more digits must not wrap the integer
+                exp = exp * 10 + (buf[i] - 48)
             edigits += 1
             i += 1
         if edigits == 0:
@@ -194,6 +197,8 @@ def _ascii_vertices_kernel(buf, out, word, pow10):
                     break
             if match and _is_space(buf[i + 6]):
                 start = i
+                if count >= out.shape[0]:  # more vertices than the caller made room for
+                    return count, start
                 j = i + 6
                 for axis in range(3):
                     value, j, ok = _parse_float(buf, j, pow10)

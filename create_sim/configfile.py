@@ -42,6 +42,12 @@ class NoiseConfig:
         return "\n".join(rows) + "\n"
 
 
+MAX_NOISE = 1e6
+"""Largest |mean| or std a noise row may hold."""
+MAX_COM_DELAY_S = 3600.0
+"""Longest communication delay a config may ask for."""
+
+
 def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
     """Parse config-file text; ``source`` names the file in warnings and errors."""
     config = NoiseConfig()
@@ -60,6 +66,9 @@ def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
             std = parse_number(args[1], f"{keyword} std", source, number)
             if std < 0.0:
                 raise InputError.at(source, number, f"{keyword} std {args[1]!r} must be >= 0")
+            if max(abs(mean), std) > MAX_NOISE:
+                # Noise this size only turns readings into inf (a proportional camera error of 1e300).
+                raise InputError.at(source, number, f"{keyword} noise {' '.join(args)!r} beyond ±{MAX_NOISE:g}")
             if keyword == "imu":
                 warnings.warn(f"{source}:{number}: 'imu' noise ignored (the simulated Create has no IMU)", stacklevel=2)
                 continue
@@ -70,8 +79,8 @@ def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
                     source, number, f"'com_delay' needs 1 number (seconds), got {len(args)}: {' '.join(args)!r}"
                 )
             delay = parse_number(args[0], "com_delay", source, number)
-            if delay < 0.0:
-                raise InputError.at(source, number, f"com_delay {args[0]!r} must be >= 0")
+            if not 0.0 <= delay <= MAX_COM_DELAY_S:
+                raise InputError.at(source, number, f"com_delay {args[0]!r} must be in 0..{MAX_COM_DELAY_S:g} s")
             config.com_delay = delay
         else:
             warnings.warn(

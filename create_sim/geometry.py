@@ -5,14 +5,16 @@ Walls are line segments ``(N, 4)`` float64 ``[x1, y1, x2, y2]``. Rays are culled
 through (Amanatides–Woo) and stops as soon as its nearest hit lies inside the cell it has tested.
 A per-call "mailbox" array keeps a segment that spans several cells from being tested twice.
 
-Everything hot is a ``numba.njit(cache=True)`` kernel over plain arrays so that one call casts a
-whole LIDAR scan; the Python class only builds and holds the arrays.
+Everything hot is a ``numba.njit(cache=True)`` kernel. The grid is a NamedTuple of arrays and
+numbers that the kernels take as one argument (numba compiles its field accesses away). Every
+kernel clamps the cell indices it computes to the grid, NaN and huge coordinates included, so no
+input can make one read outside an array.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -58,14 +60,21 @@ def ray_segment_distance(
 
 @numba.njit(cache=True, inline="always")
 def point_segment_closest(px: float, py: float, x1: float, y1: float, x2: float, y2: float):
-    """Closest point on the segment to (px, py): returns (cx, cy, distance)."""
+    """Closest point on the segment to (px, py): returns (cx, cy, distance).
+
+    When the closest point is an end of the segment it is that end exactly, so callers can tell a
+    corner contact from a side contact by comparing with the end points.
+    """
     sx = x2 - x1
     sy = y2 - y1
     len2 = sx * sx + sy * sy
     u = 0.0
     if len2 > 0.0:
         u = ((px - x1) * sx + (py - y1) * sy) / len2
-        u = min(max(u, 0.0), 1.0)
+    if u <= 0.0:
+        return x1, y1, math.hypot(px - x1, py - y1)
+    if u >= 1.0:
+        return x2, y2, math.hypot(px - x2, py - y2)
     cx = x1 + u * sx
     cy = y1 + u * sy
     return cx, cy, math.hypot(px - cx, py - cy)
@@ -108,25 +117,46 @@ def _segment_touches_box(x1, y1, x2, y2, bx0, by0, bx1, by1, eps) -> bool:
     return True
 
 
+MAX_GRID_CELLS = 1_000_000
+"""Upper bound on a segment grid's cell count (a huge sparse map gets coarser cells instead)."""
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_index(coord: float, origin: float, cell: float, count: int, nudge: float) -> int:
+    """Index of the cell holding ``coord`` (``nudge`` cells added first), clamped to 0..count-1.
+
+    Clamped as a float before the int conversion, so NaN and coordinates far off the grid give a
+    valid index instead of an undefined integer.
+    """
+    f = np.floor((coord - origin) / cell + nudge)  # a float: numba's math.floor gives an int
+    if not f > 0.0:  # also NaN
+        return 0
+    if f >= count - 1:
+        return count - 1
+    return int(f)
+
+
 @numba.njit(cache=True)
 def _build_grid(segs, x0, y0, cell, nx, ny):
     """CSR lists (cell_start, cell_items) of the segments crossing each cell, cell = iy*nx + ix."""
     n = segs.shape[0]
     eps = cell * 1e-6
     counts = np.zeros(nx * ny + 1, dtype=np.int64)
+    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    items = np.empty(0, dtype=np.int32)
+    fill = np.empty(0, dtype=np.int64)
     for pass_no in range(2):
         if pass_no == 1:
-            start = np.zeros(nx * ny + 1, dtype=np.int64)
             for c in range(nx * ny):
                 start[c + 1] = start[c] + counts[c]
             items = np.empty(start[nx * ny], dtype=np.int32)
             fill = start[:-1].copy()
         for s in range(n):
             x1, y1, x2, y2 = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
-            ix0 = max(int(math.floor((min(x1, x2) - x0) / cell - 1e-6)), 0)
-            ix1 = min(int(math.floor((max(x1, x2) - x0) / cell + 1e-6)), nx - 1)
-            iy0 = max(int(math.floor((min(y1, y2) - y0) / cell - 1e-6)), 0)
-            iy1 = min(int(math.floor((max(y1, y2) - y0) / cell + 1e-6)), ny - 1)
+            ix0 = _cell_index(min(x1, x2), x0, cell, nx, -1e-6)
+            ix1 = _cell_index(max(x1, x2), x0, cell, nx, 1e-6)
+            iy0 = _cell_index(min(y1, y2), y0, cell, ny, -1e-6)
+            iy1 = _cell_index(max(y1, y2), y0, cell, ny, 1e-6)
             for iy in range(iy0, iy1 + 1):
                 for ix in range(ix0, ix1 + 1):
                     bx0 = x0 + ix * cell
@@ -142,19 +172,24 @@ def _build_grid(segs, x0, y0, cell, nx, ny):
 
 
 @numba.njit(cache=True)
-def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_range) -> float:
-    """Nearest hit of one unit ray within max_range (inf if none), walking the grid cells.
+def grid_cast(grid, mailbox, stamp, ox, oy, dx, dy, max_range) -> float:
+    """Nearest hit of one unit ray within max_range (inf if none), walking the grid's cells.
 
-    ``meta`` = [x0, y0, cell, nx, ny]; ``mailbox`` (one int64 per segment) holds the stamp of the
-    last ray that tested each segment, so pass a new ``stamp`` for every ray.
+    ``mailbox`` (one int64 per segment) holds the stamp of the last ray that tested each segment,
+    so pass a new ``stamp`` for every ray.
     """
-    nx = int(meta[3])
-    ny = int(meta[4])
-    if nx == 0 or ny == 0:
+    nx = grid.nx
+    ny = grid.ny
+    if nx <= 0 or ny <= 0 or not (math.isfinite(ox) and math.isfinite(oy)):
         return np.inf
-    x0 = meta[0]
-    y0 = meta[1]
-    cell = meta[2]
+    if not (math.isfinite(dx) and math.isfinite(dy)):
+        return np.inf
+    segs = grid.segments
+    start = grid.cell_start
+    items = grid.cell_items
+    x0 = grid.origin_x_m
+    y0 = grid.origin_y_m
+    cell = grid.cell_m
     x1 = x0 + nx * cell
     y1 = y0 + ny * cell
     t_in = 0.0
@@ -177,10 +212,8 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
             return np.inf
         if t_in > t_out:
             return np.inf
-    px = ox + dx * t_in
-    py = oy + dy * t_in
-    ix = min(max(int((px - x0) / cell), 0), nx - 1)
-    iy = min(max(int((py - y0) / cell), 0), ny - 1)
+    ix = _cell_index(ox + dx * t_in, x0, cell, nx, 0.0)
+    iy = _cell_index(oy + dy * t_in, y0, cell, ny, 0.0)
     # Ray parameter at the next x / y cell boundary, and its increment per cell.
     if dx != 0.0:
         inv_dx = 1.0 / dx
@@ -201,7 +234,8 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
         t_max_y = np.inf
         t_delta_y = np.inf
     best = np.inf
-    while True:
+    # Each pass moves one cell, so nx + ny passes cross the whole grid (a bound for any input).
+    for _ in range(nx + ny):
         c = iy * nx + ix
         for k in range(start[c], start[c + 1]):
             s = items[k]
@@ -230,20 +264,21 @@ def grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx, dy, max_rang
 
 
 @numba.njit(cache=True)
-def grid_cast_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, max_range):
+def grid_cast_fan(grid, ox, oy, heading, cos_off, sin_off, max_range):
     """Distances of rays from one origin at angles heading + offset (inf = no hit within range).
 
     Offsets come as their cosines and sines so a sensor's fixed fan needs no trigonometry per
     ray: each direction is the offset rotated by the heading.
     """
-    out = np.empty(cos_off.shape[0])
-    mailbox = np.full(segs.shape[0], -1, dtype=np.int64)
+    n_rays = min(cos_off.shape[0], sin_off.shape[0])
+    out = np.empty(n_rays)
+    mailbox = np.full(grid.segments.shape[0], -1, dtype=np.int64)
     ch = math.cos(heading)
     sh = math.sin(heading)
-    for i in range(cos_off.shape[0]):
+    for i in range(n_rays):
         dx = ch * cos_off[i] - sh * sin_off[i]
         dy = sh * cos_off[i] + ch * sin_off[i]
-        out[i] = grid_cast(segs, meta, start, items, mailbox, i, ox, oy, dx, dy, max_range)
+        out[i] = grid_cast(grid, mailbox, i, ox, oy, dx, dy, max_range)
     return out
 
 
@@ -251,7 +286,8 @@ def grid_cast_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, m
 def circle_crossing_angles(lines, cx, cy, radius, out):
     """World angles (seen from the centre) where segments cross the circle; returns how many.
 
-    ``out`` needs room for 2 per segment. A segment wholly inside or outside the circle gives none.
+    ``out`` needs room for 2 per segment (crossings beyond its size are dropped). A segment
+    wholly inside or outside the circle gives none.
     """
     count = 0
     for s in range(lines.shape[0]):
@@ -269,7 +305,7 @@ def circle_crossing_angles(lines, cx, cy, radius, out):
             continue
         root = math.sqrt(disc)
         for u in ((-b - root) / (2.0 * a), (-b + root) / (2.0 * a)):
-            if 0.0 <= u <= 1.0:
+            if 0.0 <= u <= 1.0 and count < out.shape[0]:
                 out[count] = math.atan2(y1 + u * sy, x1 + u * sx)
                 count += 1
     return count
@@ -291,24 +327,47 @@ def brute_cast_fan(segs, ox, oy, angles, max_range):
     return out
 
 
-@numba.njit(cache=True)
-def grid_contacts(segs, meta, start, items, px, py, reach, out):
-    """Closest points of every segment within ``reach`` of (px, py).
+class Contacts(NamedTuple):
+    """Rows filled by :func:`grid_contacts`: one per wall near a point (room for every wall)."""
 
-    Fills rows of ``out`` (shape (>=N, 4)) with [cx, cy, distance, segment index] and returns how
-    many. Points off the grid are near nothing (the grid covers every segment).
+    point_x: np.ndarray  # closest point on the wall
+    point_y: np.ndarray
+    distance: np.ndarray  # from the query point to that closest point
+    segment: np.ndarray  # int64 index of the wall
+    at_end: np.ndarray  # bool: the closest point is an end of the wall (a corner), not its side
+
+
+@numba.njit(cache=True)
+def new_contacts(n_segments: int) -> Contacts:
+    """Room for the contacts of a map with ``n_segments`` walls."""
+    n = max(n_segments, 1)
+    return Contacts(np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64), np.empty(n, np.bool_))
+
+
+@numba.njit(cache=True)
+def grid_contacts(grid, px, py, reach, out):
+    """Closest points of every segment within ``reach`` of (px, py), into the Contacts ``out``.
+
+    Returns how many rows were filled. Points off the grid are near nothing (the grid covers
+    every segment); a NaN point is near nothing.
     """
-    nx = int(meta[3])
-    ny = int(meta[4])
-    if nx == 0 or ny == 0:
+    nx = grid.nx
+    ny = grid.ny
+    if nx <= 0 or ny <= 0 or not (math.isfinite(px) and math.isfinite(py) and reach >= 0.0):
         return 0
-    x0 = meta[0]
-    y0 = meta[1]
-    cell = meta[2]
-    ix0 = max(int(math.floor((px - reach - x0) / cell)), 0)
-    ix1 = min(int(math.floor((px + reach - x0) / cell)), nx - 1)
-    iy0 = max(int(math.floor((py - reach - y0) / cell)), 0)
-    iy1 = min(int(math.floor((py + reach - y0) / cell)), ny - 1)
+    segs = grid.segments
+    start = grid.cell_start
+    items = grid.cell_items
+    x0 = grid.origin_x_m
+    y0 = grid.origin_y_m
+    cell = grid.cell_m
+    if px + reach < x0 or px - reach > x0 + nx * cell or py + reach < y0 or py - reach > y0 + ny * cell:
+        return 0
+    ix0 = _cell_index(px - reach, x0, cell, nx, 0.0)
+    ix1 = _cell_index(px + reach, x0, cell, nx, 0.0)
+    iy0 = _cell_index(py - reach, y0, cell, ny, 0.0)
+    iy1 = _cell_index(py + reach, y0, cell, ny, 0.0)
+    capacity = out.segment.shape[0]
     count = 0
     for iy in range(iy0, iy1 + 1):
         for ix in range(ix0, ix1 + 1):
@@ -317,53 +376,72 @@ def grid_contacts(segs, meta, start, items, px, py, reach, out):
                 s = items[k]
                 duplicate = False
                 for j in range(count):
-                    if out[j, 3] == s:
+                    if out.segment[j] == s:
                         duplicate = True
                         break
                 if duplicate:
                     continue
-                cx, cy, d = point_segment_closest(px, py, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3])
-                if d <= reach:
-                    out[count, 0] = cx
-                    out[count, 1] = cy
-                    out[count, 2] = d
-                    out[count, 3] = s
+                x1, y1, x2, y2 = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
+                cx, cy, d = point_segment_closest(px, py, x1, y1, x2, y2)
+                if d <= reach and count < capacity:
+                    out.point_x[count] = cx
+                    out.point_y[count] = cy
+                    out.distance[count] = d
+                    out.segment[count] = s
+                    out.at_end[count] = (cx == x1 and cy == y1) or (cx == x2 and cy == y2)
                     count += 1
     return count
 
 
-@dataclass(frozen=True)
-class SegmentGrid:
-    """Segments plus the uniform grid that culls them for rays and contact queries."""
+class SegmentGrid(NamedTuple):
+    """Wall segments plus the uniform grid that culls them for rays and contact queries.
 
-    segs: np.ndarray  # (N, 4) float64
-    meta: np.ndarray  # [x0, y0, cell, nx, ny]
-    start: np.ndarray  # (nx*ny + 1,) int64
-    items: np.ndarray  # int32 segment indices, CSR by cell
+    Cell (ix, iy) covers ``[origin_x_m + ix·cell_m, … + cell_m) × [origin_y_m + iy·cell_m, …)``;
+    its segments are ``cell_items[cell_start[c]:cell_start[c + 1]]`` with ``c = iy·nx + ix``.
+    """
+
+    segments: np.ndarray  # (N, 4) float64 [x1, y1, x2, y2]
+    origin_x_m: float
+    origin_y_m: float
+    cell_m: float
+    nx: int
+    ny: int
+    cell_start: np.ndarray  # (nx·ny + 1,) int64, CSR offsets into cell_items
+    cell_items: np.ndarray  # int32 segment indices, grouped by cell
 
     @classmethod
     def build(cls, segs: np.ndarray, cell: float | None = None) -> SegmentGrid:
-        """Grid over ``segs``; the default cell size puts about two cells per segment, ≥ 5 cm."""
+        """Grid over ``segs``; the default cell size puts about two cells per segment, ≥ 5 cm.
+
+        The grid never has more than :data:`MAX_GRID_CELLS` cells (huge sparse maps get coarser
+        cells). Segments must be finite: ValueError otherwise.
+        """
         segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
         if segs.shape[0] == 0:
-            return cls(segs, np.array([0.0, 0.0, 1.0, 0.0, 0.0]), np.zeros(1, np.int64), np.zeros(0, np.int32))
+            return cls(segs, 0.0, 0.0, 1.0, 0, 0, np.zeros(1, np.int64), np.zeros(0, np.int32))
+        if not np.isfinite(segs).all():
+            raise ValueError("segment coordinates must be finite")
         lo = np.minimum(segs[:, :2].min(axis=0), segs[:, 2:].min(axis=0))
         hi = np.maximum(segs[:, :2].max(axis=0), segs[:, 2:].max(axis=0))
         extent = np.maximum(hi - lo, 1e-3)
+        if not np.isfinite(extent).all():
+            raise ValueError("segments span more than a float can hold")
         if cell is None:
             lengths = np.hypot(segs[:, 2] - segs[:, 0], segs[:, 3] - segs[:, 1])
             area = float(extent[0] * extent[1])
             cell = max(math.sqrt(area / (2.0 * segs.shape[0])), 0.5 * float(np.median(lengths)), 0.05)
             cell = min(cell, float(extent.max()))
-        shape = np.ceil(extent / cell).astype(np.int64) + 1
-        # Keep the grid bounded for huge sparse maps.
-        while shape[0] * shape[1] > 1_000_000:
+        cell = float(cell)
+        if not (math.isfinite(cell) and cell > 0.0):
+            raise ValueError(f"grid cell size {cell} must be finite and > 0")
+        # Keep the grid bounded for huge sparse maps (in floats first: the cell counts may not fit an int).
+        while float(math.ceil(extent[0] / cell) + 1) * float(math.ceil(extent[1] / cell) + 1) > MAX_GRID_CELLS:
             cell *= 2.0
-            shape = np.ceil(extent / cell).astype(np.int64) + 1
+        shape = np.ceil(extent / cell).astype(np.int64) + 1
         origin = lo - 0.5 * (shape * cell - extent)
-        start, items = _build_grid(segs, float(origin[0]), float(origin[1]), float(cell), int(shape[0]), int(shape[1]))
-        meta = np.array([origin[0], origin[1], cell, shape[0], shape[1]], dtype=np.float64)
-        return cls(segs, meta, start, items)
+        nx, ny = int(shape[0]), int(shape[1])
+        start, items = _build_grid(segs, float(origin[0]), float(origin[1]), cell, nx, ny)
+        return cls(segs, float(origin[0]), float(origin[1]), cell, nx, ny, start, items)
 
     def cast(self, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:
         """Distances from (ox, oy) along world ``angles``; inf where nothing is hit within range."""
@@ -374,18 +452,7 @@ class SegmentGrid:
         self, ox: float, oy: float, heading: float, cos_off: np.ndarray, sin_off: np.ndarray, max_range: float
     ) -> np.ndarray:
         """Like :meth:`cast` for a sensor's fixed fan: angles heading + offsets (as cos, sin)."""
-        return grid_cast_fan(
-            self.segs,
-            self.meta,
-            self.start,
-            self.items,
-            float(ox),
-            float(oy),
-            float(heading),
-            cos_off,
-            sin_off,
-            float(max_range),
-        )
+        return grid_cast_fan(self, float(ox), float(oy), float(heading), cos_off, sin_off, float(max_range))
 
 
 def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:

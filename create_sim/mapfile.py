@@ -9,7 +9,9 @@ tabs between fields and around the row are fine; keywords are case-insensitive::
     virtwall x y theta setting  % virtual-wall emitter facing theta (rad), setting 1, 2 or 3
 
 A row with an unknown keyword is skipped with a warning naming file and line (as the original);
-a known row with a bad value raises :class:`InputError` naming file, line and value.
+a known row with a bad value raises :class:`InputError` naming file, line and value. Coordinates
+are bounded to ±1,000 km (:data:`MAX_COORDINATE_M`): far beyond any room, and small enough that
+every distance between two points of a map is an ordinary float.
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from sim_runtime.errors import InputError
+
+MAX_COORDINATE_M = 1e6
+"""Largest |x| or |y| a map may hold (metres)."""
 
 _BEACON_RE = re.compile(r"^(\S+)\s+(\S+)\s+\[([^\]]*)\]\s*(.*)$")
 
@@ -68,6 +73,14 @@ def parse_number(token: str, what: str, source: str, line: int) -> float:
     return value
 
 
+def parse_coordinate(token: str, what: str, source: str, line: int) -> float:
+    """A number within ±MAX_COORDINATE_M, or InputError naming the file, line, field and token."""
+    value = parse_number(token, what, source, line)
+    if abs(value) > MAX_COORDINATE_M:
+        raise InputError.at(source, line, f"{what}: {token!r} is beyond ±{MAX_COORDINATE_M:g} m")
+    return value
+
+
 def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: str, line: int) -> list[float]:
     if len(tokens) != len(names):
         raise InputError.at(
@@ -75,7 +88,12 @@ def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: st
             line,
             f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: {' '.join(tokens)!r}",
         )
-    return [parse_number(t, f"{keyword} {n}", source, line) for t, n in zip(tokens, names, strict=True)]
+    return [
+        parse_number(t, f"{keyword} {n}", source, line)
+        if n in ("theta", "setting")
+        else parse_coordinate(t, f"{keyword} {n}", source, line)
+        for t, n in zip(tokens, names, strict=True)
+    ]
 
 
 def _beacon(tokens: list[str], source: str, line: int) -> tuple[list[float], list[float], str]:
@@ -84,7 +102,7 @@ def _beacon(tokens: list[str], source: str, line: int) -> tuple[list[float], lis
     if match is None:
         raise InputError.at(source, line, f"'beacon' needs x y [r g b] id, got {body!r}")
     x_tok, y_tok, colour, beacon_id = match.groups()
-    xy = [parse_number(x_tok, "beacon x", source, line), parse_number(y_tok, "beacon y", source, line)]
+    xy = [parse_coordinate(x_tok, "beacon x", source, line), parse_coordinate(y_tok, "beacon y", source, line)]
     colour_tokens = colour.replace(",", " ").split()
     if len(colour_tokens) != 3:
         raise InputError.at(source, line, f"beacon colour needs 3 values [r g b], got [{colour}]")

@@ -1,6 +1,6 @@
 """The simulated iRobot Create: a pure model (no ROS), usable from a notebook.
 
-Geometry and constants follow the original MATLAB toolbox (see ``seed-facts/create.md``); the
+Geometry and constants follow the original MATLAB toolbox (the iRobot Create Simulator); the
 original's bugs are fixed (wheel clamping, arc direction, odometry wrap and sign lag, IR false
 positives, shared cliff noise, exact-equality occlusion). Angles are radians, counter-clockwise,
 sensor angles relative to the heading; every noise draw comes from the ``rng`` given.
@@ -24,10 +24,10 @@ import numpy as np
 
 from create_sim import mounts
 from create_sim.configfile import NoiseConfig
-from create_sim.geometry import SegmentGrid, circle_crossing_angles, grid_contacts, nearest_distance
-from create_sim.mapfile import CreateMap
+from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
+from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
-from create_sim.sensing import camera_view, range_fan, virtual_wall_seen
+from create_sim.sensing import bumper_hits, camera_view, range_fan, virtual_wall_seen
 from sim_runtime.errors import InputError
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
@@ -51,6 +51,7 @@ class CreateModel:
     WHEEL_BASE = mounts.WHEEL_BASE_M
     MAX_WHEEL_SPEED = 0.5
     FRICTION = 0.35  # kinetic friction μ against walls
+    MAX_STEP_S = 3600.0  # longest physics step (bounds the work of one step)
     LIDAR_BEAMS = 681
     LIDAR_FOV = math.radians(240.0)
     LIDAR_RANGE = (0.02, 4.0)
@@ -84,6 +85,11 @@ class CreateModel:
         for name in ("walls", "lines", "beacon_xy", "virtwalls"):
             if not np.isfinite(getattr(world, name)).all():
                 raise InputError(f"map {name} contain non-finite values")
+        for name in ("walls", "lines", "beacon_xy"):
+            if np.abs(getattr(world, name)).max(initial=0.0) > MAX_COORDINATE_M:
+                raise InputError(f"map {name} have coordinates beyond ±{MAX_COORDINATE_M:g} m")
+        if np.abs(world.virtwalls[:, :2]).max(initial=0.0) > MAX_COORDINATE_M:
+            raise InputError(f"map virtwalls have coordinates beyond ±{MAX_COORDINATE_M:g} m")
         self.world = world
         self.noise = noise if noise is not None else NoiseConfig()
         self.rng = rng if rng is not None else np.random.default_rng(0)
@@ -94,7 +100,6 @@ class CreateModel:
         self._vwall_angles = np.array([self.VWALL_FIELDS[s][1] for s in (1, 2, 3)])
         self._beacon_xy = np.ascontiguousarray(world.beacon_xy, dtype=np.float64).reshape(-1, 2)
         self._beacon_rgb = [tuple(float(c) for c in rgb) for rgb in world.beacon_rgb]
-        self._contact_buf = np.empty((max(self.grid.segs.shape[0], 1), 4))
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
@@ -129,12 +134,12 @@ class CreateModel:
 
     def clearance(self) -> float:
         """Gap between the body and the nearest wall (m); inf without walls."""
-        return nearest_distance(self.grid.segs, self._pose[0], self._pose[1]) - self.RADIUS
+        return nearest_distance(self.grid.segments, self._pose[0], self._pose[1]) - self.RADIUS
 
     def _check_pose(self, x: float, y: float, theta: float) -> None:
         if not all(math.isfinite(float(v)) for v in (x, y, theta)):
             raise InputError(f"pose ({x}, {y}, {theta}) is not finite")
-        gap = nearest_distance(self.grid.segs, float(x), float(y)) - self.RADIUS
+        gap = nearest_distance(self.grid.segments, float(x), float(y)) - self.RADIUS
         if gap < -OVERLAP_TOL:
             raise InputError(
                 f"pose ({x}, {y}, {theta}) puts the robot {-gap:.4g} m inside a wall "
@@ -172,24 +177,11 @@ class CreateModel:
     def step(self, dt: float) -> None:
         """Advance the physics by dt seconds at the commanded velocity and update odometry."""
         dt = float(dt)
-        if not (math.isfinite(dt) and dt >= 0.0):
-            raise ValueError(f"time step {dt} must be finite and >= 0")
+        if not (math.isfinite(dt) and 0.0 <= dt <= self.MAX_STEP_S):
+            raise ValueError(f"time step {dt} must be finite, >= 0 and <= {self.MAX_STEP_S:g} s")
         x0, y0, th0 = self._pose
         v, w = self._command
-        x1, y1, th1 = advance(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
-            x0,
-            y0,
-            th0,
-            v,
-            w,
-            dt,
-            self.RADIUS,
-            self.FRICTION,
-        )
+        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
         self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0
@@ -251,35 +243,11 @@ class CreateModel:
         return mean + std * self._standard_normals(size)
 
     # ----------------------------------------------------------------------------- sensors
-    def _touching(self) -> np.ndarray:
-        """Contact points [cx, cy, d, wall] of walls within the contact skin of the body."""
-        x, y, _ = self._pose
-        n = grid_contacts(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
-            x,
-            y,
-            self.RADIUS + CONTACT_SKIN,
-            self._contact_buf,
-        )
-        return self._contact_buf[:n]
-
     def bumps(self) -> tuple[bool, bool]:
         """(left, right) bumpers; a hit in front presses both."""
-        contacts = self._touching()
         x, y, th = self._pose
-        left = right = False
-        for cx, cy, _, _ in contacts:
-            phi = wrap_angle(math.atan2(cy - y, cx - x) - th)
-            if abs(phi) < self.BUMP_FRONT_HALF:
-                return True, True
-            if self.BUMP_FRONT_HALF <= phi < 0.5 * math.pi:
-                left = True
-            elif -0.5 * math.pi < phi <= -self.BUMP_FRONT_HALF:
-                right = True
-        return left, right
+        left, right = bumper_hits(self.grid, x, y, th, self.RADIUS + CONTACT_SKIN, self.BUMP_FRONT_HALF)
+        return bool(left), bool(right)
 
     def cliff_signals(self) -> np.ndarray:
         """Cliff signal strengths (%) [left, front_left, front_right, right]: 21.5 floor, 1.5 line."""
@@ -312,10 +280,7 @@ class CreateModel:
             return False
         x, y, th = self._pose
         return virtual_wall_seen(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
+            self.grid,
             x + self.RADIUS * math.cos(th),
             y + self.RADIUS * math.sin(th),
             self._virtwalls,
@@ -330,10 +295,7 @@ class CreateModel:
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
         return range_fan(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
+            self.grid,
             x,
             y,
             th,
@@ -350,10 +312,7 @@ class CreateModel:
         x, y, th = self._pose
         lo, hi = self.LIDAR_RANGE
         scan = range_fan(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
+            self.grid,
             x + self.RADIUS * math.cos(th),
             y + self.RADIUS * math.sin(th),
             th,
@@ -372,10 +331,7 @@ class CreateModel:
             return []
         x, y, th = self._pose
         index, dist, bearing = camera_view(
-            self.grid.segs,
-            self.grid.meta,
-            self.grid.start,
-            self.grid.items,
+            self.grid,
             x + self.CAMERA_OFFSET * math.cos(th),
             y + self.CAMERA_OFFSET * math.sin(th),
             th,

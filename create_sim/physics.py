@@ -1,6 +1,6 @@
 """Rigid-body motion of the circular Create among wall segments (numba kernel).
 
-Follows the seed's physics engine (driveNormal / drive1Wall / drive2Wall / driveCorner) with its
+Follows the original's physics engine (driveNormal / drive1Wall / drive2Wall / driveCorner) with its
 known errors fixed:
 
 * Free motion is the exact arc of constant (v, ω), with the lateral offset on the correct side
@@ -8,15 +8,17 @@ known errors fixed:
 * Every wall within reach is a contact (the original kept the two closest). A contact's normal
   points from its closest point (a wall's side or a corner) to the centre. Contacts that the
   intended velocity pushes into are "active".
-* One active contact: the robot slides along the contact's tangent; Coulomb-like friction from
-  the seed's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
+* One active contact on a wall's side: the robot slides along the wall; Coulomb-like friction from
+  the original's "force ∝ intended velocity" assumption removes μ·|v_n| from the sliding speed and
   μ·|v_n|/r from the turn rate, never reversing either (the original could *add* speed).
+* A contact at a wall's end (a corner) is rolled round: the robot keeps its whole tangential
+  speed (the original's driveCorner, where friction acts on the turn rate only), so a robot meeting a
+  free wall end close to head-on (within atan μ) is deflected round it instead of stopping dead.
 * Several active contacts (two walls, a wall and a corner, corners): slide along the first
   contact, from the most opposed, whose slide presses into no other contact; if there is none,
-  stay put (stuck in the corner); the turn rate loses μ·Σ|v_n|/r. A lone corner (a wall's end) is just a contact
-  whose normal points from the end to the centre, so the robot rolls round it (the seed's
-  driveCorner; its extra "glancing" turn of the heading is not reproduced: the heading changes
-  only with ω).
+  stay put (stuck in the corner); the turn rate loses μ·Σ|v_n|/r. A corner's normal points from
+  the wall's end to the centre (the original's extra "glancing" turn of the heading at a corner is
+  not reproduced: the heading changes only with ω).
 * Whatever the commands, a step never ends overlapping a wall: motion is cut into sub-steps of at
   most r/4 (so the centre cannot cross a wall), any penetration is pushed out along the contact
   normals, and if that fails the move is shortened by bisection towards the previous, valid pose.
@@ -29,14 +31,14 @@ import math
 import numba
 import numpy as np
 
-from create_sim.geometry import grid_contacts
+from create_sim.geometry import Contacts, SegmentGrid, grid_contacts, new_contacts, point_segment_closest
 
 CONTACT_SKIN = 1e-3  # a wall this close to the body presses a bumper
 OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
 _PUSH_MARGIN = 1e-8  # push-out leaves the body this far from the wall...
 _TOUCH = 1e-6  # ...which the next step sees as touching (friction, sliding)
 _SOLVER_TOL = 0.1 * OVERLAP_TOL  # the solver's own acceptance, well inside the promise
-_MAX_CONTACTS = 64
+MAX_SUBSTEPS = 1_000_000  # bounds one step's work whatever dt: 40 km of travel in r/4 sub-steps
 
 
 @numba.njit(cache=True)
@@ -47,7 +49,7 @@ def wrap_angle(a: float) -> float:
 
 @numba.njit(cache=True)
 def arc_motion(x, y, th, v, w, dt):
-    """Exact pose after driving at constant (v, ω) for dt (the seed's driveNormal, sign fixed)."""
+    """Exact pose after driving at constant (v, ω) for dt (the original's driveNormal, sign fixed)."""
     dth = w * dt
     if abs(dth) < 1e-12:
         # Straight line (the arc formula's limit); keeps tiny ω numerically exact.
@@ -61,38 +63,30 @@ def arc_motion(x, y, th, v, w, dt):
 
 
 @numba.njit(cache=True)
-def min_clearance(segs, meta, start, items, px, py, radius, buf):
+def min_clearance(grid: SegmentGrid, px: float, py: float, radius: float, contacts: Contacts) -> float:
     """Smallest centre-to-wall distance among walls within 2r (inf if none)."""
-    n = grid_contacts(segs, meta, start, items, px, py, 2.0 * radius, buf)
+    n = grid_contacts(grid, px, py, 2.0 * radius, contacts)
     best = np.inf
     for i in range(n):
-        if buf[i, 2] < best:
-            best = buf[i, 2]
+        if contacts.distance[i] < best:
+            best = contacts.distance[i]
     return best
 
 
 @numba.njit(cache=True)
-def _push_out(segs, meta, start, items, px, py, radius, buf):
+def _push_out(grid: SegmentGrid, px: float, py: float, radius: float, contacts: Contacts):
     """Move the centre out of penetrating walls along their normals; returns (x, y, ok)."""
+    segs = grid.segments
     for _ in range(16):
-        n = grid_contacts(segs, meta, start, items, px, py, radius, buf)
+        n = grid_contacts(grid, px, py, radius, contacts)
         inside = False
         for i in range(n):
-            if buf[i, 2] >= radius:
+            if contacts.distance[i] >= radius:
                 continue
             inside = True
             # Recompute against the already-moved centre (Gauss–Seidel over contacts).
-            s = int(buf[i, 3])
-            sx1, sy1, sx2, sy2 = segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3]
-            ux = sx2 - sx1
-            uy = sy2 - sy1
-            len2 = ux * ux + uy * uy
-            u = 0.0
-            if len2 > 0.0:
-                u = min(max(((px - sx1) * ux + (py - sy1) * uy) / len2, 0.0), 1.0)
-            cx = sx1 + u * ux
-            cy = sy1 + u * uy
-            d = math.hypot(px - cx, py - cy)
+            s = contacts.segment[i]
+            cx, cy, d = point_segment_closest(px, py, segs[s, 0], segs[s, 1], segs[s, 2], segs[s, 3])
             if d >= radius or d == 0.0:
                 continue
             k = (radius + _PUSH_MARGIN - d) / d
@@ -100,12 +94,12 @@ def _push_out(segs, meta, start, items, px, py, radius, buf):
             py += (py - cy) * k
         if not inside:
             return px, py, True
-    return px, py, min_clearance(segs, meta, start, items, px, py, radius, buf) >= radius - _SOLVER_TOL
+    return px, py, min_clearance(grid, px, py, radius, contacts) >= radius - _SOLVER_TOL
 
 
 @numba.njit(cache=True)
-def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
-    n = grid_contacts(segs, meta, start, items, x, y, radius + _TOUCH, buf)
+def _substep(grid: SegmentGrid, x, y, th, v, w, h, radius, mu, contacts: Contacts):
+    n = grid_contacts(grid, x, y, radius + _TOUCH, contacts)
     hx = math.cos(th)
     hy = math.sin(th)
     vx = v * hx
@@ -116,10 +110,10 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
     n_active = 0
     sum_press = 0.0
     for i in range(n):
-        d = buf[i, 2]
+        d = contacts.distance[i]
         if d > 0.0:
-            normals[i, 0] = (x - buf[i, 0]) / d
-            normals[i, 1] = (y - buf[i, 1]) / d
+            normals[i, 0] = (x - contacts.point_x[i]) / d
+            normals[i, 1] = (y - contacts.point_y[i]) / d
         else:
             normals[i, 0] = hx
             normals[i, 1] = hy
@@ -139,7 +133,9 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
             tx = -normals[i, 1]
             ty = normals[i, 0]
             vt = vx * tx + vy * ty
-            slide = max(abs(vt) - mu * (-vn[i]), 0.0)
+            # Rolling round a wall's end loses no speed; sliding along a side loses μ·|v_n|.
+            drag = 0.0 if contacts.at_end[i] else mu * (-vn[i])
+            slide = max(abs(vt) - drag, 0.0)
             cand_x = math.copysign(slide, vt) * tx
             cand_y = math.copysign(slide, vt) * ty
             feasible = True
@@ -155,7 +151,7 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
         nx_ = x + ux * h
         ny_ = y + uy * h
         nth = th + w_eff * h
-    px, py, ok = _push_out(segs, meta, start, items, nx_, ny_, radius, buf)
+    px, py, ok = _push_out(grid, nx_, ny_, radius, contacts)
     if not ok:
         # Bisection between the valid start and the target: the robot is a circle, so heading
         # never matters for overlap.
@@ -165,7 +161,7 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
             mid = 0.5 * (lo + hi)
             mx = x + (nx_ - x) * mid
             my = y + (ny_ - y) * mid
-            if min_clearance(segs, meta, start, items, mx, my, radius, buf) >= radius - _SOLVER_TOL:
+            if min_clearance(grid, mx, my, radius, contacts) >= radius - _SOLVER_TOL:
                 lo = mid
             else:
                 hi = mid
@@ -175,11 +171,15 @@ def _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf):
 
 
 @numba.njit(cache=True)
-def advance(segs, meta, start, items, x, y, th, v, w, dt, radius, mu):
-    """Pose (x, y, θ) after one physics step of dt at the intended (v, ω)."""
-    buf = np.empty((max(segs.shape[0], 1), 4))
-    n_sub = max(1, int(math.ceil(abs(v) * dt / (0.25 * radius))))
+def advance(grid: SegmentGrid, x, y, th, v, w, dt, radius, mu):
+    """Pose (x, y, θ) after one physics step of dt at the intended (v, ω).
+
+    Motion is cut into sub-steps of at most r/4 of travel, at most :data:`MAX_SUBSTEPS` of them
+    (the model refuses time steps long enough to need more).
+    """
+    contacts = new_contacts(grid.segments.shape[0])
+    n_sub = max(1, int(math.ceil(min(abs(v) * dt / (0.25 * radius), MAX_SUBSTEPS))))
     h = dt / n_sub
     for _ in range(n_sub):
-        x, y, th = _substep(segs, meta, start, items, x, y, th, v, w, h, radius, mu, buf)
+        x, y, th = _substep(grid, x, y, th, v, w, h, radius, mu, contacts)
     return x, y, th

@@ -12,29 +12,29 @@ import math
 import numba
 import numpy as np
 
-from create_sim.geometry import grid_cast, grid_cast_fan
+from create_sim.geometry import grid_cast, grid_cast_fan, grid_contacts, new_contacts
 
 
 @numba.njit(cache=True)
-def _hidden(segs, meta, start, items, mailbox, stamp, ox, oy, tx, ty, tol) -> bool:
+def _hidden(grid, mailbox, stamp, ox, oy, tx, ty, tol) -> bool:
     dx = tx - ox
     dy = ty - oy
     dist = math.hypot(dx, dy)
     if dist <= tol:
         return False
-    hit = grid_cast(segs, meta, start, items, mailbox, stamp, ox, oy, dx / dist, dy / dist, dist)
+    hit = grid_cast(grid, mailbox, stamp, ox, oy, dx / dist, dy / dist, dist)
     return hit < dist - tol
 
 
 @numba.njit(cache=True)
-def virtual_wall_seen(segs, meta, start, items, rx, ry, emitters, halo, field_ranges, field_angles, tol) -> bool:
+def virtual_wall_seen(grid, rx, ry, emitters, halo, field_ranges, field_angles, tol) -> bool:
     """Whether the receiver (rx, ry) is in any emitter's halo or triangular field, unoccluded.
 
     ``emitters`` rows are [x, y, theta, setting]; setting s (1, 2, 3) selects
     ``field_ranges[s - 1]`` (m) and ``field_angles[s - 1]`` (full opening, rad). The field is the
     triangle from the emitter to the two points at that range, ± half the opening.
     """
-    mailbox = np.full(segs.shape[0], -1, dtype=np.int64)
+    mailbox = np.full(grid.segments.shape[0], -1, dtype=np.int64)
     for k in range(emitters.shape[0]):
         ex = emitters[k, 0]
         ey = emitters[k, 1]
@@ -48,13 +48,13 @@ def virtual_wall_seen(segs, meta, start, items, rx, ry, emitters, halo, field_ra
             off_axis = abs((math.atan2(dy, dx) - beam + math.pi) % (2.0 * math.pi) - math.pi)
             along = dx * math.cos(beam) + dy * math.sin(beam)
             inside = off_axis <= half and along <= field_ranges[setting] * math.cos(half)
-        if inside and not _hidden(segs, meta, start, items, mailbox, k, rx, ry, ex, ey, tol):
+        if inside and not _hidden(grid, mailbox, k, rx, ry, ex, ey, tol):
             return True
     return False
 
 
 @numba.njit(cache=True)
-def camera_view(segs, meta, start, items, cx, cy, heading, targets, max_range, half_fov, tol):
+def camera_view(grid, cx, cy, heading, targets, max_range, half_fov, tol):
     """Targets within range and ±half_fov of the camera with no wall between.
 
     Returns (indices, distances, bearings), bearings relative to the heading, left positive.
@@ -63,7 +63,7 @@ def camera_view(segs, meta, start, items, cx, cy, heading, targets, max_range, h
     index = np.empty(n, dtype=np.int64)
     dist = np.empty(n)
     bearing = np.empty(n)
-    mailbox = np.full(segs.shape[0], -1, dtype=np.int64)
+    mailbox = np.full(grid.segments.shape[0], -1, dtype=np.int64)
     count = 0
     for k in range(n):
         dx = targets[k, 0] - cx
@@ -72,7 +72,7 @@ def camera_view(segs, meta, start, items, cx, cy, heading, targets, max_range, h
         b = (math.atan2(dy, dx) - heading + math.pi) % (2.0 * math.pi) - math.pi
         if d > max_range or abs(b) > half_fov:
             continue
-        if _hidden(segs, meta, start, items, mailbox, k, cx, cy, targets[k, 0], targets[k, 1], tol):
+        if _hidden(grid, mailbox, k, cx, cy, targets[k, 0], targets[k, 1], tol):
             continue
         index[count] = k
         dist[count] = d
@@ -82,14 +82,15 @@ def camera_view(segs, meta, start, items, cx, cy, heading, targets, max_range, h
 
 
 @numba.njit(cache=True)
-def range_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, too_close):
+def range_fan(grid, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, too_close):
     """Range readings of a fixed fan of beams, REP-117 style, in one call.
 
     Distances are measured from (ox, oy) less ``offset`` (sonar: from the centre, read from the
     body's edge). No hit within ``hi`` → +inf; a true distance below ``lo`` → ``too_close``;
-    otherwise distance + noise, kept within [lo, hi] so in-range stays in range.
+    otherwise distance + noise, kept within [lo, hi] so in-range stays in range. ``noise`` has
+    one value per beam (beams beyond its length get none).
     """
-    raw = grid_cast_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, hi + offset)
+    raw = grid_cast_fan(grid, ox, oy, heading, cos_off, sin_off, hi + offset)
     out = np.empty(raw.shape[0])
     for i in range(raw.shape[0]):
         d = raw[i] - offset
@@ -98,5 +99,28 @@ def range_fan(segs, meta, start, items, ox, oy, heading, cos_off, sin_off, offse
         elif d < lo:
             out[i] = too_close
         else:
-            out[i] = min(max(d + noise[i], lo), hi)
+            out[i] = min(max(d + (noise[i] if i < noise.shape[0] else 0.0), lo), hi)
     return out
+
+
+@numba.njit(cache=True)
+def bumper_hits(grid, x, y, heading, reach, front_half):
+    """(left, right) bumpers pressed by walls within ``reach`` of the centre (x, y).
+
+    A contact within ``front_half`` of straight ahead presses both; one further round on either
+    side, up to 90°, presses that side's bumper; contacts behind the axle press none.
+    """
+    contacts = new_contacts(grid.segments.shape[0])
+    n = grid_contacts(grid, x, y, reach, contacts)
+    left = False
+    right = False
+    for i in range(n):
+        phi = (math.atan2(contacts.point_y[i] - y, contacts.point_x[i] - x) - heading + math.pi) % (2.0 * math.pi)
+        phi -= math.pi
+        if abs(phi) < front_half:
+            return True, True
+        if front_half <= phi < 0.5 * math.pi:
+            left = True
+        elif -0.5 * math.pi < phi <= -front_half:
+            right = True
+    return left, right

@@ -632,7 +632,8 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
                     break
                 cy += sy
                 tmy += tdy
-            mark[cx - x_lo, cy - y_lo] = True
+            if 0 <= cx - x_lo < w and 0 <= cy - y_lo < h:  # rounding can step past the last cell
+                mark[cx - x_lo, cy - y_lo] = True
     count = 0
     for i in range(w):
         x = x_lo + i

@@ -11,7 +11,11 @@ import numpy as np
 from PIL import Image
 
 from sim_runtime.errors import InputError
+from sim_runtime.yamlfile import check_keys as _check_keys
 from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import read_bool as _bool
+from sim_runtime.yamlfile import read_number as _number
+from sim_runtime.yamlfile import read_pair as _pair
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
@@ -21,6 +25,9 @@ DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, 
 
 #: Highest robot count whose ids fit the seed's uint8 matrix (ids 2-255).
 MAX_ROBOTS_UINT8 = 254
+
+#: Most rays one sensor may cast per reading.
+MAX_RAYS = 100_000
 
 SENSOR_TYPES = ("ultrasonic", "laser")
 CONTROLLERS = ("avoid",)
@@ -117,42 +124,6 @@ def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarra
     return np.ascontiguousarray((grey < threshold)[::-1].T)
 
 
-def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False, allow_inf: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where}: expected a number, got {value!r}")
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        raise InputError(f"{where}: must be finite, got {value!r}")
-    if positive and not x > 0:
-        raise InputError(f"{where}: must be > 0, got {value!r}")
-    if nonneg and x < 0:
-        raise InputError(f"{where}: must be >= 0, got {value!r}")
-    return x
-
-
-def _pair(value: Any, where: str) -> tuple[float, float]:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise InputError(f"{where}: expected [x, y], got {value!r}")
-    return (_number(value[0], f"{where}[0]"), _number(value[1], f"{where}[1]"))
-
-
-def _bool(value: Any, where: str) -> bool:
-    if isinstance(value, bool):
-        return value
-    if value in (0, 1):
-        return bool(value)
-    if isinstance(value, str) and value.lower() in ("on", "off"):
-        return value.lower() == "on"
-    raise InputError(f"{where}: expected true/false (or on/off), got {value!r}")
-
-
-def _check_keys(entry: dict, allowed: set[str], where: str) -> None:
-    unknown = sorted(set(entry) - allowed)
-    if unknown:
-        names = ", ".join(map(repr, unknown))
-        raise InputError(f"{where}: unknown field(s) {names}; allowed: {', '.join(sorted(allowed))}")
-
-
 _SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "resolution"}
 _ROBOT_KEYS = {
     "name",
@@ -194,8 +165,10 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
     if kind not in SENSOR_TYPES:
         raise InputError(f"{where}.type: unknown sensor type {kind!r}; expected one of {', '.join(SENSOR_TYPES)}")
     rays = entry.get("resolution", 30)
-    if isinstance(rays, bool) or not isinstance(rays, int) or rays <= 0:
-        raise InputError(f"{where}.resolution: number of rays must be a positive integer, got {rays!r}")
+    if isinstance(rays, bool) or not isinstance(rays, int) or not 0 < rays <= MAX_RAYS:
+        raise InputError(
+            f"{where}.resolution: number of rays must be a positive integer (at most {MAX_RAYS}), got {rays!r}"
+        )
     beamwidth = _number(entry.get("beamwidth", 60.0), f"{where}.beamwidth", nonneg=True)
     if beamwidth > 360.0:
         raise InputError(f"{where}.beamwidth: at most 360 degrees, got {beamwidth!r}")
@@ -291,6 +264,15 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     if not isinstance(robots_in, list) or not robots_in:
         raise InputError(f"{source}: robots: at least one robot is required")
     robots = tuple(_robot(r, f"{source}: robots[{i}]") for i, r in enumerate(robots_in))
+    resolution = _number(data.get("resolution", 0.01), f"{source}: resolution", positive=True)
+    map_size_m = math.hypot(*walls.shape) * resolution
+    for i, r in enumerate(robots):
+        reach = max(math.hypot(x, y) for x, y in r.shape) * r.scale
+        if not reach <= map_size_m:  # also a size that overflowed to inf
+            raise InputError(
+                f"{source}: robots[{i}] ({r.name!r}).shape: the robot ({reach:.4g} m from its pivot, "
+                f"scale {r.scale:g}) is larger than the map ({map_size_m:.4g} m across)"
+            )
     names: dict[str, int] = {}
     for i, r in enumerate(robots):
         if r.name in names:
@@ -299,7 +281,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         names[r.name] = i
     return WorldSpec(
         walls=walls,
-        resolution=_number(data.get("resolution", 0.01), f"{source}: resolution", positive=True),
+        resolution=resolution,
         origin=_pair(data.get("origin", [0.0, 0.0]), f"{source}: origin"),
         dt=_number(data.get("dt", 1.0), f"{source}: dt", positive=True),
         steps_limit=steps,

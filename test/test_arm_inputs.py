@@ -75,7 +75,7 @@ def test_bad_config_fields_are_named_with_file_and_index(tmp_path, edit, field):
         load_robot_config(path)
     message = str(info.value)
     assert str(path) in message
-    assert f"'{field}'" in message
+    assert f"{path}: {field}: " in message
 
 
 def test_rgba_colours_and_modified_dh_flag(tmp_path):
@@ -209,10 +209,10 @@ def test_bad_scene_entries_are_named(tmp_path):
             }
         )
     )
-    with pytest.raises(InputError, match=r"scene\.yaml.*'objects\[1\]\.name'.*twice"):
+    with pytest.raises(InputError, match=r"scene\.yaml: objects\[1\]\.name: .*twice"):
         load_scene(path)
     path.write_text(yaml.safe_dump({"arms": [{"name": "b", "config": "missing.yaml"}]}))
-    with pytest.raises(InputError, match=r"'arms\[0\]\.config'.*no such file"):
+    with pytest.raises(InputError, match=r"arms\[0\]\.config: no such file"):
         load_scene(path)
 
 

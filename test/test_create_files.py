@@ -90,6 +90,10 @@ def test_unrecognised_row_warns_with_file_and_line_and_is_skipped():
         ("beacon 0 0 [1 0 0]", "one word"),
         ("beacon 0 0 [1 0 0] two words", "one word"),
         ("beacon x 0 [1 0 0] id", "'x'"),
+        ("wall 1e300 0 -1e300 0", "wall x1: '1e300' is beyond ±1e\\+06 m"),
+        ("line 0 0 0 -1000000.5", "line y2: '-1000000.5' is beyond"),
+        ("beacon 2e6 0 [1 0 0] id", "beacon x: '2e6' is beyond"),
+        ("virtwall 0 -1.1e6 0 1", "virtwall y: '-1.1e6' is beyond"),
     ],
 )
 def test_bad_value_in_a_known_row_names_file_line_and_value(row, value):
@@ -170,7 +174,10 @@ def test_unrecognised_config_row_warns_and_is_skipped():
         ("camera 0 -0.1", "std '-0.1' must be >= 0"),
         ("com_delay", "needs 1 number"),
         ("com_delay soon", "'soon'"),
-        ("com_delay -1", "'-1' must be >= 0"),
+        ("com_delay -1", "'-1' must be in 0..3600 s"),
+        ("com_delay 1e300", "'1e300' must be in 0..3600 s"),
+        ("camera 1e300 0", "camera noise '1e300 0' beyond ±1e\\+06"),
+        ("lidar 0 2e6", "lidar noise '0 2e6' beyond"),
     ],
 )
 def test_bad_config_value_names_file_line_and_value(row, value):

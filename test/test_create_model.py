@@ -10,7 +10,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from create_sim.configfile import NoiseConfig, load_config
-from create_sim.geometry import SegmentGrid, brute_cast_fan, numpy_cast_fan
+from create_sim.geometry import (
+    MAX_GRID_CELLS,
+    SegmentGrid,
+    brute_cast_fan,
+    grid_contacts,
+    new_contacts,
+    numpy_cast_fan,
+)
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
@@ -565,3 +572,80 @@ def test_example_map_full_run_stays_valid():
         assert robot.clearance() >= -1e-9
         robot.bumps(), robot.cliff_signals(), robot.sonar(), robot.lidar(), robot.camera()
         robot.wall_sensor(), robot.virtual_wall()
+
+
+def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return points @ np.array([[c, s], [-s, c]])
+
+
+def test_a_robot_meeting_a_free_wall_end_head_on_at_0_052_m_offset_rolls_round_it():
+    """Within atan(μ) of head-on, friction used to stop the robot dead on the wall's end."""
+    robot = CreateModel(world(walls=[[2.45, 0.55, 2.45, 2.0]]), pose=(1.8, 0.5, 0.0))
+    drive(robot, 0.25, 0.0, 5.0)
+    x, y, _ = robot.pose
+    assert x > 2.45 + R and y < 0.55 - R + 1e-9
+
+
+@pytest.mark.parametrize("scene_angle", [0.0, 1.1, 2.5, -2.0])
+def test_a_robot_meeting_a_free_wall_end_at_any_angle_rolls_round_it(scene_angle):
+    """Sweep: contact angles from 2° to 89° off head-on, walls leaning 0–45° away, rotated scenes.
+
+    In the scene's frame the robot drives along +x and the wall's free end sits ``offset`` to
+    its left (so the contact is sin⁻¹(offset / r) off head-on), the wall running away to the left.
+    It must roll round the end and drive on (never stuck on it), never inside the wall.
+    """
+    dt, v, seconds = 0.01, 0.3, 5.0
+    for lean in np.radians([0.0, -15.0, -30.0, -45.0]):
+        for offset in (0.005, 0.02, 0.04, 0.052, 0.054, 0.08, 0.12, 0.159):
+            direction = math.pi / 2 + lean
+            end = np.array([0.0, offset])
+            wall = np.vstack([end, end + 2.0 * np.array([math.cos(direction), math.sin(direction)])])
+            robot = CreateModel(
+                world(walls=[_rotate(wall, scene_angle).reshape(4)]),
+                pose=(*_rotate(np.array([[-0.6, 0.0]]), scene_angle)[0], scene_angle),
+            )
+            robot.set_velocity(v, 0.0)
+            for _ in range(round(seconds / dt)):
+                robot.step(dt)
+                assert robot.clearance() >= -1e-9, (scene_angle, lean, offset, robot.pose)
+            local = _rotate(robot.pose[None, :2], -scene_angle)[0]
+            case = (scene_angle, math.degrees(lean), offset, local)
+            assert local[0] > 0.3 and local[1] <= offset - R + 1e-6, case
+            assert robot.velocity[0] == pytest.approx(v), case
+
+
+def test_a_map_spanning_the_coordinate_limit_builds_and_steps():
+    """Walls ±1,000 km apart: the grid coarsens within its cell cap and the robot still moves."""
+    robot = CreateModel(world(walls=[[1e6, 0, -1e6, 0], [-1e6, -1e6, 1e6, 1e6], [1, -1, 1, 1]]), pose=(0.5, -0.5, 0))
+    assert robot.grid.nx * robot.grid.ny <= MAX_GRID_CELLS
+    drive(robot, 0.5, 0.0, 2.0)
+    assert np.isfinite(robot.pose).all() and robot.clearance() >= -1e-9
+    assert np.isfinite(robot.lidar()).any()
+
+
+def test_a_programmatic_map_beyond_the_coordinate_limit_is_refused():
+    with pytest.raises(InputError, match=r"walls have coordinates beyond"):
+        CreateModel(world(walls=[[1e300, 0, -1e300, 0]]))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf, 1e300, -1e300, 1e18])
+def test_grid_kernels_answer_any_query_point_without_reading_outside_the_grid(bad):
+    """Rays and contact queries from NaN, infinite and far-off points: no hit, no crash."""
+    grid = SegmentGrid.build(np.array([[0.0, 0.0, 1.0, 1.0], [0.0, 1.0, 1.0, 0.0]]))
+    contacts = new_contacts(grid.segments.shape[0])
+    for x, y in ((bad, 0.5), (0.5, bad), (bad, bad)):
+        assert grid_contacts(grid, x, y, 0.5, contacts) == 0
+        out = grid.cast(x, y, np.array([0.0, 1.0, math.pi, bad]), 4.0)
+        assert np.isinf(out).all()
+    ray = grid.cast(0.5, 0.2, np.array([bad]), 4.0)  # any direction: a hit or nothing, never NaN
+    assert np.isinf(ray).all() if not math.isfinite(bad) else (0.0 <= ray).all()
+    assert grid_contacts(grid, 0.5, 0.5, bad, contacts) in (0, 2)
+
+
+def test_a_step_longer_than_an_hour_is_refused():
+    robot = CreateModel(world())
+    robot.set_velocity(0.5, 0.0)
+    with pytest.raises(ValueError, match="time step"):
+        robot.step(1e300)

@@ -18,8 +18,11 @@ Python package is not installed: callers skip that topic.
 
 from __future__ import annotations
 
+import glob
 import heapq
 import importlib
+import importlib.util
+import os
 import re
 import struct
 import warnings
@@ -39,7 +42,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from sim_runtime.errors import InputError
 
-__all__ = ["Bag", "BagMessage", "BagWarning", "UnknownMessageType", "open_bag"]
+__all__ = ["Bag", "BagMessage", "BagWarning", "CorruptMessage", "UnknownMessageType", "open_bag"]
 
 
 class BagWarning(UserWarning):
@@ -50,7 +53,12 @@ class UnknownMessageType(LookupError):
     """A message's type has no installed Python message class, so it cannot be deserialised."""
 
 
+class CorruptMessage(InputError):
+    """A message's bytes are not a valid serialised message of its topic's type."""
+
+
 _MESSAGE_CLASSES: dict[str, Any] = {}
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 
 def message_class(type_name: str, topic: str = "?") -> Any:
@@ -63,15 +71,30 @@ def message_class(type_name: str, topic: str = "?") -> Any:
         if len(parts) == 2:
             parts = [parts[0], "msg", parts[1]]
         try:
-            if len(parts) != 3 or not all(parts):
+            # A bag names the module to import: only ROS message packages, never e.g. "os/path/join".
+            if len(parts) != 3 or parts[1] != "msg" or not all(_IDENTIFIER.match(p) for p in parts):
                 raise ValueError("expected pkg/msg/Type")
+            if not _is_message_package(parts[0]):
+                raise ImportError(f"{parts[0]} is not a ROS interface package")
             cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
+            if not (isinstance(cls, type) and hasattr(cls, "get_fields_and_field_types")):
+                raise ValueError("not a ROS message class")
         except (AttributeError, ImportError, ValueError) as exc:
             raise UnknownMessageType(
                 f"cannot deserialise topic {topic!r}: message type {type_name!r} is not installed ({exc})"
             ) from None
         _MESSAGE_CLASSES[type_name] = cls
     return cls
+
+
+def _is_message_package(package: str) -> bool:
+    """Whether ``package`` is rosidl-generated (has its C type support library), found without
+    importing it: a bag must not make us run the top-level code of any module it names."""
+    spec = importlib.util.find_spec(package)
+    for location in (spec.submodule_search_locations or []) if spec is not None else []:
+        if glob.glob(os.path.join(glob.escape(location), f"{package}_s__rosidl_typesupport_c*")):
+            return True
+    return False
 
 
 class BagMessage:
@@ -89,11 +112,19 @@ class BagMessage:
 
     @property
     def msg(self) -> Any:
-        """The deserialised message; raises UnknownMessageType naming type and topic."""
+        """The deserialised message; raises UnknownMessageType naming type and topic, or
+        CorruptMessage (an InputError) when the bytes do not decode as that type."""
         if self._msg is None:
             from rclpy.serialization import deserialize_message
 
-            self._msg = deserialize_message(self.data, message_class(self.type, self.topic))
+            cls = message_class(self.type, self.topic)
+            try:
+                self._msg = deserialize_message(self.data, cls)
+            except Exception as exc:  # noqa: BLE001 - rmw raises its own error types
+                raise CorruptMessage(
+                    f"topic {self.topic} at log time {self.log_time_ns} ns: cannot deserialise "
+                    f"{len(self.data)} bytes as {self.type} ({exc})"
+                ) from None
         return self._msg
 
     def __repr__(self) -> str:
@@ -374,10 +405,11 @@ def open_bag(path: str | Path) -> Bag:
     files: list[Path] = []
     if meta_path.is_file():
         try:
-            metadata = yaml.safe_load(meta_path.read_text())["rosbag2_bagfile_information"]
+            metadata = yaml.safe_load(meta_path.read_text(encoding="utf-8", errors="replace"))
+            metadata = metadata["rosbag2_bagfile_information"]
             listed = [path / p for p in metadata.get("relative_file_paths") or []]
-        except (yaml.YAMLError, KeyError, TypeError) as exc:
-            _warn(f"{meta_path}: unreadable ({exc}); using the .mcap files in the folder")
+        except (yaml.YAMLError, KeyError, TypeError, AttributeError, ValueError, RecursionError, OSError) as exc:
+            _warn(f"{meta_path}: unreadable ({type(exc).__name__}: {exc}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
             if f.is_file():

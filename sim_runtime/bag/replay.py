@@ -23,6 +23,7 @@ warning. From Python, `play_bag(...)` plays a bag in-process (tests use it).
 from __future__ import annotations
 
 import argparse
+import math
 import queue
 import re
 import sys
@@ -36,10 +37,12 @@ from typing import Any
 
 import rclpy
 import yaml
+from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
+from rclpy.validate_topic_name import validate_topic_name
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
@@ -121,13 +124,14 @@ class Player(Node):
         super().__init__(node_name, **node_kwargs)
         if not rate > 0:
             raise InputError(f"--rate {rate}: must be > 0")
-        if start_offset < 0 or (duration is not None and duration < 0):
-            raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0")
+        if not (0 <= start_offset * 1e9 < math.inf) or (duration is not None and not duration >= 0):
+            raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0 (offset finite)")
         self.bag = bag
         self.rate = rate
         self.loop = loop
         self._begin = bag.start_ns + int(start_offset * 1e9)
-        self._end = None if duration is None else self._begin + int(duration * 1e9)
+        endless = duration is None or math.isinf(duration * 1e9)
+        self._end = None if endless else self._begin + int(duration * 1e9)
         remap = remap or {}
         try:
             excluded = re.compile(exclude) if exclude else None
@@ -380,6 +384,12 @@ def _parse_remaps(items: Sequence[str]) -> dict[str, str]:
         old, sep, new = item.partition(":=")
         if not sep or not old or not new:
             raise InputError(f"--remap {item!r}: expected OLD:=NEW")
+        try:
+            validate_topic_name(new)
+        except InvalidTopicNameException as exc:
+            raise InputError(
+                f"--remap {item!r}: {new!r} is not a valid topic name ({str(exc).splitlines()[0]})"
+            ) from None
         remap[old if old.startswith("/") else "/" + old] = new
     return remap
 

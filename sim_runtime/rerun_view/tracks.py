@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_runtime.bag.reader import UnknownMessageType, open_bag
+from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, outline_at, robot_color, robot_outlines
 from simrobot_sim.tracks import draw_tracks
@@ -71,7 +71,7 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     for m in bag.messages(topics=truth | odom | maps | markers | outline_topics):
         try:
             msg = m.msg
-        except UnknownMessageType as err:
+        except (UnknownMessageType, CorruptMessage) as err:
             warnings.warn(f"{bag.path}: {err}; skipped", stacklevel=2)
             continue
         if m.topic in outline_topics:

@@ -1,0 +1,30 @@
+"""``python -m sim_runtime.fuzz``: run a fuzz campaign (``make fuzz``) or replay one input."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from sim_runtime.fuzz.campaign import replay, run_campaign
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m sim_runtime.fuzz", description=__doc__)
+    parser.add_argument("--inputs", type=int, default=100_000, help="inputs to run (default 100000)")
+    parser.add_argument("--seconds", type=float, default=900.0, help="time budget (default 900)")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--seed", type=int, default=1, help="campaign seed (same seed, same inputs)")
+    parser.add_argument("--out", default="out/fuzz", help="folder for seeds, defects and summary.json")
+    parser.add_argument("--replay", type=int, metavar="INDEX", help="run input INDEX here and show its traceback")
+    opts = parser.parse_args(argv)
+    if opts.replay is not None:
+        replay(opts.replay, opts.seed, opts.out)
+        return 0
+    report = run_campaign(opts.inputs, seconds=opts.seconds, workers=opts.workers, seed=opts.seed, out=opts.out)
+    print(report.table())
+    print(f"defect inputs saved under {opts.out}/defects; summary in {opts.out}/summary.json")
+    return 1 if report.failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
