@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -34,6 +35,77 @@ from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 _SQRT2 = math.sqrt(2.0)
 #: Side (cells) of the buckets used to find the robots a sensor may see.
 _BUCKET = 64
+
+
+class RobotTable(NamedTuple):
+    """Every robot's state for the kernels, one row per robot (index ``r``, id ``r + 2``), in cells.
+
+    ``pose[r] = (x, y, heading)`` with the heading in radians; ``wheel_speed[r] = (left, right)``
+    and ``wheel_accel`` in rad/s and rad/s^2; ``wheel_radius``, ``half_track`` (half the wheel
+    distance) and ``axle_offset`` (pivot ahead of the wheel axle) in cells. ``vertices[
+    first_vertex[r]:first_vertex[r + 1]]`` is the robot's polygon around its pivot (cells, heading
+    east). ``cells[r, :n_cells[r]]`` are the flat matrix indices the robot occupies, ``box[r] =
+    (x0, y0, x1, y1)`` their bounds and ``radius[r]`` a circle about the pivot covering them at any
+    heading."""
+
+    pose: np.ndarray
+    wheel_speed: np.ndarray
+    wheel_accel: np.ndarray
+    wheel_radius: np.ndarray
+    half_track: np.ndarray
+    axle_offset: np.ndarray
+    power: np.ndarray
+    crashed: np.ndarray
+    vertices: np.ndarray
+    first_vertex: np.ndarray
+    cells: np.ndarray
+    n_cells: np.ndarray
+    box: np.ndarray
+    radius: np.ndarray
+    id: np.ndarray
+
+
+class SensorTable(NamedTuple):
+    """Every sensor, one row per sensor ``s``, in cells and radians: it sits on robot ``robot[s]``
+    at ``position[s]`` (robot frame, x forward) looking along ``axis[s]`` (from the heading), sees
+    up to ``max_range[s]``; its rays are ``first_ray[s]:first_ray[s + 1]`` of the ray arrays, at
+    ``ray_offset`` from the axis (with its cosine and sine precomputed), rightmost first."""
+
+    robot: np.ndarray
+    position: np.ndarray
+    axis: np.ndarray
+    max_range: np.ndarray
+    first_ray: np.ndarray
+    ray_offset: np.ndarray
+    ray_cos: np.ndarray
+    ray_sin: np.ndarray
+
+
+class Buckets(NamedTuple):
+    """Robots sorted into square buckets of ``_BUCKET`` cells (``nbx`` x ``nby`` of them):
+    bucket ``b = bx * nby + by`` holds robots ``items[start[b]:start[b + 1]]``."""
+
+    start: np.ndarray
+    items: np.ndarray
+    nbx: int
+    nby: int
+
+
+class Readings(NamedTuple):
+    """Every ray's result, in the sensors' ray order: distance (cells, ``inf`` for no hit) and
+    what it hit (1 wall, a robot id, 0 nothing)."""
+
+    distance: np.ndarray
+    value: np.ndarray
+
+
+class SenseScratch(NamedTuple):
+    """Working memory of one sensing thread: the turned ray directions of a fan, the robots it
+    may see, and the fast caster's scratch."""
+
+    directions: np.ndarray
+    candidates: raycast.Candidates
+    scan: raycast.ScanScratch
 
 
 @numba.njit(cache=True)
@@ -64,42 +136,45 @@ def _cell_box(vx, vy, out):
     out[3] = math.floor(vy.max()) + 1.0
 
 
+@numba.njit(cache=True, inline="always")
+def _drive(robots, r, dt):
+    # The robot's pose after one step of its wheel speeds (the seed's mmodel with the lateral
+    # velocity rotated into the world), from the heading before the step.
+    robots.wheel_speed[r, 0] += robots.wheel_accel[r, 0] * dt
+    robots.wheel_speed[r, 1] += robots.wheel_accel[r, 1] * dt
+    w1 = robots.wheel_speed[r, 0]
+    w2 = robots.wheel_speed[r, 1]
+    v = robots.wheel_radius[r] * (w1 + w2) * 0.5
+    omega = robots.wheel_radius[r] * (w2 - w1) / (2.0 * robots.half_track[r])
+    v_lat = robots.axle_offset[r] * omega
+    h = robots.pose[r, 2]
+    c = math.cos(h)
+    s = math.sin(h)
+    x = robots.pose[r, 0] + dt * (v * c - v_lat * s)
+    y = robots.pose[r, 1] + dt * (v * s + v_lat * c)
+    return x, y, h + omega * dt
+
+
 @numba.njit(cache=True)
-def _step_robots(
-    grid, pose, vel, accel, wheel_r, la, lb, power, crashed, verts, vstart, cells, ncells, box, dt, hit_by
-):
+def _step_robots(grid, robots, dt, hit_by):
     """One step of every powered, non-crashed robot in id order (later robots see earlier ones'
-    new positions, as the seed's sequential update). Returns nothing; ``hit_by[r]`` > 0 marks a
-    robot crashed into by another this step (applied by the caller after the loop, as the seed)."""
+    new positions, as the seed's sequential update). ``hit_by[r]`` > 0 marks a robot crashed into
+    by another this step (applied by the caller after the loop, as the seed)."""
     nx, ny = grid.shape
     gflat = grid.reshape(-1)
-    nmax = cells.shape[1]
-    tmp = np.empty(nmax, dtype=np.int64)
+    tmp = np.empty(robots.cells.shape[1], dtype=np.int64)
     vx = np.empty(64)
     vy = np.empty(64)
-    for r in range(pose.shape[0]):
-        if not power[r] or crashed[r]:
+    for r in range(robots.pose.shape[0]):
+        if not robots.power[r] or robots.crashed[r]:
             continue
-        vel[r, 0] += accel[r, 0] * dt
-        vel[r, 1] += accel[r, 1] * dt
-        w1 = vel[r, 0]
-        w2 = vel[r, 1]
-        v = wheel_r[r] * (w1 + w2) * 0.5
-        omega = wheel_r[r] * (w2 - w1) / (2.0 * la[r])
-        v_lat = lb[r] * omega
-        h = pose[r, 2]
-        c = math.cos(h)
-        s = math.sin(h)
-        x = pose[r, 0] + dt * (v * c - v_lat * s)
-        y = pose[r, 1] + dt * (v * s + v_lat * c)
-        hn = h + omega * dt
-        if x == pose[r, 0] and y == pose[r, 1] and hn == h:
+        x, y, hn = _drive(robots, r, dt)
+        if x == robots.pose[r, 0] and y == robots.pose[r, 1] and hn == robots.pose[r, 2]:
             continue
-        own = r + 2
-        _paint(gflat, cells[r], ncells[r], 0)
-        m = _outline(verts, vstart[r], vstart[r + 1], x, y, hn, vx, vy)
-        n, outside = raycast.polygon_cells(vx[:m], vy[:m], nx, ny, tmp)
-        blocked = outside
+        own = robots.id[r]
+        _paint(gflat, robots.cells[r], robots.n_cells[r], 0)
+        m = _outline(robots.vertices, robots.first_vertex[r], robots.first_vertex[r + 1], x, y, hn, vx, vy)
+        n, blocked = raycast.polygon_cells(vx[:m], vy[:m], nx, ny, tmp)
         for k in range(n):
             value = gflat[tmp[k]]
             if value != 0:
@@ -107,21 +182,21 @@ def _step_robots(
                 if value >= 2 and value != own:
                     hit_by[value - 2] = own
         if blocked:
-            _paint(gflat, cells[r], ncells[r], own)
-            crashed[r] = True
+            _paint(gflat, robots.cells[r], robots.n_cells[r], own)
+            robots.crashed[r] = True
             continue
         _paint(gflat, tmp, n, own)
-        cells[r, :n] = tmp[:n]
-        ncells[r] = n
-        _cell_box(vx[:m], vy[:m], box[r])
+        robots.cells[r, :n] = tmp[:n]
+        robots.n_cells[r] = n
+        _cell_box(vx[:m], vy[:m], robots.box[r])
         # heading kept in (-pi, pi]
         if hn > math.pi:
             hn -= 2.0 * math.pi
         elif hn <= -math.pi:
             hn += 2.0 * math.pi
-        pose[r, 0] = x
-        pose[r, 1] = y
-        pose[r, 2] = hn
+        robots.pose[r, 0] = x
+        robots.pose[r, 1] = y
+        robots.pose[r, 2] = hn
 
 
 @numba.njit(cache=True, inline="always")
@@ -139,147 +214,178 @@ def _disc_meets_cone(qx, qy, d2, r, e1x, e1y, e2x, e2y):
     return False
 
 
+#: How a fan limits the robots it can see: a convex cone, a half-plane, or not at all.
+_CONE, _HALF_PLANE, _ALL_AROUND = 0, 1, 2
+
+
+class _Sector(NamedTuple):
+    # the fan's sector: its kind, its middle direction (half-plane) and its edges (cone)
+    kind: int
+    mid_x: float
+    mid_y: float
+    e1x: float
+    e1y: float
+    e2x: float
+    e2y: float
+
+
+@numba.njit(cache=True, inline="always")
+def _sensor_fan(robots, sensors, s, directions):
+    # Sensor s's origin (cells) and axis angle, and its rays' directions turned into the world
+    # (the fixed offsets' unit vectors rotated by heading + axis: no trig per ray).
+    r = sensors.robot[s]
+    h = robots.pose[r, 2]
+    c = math.cos(h)
+    sn = math.sin(h)
+    px = sensors.position[s, 0]
+    py = sensors.position[s, 1]
+    ox = robots.pose[r, 0] + c * px - sn * py
+    oy = robots.pose[r, 1] + sn * px + c * py
+    a0 = sensors.first_ray[s]
+    axis = h + sensors.axis[s]
+    ca = math.cos(axis)
+    sa = math.sin(axis)
+    for k in range(sensors.first_ray[s + 1] - a0):
+        directions[k, 0] = ca * sensors.ray_cos[a0 + k] - sa * sensors.ray_sin[a0 + k]
+        directions[k, 1] = sa * sensors.ray_cos[a0 + k] + ca * sensors.ray_sin[a0 + k]
+    return ox, oy, axis
+
+
+@numba.njit(cache=True, inline="always")
+def _fan_sector(sensors, s, axis, directions):
+    # The region the fan's rays sweep, to keep only robots whose bounding circle can meet a ray:
+    # a convex cone between the first and last ray, a half-plane for a 180 degree fan, else all.
+    a0 = sensors.first_ray[s]
+    last = sensors.first_ray[s + 1] - 1
+    nr = last - a0 + 1
+    span = abs(sensors.ray_offset[last] - sensors.ray_offset[a0])
+    mid = axis + 0.5 * (sensors.ray_offset[a0] + sensors.ray_offset[last])
+    kind = _CONE if span < math.pi - 1e-9 else (_HALF_PLANE if span <= math.pi + 1e-9 else _ALL_AROUND)
+    if sensors.ray_offset[last] >= sensors.ray_offset[a0]:
+        first, final = 0, nr - 1
+    else:
+        first, final = nr - 1, 0
+    return _Sector(
+        kind,
+        math.cos(mid),
+        math.sin(mid),
+        directions[first, 0],
+        directions[first, 1],
+        directions[final, 0],
+        directions[final, 1],
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def _bucket_in_reach(bx, by, ox, oy, reach, sector, rmax):
+    # Can any robot sorted into bucket (bx, by) be seen? Whole buckets out of reach or behind a
+    # 180 degree fan are skipped unread.
+    gx = min(max(ox, bx * _BUCKET), (bx + 1) * _BUCKET) - ox
+    gy = min(max(oy, by * _BUCKET), (by + 1) * _BUCKET) - oy
+    if gx * gx + gy * gy > reach * reach:
+        return False
+    if sector.kind == _HALF_PLANE:
+        fx = ((bx + 1) * _BUCKET if sector.mid_x > 0.0 else bx * _BUCKET) - ox
+        fy = ((by + 1) * _BUCKET if sector.mid_y > 0.0 else by * _BUCKET) - oy
+        if fx * sector.mid_x + fy * sector.mid_y < -rmax:
+            return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _robot_in_sector(qx, qy, rj, max_range, sector):
+    # May robot j (pivot q relative to the sensor, bounding radius rj) meet one of the rays?
+    d2 = qx * qx + qy * qy
+    if d2 > (max_range + rj) * (max_range + rj):
+        return False  # beyond the range
+    if sector.kind == _HALF_PLANE and qx * sector.mid_x + qy * sector.mid_y < -rj:
+        return False  # behind a 180 degree fan
+    if sector.kind == _CONE and not _disc_meets_cone(qx, qy, d2, rj, sector.e1x, sector.e1y, sector.e2x, sector.e2y):
+        return False
+    return True
+
+
+@numba.njit(cache=True, inline="always")
+def _gather_candidates(robots, buckets, own, ox, oy, max_range, rmax, sector, cand):
+    # The robots sensor origin (ox, oy) may see into ``cand``, nearest buckets first (square rings
+    # around the sensor's bucket): the caster tests candidates in this order, so near robots
+    # shorten the rays before far ones are tried. Returns their number.
+    reach = max_range + rmax
+    bx0 = max(int((ox - reach) // _BUCKET), 0)
+    bx1 = min(int((ox + reach) // _BUCKET), buckets.nbx - 1)
+    by0 = max(int((oy - reach) // _BUCKET), 0)
+    by1 = min(int((oy + reach) // _BUCKET), buckets.nby - 1)
+    cbx = min(max(int(ox // _BUCKET), bx0), bx1)
+    cby = min(max(int(oy // _BUCKET), by0), by1)
+    rings = max(cbx - bx0, bx1 - cbx, cby - by0, by1 - cby)
+    m = 0
+    for ring in range(rings + 1):
+        for bx in range(max(cbx - ring, bx0), min(cbx + ring, bx1) + 1):
+            edge = bx == cbx - ring or bx == cbx + ring
+            # inside the ring's left and right columns only its top and bottom rows are new
+            step = 1 if edge else max(2 * ring, 1)
+            for by in range(cby - ring, cby + ring + 1, step):
+                if by < by0 or by > by1 or not _bucket_in_reach(bx, by, ox, oy, reach, sector, rmax):
+                    continue
+                b = bx * buckets.nby + by
+                for q in range(buckets.start[b], buckets.start[b + 1]):
+                    j = buckets.items[q]
+                    if j == own:
+                        continue
+                    rj = robots.radius[j]
+                    if not _robot_in_sector(robots.pose[j, 0] - ox, robots.pose[j, 1] - oy, rj, max_range, sector):
+                        continue
+                    cand.x[m] = robots.pose[j, 0]
+                    cand.y[m] = robots.pose[j, 1]
+                    cand.radius[m] = rj
+                    cand.box[m, 0] = robots.box[j, 0]
+                    cand.box[m, 1] = robots.box[j, 1]
+                    cand.box[m, 2] = robots.box[j, 2]
+                    cand.box[m, 3] = robots.box[j, 3]
+                    cand.id[m] = robots.id[j]
+                    m += 1
+    return m
+
+
 @numba.njit(cache=True)
-def _sense(
-    grid,
-    clear,
-    pose,
-    radius,
-    box,
-    srob,
-    spos,
-    saxis,
-    rstart,
-    roff,
-    rcos,
-    rsin,
-    srange,
-    ids,
-    bucket_start,
-    bucket_items,
-    nbx,
-    nby,
-    out_t,
-    out_v,
-):
-    """Cast every ray of every sensor (fast caster); candidates come from the robot buckets."""
-    n_sensors = srob.shape[0]
+def _sense_scratch(robots, sensors):
+    n_rob = robots.pose.shape[0]
     max_rays = 0
-    for s in range(n_sensors):
-        max_rays = max(max_rays, rstart[s + 1] - rstart[s])
-    dirs = np.empty((max_rays, 2))
-    t_lo = np.empty(max_rays)
-    t_hi = np.empty(max_rays)
-    discs = np.empty((256, 3))
-    n_rob = pose.shape[0]
-    cand_x = np.empty(n_rob)
-    cand_y = np.empty(n_rob)
-    cand_r = np.empty(n_rob)
-    cand_box = np.empty((n_rob, 4))
-    cand_id = np.empty(n_rob, dtype=np.int64)
-    rmax = radius.max() if n_rob > 0 else 0.0
-    for s in range(n_sensors):
-        r = srob[s]
-        h = pose[r, 2]
-        c = math.cos(h)
-        sn = math.sin(h)
-        ox = pose[r, 0] + c * spos[s, 0] - sn * spos[s, 1]
-        oy = pose[r, 1] + sn * spos[s, 0] + c * spos[s, 1]
-        a0 = rstart[s]
-        nr = rstart[s + 1] - a0
-        # ray directions: the fixed offsets' unit vectors turned by heading + axis (no trig per ray)
-        axis = h + saxis[s]
-        ca = math.cos(axis)
-        sa = math.sin(axis)
-        for k in range(nr):
-            dirs[k, 0] = ca * rcos[a0 + k] - sa * rsin[a0 + k]
-            dirs[k, 1] = sa * rcos[a0 + k] + ca * rsin[a0 + k]
-        dangle = roff[a0 + 1] - roff[a0] if nr > 1 else 0.0
-        # the fan's sector, to keep only robots whose bounding circle can meet a ray: a convex
-        # cone between the first and last ray, a half-plane for a 180 degree fan, else no test
-        span = abs(roff[a0 + nr - 1] - roff[a0])
-        mid = axis + 0.5 * (roff[a0] + roff[a0 + nr - 1])
-        mx = math.cos(mid)
-        my = math.sin(mid)
-        sector = 0 if span < math.pi - 1e-9 else (1 if span <= math.pi + 1e-9 else 2)
-        if roff[a0 + nr - 1] >= roff[a0]:
-            e1x, e1y, e2x, e2y = dirs[0, 0], dirs[0, 1], dirs[nr - 1, 0], dirs[nr - 1, 1]
-        else:
-            e1x, e1y, e2x, e2y = dirs[nr - 1, 0], dirs[nr - 1, 1], dirs[0, 0], dirs[0, 1]
-        reach = srange[s] + rmax
-        bx0 = max(int((ox - reach) // _BUCKET), 0)
-        bx1 = min(int((ox + reach) // _BUCKET), nbx - 1)
-        by0 = max(int((oy - reach) // _BUCKET), 0)
-        by1 = min(int((oy + reach) // _BUCKET), nby - 1)
-        # nearest buckets first (square rings around the sensor's bucket): the caster tests
-        # candidates in this order, so near robots shorten the rays before far ones are tried
-        cbx = min(max(int(ox // _BUCKET), bx0), bx1)
-        cby = min(max(int(oy // _BUCKET), by0), by1)
-        rings = max(cbx - bx0, bx1 - cbx, cby - by0, by1 - cby)
-        m = 0
-        for ring in range(rings + 1):
-            for bx in range(max(cbx - ring, bx0), min(cbx + ring, bx1) + 1):
-                edge = bx == cbx - ring or bx == cbx + ring
-                # inside the ring's left and right columns only its top and bottom rows are new
-                step = 1 if edge else max(2 * ring, 1)
-                for by in range(cby - ring, cby + ring + 1, step):
-                    if by < by0 or by > by1:
-                        continue
-                    # whole buckets out of reach or behind a 180 degree fan are skipped unread
-                    gx = min(max(ox, bx * _BUCKET), (bx + 1) * _BUCKET) - ox
-                    gy = min(max(oy, by * _BUCKET), (by + 1) * _BUCKET) - oy
-                    if gx * gx + gy * gy > reach * reach:
-                        continue
-                    if sector == 1:
-                        fx = ((bx + 1) * _BUCKET if mx > 0.0 else bx * _BUCKET) - ox
-                        fy = ((by + 1) * _BUCKET if my > 0.0 else by * _BUCKET) - oy
-                        if fx * mx + fy * my < -rmax:
-                            continue
-                    b = bx * nby + by
-                    for q in range(bucket_start[b], bucket_start[b + 1]):
-                        j = bucket_items[q]
-                        if j == r:
-                            continue
-                        qx = pose[j, 0] - ox
-                        qy = pose[j, 1] - oy
-                        rj = radius[j]
-                        d2 = qx * qx + qy * qy
-                        if d2 > (srange[s] + rj) * (srange[s] + rj):
-                            continue  # beyond the range
-                        if sector == 1 and qx * mx + qy * my < -rj:
-                            continue  # behind a 180 degree fan
-                        if sector == 0 and not _disc_meets_cone(qx, qy, d2, rj, e1x, e1y, e2x, e2y):
-                            continue
-                        cand_x[m] = pose[j, 0]
-                        cand_y[m] = pose[j, 1]
-                        cand_r[m] = rj
-                        cand_box[m, 0] = box[j, 0]
-                        cand_box[m, 1] = box[j, 1]
-                        cand_box[m, 2] = box[j, 2]
-                        cand_box[m, 3] = box[j, 3]
-                        cand_id[m] = ids[j]
-                        m += 1
-        raycast.cast_scan_fast_into(
-            grid,
-            clear,
-            ox,
-            oy,
-            dirs[:nr],
-            axis + roff[a0],
-            dangle,
-            srange[s],
-            ids[r],
-            cand_x[:m],
-            cand_y[:m],
-            cand_r[:m],
-            cand_box[:m],
-            cand_id[:m],
-            out_t[a0 : a0 + nr],
-            out_v[a0 : a0 + nr],
-            t_lo,
-            t_hi,
-            discs,
-        )
+    for s in range(sensors.robot.shape[0]):
+        max_rays = max(max_rays, sensors.first_ray[s + 1] - sensors.first_ray[s])
+    candidates = raycast.Candidates(
+        np.empty(n_rob), np.empty(n_rob), np.empty(n_rob), np.empty((n_rob, 4)), np.empty(n_rob, dtype=np.int64)
+    )
+    scan = raycast.ScanScratch(np.empty(max_rays), np.empty(max_rays), np.empty((256, 3)))
+    return SenseScratch(np.empty((max_rays, 2)), candidates, scan)
+
+
+@numba.njit(cache=True, inline="always")
+def _sense_one(grid, robots, sensors, buckets, s, rmax, scratch, out):
+    # Every ray of sensor s, with the fast caster, into ``out``.
+    dirs = scratch.directions
+    ox, oy, axis = _sensor_fan(robots, sensors, s, dirs)
+    sector = _fan_sector(sensors, s, axis, dirs)
+    r = sensors.robot[s]
+    max_range = sensors.max_range[s]
+    m = _gather_candidates(robots, buckets, r, ox, oy, max_range, rmax, sector, scratch.candidates)
+    c = scratch.candidates
+    a0 = sensors.first_ray[s]
+    nr = sensors.first_ray[s + 1] - a0
+    step = sensors.ray_offset[a0 + 1] - sensors.ray_offset[a0] if nr > 1 else 0.0
+    fan = raycast.Fan(ox, oy, dirs[:nr], axis + sensors.ray_offset[a0], step, max_range, robots.id[r])
+    seen = raycast.Candidates(c.x[:m], c.y[:m], c.radius[:m], c.box[:m], c.id[:m])
+    raycast.cast_scan_fast_into(grid, fan, seen, out.distance[a0 : a0 + nr], out.value[a0 : a0 + nr], scratch.scan)
+
+
+@numba.njit(cache=True)
+def _sense(grid, robots, sensors, buckets, out):
+    """Cast every ray of every sensor (fast caster) into ``out``; the robots a fan may see come
+    from the buckets."""
+    rmax = robots.radius.max() if robots.pose.shape[0] > 0 else 0.0
+    scratch = _sense_scratch(robots, sensors)
+    for s in range(sensors.robot.shape[0]):
+        _sense_one(grid, robots, sensors, buckets, s, rmax, scratch, out)
 
 
 @numba.njit(cache=True)
@@ -407,6 +513,24 @@ class SimrobotWorld:
         self.cells = np.zeros((n, side * side), dtype=np.int64)
         self.ncells = np.zeros(n, dtype=np.int64)
         self.box = np.zeros((n, 4))
+        self._robots = RobotTable(
+            self.pose,
+            self.vel,
+            self.accel,
+            self.wheel_r,
+            self.la,
+            self.lb,
+            self.power,
+            self.crashed,
+            self.verts,
+            self.vstart,
+            self.cells,
+            self.ncells,
+            self.box,
+            self.radius,
+            self.ids,
+        )
+        self._grid = raycast.Occupancy(self.grid, self.clear)
         self._build_sensors(spec.robots)
         for i, robot in enumerate(spec.robots):
             self._place(i, robot)
@@ -446,6 +570,10 @@ class SimrobotWorld:
         self.ray_v = np.zeros(first, dtype=np.int64)
         self.nearest_t = np.full(len(infos), np.inf)
         self.nearest_v = np.zeros(len(infos), dtype=np.int64)
+        self._sensors = SensorTable(
+            self.srob, self.spos, self.saxis, self.srange, self.rstart, self.roff, self.rcos, self.rsin
+        )
+        self._readings = Readings(self.ray_t, self.ray_v)
 
     def _place(self, i: int, robot: RobotSpec) -> None:
         nx, ny = self.grid.shape
@@ -528,24 +656,7 @@ class SimrobotWorld:
         """Advance one step of ``dt``; returns the indices of robots that crashed in it."""
         before = self.crashed.copy()
         hit_by = np.zeros(len(self.names), dtype=np.int64)
-        _step_robots(
-            self.grid,
-            self.pose,
-            self.vel,
-            self.accel,
-            self.wheel_r,
-            self.la,
-            self.lb,
-            self.power,
-            self.crashed,
-            self.verts,
-            self.vstart,
-            self.cells,
-            self.ncells,
-            self.box,
-            self.dt,
-            hit_by,
-        )
+        _step_robots(self.grid, self._robots, self.dt, hit_by)
         # robot-on-robot crashes both (applied after everyone moved, as the seed)
         self.crashed |= hit_by > 0
         self.step_count += 1
@@ -556,7 +667,6 @@ class SimrobotWorld:
         """Cast every sensor's rays at the current poses (cached until the next step)."""
         if self._sensed_at == self.step_count or len(self.sensors) == 0:
             return
-        n = len(self.names)
         bx = np.clip((self.pose[:, 0] // _BUCKET).astype(np.int64), 0, self.nbx - 1)
         by = np.clip((self.pose[:, 1] // _BUCKET).astype(np.int64), 0, self.nby - 1)
         key = bx * self.nby + by
@@ -564,28 +674,8 @@ class SimrobotWorld:
         counts = np.bincount(key, minlength=self.nbx * self.nby)
         bucket_start = np.zeros(self.nbx * self.nby + 1, dtype=np.int64)
         np.cumsum(counts, out=bucket_start[1:])
-        _sense(
-            self.grid,
-            self.clear,
-            self.pose,
-            self.radius,
-            self.box,
-            self.srob,
-            self.spos,
-            self.saxis,
-            self.rstart,
-            self.roff,
-            self.rcos,
-            self.rsin,
-            self.srange,
-            self.ids[:n],
-            bucket_start,
-            order.astype(np.int64),
-            self.nbx,
-            self.nby,
-            self.ray_t,
-            self.ray_v,
-        )
+        buckets = Buckets(bucket_start, order.astype(np.int64), self.nbx, self.nby)
+        _sense(self._grid, self._robots, self._sensors, buckets, self._readings)
         _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
         self._sensed_at = self.step_count
 

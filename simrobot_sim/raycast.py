@@ -19,11 +19,16 @@ Three casters:
   a nearby robot's bounding circle, only for the rays whose angle can meet it. Same hits as the
   reference, a small fraction of the cells visited.
 * :func:`cast_ray_bresenham_python` — the seed's algorithm in plain Python (benchmark baseline).
+
+The fast caster takes its inputs grouped: the map (:class:`Occupancy`), one sensor's rays
+(:class:`Fan`), the robots it may see (:class:`Candidates`) and its working memory
+(:class:`ScanScratch`); its pieces (ray set-up, one robot, the walls) are inlined kernels.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -38,6 +43,60 @@ _FAR = 1.0e9
 #: on the walls pass), but infinities and NaN keep IEEE semantics (no-hit is ``inf``). The
 #: reference traversal keeps strict IEEE arithmetic.
 _FAST = {"cache": True, "error_model": "numpy", "fastmath": {"arcp", "contract", "afn", "nsz", "reassoc"}}
+
+
+class Occupancy(NamedTuple):
+    """The map a caster reads, in cells: ``matrix[x, y]`` (0 free, 1 wall, robot ids) and the
+    static walls' :func:`clearance_field` (the fast caster jumps through free space with it)."""
+
+    matrix: np.ndarray
+    clearance: np.ndarray
+
+
+class Fan(NamedTuple):
+    """One sensor's rays at one instant, in cells and radians. Ray ``i`` leaves ``(origin_x,
+    origin_y)`` along the unit vector ``directions[i]``, at angle ``first_angle + i * angle_step``
+    (every sensor's rays are spread evenly); cells of ``own_id`` (the sensor's robot) are never
+    seen; nothing is seen beyond ``max_range``."""
+
+    origin_x: float
+    origin_y: float
+    directions: np.ndarray
+    first_angle: float
+    angle_step: float
+    max_range: float
+    own_id: int
+
+
+class Candidates(NamedTuple):
+    """Robots a fan may see: pivot ``x``, ``y`` and a bounding ``radius`` that covers every cell
+    the robot occupies, ``box[k] = [x0, y0, x1, y1]`` of those cells, and the robot's ``id``."""
+
+    x: np.ndarray
+    y: np.ndarray
+    radius: np.ndarray
+    box: np.ndarray
+    id: np.ndarray
+
+
+class ScanScratch(NamedTuple):
+    """Working memory of the fast caster, so a caller casting many scans allocates it once:
+    ``t_enter``/``t_leave`` hold at least one entry per ray (the stretch of each ray on the map),
+    ``discs`` the free discs reused between rays (any number of rows: more rows, more reuse)."""
+
+    t_enter: np.ndarray
+    t_leave: np.ndarray
+    discs: np.ndarray
+
+
+def no_candidates() -> Candidates:
+    """No robot to test (a fan over walls alone)."""
+    return Candidates(np.empty(0), np.empty(0), np.empty(0), np.empty((0, 4)), np.empty(0, dtype=np.int64))
+
+
+def scan_scratch(rays: int, discs: int = 256) -> ScanScratch:
+    """Scratch for scans of up to ``rays`` rays."""
+    return ScanScratch(np.empty(rays), np.empty(rays), np.empty((discs, 3)))
 
 
 @numba.njit(cache=True)
@@ -335,181 +394,159 @@ def _reuse_discs(ox, oy, dx, dy, t, discs, nd):
     return t, keep
 
 
-@numba.njit(**_FAST)
-def cast_scan_fast(
-    grid,
-    clear,
-    ox,
-    oy,
-    directions,
-    angle0,
-    dangle,
-    max_range,
-    self_id,
-    cand_x,
-    cand_y,
-    cand_r,
-    cand_box,
-    cand_id,
-    out_t,
-    out_v,
-):
-    """All rays of one sensor from ``(ox, oy)`` with the fast caster. Ray ``i`` has unit direction
-    ``directions[i]`` at angle ``angle0 + i * dangle`` (an evenly spread fan, as every sensor).
-    ``cand_*`` are robots that may be seen (centre and bounding radius covering every painted cell,
-    box ``[x0, y0, x1, y1]`` of the painted cells, id); the sensor's own robot is skipped by
-    ``self_id``. Results go to ``out_t``/``out_v``
-    (``inf``/0 for no hit within ``max_range``)."""
-    n = directions.shape[0]
-    cast_scan_fast_into(
-        grid,
-        clear,
-        ox,
-        oy,
-        directions,
-        angle0,
-        dangle,
-        max_range,
-        self_id,
-        cand_x,
-        cand_y,
-        cand_r,
-        cand_box,
-        cand_id,
-        out_t,
-        out_v,
-        np.empty(n),
-        np.empty(n),
-        np.empty((256, 3)),
-    )
-
-
-@numba.njit(**_FAST)
-def cast_scan_fast_into(
-    grid,
-    clear,
-    ox,
-    oy,
-    directions,
-    angle0,
-    dangle,
-    max_range,
-    self_id,
-    cand_x,
-    cand_y,
-    cand_r,
-    cand_box,
-    cand_id,
-    out_t,
-    out_v,
-    t_lo,
-    t_hi,
-    discs,
-):
-    """:func:`cast_scan_fast` with the caller's scratch (no allocation per scan, for a caller
-    casting many scans): ``t_lo``/``t_hi`` hold at least one entry per ray, ``discs`` the free
-    discs reused between rays (any number of rows; more rows, more reuse)."""
-    nx, ny = grid.shape
-    n = directions.shape[0]
+@numba.njit(inline="always", **_FAST)
+def _start_rays(shape, fan, out_t, out_v, scratch):
+    # each ray's stretch on the map, and no hit yet
+    nx, ny = shape
+    ox = fan.origin_x
+    oy = fan.origin_y
+    d = fan.directions
     inside = 0.0 <= ox < nx and 0.0 <= oy < ny
-    for i in range(n):
+    for i in range(d.shape[0]):
         if inside:
-            t_lo[i], t_hi[i] = 0.0, max_range  # every traversal stops at the map edge by itself
+            # every traversal stops at the map edge by itself
+            scratch.t_enter[i], scratch.t_leave[i] = 0.0, fan.max_range
         else:
-            t_lo[i], t_hi[i] = _clip_to_map(ox, oy, directions[i, 0], directions[i, 1], nx, ny, max_range)
+            scratch.t_enter[i], scratch.t_leave[i] = _clip_to_map(ox, oy, d[i, 0], d[i, 1], nx, ny, fan.max_range)
         out_t[i] = np.inf
         out_v[i] = 0
-    # pass 1: robots are not in the static table: test each robot exactly (traversal of its
-    # painted cells inside their bounding box), only on the rays whose angle can meet its
-    # bounding circle. Robots first: a ray that meets one needs the walls only up to it.
-    two_pi = 2.0 * math.pi
-    for j in range(cand_id.shape[0]):
-        rid = cand_id[j]
-        if rid == self_id:
+
+
+@numba.njit(inline="always", **_FAST)
+def _ray_in_box(dx, dy, t_a, t_b, box):
+    # The stretch [t_a, t_b] of a ray from the origin clipped to ``box`` (x0, y0, x1, y1 relative
+    # to the origin); empty (t_a > t_b) when the ray misses it.
+    bx0, by0, bx1, by1 = box
+    if dx != 0.0:
+        u = bx0 / dx
+        w = bx1 / dx
+        t_a = max(t_a, min(u, w))
+        t_b = min(t_b, max(u, w))
+    elif bx0 > 0.0 or bx1 < 0.0:
+        return 1.0, 0.0
+    if dy != 0.0:
+        u = by0 / dy
+        w = by1 / dy
+        t_a = max(t_a, min(u, w))
+        t_b = min(t_b, max(u, w))
+    elif by0 > 0.0 or by1 < 0.0:
+        return 1.0, 0.0
+    return t_a, t_b
+
+
+@numba.njit(inline="always", **_FAST)
+def _trace_robot(matrix, fan, robot_id, first, last, t_near, box, out_t, out_v, scratch):
+    # The exact traversal of rays first..last through one robot's box, looking for its cells
+    # only. A ray whose hit is already nearer than the robot's bounding circle is skipped.
+    for i in range(first, last + 1):
+        if out_t[i] <= t_near:
             continue
-        qx = cand_x[j] - ox
-        qy = cand_y[j] - oy
-        rad = cand_r[j]
-        dist2 = qx * qx + qy * qy
-        c2 = dist2 - rad * rad
-        if c2 > 0.0 and c2 > (max_range + rad) * (max_range + rad) - rad * rad:
-            continue  # farther than the range
-        # no ray meets the robot before its bounding circle: rays already shorter are skipped
-        # with one comparison (candidates come nearest first, so most far ones end here)
-        t_near = math.sqrt(dist2) - rad
-        bx0 = cand_box[j, 0] - ox
-        by0 = cand_box[j, 1] - oy
-        bx1 = cand_box[j, 2] - ox
-        by1 = cand_box[j, 3] - oy
-        lo_i = 0
-        hi_i = n - 1
-        shifts = 1
-        half = 0.0
-        centre = 0.0
-        if c2 > 0.0 and n > 1 and dangle != 0.0:
-            # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
-            half = rad / math.sqrt(c2) + 1e-9
-            if half < 1.5:
-                # the circle's centre angle from the first ray, along the fan, in [0, 2 pi)
-                centre = (math.atan2(qy, qx) - angle0) * (1.0 if dangle > 0.0 else -1.0)
-                centre -= two_pi * math.floor(centre / two_pi)
-                shifts = 3
-        step = abs(dangle)
-        for sh in range(shifts):
-            if shifts == 3:
-                # the same angle one turn down or up only matters when the window wraps
-                off = centre + (sh - 1) * two_pi
-                if off + half < 0.0 or off - half > (n - 1) * step:
-                    continue
-                lo_i = max(int(math.ceil((off - half) / step)), 0)
-                hi_i = min(int(math.floor((off + half) / step)), n - 1)
-            for i in range(lo_i, hi_i + 1):
-                if out_t[i] <= t_near:
-                    continue
-                dx = directions[i, 0]
-                dy = directions[i, 1]
-                # ray / box slabs
-                ta = t_lo[i]
-                tb = min(t_hi[i], out_t[i])
-                if dx != 0.0:
-                    u = bx0 / dx
-                    w = bx1 / dx
-                    ta = max(ta, min(u, w))
-                    tb = min(tb, max(u, w))
-                elif bx0 > 0.0 or bx1 < 0.0:
-                    continue
-                if dy != 0.0:
-                    u = by0 / dy
-                    w = by1 / dy
-                    ta = max(ta, min(u, w))
-                    tb = min(tb, max(u, w))
-                elif by0 > 0.0 or by1 < 0.0:
-                    continue
-                if ta > tb:
-                    continue
-                th, v = _traverse_fast(grid, ox, oy, dx, dy, ta, tb, self_id, rid)
-                if v > 0 and th < out_t[i]:
-                    out_t[i] = th
-                    out_v[i] = v
-    # pass 2: walls, ray after ray, reusing the free discs of the previous rays
+        dx = fan.directions[i, 0]
+        dy = fan.directions[i, 1]
+        t_a, t_b = _ray_in_box(dx, dy, scratch.t_enter[i], min(scratch.t_leave[i], out_t[i]), box)
+        if t_a > t_b:
+            continue
+        th, v = _traverse_fast(matrix, fan.origin_x, fan.origin_y, dx, dy, t_a, t_b, fan.own_id, robot_id)
+        if v > 0 and th < out_t[i]:
+            out_t[i] = th
+            out_v[i] = v
+
+
+@numba.njit(inline="always", **_FAST)
+def _see_robot(matrix, fan, robots, j, out_t, out_v, scratch):
+    # One candidate robot against the rays whose angle can meet its bounding circle.
+    two_pi = 2.0 * math.pi
+    n = fan.directions.shape[0]
+    qx = robots.x[j] - fan.origin_x
+    qy = robots.y[j] - fan.origin_y
+    rad = robots.radius[j]
+    reach = fan.max_range
+    dist2 = qx * qx + qy * qy
+    c2 = dist2 - rad * rad
+    if c2 > 0.0 and c2 > (reach + rad) * (reach + rad) - rad * rad:
+        return  # farther than the range
+    # no ray meets the robot before its bounding circle: rays already shorter are skipped
+    # with one comparison (candidates come nearest first, so most far ones end here)
+    t_near = math.sqrt(dist2) - rad
+    box = (
+        robots.box[j, 0] - fan.origin_x,
+        robots.box[j, 1] - fan.origin_y,
+        robots.box[j, 2] - fan.origin_x,
+        robots.box[j, 3] - fan.origin_y,
+    )
+    # Only the rays within the circle's half angle of its centre can meet it: a window of ray
+    # indices, tried one turn down and up as well when it may wrap. All rays when the sensor is
+    # inside the circle, for a single ray, or when the circle is too wide for the test to pay.
+    dangle = fan.angle_step
+    windows = 1
+    half = 0.0
+    centre = 0.0
+    if c2 > 0.0 and n > 1 and dangle != 0.0:
+        # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
+        half = rad / math.sqrt(c2) + 1e-9
+        if half < 1.5:
+            # the circle's centre angle from the first ray, along the fan, in [0, 2 pi)
+            centre = (math.atan2(qy, qx) - fan.first_angle) * (1.0 if dangle > 0.0 else -1.0)
+            centre -= two_pi * math.floor(centre / two_pi)
+            windows = 3
+    step = abs(dangle)
+    first = 0
+    last = n - 1
+    for w in range(windows):
+        if windows == 3:
+            off = centre + (w - 1) * two_pi
+            if off + half < 0.0 or off - half > (n - 1) * step:
+                continue
+            first = max(int(math.ceil((off - half) / step)), 0)
+            last = min(int(math.floor((off + half) / step)), n - 1)
+        _trace_robot(matrix, fan, robots.id[j], first, last, t_near, box, out_t, out_v, scratch)
+
+
+@numba.njit(inline="always", **_FAST)
+def _walls_pass(clearance, fan, out_t, out_v, scratch):
+    # Walls, ray after ray, each only up to its robot hit, reusing the previous rays' free discs.
+    ox = fan.origin_x
+    oy = fan.origin_y
     nd = 0
-    for i in range(n):
-        dx = directions[i, 0]
-        dy = directions[i, 1]
-        t0 = t_lo[i]
-        t1 = min(t_hi[i], out_t[i])
+    for i in range(fan.directions.shape[0]):
+        dx = fan.directions[i, 0]
+        dy = fan.directions[i, 1]
+        t0 = scratch.t_enter[i]
+        t1 = min(scratch.t_leave[i], out_t[i])
         if t0 > t1:
             continue
-        ts, nd = _reuse_discs(ox, oy, dx, dy, t0, discs, nd)
+        ts, nd = _reuse_discs(ox, oy, dx, dy, t0, scratch.discs, nd)
         if ts <= t1:
-            th, nd = _cast_walls_fast(clear, ox, oy, dx, dy, ts, t1, discs, nd)
+            th, nd = _cast_walls_fast(clearance, ox, oy, dx, dy, ts, t1, scratch.discs, nd)
             if th < out_t[i]:
                 out_t[i] = th
                 out_v[i] = 1
-    for i in range(n):
-        if out_t[i] > max_range:
+
+
+@numba.njit(**_FAST)
+def cast_scan_fast_into(grid, fan, robots, out_t, out_v, scratch):
+    """:func:`cast_scan_fast` with the caller's :class:`ScanScratch` (no allocation per scan)."""
+    _start_rays(grid.matrix.shape, fan, out_t, out_v, scratch)
+    # robots are not in the static table: test each robot exactly (traversal of its cells inside
+    # its box), only on the rays whose angle can meet its bounding circle. Robots first: a ray
+    # that meets one needs the walls only up to it.
+    for j in range(robots.id.shape[0]):
+        if robots.id[j] != fan.own_id:
+            _see_robot(grid.matrix, fan, robots, j, out_t, out_v, scratch)
+    _walls_pass(grid.clearance, fan, out_t, out_v, scratch)
+    for i in range(fan.directions.shape[0]):
+        if out_t[i] > fan.max_range:
             out_t[i] = np.inf
             out_v[i] = 0
+
+
+@numba.njit(**_FAST)
+def cast_scan_fast(grid, fan, robots, out_t, out_v):
+    """All rays of one :class:`Fan` over an :class:`Occupancy` with the fast caster; ``robots``
+    (:class:`Candidates`) are the robots it may see. Results go to ``out_t``/``out_v`` (``inf``/0
+    for no hit within the range)."""
+    n = fan.directions.shape[0]
+    cast_scan_fast_into(grid, fan, robots, out_t, out_v, ScanScratch(np.empty(n), np.empty(n), np.empty((256, 3))))
 
 
 @numba.njit(cache=True)
@@ -610,16 +647,10 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
         mark[cx - x_lo, cy - y_lo] = True
         if length == 0.0:
             continue
-        dx = (bx - ax) / length
-        dy = (by - ay) / length
         ex = int(math.floor(bx))
         ey = int(math.floor(by))
-        sx = 1 if dx > 0 else -1
-        sy = 1 if dy > 0 else -1
-        tdx = abs(1.0 / dx) if dx != 0.0 else np.inf
-        tdy = abs(1.0 / dy) if dy != 0.0 else np.inf
-        tmx = ((cx + 1 - ax) if dx > 0 else (ax - cx)) * tdx if dx != 0.0 else np.inf
-        tmy = ((cy + 1 - ay) if dy > 0 else (ay - cy)) * tdy if dy != 0.0 else np.inf
+        sx, tdx, tmx = _axis_start((bx - ax) / length, ax, cx, 0.0)
+        sy, tdy, tmy = _axis_start((by - ay) / length, ay, cy, 0.0)
         steps = abs(ex - cx) + abs(ey - cy)
         for _ in range(steps):
             if tmx < tmy:

@@ -96,25 +96,8 @@ def test_fast_and_exact_single_rays_agree(seed, angle, ox, oy):
     d = np.array([[math.cos(angle), math.sin(angle)]])
     et, ev, ft, fv = np.empty(1), np.empty(1, np.int64), np.empty(1), np.empty(1, np.int64)
     raycast.cast_scan_exact(grid, ox, oy, d, 150.0, 0, et, ev)
-    empty = np.empty(0)
-    raycast.cast_scan_fast(
-        grid,
-        clear,
-        ox,
-        oy,
-        d,
-        angle,
-        0.0,
-        150.0,
-        0,
-        empty,
-        empty,
-        empty,
-        np.empty((0, 4)),
-        np.empty(0, np.int64),
-        ft,
-        fv,
-    )
+    fan = raycast.Fan(ox, oy, d, angle, 0.0, 150.0, 0)
+    raycast.cast_scan_fast(raycast.Occupancy(grid, clear), fan, raycast.no_candidates(), ft, fv)
     if math.isfinite(et[0]):
         assert ft[0] == pytest.approx(et[0], abs=1.0)
     else:
