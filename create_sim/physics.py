@@ -30,6 +30,7 @@ import numba
 import numpy as np
 
 from create_sim.geometry import grid_contacts
+from sim_runtime.angles import wrap_angle_jit as wrap_angle
 
 CONTACT_SKIN = 1e-3  # a wall this close to the body presses a bumper
 OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
@@ -37,12 +38,6 @@ _PUSH_MARGIN = 1e-8  # push-out leaves the body this far from the wall...
 _TOUCH = 1e-6  # ...which the next step sees as touching (friction, sliding)
 _SOLVER_TOL = 0.1 * OVERLAP_TOL  # the solver's own acceptance, well inside the promise
 _MAX_CONTACTS = 64
-
-
-@numba.njit(cache=True)
-def wrap_angle(a: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @numba.njit(cache=True)

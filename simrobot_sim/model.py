@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from sim_runtime.angles import wrap_angle, wrap_angle_jit
 from sim_runtime.errors import InputError
 from simrobot_sim import raycast
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
@@ -189,11 +190,7 @@ def _step_robots(grid, robots, dt, hit_by):
         robots.cells[r, :n] = tmp[:n]
         robots.n_cells[r] = n
         _cell_box(vx[:m], vy[:m], robots.box[r])
-        # heading kept in (-pi, pi]
-        if hn > math.pi:
-            hn -= 2.0 * math.pi
-        elif hn <= -math.pi:
-            hn += 2.0 * math.pi
+        hn = wrap_angle_jit(hn)
         robots.pose[r, 0] = x
         robots.pose[r, 1] = y
         robots.pose[r, 2] = hn
@@ -389,16 +386,17 @@ def _sense(grid, robots, sensors, buckets, out):
 
 
 @numba.njit(cache=True)
-def _nearest(rstart, out_t, out_v, dist, obst):
-    for s in range(rstart.shape[0] - 1):
+def _nearest(first_ray, rays, nearest):
+    # every sensor's nearest ray (the first of equals), as an ultrasonic sensor reads
+    for s in range(first_ray.shape[0] - 1):
         best = np.inf
-        bv = 0
-        for k in range(rstart[s], rstart[s + 1]):
-            if out_t[k] < best:
-                best = out_t[k]
-                bv = out_v[k]
-        dist[s] = best
-        obst[s] = bv
+        value = 0
+        for k in range(first_ray[s], first_ray[s + 1]):
+            if rays.distance[k] < best:
+                best = rays.distance[k]
+                value = rays.value[k]
+        nearest.distance[s] = best
+        nearest.value[s] = value
 
 
 def ray_offsets(beamwidth: float, rays: int) -> np.ndarray:
@@ -465,7 +463,11 @@ class PoseHistory:
 
 
 class SimrobotWorld:
-    """The whole world: matrix, robots, sensors and history. Step it with :meth:`step`."""
+    """The whole world: matrix, robots, sensors and history. Step it with :meth:`step`.
+
+    Everything public is in metres, radians and seconds (world frame: the map's lower-left corner
+    is at ``origin``). ``grid`` is the occupancy matrix itself, indexed by cell ``[x, y]``
+    (0 free, 1 wall, robot ids). The kernels' cell-unit state lives in the private tables."""
 
     def __init__(self, spec: WorldSpec, *, wide_ids: bool = False) -> None:
         """Place every robot of ``spec``. More than 254 robots need ``wide_ids=True`` (a uint16
@@ -487,60 +489,56 @@ class SimrobotWorld:
         self.ids = np.arange(2, n + 2, dtype=np.int64)
         dtype = np.uint8 if n <= MAX_ROBOTS_UINT8 else np.uint16
         self.grid = np.ascontiguousarray(spec.walls, dtype=dtype)
-        self.clear = raycast.clearance_field(spec.walls)
         nx, ny = self.grid.shape
-        self.nbx = nx // _BUCKET + 1
-        self.nby = ny // _BUCKET + 1
-        res = self.resolution
-        self.pose = np.zeros((n, 3))
+        self._grid = raycast.Occupancy(self.grid, raycast.clearance_field(spec.walls))
+        self._nbx = nx // _BUCKET + 1
+        self._nby = ny // _BUCKET + 1
+        #: Wheel speeds [left, right] (rad/s) and accelerations (rad/s^2) of every robot.
         self.vel = np.zeros((n, 2))
         self.accel = np.zeros((n, 2))
-        self.wheel_r = np.array([r.R / res for r in spec.robots])
-        self.la = np.array([r.la / res for r in spec.robots])
-        self.lb = np.array([r.lb / res for r in spec.robots])
         self.power = np.array([r.power for r in spec.robots], dtype=np.bool_)
         self.crashed = np.zeros(n, dtype=np.bool_)
         self.colors = np.array([r.color for r in spec.robots], dtype=float).reshape(n, 3)
-        shapes = [np.asarray(r.shape, dtype=float) * r.scale / res for r in spec.robots]
-        if any(len(s) > 64 for s in shapes):
-            raise InputError(f"{spec.source}: robots: a shape has more than 64 vertices")
-        self.vstart = np.zeros(n + 1, dtype=np.int64)
-        self.vstart[1:] = np.cumsum([len(s) for s in shapes])
-        self.verts = np.concatenate(shapes) if shapes else np.zeros((0, 2))
-        # covers every cell the polygon overlaps, whatever the heading
-        self.radius = np.array([np.hypot(s[:, 0], s[:, 1]).max() + _SQRT2 + 1e-6 for s in shapes])
-        side = int(2 * math.ceil(self.radius.max() if n else 1) + 3)
-        self.cells = np.zeros((n, side * side), dtype=np.int64)
-        self.ncells = np.zeros(n, dtype=np.int64)
-        self.box = np.zeros((n, 4))
-        self._robots = RobotTable(
-            self.pose,
-            self.vel,
-            self.accel,
-            self.wheel_r,
-            self.la,
-            self.lb,
-            self.power,
-            self.crashed,
-            self.verts,
-            self.vstart,
-            self.cells,
-            self.ncells,
-            self.box,
-            self.radius,
-            self.ids,
-        )
-        self._grid = raycast.Occupancy(self.grid, self.clear)
+        self._robots = self._robot_table(spec.robots)
         self._build_sensors(spec.robots)
         for i, robot in enumerate(spec.robots):
             self._place(i, robot)
-        self.start_pose = self.pose.copy()
+        self._start_pose = self._robots.pose.copy()
         self.step_count = 0
         self.history = PoseHistory(n, spec.history_steps)
         self.history.append(self.poses())
         self._sensed_at = -1
 
     # -- construction -----------------------------------------------------------------------
+    def _robot_table(self, robots: tuple[RobotSpec, ...]) -> RobotTable:
+        res = self.resolution
+        n = len(robots)
+        shapes = [np.asarray(r.shape, dtype=float) * r.scale / res for r in robots]
+        if any(len(s) > 64 for s in shapes):
+            raise InputError(f"{self.spec.source}: robots: a shape has more than 64 vertices")
+        first_vertex = np.zeros(n + 1, dtype=np.int64)
+        first_vertex[1:] = np.cumsum([len(s) for s in shapes])
+        # covers every cell the polygon overlaps, whatever the heading
+        radius = np.array([np.hypot(s[:, 0], s[:, 1]).max() + _SQRT2 + 1e-6 for s in shapes])
+        side = int(2 * math.ceil(radius.max() if n else 1) + 3)
+        return RobotTable(
+            pose=np.zeros((n, 3)),
+            wheel_speed=self.vel,
+            wheel_accel=self.accel,
+            wheel_radius=np.array([r.R / res for r in robots]),
+            half_track=np.array([r.la / res for r in robots]),
+            axle_offset=np.array([r.lb / res for r in robots]),
+            power=self.power,
+            crashed=self.crashed,
+            vertices=np.concatenate(shapes) if shapes else np.zeros((0, 2)),
+            first_vertex=first_vertex,
+            cells=np.zeros((n, side * side), dtype=np.int64),
+            n_cells=np.zeros(n, dtype=np.int64),
+            box=np.zeros((n, 4)),
+            radius=radius,
+            id=self.ids,
+        )
+
     def _build_sensors(self, robots: tuple[RobotSpec, ...]) -> None:
         res = self.resolution
         infos: list[SensorInfo] = []
@@ -553,34 +551,33 @@ class SimrobotWorld:
                 first += s.rays
         self.sensors = infos
         self.sensor_index = {(self.names[s.robot], s.name): k for k, s in enumerate(infos)}
-        self.srob = np.array([s.robot for s in infos], dtype=np.int64)
         scale = {i: r.scale for i, r in enumerate(robots)}
-        # the sensor sits on the body, so it scales with the robot; its range does not (seed)
-        self.spos = np.array(
-            [[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res] for s in infos]
-        ).reshape(-1, 2)
-        self.saxis = np.array([s.axis for s in infos], dtype=float)
-        self.srange = np.array([s.range / res for s in infos], dtype=float)
-        self.rstart = np.zeros(len(infos) + 1, dtype=np.int64)
-        self.rstart[1:] = np.cumsum([s.rays for s in infos])
-        self.roff = np.concatenate(offsets) if offsets else np.zeros(0)
-        self.rcos = np.cos(self.roff)
-        self.rsin = np.sin(self.roff)
-        self.ray_t = np.full(first, np.inf)
-        self.ray_v = np.zeros(first, dtype=np.int64)
-        self.nearest_t = np.full(len(infos), np.inf)
-        self.nearest_v = np.zeros(len(infos), dtype=np.int64)
+        first_ray = np.zeros(len(infos) + 1, dtype=np.int64)
+        first_ray[1:] = np.cumsum([s.rays for s in infos])
+        ray_offset = np.concatenate(offsets) if offsets else np.zeros(0)
         self._sensors = SensorTable(
-            self.srob, self.spos, self.saxis, self.srange, self.rstart, self.roff, self.rcos, self.rsin
+            robot=np.array([s.robot for s in infos], dtype=np.int64),
+            # the sensor sits on the body, so it scales with the robot; its range does not (seed)
+            position=np.array(
+                [[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res] for s in infos]
+            ).reshape(-1, 2),
+            axis=np.array([s.axis for s in infos], dtype=float),
+            max_range=np.array([s.range / res for s in infos], dtype=float),
+            first_ray=first_ray,
+            ray_offset=ray_offset,
+            ray_cos=np.cos(ray_offset),
+            ray_sin=np.sin(ray_offset),
         )
-        self._readings = Readings(self.ray_t, self.ray_v)
+        self._readings = Readings(np.full(first, np.inf), np.zeros(first, dtype=np.int64))
+        self._nearest = Readings(np.full(len(infos), np.inf), np.zeros(len(infos), dtype=np.int64))
 
     def _place(self, i: int, robot: RobotSpec) -> None:
         nx, ny = self.grid.shape
+        rob = self._robots
         x, y = (np.array(robot.position) - self.origin) / self.resolution
-        self.pose[i] = (x, y, math.atan2(math.sin(robot.heading), math.cos(robot.heading)))
+        rob.pose[i] = (x, y, wrap_angle(robot.heading))
         vx, vy = self._outline(i)
-        tmp = np.empty(self.cells.shape[1], dtype=np.int64)
+        tmp = np.empty(rob.cells.shape[1], dtype=np.int64)
         n, outside = raycast.polygon_cells(vx, vy, nx, ny, tmp)
         where = f"{self.spec.source}: robots[{i}] ({robot.name!r}).position {list(robot.position)}"
         if outside:
@@ -594,13 +591,15 @@ class SimrobotWorld:
             other = self.names[others[0] - 2]
             raise InputError(f"{where}: the robot overlaps robot {other!r} (robots[{others[0] - 2}])")
         flat[tmp[:n]] = i + 2
-        self.cells[i, :n] = tmp[:n]
-        self.ncells[i] = n
-        _cell_box(vx, vy, self.box[i])
+        rob.cells[i, :n] = tmp[:n]
+        rob.n_cells[i] = n
+        _cell_box(vx, vy, rob.box[i])
 
     def _outline(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        v = self.verts[self.vstart[i] : self.vstart[i + 1]]
-        x, y, h = self.pose[i]
+        # robot i's polygon in cells at its current pose
+        rob = self._robots
+        v = rob.vertices[rob.first_vertex[i] : rob.first_vertex[i + 1]]
+        x, y, h = rob.pose[i]
         c, s = math.cos(h), math.sin(h)
         return x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]
 
@@ -629,8 +628,8 @@ class SimrobotWorld:
         rate ``omega`` (rad/s) exactly. With ``lb`` != 0 the body also drifts sideways by
         ``lb * omega`` (a differential drive cannot avoid it)."""
         res = self.resolution
-        r = self.wheel_r[i] * res
-        la = self.la[i] * res
+        r = self._robots.wheel_radius[i] * res
+        la = self._robots.half_track[i] * res
         return (v - la * omega) / r, (v + la * omega) / r
 
     def set_cmd_vel(self, i: int, v: float, omega: float) -> None:
@@ -667,29 +666,31 @@ class SimrobotWorld:
         """Cast every sensor's rays at the current poses (cached until the next step)."""
         if self._sensed_at == self.step_count or len(self.sensors) == 0:
             return
-        bx = np.clip((self.pose[:, 0] // _BUCKET).astype(np.int64), 0, self.nbx - 1)
-        by = np.clip((self.pose[:, 1] // _BUCKET).astype(np.int64), 0, self.nby - 1)
-        key = bx * self.nby + by
+        pose = self._robots.pose
+        nbx, nby = self._nbx, self._nby
+        bx = np.clip((pose[:, 0] // _BUCKET).astype(np.int64), 0, nbx - 1)
+        by = np.clip((pose[:, 1] // _BUCKET).astype(np.int64), 0, nby - 1)
+        key = bx * nby + by
         order = np.argsort(key, kind="stable")
-        counts = np.bincount(key, minlength=self.nbx * self.nby)
-        bucket_start = np.zeros(self.nbx * self.nby + 1, dtype=np.int64)
+        counts = np.bincount(key, minlength=nbx * nby)
+        bucket_start = np.zeros(nbx * nby + 1, dtype=np.int64)
         np.cumsum(counts, out=bucket_start[1:])
-        buckets = Buckets(bucket_start, order.astype(np.int64), self.nbx, self.nby)
+        buckets = Buckets(bucket_start, order.astype(np.int64), nbx, nby)
         _sense(self._grid, self._robots, self._sensors, buckets, self._readings)
-        _nearest(self.rstart, self.ray_t, self.ray_v, self.nearest_t, self.nearest_v)
+        _nearest(self._sensors.first_ray, self._readings, self._nearest)
         self._sensed_at = self.step_count
 
     def ranges(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Laser reading of sensor ``k``: distances (m, ``inf`` = no hit) of every ray,
         counter-clockwise from the rightmost, and obstacle numbers (1 wall, id robot, 0 none)."""
         self.sense()
-        a, b = self.rstart[k], self.rstart[k + 1]
-        return self.ray_t[a:b] * self.resolution, self.ray_v[a:b]
+        a, b = self._sensors.first_ray[k], self._sensors.first_ray[k + 1]
+        return self._readings.distance[a:b] * self.resolution, self._readings.value[a:b]
 
     def nearest(self, k: int) -> tuple[float, int]:
         """Ultrasonic reading of sensor ``k``: nearest ray's distance (m, ``inf``) and obstacle."""
         self.sense()
-        return float(self.nearest_t[k] * self.resolution), int(self.nearest_v[k])
+        return float(self._nearest.distance[k] * self.resolution), int(self._nearest.value[k])
 
     def read(self, robot: str, sensor: str) -> tuple[float, int] | tuple[np.ndarray, np.ndarray]:
         """Read a sensor by names, as the seed's ``readusonic``/``readlaser``."""
@@ -702,9 +703,9 @@ class SimrobotWorld:
     def sensor_origin(self, k: int) -> tuple[float, float, float]:
         """World pose (m, m, rad) of sensor ``k``'s frame: position on the robot, axis heading."""
         s = self.sensors[k]
-        x, y, h = self.pose[s.robot]
+        x, y, h = self._robots.pose[s.robot]
         c, sn = math.cos(h), math.sin(h)
-        px, py = self.spos[k]
+        px, py = self._sensors.position[k]
         return (
             self.origin[0] + (x + c * px - sn * py) * self.resolution,
             self.origin[1] + (y + sn * px + c * py) * self.resolution,
@@ -713,8 +714,8 @@ class SimrobotWorld:
 
     # -- state (SI units) -------------------------------------------------------------------
     def poses(self) -> np.ndarray:
-        """World poses (n, 3): x, y in metres, heading in radians (-pi, pi]."""
-        out = self.pose.copy()
+        """World poses (n, 3): x, y in metres, heading in radians [-pi, pi)."""
+        out = self._robots.pose.copy()
         out[:, :2] = out[:, :2] * self.resolution + self.origin
         return out
 
@@ -723,7 +724,8 @@ class SimrobotWorld:
         if not self.power[i] or self.crashed[i]:
             return 0.0, 0.0, 0.0
         w1, w2 = self.vel[i]
-        r, la, lb = self.wheel_r[i], self.la[i], self.lb[i]
+        rob = self._robots
+        r, la, lb = rob.wheel_radius[i], rob.half_track[i], rob.axle_offset[i]
         omega = r * (w2 - w1) / (2.0 * la)
         return r * (w1 + w2) * 0.5 * self.resolution, lb * omega * self.resolution, omega
 
@@ -736,3 +738,33 @@ class SimrobotWorld:
         """Every robot's kept track: ``{name: (steps, 2)}`` in metres."""
         h = self.history.array()
         return {name: h[:, i, :2].astype(float) for i, name in enumerate(self.names)}
+
+    def start_poses(self) -> np.ndarray:
+        """Every robot's pose when the world was built (n, 3): metres, radians, as :meth:`poses`."""
+        out = self._start_pose.copy()
+        out[:, :2] = out[:, :2] * self.resolution + self.origin
+        return out
+
+    def odometry(self) -> np.ndarray:
+        """Every robot's pose in the frame of its start pose (n, 3): x forward and y left of where
+        it started (m), heading change (rad, not wrapped). Exact wheel odometry."""
+        pose = self._robots.pose
+        start = self._start_pose
+        res = self.resolution
+        out = np.empty_like(pose)
+        for i in range(len(pose)):
+            sx, sy, sh = start[i]
+            dx, dy = (pose[i, 0] - sx) * res, (pose[i, 1] - sy) * res
+            c, s = math.cos(sh), math.sin(sh)
+            out[i] = (c * dx + s * dy, -s * dx + c * dy, pose[i, 2] - sh)
+        return out
+
+    def shape(self, i: int) -> np.ndarray:
+        """Robot ``i``'s polygon around its pivot, heading +x, scaled (m), shape (vertices, 2)."""
+        rob = self._robots
+        return rob.vertices[rob.first_vertex[i] : rob.first_vertex[i + 1]] * self.resolution
+
+    def ray_angles(self, k: int) -> np.ndarray:
+        """World angle (rad) of every ray of sensor ``k`` now, counter-clockwise from the rightmost."""
+        sens = self._sensors
+        return self.sensor_origin(k)[2] + sens.ray_offset[sens.first_ray[k] : sens.first_ray[k + 1]]

@@ -31,7 +31,6 @@ alg2) in this process, in the same executor.
 from __future__ import annotations
 
 import array
-import math
 import time
 
 import numpy as np
@@ -185,7 +184,7 @@ class SimrobotWorldNode(SimWorldNode):
             m.action = Marker.ADD
             m.scale.x = max(model.resolution, 0.002)
             m.color = color_msg(*model.colors[i])
-            verts = model.verts[model.vstart[i] : model.vstart[i + 1]] * model.resolution
+            verts = model.shape(i)
             m.points = [Point(x=float(x), y=float(y)) for x, y in np.vstack([verts, verts[:1]])]
             out.markers.append(m)
         return out
@@ -296,8 +295,7 @@ class SimrobotWorldNode(SimWorldNode):
         model.sense()
         stamp = self.stamp()
         poses = model.poses()
-        start = model.start_pose
-        res = model.resolution
+        odometry = model.odometry()
         for i, io in enumerate(self._io):
             for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
                 msg.header.stamp = stamp
@@ -317,12 +315,9 @@ class SimrobotWorldNode(SimWorldNode):
             io.pose.pose = pose_msg(x, y, h)
             io.pose_pub.publish(io.pose)
             # odometry: the pose in the frame of the start pose (exact wheel odometry)
-            sx, sy, sh = start[i]
-            dx, dy = (model.pose[i, 0] - sx) * res, (model.pose[i, 1] - sy) * res
-            c, s = math.cos(sh), math.sin(sh)
             odom = io.odom
             odom.header.stamp = stamp
-            odom.pose.pose = pose_msg(c * dx + s * dy, -s * dx + c * dy, h - sh)
+            odom.pose.pose = pose_msg(*odometry[i])
             v, v_lat, w = model.body_velocity(i)
             odom.twist.twist.linear.x = v
             odom.twist.twist.linear.y = v_lat

@@ -40,6 +40,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 
 TIMELINE = "sim_time"
@@ -483,7 +484,7 @@ class RerunLogger:
             else:
                 group = f"plots/{robot.name}/odom_error"
                 self._scalar(group, "position_m", math.hypot(x - truth[0], y - truth[1]))
-                self._scalar(group, "heading_rad", math.remainder(yaw - truth[2], 2 * math.pi))
+                self._scalar(group, "heading_rad", wrap_angle(yaw - truth[2]))
         self._set_time(now)
 
     # ---------------------------------------------------------------- sensors
