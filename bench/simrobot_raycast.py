@@ -7,7 +7,8 @@ range 560 cells (13,660 rays per frame). Casters:
 * fast   — simrobot_sim's caster as the world uses it (clearance-field jumps, free discs reused
            across a scan, exact traversal near walls, exact robot tests): ``SimrobotWorld.sense``;
 * exact  — numba Amanatides-Woo, one cell per step (the reference);
-* python — the seed's plain-Python Bresenham (on one scan only: it is slow).
+* python — a plain 8-connected Bresenham in plain Python (a speed baseline, not the original's
+           sensor rules; on one scan only: it is slow).
 
 Times are CPU seconds of this process (``time.process_time``), best of several repeats, so other
 load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simrobot_raycast.py [scale]``
@@ -100,7 +101,7 @@ def main() -> None:
     def python_one_scan() -> None:
         ox, oy, angles, _, rid = scans[0]
         for a in angles:
-            raycast.cast_ray_bresenham_python(rows, ox, oy, float(a), float(RANGE_CELLS), rid)
+            raycast.cast_ray_plain_bresenham_python(rows, ox, oy, float(a), float(RANGE_CELLS), rid)
 
     fast()
     exact()  # compile / load cached machine code before timing
@@ -122,7 +123,7 @@ def main() -> None:
     print(f"{'caster':<34}{'rays/s':>14}{'fast is':>12}")
     print(f"{'fast (clearance jumps + discs)':<34}{fast_rps:>14,.0f}{'':>12}")
     print(f"{'numba exact traversal (per cell)':<34}{exact_rps:>14,.0f}{fast_rps / exact_rps:>11.1f}x")
-    print(f"{'plain-Python Bresenham (seed)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
+    print(f"{'plain-Python Bresenham (baseline)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
     print(
         f"agreement with exact: {agree.mean() * 100:.2f}% same hit/miss, max |difference| "
         f"{diff[f & agree].max():.2e} cells, mean hit distance {exact_t[f].mean():.0f} cells"

@@ -5,18 +5,8 @@ corner is at ``origin``); internally everything is in map cells so the kernels i
 directly. The matrix ``grid[x, y]`` holds 0 free, 1 wall and the robot ids (2, 3, ... in file
 order), repainted as robots move so sensors see each other, exactly as the seed's Table 1.
 
-Differences from the seed (its quirks, fixed on purpose):
-
-* Lateral velocity (``lb`` != 0) is rotated into the world frame; the seed added it along the
-  heading. ``cmd_vel`` is met exactly in v and omega (the seed's ``1/(lb^2+1)`` factor mixed units).
-* A robot occupies every cell its filled polygon overlaps (the seed painted only the rounded
-  outline, so a thin robot could slip through a diagonal gap and rays could pass through a body).
-* A colliding robot stays at its last free pose (the seed left it overlapping the obstacle).
-  Leaving the map is a collision, not a program crash.
-* Rays spread symmetrically from -beamwidth/2 to +beamwidth/2 (the seed dropped the left edge),
-  start from the exact sensor point (not its rounded cell), never see their own robot, and use an
-  exact grid traversal that cannot slip between cells that touch at a corner.
-* History is a bounded ring of chunks, not an ever-growing array.
+Where it departs from the original SIMROBOT (filled robot bodies, the lateral velocity, collisions,
+the exact sensor model and the ``sensor_model: original`` option), and why: docs/differences.md.
 """
 
 from __future__ import annotations
@@ -386,6 +376,24 @@ def _sense(grid, robots, sensors, buckets, out):
 
 
 @numba.njit(cache=True)
+def _sense_original(matrix, robots, sensors, out):
+    """Cast every ray of every sensor by the original SIMROBOT's rules (``sensor_model: original``)."""
+    n_sensors = sensors.robot.shape[0]
+    max_rays = 0
+    for s in range(n_sensors):
+        max_rays = max(max_rays, sensors.first_ray[s + 1] - sensors.first_ray[s])
+    dirs = np.empty((max_rays, 2))
+    for s in range(n_sensors):
+        ox, oy, axis = _sensor_fan(robots, sensors, s, dirs)
+        a0 = sensors.first_ray[s]
+        nr = sensors.first_ray[s + 1] - a0
+        step = sensors.ray_offset[a0 + 1] - sensors.ray_offset[a0] if nr > 1 else 0.0
+        own = robots.id[sensors.robot[s]]
+        fan = raycast.Fan(ox, oy, dirs[:nr], axis + sensors.ray_offset[a0], step, sensors.max_range[s], own)
+        raycast.cast_scan_original(matrix, fan, out.distance[a0 : a0 + nr], out.value[a0 : a0 + nr])
+
+
+@numba.njit(cache=True)
 def _nearest(first_ray, rays, nearest):
     # every sensor's nearest ray (the first of equals), as an ultrasonic sensor reads
     for s in range(first_ray.shape[0] - 1):
@@ -399,9 +407,13 @@ def _nearest(first_ray, rays, nearest):
         nearest.value[s] = value
 
 
-def ray_offsets(beamwidth: float, rays: int) -> np.ndarray:
-    """Ray angles relative to the sensor axis, counter-clockwise from the rightmost ray:
-    evenly from -beamwidth/2 to +beamwidth/2 inclusive (one ray: along the axis)."""
+def ray_offsets(beamwidth: float, rays: int, sensor_model: str = "exact") -> np.ndarray:
+    """Ray angles relative to the sensor axis, counter-clockwise from the rightmost ray. Exact
+    model: evenly from -beamwidth/2 to +beamwidth/2 inclusive (one ray: along the axis). The
+    original's: from -beamwidth/2 in steps of beamwidth/rays, so the left edge is left out
+    (-30 to +28 degrees for 60 degrees and 30 rays; one ray: -beamwidth/2)."""
+    if sensor_model == "original":
+        return -0.5 * beamwidth + np.arange(rays) * (beamwidth / rays)
     if rays == 1:
         return np.zeros(1)
     return np.linspace(-0.5 * beamwidth, 0.5 * beamwidth, rays)
@@ -420,6 +432,10 @@ class SensorInfo:
     beamwidth: float
     position: tuple[float, float]
     axis: float
+    #: Angles of the first and last ray from the axis and between neighbouring rays (rad).
+    angle_min: float = 0.0
+    angle_max: float = 0.0
+    angle_increment: float = 0.0
 
 
 class PoseHistory:
@@ -484,6 +500,8 @@ class SimrobotWorld:
         self.resolution = float(spec.resolution)
         self.origin = np.array(spec.origin, dtype=float)
         self.dt = float(spec.dt)
+        #: ``exact`` (ours) or ``original`` (the original SIMROBOT's sensor rules).
+        self.sensor_model = spec.sensor_model
         self.names = [r.name for r in spec.robots]
         self.index = {name: i for i, name in enumerate(self.names)}
         self.ids = np.arange(2, n + 2, dtype=np.int64)
@@ -546,8 +564,28 @@ class SimrobotWorld:
         first = 0
         for i, robot in enumerate(robots):
             for s in robot.sensors:
-                infos.append(SensorInfo(i, s.name, s.kind, first, s.rays, s.range, s.beamwidth, s.position, s.axis))
-                offsets.append(ray_offsets(s.beamwidth, s.rays))
+                off = ray_offsets(s.beamwidth, s.rays, self.sensor_model)
+                if s.rays == 1:
+                    step = 0.0
+                else:
+                    step = s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
+                infos.append(
+                    SensorInfo(
+                        i,
+                        s.name,
+                        s.kind,
+                        first,
+                        s.rays,
+                        s.range,
+                        s.beamwidth,
+                        s.position,
+                        s.axis,
+                        float(off[0]),
+                        float(off[-1]),
+                        step,
+                    )
+                )
+                offsets.append(off)
                 first += s.rays
         self.sensors = infos
         self.sensor_index = {(self.names[s.robot], s.name): k for k, s in enumerate(infos)}
@@ -666,6 +704,15 @@ class SimrobotWorld:
         """Cast every sensor's rays at the current poses (cached until the next step)."""
         if self._sensed_at == self.step_count or len(self.sensors) == 0:
             return
+        if self.sensor_model == "original":
+            _sense_original(self.grid, self._robots, self._sensors, self._readings)
+        else:
+            _sense(self._grid, self._robots, self._sensors, self._buckets(), self._readings)
+        _nearest(self._sensors.first_ray, self._readings, self._nearest)
+        self._sensed_at = self.step_count
+
+    def _buckets(self) -> Buckets:
+        # every robot sorted into the bucket of its pivot, so a sensor reads only nearby buckets
         pose = self._robots.pose
         nbx, nby = self._nbx, self._nby
         bx = np.clip((pose[:, 0] // _BUCKET).astype(np.int64), 0, nbx - 1)
@@ -673,12 +720,9 @@ class SimrobotWorld:
         key = bx * nby + by
         order = np.argsort(key, kind="stable")
         counts = np.bincount(key, minlength=nbx * nby)
-        bucket_start = np.zeros(nbx * nby + 1, dtype=np.int64)
-        np.cumsum(counts, out=bucket_start[1:])
-        buckets = Buckets(bucket_start, order.astype(np.int64), nbx, nby)
-        _sense(self._grid, self._robots, self._sensors, buckets, self._readings)
-        _nearest(self._sensors.first_ray, self._readings, self._nearest)
-        self._sensed_at = self.step_count
+        start = np.zeros(nbx * nby + 1, dtype=np.int64)
+        np.cumsum(counts, out=start[1:])
+        return Buckets(start, order.astype(np.int64), nbx, nby)
 
     def ranges(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Laser reading of sensor ``k``: distances (m, ``inf`` = no hit) of every ray,

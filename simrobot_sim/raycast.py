@@ -7,7 +7,7 @@ Every caster returns the same quantity: the ray parameter ``t`` (cells) at which
 the first cell that is non-zero and not the caster's own robot id (0 when it starts inside one),
 plus that cell's value; rays that reach ``max_range`` or leave the map give ``inf`` and 0.
 
-Three casters:
+Four casters:
 
 * :func:`cast_scan_exact` — Amanatides-Woo grid traversal, one cell at a time. It visits every
   cell the ray touches, so it cannot slip between two cells that meet at a corner (an
@@ -18,7 +18,12 @@ Three casters:
   cell by cell only near walls; robots: an exact traversal of just the stretch of each ray inside
   a nearby robot's bounding circle, only for the rays whose angle can meet it. Same hits as the
   reference, a small fraction of the cells visited.
-* :func:`cast_ray_bresenham_python` — the seed's algorithm in plain Python (benchmark baseline).
+* :func:`cast_scan_original` — the original SIMROBOT's sensor rules (``sensor_model: original``):
+  a Bresenham line to a rounded end cell that also tests the next cell along x, distances between
+  cell centres. Its contract differs from the three others (see its docstring).
+* :func:`cast_ray_plain_bresenham_python` — a plain 8-connected Bresenham in plain Python, the
+  speed baseline of the benchmark. It is *not* the original SIMROBOT's sensor rules (those are
+  :func:`cast_scan_original`).
 
 The fast caster takes its inputs grouped: the map (:class:`Occupancy`), one sensor's rays
 (:class:`Fan`), the robots it may see (:class:`Candidates`) and its working memory
@@ -558,13 +563,78 @@ def cast_scan_exact(grid, ox, oy, directions, max_range, self_id, out_t, out_v):
         out_v[i] = v
 
 
-def cast_ray_bresenham_python(
+@numba.njit(cache=True, inline="always")
+def _seen(matrix, x, y, own_id):
+    # what the original's trace sees in cell (x, y): its value, or 0 for free or the own robot
+    v = matrix[x, y]
+    return 0 if v == own_id else v
+
+
+@numba.njit(cache=True)
+def cast_ray_original(matrix: np.ndarray, cx: int, cy: int, ex: int, ey: int, own_id: int) -> tuple[float, int]:
+    """One ray by the original SIMROBOT's rules (``usonic8.c``/``laser5.c``), in cell indices:
+    from the sensor's cell ``(cx, cy)`` to the end cell ``(ex, ey)`` by an 8-connected Bresenham
+    line; after each step the new cell and then the next cell along x are tested, so a ray is two
+    cells wide and may report a cell beyond its end. Returns the distance between the centres of
+    the sensor's cell and the hit cell (cells) and the hit cell's value; ``(inf, 0)`` for none.
+    The sensor's own cell counts (distance 0). The trace stops where the original's does: two
+    cells from the left and right map edges, one from the bottom and top (the original expects a
+    walled map)."""
+    nx, ny = matrix.shape
+    if 0 <= cx < nx and 0 <= cy < ny:
+        v = _seen(matrix, cx, cy, own_id)
+        if v != 0:
+            return 0.0, v
+    extra = 1 if ex >= cx else -1
+    dx = abs(ex - cx)
+    dy = -abs(ey - cy)
+    sx = 1 if cx < ex else -1
+    sy = 1 if cy < ey else -1
+    err = dx + dy
+    x = cx
+    y = cy
+    while x != ex or y != ey:
+        if x >= nx - 2 or y >= ny - 1 or x <= 1 or y <= 0:
+            break
+        e2 = 2 * err
+        if e2 >= dy:
+            err += dy
+            x += sx
+        if e2 <= dx:
+            err += dx
+            y += sy
+        v = _seen(matrix, x, y, own_id)
+        if v != 0:
+            return math.hypot(x - cx, y - cy), v
+        v = _seen(matrix, x + extra, y, own_id)
+        if v != 0:
+            return math.hypot(x + extra - cx, y - cy), v
+    return np.inf, 0
+
+
+@numba.njit(cache=True)
+def cast_scan_original(matrix: np.ndarray, fan: Fan, out_t: np.ndarray, out_v: np.ndarray) -> None:
+    """All rays of a :class:`Fan` by the original's rules (:func:`cast_ray_original`): the sensor's
+    cell is the one holding the fan's origin (the original rounds to the nearest cell centre, and
+    its cell ``k`` is centred on ``k``: that is our cell ``floor``); each ray ends at the sensor
+    cell's centre plus ``max_range`` along the ray, rounded to a cell (halves up). Distances are
+    not cut at the range: the original's rays can echo up to about one cell beyond it."""
+    cx = int(math.floor(fan.origin_x))
+    cy = int(math.floor(fan.origin_y))
+    for i in range(fan.directions.shape[0]):
+        ex = int(math.floor(cx + fan.max_range * fan.directions[i, 0] + 0.5))
+        ey = int(math.floor(cy + fan.max_range * fan.directions[i, 1] + 0.5))
+        out_t[i], out_v[i] = cast_ray_original(matrix, cx, cy, ex, ey, fan.own_id)
+
+
+def cast_ray_plain_bresenham_python(
     rows: list, ox: float, oy: float, angle: float, max_range: float, self_id: int = 0
 ) -> tuple[float, int]:
-    """The seed's caster (usonic8.c/laser5.c) in plain Python: 8-connected Bresenham from the
-    rounded sensor cell to the rounded end point, first non-zero cell wins; Euclidean distance
-    between the two cells; cells of ``self_id`` are passed through. ``rows`` is ``grid.tolist()``.
-    Benchmark baseline only: it can slip between two cells that touch at a corner."""
+    """A plain 8-connected Bresenham ray in plain Python, the benchmark's speed baseline: from the
+    sensor's cell to the rounded end point, first non-zero cell wins; Euclidean distance between
+    the two cells; cells of ``self_id`` are passed through. ``rows`` is ``grid.tolist()``. Not the
+    original's rules (no extra cell along x, other rounding: it agrees with the original on about
+    two thirds of laser rays), and it can slip between two cells that touch at a corner."""
     nx = len(rows)
     ny = len(rows[0])
     x0 = int(math.floor(ox))

@@ -112,9 +112,9 @@ class SimrobotWorldNode(SimWorldNode):
             if s.kind == "laser":
                 msg = LaserScan()
                 msg.header.frame_id = frame
-                msg.angle_min = -0.5 * s.beamwidth if s.rays > 1 else 0.0
-                msg.angle_max = 0.5 * s.beamwidth if s.rays > 1 else 0.0
-                msg.angle_increment = s.beamwidth / (s.rays - 1) if s.rays > 1 else 0.0
+                msg.angle_min = s.angle_min
+                msg.angle_max = s.angle_max
+                msg.angle_increment = s.angle_increment
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)

@@ -31,9 +31,7 @@ def test_one_turn_too_far_is_one_exact_subtraction():
 
 
 def test_the_numba_kernel_wrap_equals_the_python_one():
-    values = np.concatenate(
-        [np.random.default_rng(1).uniform(-50.0, 50.0, 500), [math.pi, -math.pi, 3 * math.pi, 0.0]]
-    )
+    values = np.concatenate([np.random.default_rng(1).uniform(-50.0, 50.0, 500), [math.pi, -math.pi, 3 * math.pi, 0.0]])
     jit = angles.wrap_angle_jit
     assert [jit(float(a)) for a in values] == [wrap_angle(float(a)) for a in values]
 

@@ -108,7 +108,7 @@ def test_exact_caster_cannot_slip_between_diagonal_cells():
     grid[10, 10] = grid[11, 11] = 1  # cells touching only at the corner (11, 11)
     t, v = raycast.cast_ray_exact(grid, 5.0, 5.0, math.sqrt(0.5), math.sqrt(0.5), 30.0, 0)
     assert v == 1 and t == pytest.approx(math.hypot(5.0, 5.0))
-    assert raycast.cast_ray_bresenham_python(grid.tolist(), 5.0, 5.0, math.pi / 4, 30.0)[1] == 1
+    assert raycast.cast_ray_plain_bresenham_python(grid.tolist(), 5.0, 5.0, math.pi / 4, 30.0)[1] == 1
 
 
 def test_squared_distance_transform_is_exact():
