@@ -42,8 +42,8 @@ def observe(world: SimrobotWorld) -> list[np.ndarray]:
     return out
 
 
-def demo_run(steps: int = 300) -> list[np.ndarray]:
-    world = SimrobotWorld(load_world(config_path("simrobot/demo.yaml")))
+def demo_run(steps: int = 300, **world_kw) -> list[np.ndarray]:
+    world = SimrobotWorld(load_world(config_path("simrobot/demo.yaml")), **world_kw)
     sonar = [next(k for k, s in enumerate(world.sensors) if s.robot == i) for i in range(len(world.names))]
     rows = []
     for _ in range(steps):
@@ -56,8 +56,8 @@ def demo_run(steps: int = 300) -> list[np.ndarray]:
     return rows
 
 
-def crowd_run(n: int = 100, steps: int = 40) -> list[np.ndarray]:
-    world = SimrobotWorld(scene(n))
+def crowd_run(n: int = 100, steps: int = 40, **world_kw) -> list[np.ndarray]:
+    world = SimrobotWorld(scene(n), **world_kw)
     drive(world)
     rows = []
     for _ in range(steps):
@@ -76,8 +76,10 @@ def digest(rows: list[np.ndarray]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--save", help="write the raw arrays to this .npz")
+    parser.add_argument("--threads", type=int, help="threads of the worlds (default: all cores)")
     args = parser.parse_args()
-    runs = {"demo": demo_run(), "crowd": crowd_run()}
+    kw = {} if args.threads is None else {"threads": args.threads}
+    runs = {"demo": demo_run(**kw), "crowd": crowd_run(**kw)}
     for name, rows in runs.items():
         print(f"{name:<6} {digest(rows)}  ({len(rows)} arrays)")
     if args.save:

@@ -24,6 +24,12 @@ from simrobot_sim import raycast
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
 _SQRT2 = math.sqrt(2.0)
+#: Below these many sensors (robots), sensing (motion) stays on one thread: starting the threads
+#: costs more than it saves (measured with bench/simrobot_scale.py).
+PARALLEL_MIN_SENSORS = 64
+PARALLEL_MIN_ROBOTS = 256
+#: Work pieces per thread (sensors differ in cost: more pieces balance the threads).
+_CHUNKS_PER_THREAD = 4
 #: Side (cells) of the buckets used to find the robots a sensor may see.
 _BUCKET = 64
 
@@ -146,28 +152,89 @@ def _drive(robots, r, dt):
     return x, y, h + omega * dt
 
 
+class MovePlan(NamedTuple):
+    """Where every robot would go this step, worked out from its own state alone (so robots can be
+    planned on any number of threads): ``moving[r]`` when its pose changes, the new ``pose``, the
+    ``cells`` its polygon would occupy there (``n_cells`` of them; ``outside`` when part of it is
+    off the map) and their ``box``."""
+
+    moving: np.ndarray
+    pose: np.ndarray
+    cells: np.ndarray
+    n_cells: np.ndarray
+    outside: np.ndarray
+    box: np.ndarray
+
+
+def _move_plan(n: int, cells_per_robot: int) -> MovePlan:
+    return MovePlan(
+        np.zeros(n, dtype=np.bool_),
+        np.zeros((n, 3)),
+        np.zeros((n, cells_per_robot), dtype=np.int64),
+        np.zeros(n, dtype=np.int64),
+        np.zeros(n, dtype=np.bool_),
+        np.zeros((n, 4)),
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def _plan_one(shape, robots, r, dt, plan, vx, vy):
+    # robot r's move, if powered, not crashed and its pose changes (the wheel speeds take the
+    # acceleration even when it does not)
+    plan.moving[r] = False
+    if not robots.power[r] or robots.crashed[r]:
+        return
+    x, y, hn = _drive(robots, r, dt)
+    if x == robots.pose[r, 0] and y == robots.pose[r, 1] and hn == robots.pose[r, 2]:
+        return
+    m = _outline(robots.vertices, robots.first_vertex[r], robots.first_vertex[r + 1], x, y, hn, vx, vy)
+    n, outside = raycast.polygon_cells(vx[:m], vy[:m], shape[0], shape[1], plan.cells[r])
+    _cell_box(vx[:m], vy[:m], plan.box[r])
+    plan.moving[r] = True
+    plan.pose[r, 0] = x
+    plan.pose[r, 1] = y
+    plan.pose[r, 2] = hn
+    plan.n_cells[r] = n
+    plan.outside[r] = outside
+
+
 @numba.njit(cache=True)
-def _step_robots(grid, robots, dt, hit_by):
-    """One step of every powered, non-crashed robot in id order (later robots see earlier ones'
-    new positions, as the seed's sequential update). ``hit_by[r]`` > 0 marks a robot crashed into
-    by another this step (applied by the caller after the loop, as the seed)."""
-    nx, ny = grid.shape
+def _plan_range(shape, robots, dt, plan, first, last, vx, vy):
+    # robots first..last-1: one compiled function for one thread or many (bit-identical plans)
+    for r in range(first, last):
+        _plan_one(shape, robots, r, dt, plan, vx, vy)
+
+
+@numba.njit(cache=True)
+def _plan_moves(shape, robots, dt, plan):
+    _plan_range(shape, robots, dt, plan, 0, robots.pose.shape[0], np.empty(64), np.empty(64))
+
+
+@numba.njit(cache=True, parallel=True)
+def _plan_moves_parallel(shape, robots, dt, plan, chunks):
+    n = robots.pose.shape[0]
+    # made before the loop: an allocation inside it could be hoisted and shared by the threads
+    outline = np.empty((chunks, 2, 64))
+    for c in numba.prange(chunks):
+        _plan_range(shape, robots, dt, plan, c * n // chunks, (c + 1) * n // chunks, outline[c, 0], outline[c, 1])
+
+
+@numba.njit(cache=True)
+def _commit_moves(grid, robots, plan, hit_by):
+    """Carry out the planned moves in id order (later robots see earlier ones' new positions, as
+    the seed's sequential update): a robot whose new cells are free moves and is repainted there,
+    else it crashes where it was. ``hit_by[r]`` > 0 marks a robot crashed into by another this
+    step (applied by the caller after the loop, as the seed)."""
     gflat = grid.reshape(-1)
-    tmp = np.empty(robots.cells.shape[1], dtype=np.int64)
-    vx = np.empty(64)
-    vy = np.empty(64)
     for r in range(robots.pose.shape[0]):
-        if not robots.power[r] or robots.crashed[r]:
-            continue
-        x, y, hn = _drive(robots, r, dt)
-        if x == robots.pose[r, 0] and y == robots.pose[r, 1] and hn == robots.pose[r, 2]:
+        if not plan.moving[r]:
             continue
         own = robots.id[r]
         _paint(gflat, robots.cells[r], robots.n_cells[r], 0)
-        m = _outline(robots.vertices, robots.first_vertex[r], robots.first_vertex[r + 1], x, y, hn, vx, vy)
-        n, blocked = raycast.polygon_cells(vx[:m], vy[:m], nx, ny, tmp)
+        n = plan.n_cells[r]
+        blocked = plan.outside[r]
         for k in range(n):
-            value = gflat[tmp[k]]
+            value = gflat[plan.cells[r, k]]
             if value != 0:
                 blocked = True
                 if value >= 2 and value != own:
@@ -176,14 +243,13 @@ def _step_robots(grid, robots, dt, hit_by):
             _paint(gflat, robots.cells[r], robots.n_cells[r], own)
             robots.crashed[r] = True
             continue
-        _paint(gflat, tmp, n, own)
-        robots.cells[r, :n] = tmp[:n]
+        _paint(gflat, plan.cells[r], n, own)
+        robots.cells[r, :n] = plan.cells[r, :n]
         robots.n_cells[r] = n
-        _cell_box(vx[:m], vy[:m], robots.box[r])
-        hn = wrap_angle_jit(hn)
-        robots.pose[r, 0] = x
-        robots.pose[r, 1] = y
-        robots.pose[r, 2] = hn
+        robots.box[r, :] = plan.box[r, :]
+        robots.pose[r, 0] = plan.pose[r, 0]
+        robots.pose[r, 1] = plan.pose[r, 1]
+        robots.pose[r, 2] = wrap_angle_jit(plan.pose[r, 2])
 
 
 @numba.njit(cache=True, inline="always")
@@ -366,13 +432,34 @@ def _sense_one(grid, robots, sensors, buckets, s, rmax, scratch, out):
 
 
 @numba.njit(cache=True)
+def _sense_range(grid, robots, sensors, buckets, first, last, rmax, scratch, out):
+    # sensors first..last-1: one compiled function whether one thread runs them all or many
+    # threads share them, so the readings are bit for bit the same
+    for s in range(first, last):
+        _sense_one(grid, robots, sensors, buckets, s, rmax, scratch, out)
+
+
+@numba.njit(cache=True)
 def _sense(grid, robots, sensors, buckets, out):
     """Cast every ray of every sensor (fast caster) into ``out``; the robots a fan may see come
     from the buckets."""
     rmax = robots.radius.max() if robots.pose.shape[0] > 0 else 0.0
-    scratch = _sense_scratch(robots, sensors)
-    for s in range(sensors.robot.shape[0]):
-        _sense_one(grid, robots, sensors, buckets, s, rmax, scratch, out)
+    _sense_range(grid, robots, sensors, buckets, 0, sensors.robot.shape[0], rmax, _sense_scratch(robots, sensors), out)
+
+
+@numba.njit(cache=True, parallel=True)
+def _sense_parallel(grid, robots, sensors, buckets, out, chunks):
+    """:func:`_sense` on all threads: sensors in ``chunks`` contiguous runs, each with its own
+    scratch. A sensor's readings depend on nothing but the world, so they are those of the serial
+    cast whatever the threads."""
+    rmax = robots.radius.max() if robots.pose.shape[0] > 0 else 0.0
+    n_sensors = sensors.robot.shape[0]
+    # made before the loop: an allocation inside it could be hoisted and shared by the threads
+    scratches = [_sense_scratch(robots, sensors) for _ in range(chunks)]
+    for c in numba.prange(chunks):
+        first = c * n_sensors // chunks
+        last = (c + 1) * n_sensors // chunks
+        _sense_range(grid, robots, sensors, buckets, first, last, rmax, scratches[c], out)
 
 
 @numba.njit(cache=True)
@@ -485,9 +572,12 @@ class SimrobotWorld:
     is at ``origin``). ``grid`` is the occupancy matrix itself, indexed by cell ``[x, y]``
     (0 free, 1 wall, robot ids). The kernels' cell-unit state lives in the private tables."""
 
-    def __init__(self, spec: WorldSpec, *, wide_ids: bool = False) -> None:
+    def __init__(self, spec: WorldSpec, *, wide_ids: bool = False, threads: int | None = None) -> None:
         """Place every robot of ``spec``. More than 254 robots need ``wide_ids=True`` (a uint16
-        matrix; the ROS node keeps the seed's uint8 ids so obstacle numbers fit ``UInt8``)."""
+        matrix; the ROS node keeps the seed's uint8 ids so obstacle numbers fit ``UInt8``).
+        ``threads``: how many threads sense and move the robots (default: the world file's
+        ``threads``; 0 = every core numba may use, ``NUMBA_NUM_THREADS`` caps it). Results are
+        bit for bit the same whatever the number; small worlds stay on one thread."""
         n = len(spec.robots)
         if n > MAX_ROBOTS_UINT8 and not wide_ids:
             raise InputError(
@@ -502,6 +592,11 @@ class SimrobotWorld:
         self.dt = float(spec.dt)
         #: ``exact`` (ours) or ``original`` (the original SIMROBOT's sensor rules).
         self.sensor_model = spec.sensor_model
+        wanted = spec.threads if threads is None else threads
+        if isinstance(wanted, bool) or not isinstance(wanted, int) or wanted < 0:
+            raise InputError(f"{spec.source}: threads: expected an integer >= 0 (0 = all cores), got {wanted!r}")
+        #: Threads used for sensing and motion (1: serial).
+        self.threads = min(wanted or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
         self.names = [r.name for r in spec.robots]
         self.index = {name: i for i, name in enumerate(self.names)}
         self.ids = np.arange(2, n + 2, dtype=np.int64)
@@ -518,6 +613,7 @@ class SimrobotWorld:
         self.crashed = np.zeros(n, dtype=np.bool_)
         self.colors = np.array([r.color for r in spec.robots], dtype=float).reshape(n, 3)
         self._robots = self._robot_table(spec.robots)
+        self._plan = _move_plan(n, self._robots.cells.shape[1])
         self._build_sensors(spec.robots)
         for i, robot in enumerate(spec.robots):
             self._place(i, robot)
@@ -693,7 +789,13 @@ class SimrobotWorld:
         """Advance one step of ``dt``; returns the indices of robots that crashed in it."""
         before = self.crashed.copy()
         hit_by = np.zeros(len(self.names), dtype=np.int64)
-        _step_robots(self.grid, self._robots, self.dt, hit_by)
+        plan = self._plan
+        if self.threads > 1 and len(self.names) >= PARALLEL_MIN_ROBOTS:
+            numba.set_num_threads(self.threads)
+            _plan_moves_parallel(self.grid.shape, self._robots, self.dt, plan, self.threads * _CHUNKS_PER_THREAD)
+        else:
+            _plan_moves(self.grid.shape, self._robots, self.dt, plan)
+        _commit_moves(self.grid, self._robots, plan, hit_by)
         # robot-on-robot crashes both (applied after everyone moved, as the seed)
         self.crashed |= hit_by > 0
         self.step_count += 1
@@ -706,6 +808,10 @@ class SimrobotWorld:
             return
         if self.sensor_model == "original":
             _sense_original(self.grid, self._robots, self._sensors, self._readings)
+        elif self.threads > 1 and len(self.sensors) >= PARALLEL_MIN_SENSORS:
+            numba.set_num_threads(self.threads)
+            chunks = min(self.threads * _CHUNKS_PER_THREAD, len(self.sensors))
+            _sense_parallel(self._grid, self._robots, self._sensors, self._buckets(), self._readings, chunks)
         else:
             _sense(self._grid, self._robots, self._sensors, self._buckets(), self._readings)
         _nearest(self._sensors.first_ray, self._readings, self._nearest)

@@ -76,6 +76,7 @@ class WorldSpec:
     history_steps: int = 10000
     robots: tuple[RobotSpec, ...] = ()
     sensor_model: str = "exact"
+    threads: int = 0
     source: str = "<memory>"
     map_path: str = ""
 
@@ -185,6 +186,7 @@ _WORLD_KEYS = {
     "history_steps",
     "robots",
     "sensor_model",
+    "threads",
 }
 
 
@@ -308,6 +310,9 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     sensor_model = data.get("sensor_model", "exact")
     if sensor_model not in SENSOR_MODELS:
         raise InputError(f"{source}: sensor_model: expected one of {', '.join(SENSOR_MODELS)}, got {sensor_model!r}")
+    threads = data.get("threads", 0)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+        raise InputError(f"{source}: threads: expected an integer >= 0 (0 = all cores), got {threads!r}")
     history = data.get("history_steps", 10000)
     if isinstance(history, bool) or not isinstance(history, int) or history <= 0:
         raise InputError(f"{source}: history_steps: must be a positive integer, got {history!r}")
@@ -332,6 +337,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         history_steps=history,
         robots=robots,
         sensor_model=sensor_model,
+        threads=threads,
         source=source,
         map_path=str(map_path),
     )
@@ -355,6 +361,8 @@ def load_world(path: str | Path) -> WorldSpec:
         history_steps: 10000     # poses kept per robot (oldest dropped beyond this)
         sensor_model: exact      # exact (default) or original: the original SIMROBOT's sensor
                                  # rules (cell-centre distances, 2-cell-wide Bresenham rays, its fan)
+        threads: 0               # threads sensing and moving robots; 0 (default) = all cores.
+                                 # Results are the same whatever the number.
         robots:                  # ids are 2, 3, ... in this order (the seed's matrix values)
           - name: r1             # required, unique, a ROS name: topics live under /r1/
             position: [0.5, 0.5] # required, pivot position (m)
