@@ -12,6 +12,7 @@ the exact sensor model and the ``sensor_model: original`` option), and why: docs
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -23,9 +24,15 @@ from sim_runtime.errors import InputError
 from simrobot_sim import raycast
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
+# Threads that finished their share of a parallel pass sleep instead of spinning: on a machine
+# shared with other processes, spinning OpenMP threads take the cores the others need (measured
+# under load: 2 spinning threads ran 4x slower than one; sleeping ones 1.3x faster). Read when the
+# threads start (the first parallel pass); a setting of the user's own wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+
 _SQRT2 = math.sqrt(2.0)
-#: Below these many sensors (robots), sensing (motion) stays on one thread: starting the threads
-#: costs more than it saves (measured with bench/simrobot_scale.py).
+#: Below these many sensors (robots), sensing (motion) stays on one thread: such a pass takes
+#: well under a millisecond, about what handing it to the threads and back costs.
 PARALLEL_MIN_SENSORS = 64
 PARALLEL_MIN_ROBOTS = 256
 #: Work pieces per thread (sensors differ in cost: more pieces balance the threads).
@@ -207,11 +214,14 @@ def _plan_range(shape, robots, dt, plan, first, last, vx, vy):
 
 @numba.njit(cache=True)
 def _plan_moves(shape, robots, dt, plan):
+    """Every robot's planned move (:class:`MovePlan`), on this thread."""
     _plan_range(shape, robots, dt, plan, 0, robots.pose.shape[0], np.empty(64), np.empty(64))
 
 
 @numba.njit(cache=True, parallel=True)
 def _plan_moves_parallel(shape, robots, dt, plan, chunks):
+    """:func:`_plan_moves` on all threads, robots in ``chunks`` contiguous runs (a robot's plan
+    depends on its own state only, so it is the same whatever the threads)."""
     n = robots.pose.shape[0]
     # made before the loop: an allocation inside it could be hoisted and shared by the threads
     outline = np.empty((chunks, 2, 64))
