@@ -8,6 +8,7 @@ Executables are declared once, in EXECUTABLES. They reach users two ways:
 """
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -27,6 +28,7 @@ EXECUTABLES = {
     "replay": "sim_runtime.bag.replay:main",
     "bag_to_rerun": "sim_runtime.rerun_view.convert:main",
     "draw_tracks": "sim_runtime.rerun_view.tracks:main",
+    "urdf": "arm_sim.urdf:main",
 }
 
 WRAPPER = """#!{python}
@@ -64,12 +66,22 @@ def config_files() -> list[tuple[str, list[str]]]:
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 
+
+def package_version() -> str:
+    """The version, written once: package.xml's (ament and colcon read it there)."""
+    match = re.search(r"<version>([^<]+)</version>", (HERE / "package.xml").read_text())
+    if match is None:
+        raise RuntimeError("package.xml has no <version>")
+    return match.group(1).strip()
+
+
 setup(
     name=PACKAGE,
-    version="0.1.0",
+    version=package_version(),
     description="Simulated robot drivers for ROS 2 Jazzy: iRobot Create, SIMROBOT worlds, serial arms, MCAP bags",
     license="BSD-3-Clause",
-    python_requires=">=3.10",
+    # Tested on 3.11 (the ROS 2 Jazzy wheels on PyPI); a Jazzy install on Ubuntu 24.04 has 3.12.
+    python_requires=">=3.11",
     packages=find_packages(include=["sim_runtime*", "create_sim*", "simrobot_sim*", "arm_sim*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
@@ -92,7 +104,7 @@ setup(
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
-        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support", "yourdfpy"],
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },

@@ -1,31 +1,19 @@
-"""ROS 2 world node for SIMROBOT worlds: many robots on a bitmap map (design.md §5).
+"""``simrobot_world``: a SIMROBOT world (many robots on a bitmap map) on ROS 2.
 
-``simrobot_world --ros-args -p world_file:=world.yaml`` (format: :func:`simrobot_sim.world_file.load_world`).
-One physics step is the world file's ``dt``; after every step the world publishes, per robot
-under ``/<name>/``: one topic per sensor (``Range`` for ultrasonic — nearest ray, ``+inf`` for no
-hit — plus ``<sensor>/obstacle`` ``UInt8``; ``LaserScan`` for laser — every ray counter-clockwise
-from the rightmost, ``intensities`` = obstacle number), ``odom`` (``<name>/odom`` →
-``<name>/base_link``, from the start pose), ``pose`` (ground truth in ``map``) and, when it
-changes, ``crashed`` (transient local). World-level: ``/map`` (walls, transient local),
-``/robots`` (outlines and colours) and ``/clock``.
+A thin mapping of :class:`simrobot_sim.model.SimrobotWorld` onto topics, services and TF, all
+relative to the node's namespace; the interface is in ``docs/executables.md``. What the code below
+has to keep true:
 
-Inputs per robot: ``cmd_vel`` (Twist: linear.x, angular.z through the inverse model; parameter
-``cmd_vel_stamped: true`` makes it TwistStamped, whose stamp then counts like wheel_cmd's),
-``wheel_cmd`` (JointState: ``velocity`` = [left, right] rad/s, the seed's setvel), services
-``set_power`` (SetBool) and ``clear_crash`` (Trigger). NaN/inf commands are rejected with a
-throttled warning. A command holds until the next one, as the seed's setvel.
-
-Lockstep (``lockstep: true`` in the world file): after publishing step k the world waits until
-every powered, non-crashed robot has sent a command *for step k* before computing step k+1. A
-command counts for step k when it arrives after step k was published (unstamped), or when it is
-stamped with step k's sim time; a ``wheel_cmd`` stamped with an older step's time is stale and
-ignored (a plain Twist ``cmd_vel`` has no stamp: it always counts on arrival). If
-``lockstep_timeout`` wall seconds pass first, the world warns which robots did not answer and goes
-on. Unanswered step data is re-published every 0.5 s while waiting, so a controller that joined
-late still gets it. A run is then identical whatever the machine's load.
-
-Robots naming a ``controller`` in the world file get that controller node (``avoid``: the seed's
-alg2) in this process, in the same executor.
+- one physics step is the world file's ``dt``; after each step every robot's sensors, odometry,
+  pose and ``/tf`` are published, stamped with the step's sim time;
+- a command holds until the next one (the original's setvel); NaN/inf or absurd commands are
+  rejected with a throttled warning;
+- lockstep (``lockstep: true``): after publishing step k the world waits until every powered,
+  non-crashed robot has answered step k (unstamped commands count on arrival, stamped ones when
+  stamped with step k's time; older stamps are stale), re-publishing the step's data every 0.5 s
+  while it waits, and steps on with a warning after ``lockstep_timeout`` wall seconds: a run is
+  then identical whatever the machine's load;
+- robots naming a ``controller`` (``avoid``: the original's alg2) get that node in this process.
 """
 
 from __future__ import annotations
@@ -52,11 +40,13 @@ from sim_runtime.msgs import (
     quaternion_from_yaw,
     time_from_msg,
 )
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.paths import resolve_input_file
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
-from sim_runtime.world_node import SimWorldNode
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
+from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
-from simrobot_sim.world_file import WorldSpec, load_world
+from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
 
 #: Wall seconds between re-publications of a step's data while lockstep waits.
 REPUBLISH_PERIOD = 0.5
@@ -71,17 +61,31 @@ class _RobotIO:
 class SimrobotWorldNode(SimWorldNode):
     """A SIMROBOT world on ROS 2: see the module docstring for the interface."""
 
-    def __init__(self, spec: WorldSpec | None = None, **node_kwargs) -> None:
+    def __init__(self, spec: WorldSpec | None = None, node_name: str = "simrobot_world", **node_kwargs) -> None:
         """Load ``spec`` or, when None, the world file named by parameter ``world_file``."""
         if spec is None:
             # parameters exist only once the node does: peek at world_file through a short-lived node
-            spec = _spec_from_parameter(node_kwargs)
+            spec = _spec_from_parameter(node_name, node_kwargs)
         self.spec = spec
-        super().__init__("simrobot_world", physics_rate=1.0 / spec.dt, **node_kwargs)
-        if not self.has_parameter("world_file"):
-            self.declare_parameter("world_file", spec.source)
+        super().__init__(node_name, physics_rate=1.0 / spec.dt, **node_kwargs)
+        self.declare_checked(
+            "world_file",
+            spec.source,
+            None,
+            "world file (YAML): a path, or relative to the current directory or to the shipped config/",
+        )
+        self.cmd_vel_stamped = self.declare_checked(
+            "cmd_vel_stamped",
+            False,
+            None,
+            "subscribe geometry_msgs/TwistStamped on cmd_vel (its stamp then counts like wheel_cmd's in lockstep)",
+        )
+        prefix = self.declare_checked(
+            "frame_prefix", "", None, "prefix of every robot's frames ('' = from the namespace: /sim1 -> sim1/)"
+        )
+        self.prefix = prefix or namespace_prefix(self.get_namespace())
+        self.note_compiling("simrobot_sim.model", "simrobot_sim.raycast")
         self.model = SimrobotWorld(spec)
-        self.cmd_vel_stamped = bool(self.declare_parameter("cmd_vel_stamped", False).value)
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)
         n = len(self.model.names)
@@ -89,14 +93,25 @@ class SimrobotWorldNode(SimWorldNode):
         self._published_wall = time.monotonic()
         self._republished_wall = self._published_wall
         self._io = [self._make_robot_io(i) for i in range(n)]
-        self._map_pub = self.create_publisher(OccupancyGrid, "/map", LATCHED_QOS)
+        self._map_pub = self.create_publisher(OccupancyGrid, "map", LATCHED_QOS)
         self._map_pub.publish(self._map_msg())
-        self._robots_pub = self.create_publisher(MarkerArray, "/robots", SENSOR_QOS)
+        self._robots_pub = self.create_publisher(MarkerArray, "robots", SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
+        self.tf = TfBroadcaster(self)
+        # /tf messages reused every step: rclpy serialises on publish
+        self._odom_tf = [
+            transform_msg(self.robot_frame(i, "odom"), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
+        ]
+        self.tf.send_static(self._static_transforms(), self.stamp())
         self.every(self.physics_rate, self._publish_step)
         self._publish_step()
+        nx, ny = self.model.grid.shape
+        self.get_logger().info(
+            f"world {spec.source}: {n} robots on a {nx}x{ny} map at {spec.resolution:g} m/cell, "
+            f"dt {spec.dt:g} s{', lockstep' if self.lockstep else ''}; {self.pace_text()}"
+        )
 
     # -- construction -----------------------------------------------------------------------
     def _make_robot_io(self, i: int) -> _RobotIO:
@@ -108,7 +123,7 @@ class SimrobotWorldNode(SimWorldNode):
         for k, s in enumerate(model.sensors):
             if s.robot != i:
                 continue
-            frame = f"{name}/{s.name}"
+            frame = f"{self.prefix}{name}/{s.name}"
             if s.kind == "laser":
                 msg = LaserScan()
                 msg.header.frame_id = frame
@@ -118,7 +133,7 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)
-                pub = self.create_publisher(LaserScan, f"/{name}/{s.name}", SENSOR_QOS)
+                pub = self.create_publisher(LaserScan, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "laser", pub, None))
                 io.msgs.append((msg, None))
             else:
@@ -128,34 +143,51 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.field_of_view = float(s.beamwidth)
                 msg.min_range = 0.0
                 msg.max_range = float(s.range)
-                pub = self.create_publisher(Range, f"/{name}/{s.name}", SENSOR_QOS)
-                obst_pub = self.create_publisher(UInt8, f"/{name}/{s.name}/obstacle", SENSOR_QOS)
+                pub = self.create_publisher(Range, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
+                obst_pub = self.create_publisher(UInt8, f"{name}/{s.name}/obstacle", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "ultrasonic", pub, obst_pub))
                 io.msgs.append((msg, UInt8()))
-        io.odom_pub = self.create_publisher(Odometry, f"/{name}/odom", SENSOR_QOS)
+        io.odom_pub = self.create_publisher(Odometry, f"{name}/odom", SENSOR_PUBLISHER_QOS)
         io.odom = Odometry()
-        io.odom.header.frame_id = f"{name}/odom"
-        io.odom.child_frame_id = f"{name}/base_link"
-        io.pose_pub = self.create_publisher(PoseStamped, f"/{name}/pose", SENSOR_QOS)
+        io.odom.header.frame_id = f"{self.prefix}{name}/odom"
+        io.odom.child_frame_id = f"{self.prefix}{name}/base_link"
+        io.pose_pub = self.create_publisher(PoseStamped, f"{name}/pose", SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
-        io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
+        io.crashed_pub = self.create_publisher(Bool, f"{name}/crashed", LATCHED_QOS)
         io.subs = [
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
-                f"/{name}/cmd_vel",
+                f"{name}/cmd_vel",
                 lambda m, i=i: self._on_cmd_vel(i, m),
-                COMMAND_QOS,
+                COMMAND_SUBSCRIBER_QOS,
             ),
             self.create_subscription(
-                JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
+                JointState, f"{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_SUBSCRIBER_QOS
             ),
         ]
         io.services = [
-            self.create_service(SetBool, f"/{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
-            self.create_service(Trigger, f"/{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
+            self.create_service(SetBool, f"{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
+            self.create_service(Trigger, f"{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
         ]
         return io
+
+    def robot_frame(self, i: int, name: str) -> str:
+        """Frame ``name`` of robot ``i``, e.g. ``r1/base_link`` (with the world's prefix in front)."""
+        return f"{self.prefix}{self.model.names[i]}/{name}"
+
+    def _static_transforms(self) -> list:
+        """``map → <robot>/odom`` (odometry starts at the start pose) and ``<robot>/base_link →
+        <robot>/<sensor>`` at each sensor's mount."""
+        transforms = []
+        for i, robot in enumerate(self.spec.robots):
+            x, y = robot.position
+            transforms.append(transform_msg("map", self.robot_frame(i, "odom"), x, y, yaw=robot.heading))
+            base = self.robot_frame(i, "base_link")
+            for sensor in robot.sensors:
+                sx, sy, axis = sensor_mount(robot, sensor)
+                transforms.append(transform_msg(base, self.robot_frame(i, sensor.name), sx, sy, yaw=axis))
+        return transforms
 
     def _map_msg(self) -> OccupancyGrid:
         model = self.model
@@ -222,20 +254,20 @@ class SimrobotWorldNode(SimWorldNode):
             return
         if len(msg.velocity) != 2:
             self.warn_throttled(
-                f"wheel{i}", f"/{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
+                f"wheel{i}", f"{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
             )
             return
         if not command_ok(*msg.velocity):
             self.warn_throttled(
                 f"wheel{i}",
-                f"/{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
+                f"{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
                 f"absurdly large (|value| > {ABSURD_COMMAND:g} rad/s)",
             )
             return
         try:
             self.model.set_wheel_speeds(i, float(msg.velocity[0]), float(msg.velocity[1]))
         except InputError as err:
-            self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {err}")
+            self.warn_throttled(f"wheel{i}", f"{name}/wheel_cmd ignored: {err}")
             return
         self._answered[i] = True
 
@@ -295,7 +327,7 @@ class SimrobotWorldNode(SimWorldNode):
         model.sense()
         stamp = self.stamp()
         poses = model.poses()
-        odometry = model.odometry()
+        odom_poses = model.odometry()
         for i, io in enumerate(self._io):
             for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
                 msg.header.stamp = stamp
@@ -315,9 +347,10 @@ class SimrobotWorldNode(SimWorldNode):
             io.pose.pose = pose_msg(x, y, h)
             io.pose_pub.publish(io.pose)
             # odometry: the pose in the frame of the start pose (exact wheel odometry)
+            ox, oy, oh = odom_poses[i]
             odom = io.odom
             odom.header.stamp = stamp
-            odom.pose.pose = pose_msg(*odometry[i])
+            odom.pose.pose = pose_msg(ox, oy, oh)
             v, v_lat, w = model.body_velocity(i)
             odom.twist.twist.linear.x = v
             odom.twist.twist.linear.y = v_lat
@@ -329,18 +362,25 @@ class SimrobotWorldNode(SimWorldNode):
             m.pose.position.y = float(poses[i, 1])
             m.pose.orientation = quaternion_from_yaw(poses[i, 2])
         self._robots_pub.publish(self._markers)
+        if self.tf.heard():
+            for t, (ox, oy, oh) in zip(self._odom_tf, odom_poses.tolist(), strict=True):
+                t.header.stamp = stamp
+                set_planar(t, ox, oy, oh)
+            self.tf.send(self._odom_tf)
         self._published_wall = self._republished_wall = time.monotonic()
 
 
-def _spec_from_parameter(node_kwargs: dict) -> WorldSpec:
-    probe = Node("simrobot_world", **node_kwargs)
+def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:
+    probe = Node(node_name, **node_kwargs)
     try:
         path = probe.declare_parameter("world_file", "").value
     finally:
         probe.destroy_node()
     if not path:
         raise InputError("parameter 'world_file' is required: --ros-args -p world_file:=<world.yaml>")
-    return load_world(path)
+    if not isinstance(path, str):
+        raise InputError(f"parameter 'world_file' = {path!r} is invalid: a file name is expected")
+    return load_world(resolve_input_file(path, "world_file"))
 
 
 def make_nodes() -> list[Node]:

@@ -44,7 +44,7 @@ def bad_inputs(garbage: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     return {
         "create_world": (["--ros-args", "-p", "map_file:=/no/such.map"], "/no/such.map"),
         "simrobot_world": (["--ros-args", "-p", f"world_file:={garbage}"], str(garbage)),
-        "arm": (["--ros-args", "-p", f"robot_config:={garbage}"], str(garbage)),
+        "arm": (["--ros-args", "-p", f"robot_config_file:={garbage}"], str(garbage)),
         "record": (["-o", str(existing)], str(existing)),
         "replay": (["/no/such/bag"], "/no/such/bag"),
         "bag_to_rerun": (["/no/such/bag"], "/no/such/bag"),

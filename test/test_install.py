@@ -19,6 +19,7 @@ EXECUTABLES = [
     "replay",
     "bag_to_rerun",
     "draw_tracks",
+    "urdf",
 ]
 
 
