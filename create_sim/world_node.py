@@ -45,6 +45,7 @@ from sim_runtime.msgs import (
     command_ok,
     float32_array,
     pose_msg,
+    set_planar_pose,
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
@@ -587,7 +588,7 @@ class CreateWorldNode(SimWorldNode):
             v, w = self.model.velocity
             msg = self._message(self.pub_odom)
             msg.header.stamp = stamp
-            msg.pose.pose = pose_msg(x, y, theta)
+            set_planar_pose(msg.pose.pose, x, y, theta)
             msg.twist.twist.linear.x = float(v)
             msg.twist.twist.angular.z = float(w)
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
@@ -640,7 +641,7 @@ class CreateWorldNode(SimWorldNode):
     def _publish_overhead(self) -> None:
         msg = self._message(self.pub_overhead)
         msg.header.stamp = self.stamp()
-        msg.pose = pose_msg(*self.model.pose.tolist())
+        set_planar_pose(msg.pose, *self.model.pose.tolist())
         self._send(self.pub_overhead, msg)
 
     def _publish_buttons(self) -> None:

@@ -38,6 +38,7 @@ from sim_runtime.msgs import (
     float32_array,
     pose_msg,
     quaternion_from_yaw,
+    set_planar_pose,
     time_from_msg,
 )
 from sim_runtime.paths import resolve_input_file
@@ -291,7 +292,7 @@ class SimrobotWorldNode(SimWorldNode):
     def ready_to_step(self) -> bool:
         """False once ``steps_limit`` is reached; in lockstep, also until every powered,
         non-crashed robot answered the current step or ``lockstep_timeout`` passed."""
-        if self.finished:
+        if not super().ready_to_step():
             return False
         if not self.lockstep:
             return True
@@ -344,13 +345,13 @@ class SimrobotWorldNode(SimWorldNode):
                     obst_pub.publish(obst)
             x, y, h = poses[i]
             io.pose.header.stamp = stamp
-            io.pose.pose = pose_msg(x, y, h)
+            set_planar_pose(io.pose.pose, x, y, h)
             io.pose_pub.publish(io.pose)
             # odometry: the pose in the frame of the start pose (exact wheel odometry)
             ox, oy, oh = odom_poses[i]
             odom = io.odom
             odom.header.stamp = stamp
-            odom.pose.pose = pose_msg(ox, oy, oh)
+            set_planar_pose(odom.pose.pose, ox, oy, oh)
             v, v_lat, w = model.body_velocity(i)
             odom.twist.twist.linear.x = v
             odom.twist.twist.linear.y = v_lat

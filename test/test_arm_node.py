@@ -18,7 +18,6 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from tf2_msgs.msg import TFMessage  # TF must be on wherever this test runs (make venv builds tf2_msgs)
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -338,7 +337,9 @@ def synced(tf: TfBuffer, poses: Collector, tool: str, now: float) -> bool:
     )
 
 
-def test_tf_chains_every_arms_tool_frame_to_world_at_its_end_effector_pose(executor, make_node):
+def test_tf_chains_every_arms_tool_frame_to_world_at_its_end_effector_pose(executor, make_node, tf2_msgs):
+    from tf2_msgs.msg import TFMessage
+
     world = make_arm_node(executor, scene_file="arm/workcell.yaml")
     test = make_node()
     tf = tf_buffer(executor, test)
@@ -372,7 +373,7 @@ def test_tf_chains_every_arms_tool_frame_to_world_at_its_end_effector_pose(execu
     np.testing.assert_allclose(tf.lookup("world", "table")[:3, 3], [0.55, 0.0, 0.0], atol=1e-12)
 
 
-def test_tf_of_a_namespaced_arm_carries_the_namespace_in_its_frames(executor, make_node):
+def test_tf_of_a_namespaced_arm_carries_the_namespace_in_its_frames(executor, make_node, tf2_msgs):
     world = ArmNode(namespace="/cell1", parameter_overrides=[Parameter("scene_file", value="arm/workcell.yaml")])
     executor.add_node(world)
     test = make_node()
