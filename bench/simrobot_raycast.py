@@ -7,7 +7,8 @@ range 560 cells (13,660 rays per frame). Casters:
 * fast   — simrobot_sim's caster as the world uses it (clearance-field jumps, free discs reused
            across a scan, exact traversal near walls, exact robot tests): ``SimrobotWorld.sense``;
 * exact  — numba Amanatides-Woo, one cell per step (the reference);
-* python — the seed's plain-Python Bresenham (on one scan only: it is slow).
+* python — a plain 8-connected Bresenham in plain Python (a speed baseline, not the original's
+           sensor rules; on one scan only: it is slow).
 
 Times are CPU seconds of this process (``time.process_time``), best of several repeats, so other
 load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simrobot_raycast.py [scale]``
@@ -80,8 +81,8 @@ def main() -> None:
     n_rays = N_ROBOTS * RAYS
     scans = []
     for k in range(len(world.sensors)):
-        ox, oy, axis = world.sensor_origin(k)
-        angles = axis + world.roff[world.rstart[k] : world.rstart[k + 1]]
+        ox, oy, _ = world.sensor_origin(k)
+        angles = world.ray_angles(k)
         scans.append((ox / 0.01, oy / 0.01, angles, np.column_stack([np.cos(angles), np.sin(angles)]), k + 2))
     exact_t = np.empty(n_rays)
     exact_v = np.empty(n_rays, dtype=np.int64)
@@ -100,7 +101,7 @@ def main() -> None:
     def python_one_scan() -> None:
         ox, oy, angles, _, rid = scans[0]
         for a in angles:
-            raycast.cast_ray_bresenham_python(rows, ox, oy, float(a), float(RANGE_CELLS), rid)
+            raycast.cast_ray_plain_bresenham_python(rows, ox, oy, float(a), float(RANGE_CELLS), rid)
 
     fast()
     exact()  # compile / load cached machine code before timing
@@ -112,8 +113,9 @@ def main() -> None:
     py_rps = RAYS / t_py
 
     f = np.isfinite(exact_t)
-    agree = np.isfinite(world.ray_t) == f
-    diff = np.abs(np.where(f, exact_t, 0.0) - np.where(f, world.ray_t, 0.0))
+    fast_t = np.concatenate([world.ranges(k)[0] for k in range(len(world.sensors))]) / 0.01
+    agree = np.isfinite(fast_t) == f
+    diff = np.abs(np.where(f, exact_t, 0.0) - np.where(f, fast_t, 0.0))
     print(
         f"scene: {N_CELLS}x{N_CELLS} cells, {N_RECTS} rectangles, {N_ROBOTS} robots, "
         f"{RAYS}-ray laser, range {RANGE_CELLS} cells; {n_rays} rays per frame"
@@ -121,7 +123,7 @@ def main() -> None:
     print(f"{'caster':<34}{'rays/s':>14}{'fast is':>12}")
     print(f"{'fast (clearance jumps + discs)':<34}{fast_rps:>14,.0f}{'':>12}")
     print(f"{'numba exact traversal (per cell)':<34}{exact_rps:>14,.0f}{fast_rps / exact_rps:>11.1f}x")
-    print(f"{'plain-Python Bresenham (seed)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
+    print(f"{'plain-Python Bresenham (baseline)':<34}{py_rps:>14,.0f}{fast_rps / py_rps:>11.0f}x")
     print(
         f"agreement with exact: {agree.mean() * 100:.2f}% same hit/miss, max |difference| "
         f"{diff[f & agree].max():.2e} cells, mean hit distance {exact_t[f].mean():.0f} cells"

@@ -1,10 +1,13 @@
-"""How many robots a SIMROBOT world holds, single thread.
+"""How many robots a SIMROBOT world holds, on one thread and on all cores.
 
 Every robot: the seed's shape, 2 ultrasonic sensors (30 rays, 60 degrees, 0.5 m: front and rear)
 and one laser (181 rays, 180 degrees, 2 m), driving with random wheel speeds on a 10 m x 10 m map
 at 1 cm (1000 x 1000 cells, border + 60 rectangles).
 
-1. Model alone (step + every sensor cast) at N = 10, 100, 1000 (1000 needs the uint16 matrix).
+1. Model alone (step + every sensor cast) at N = 10, 100, 1000 (1000 needs the uint16 matrix),
+   one thread (CPU time).
+1b. The same on one thread and on every core side by side (wall time: CPU time would add the
+   threads up), with the ratio: the parallel model's speed-up on this machine now.
 2. World node at 10 Hz (dt = 0.1 s): one ``step()`` = physics + sensing + every topic published
    (3 sensor topics + 2 obstacle + odom + pose per robot, /robots, /clock). CPU ms per step for
    growing N; "holds 10 Hz" = under 100 ms per step. The node keeps the seed's uint8 ids
@@ -75,8 +78,8 @@ def drive(world: SimrobotWorld, seed: int = 2) -> None:
     world.vel[:] = rng.uniform(0.0, 5.0, world.vel.shape)  # up to 5 rad/s x 1 cm = 5 cm/s
 
 
-def model_rate(n: int, steps: int) -> float:
-    world = SimrobotWorld(scene(n), wide_ids=n > 254)
+def model_rate(n: int, steps: int, threads: int = 1, clock=time.process_time) -> float:
+    world = SimrobotWorld(scene(n), wide_ids=n > 254, threads=threads)
     drive(world)
 
     def one() -> None:
@@ -86,11 +89,25 @@ def model_rate(n: int, steps: int) -> float:
     one()
     best = math.inf
     for _ in range(3):
-        t = time.process_time()
+        t = clock()
         for _ in range(steps):
             one()
-        best = min(best, (time.process_time() - t) / steps)
+        best = min(best, (clock() - t) / steps)
     return 1.0 / best
+
+
+def parallel_table() -> None:
+    import numba
+
+    cores = numba.config.NUMBA_NUM_THREADS
+    print(f"\nmodel alone, 1 thread vs {cores} threads side by side (wall time, best of 3), steps/s:")
+    print(f"{'N':>6}{'1 thread':>11}{f'{cores} threads':>12}{'ratio':>8}{'load (1 min)':>14}")
+    for n, steps in ((100, 20), (1000, 5)):
+        serial = parallel = 0.0
+        for _ in range(2):  # alternate, so both see the same load
+            serial = max(serial, model_rate(n, steps, 1, time.perf_counter))
+            parallel = max(parallel, model_rate(n, steps, 0, time.perf_counter))
+        print(f"{n:>6}{serial:>11.1f}{parallel:>12.1f}{parallel / serial:>8.2f}{os.getloadavg()[0]:>14.2f}")
 
 
 def node_step_ms(n: int, steps: int = 10) -> float:
@@ -140,6 +157,7 @@ def main() -> None:
         print(f"{n:>6}{rate:>12.1f}{1000 / rate:>10.2f}{1e6 / rate / n:>10.1f}")
 
     print("load average (1, 5, 15 min): {:.2f} {:.2f} {:.2f} on {} CPUs".format(*os.getloadavg(), os.cpu_count()))
+    parallel_table()
 
     print("\nworld node at 10 Hz (physics + sensing + all topics), CPU ms per step:")
     print(f"{'N':>6}{'ms/step':>10}{'holds 10 Hz':>13}")

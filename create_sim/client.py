@@ -51,6 +51,7 @@ from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from visualization_msgs.msg import MarkerArray
 
+from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
@@ -114,11 +115,6 @@ class AllSensors(NamedTuple):
     charge: float
     capacity: float
     percent_charge: float
-
-
-def _wrap(angle: float) -> float:
-    # Plain Python on purpose: the client talks to any robot and loads none of the simulator's kernels.
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def _clamp(value: float, low: float, high: float) -> float:
@@ -236,7 +232,7 @@ class CreateRobot:
         with self._cond:
             if self._odom_prev is not None:
                 t0, x0, y0, yaw0 = self._odom_prev
-                turn = _wrap(yaw - yaw0)
+                turn = wrap_angle(yaw - yaw0)
                 mid = yaw0 + turn / 2
                 step = (p.x - x0) * math.cos(mid) + (p.y - y0) * math.sin(mid)
                 # A jump no wheel could make is a reset of the robot's odometry, not motion.

@@ -26,8 +26,9 @@ from create_sim import mounts
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
-from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance, wrap_angle
+from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance
 from create_sim.sensing import bumper_hits, camera_view, range_fan, virtual_wall_seen
+from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.

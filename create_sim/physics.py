@@ -32,6 +32,7 @@ import numba
 import numpy as np
 
 from create_sim.geometry import Contacts, SegmentGrid, grid_contacts, new_contacts, point_segment_closest
+from sim_runtime.angles import wrap_angle_jit as wrap_angle
 
 CONTACT_SKIN = 1e-3  # a wall this close to the body presses a bumper
 OVERLAP_TOL = 1e-9  # numerical slack of the "never inside a wall" invariant
@@ -39,12 +40,6 @@ _PUSH_MARGIN = 1e-8  # push-out leaves the body this far from the wall...
 _TOUCH = 1e-6  # ...which the next step sees as touching (friction, sliding)
 _SOLVER_TOL = 0.1 * OVERLAP_TOL  # the solver's own acceptance, well inside the promise
 MAX_SUBSTEPS = 1_000_000  # bounds one step's work whatever dt: 40 km of travel in r/4 sub-steps
-
-
-@numba.njit(cache=True)
-def wrap_angle(a: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @numba.njit(cache=True)

@@ -30,6 +30,10 @@ MAX_ROBOTS_UINT8 = 254
 MAX_RAYS = 100_000
 
 SENSOR_TYPES = ("ultrasonic", "laser")
+#: ``exact``: our sensor model; ``original``: the original SIMROBOT's sensor rules.
+SENSOR_MODELS = ("exact", "original")
+#: Readable names of the original's robot keys (the short ones stay accepted).
+ROBOT_KEY_ALIASES = {"wheel_radius": "R", "half_track": "la", "axle_offset": "lb"}
 CONTROLLERS = ("avoid",)
 
 
@@ -78,6 +82,8 @@ class WorldSpec:
     lockstep_timeout: float = 5.0
     history_steps: int = 10000
     robots: tuple[RobotSpec, ...] = ()
+    sensor_model: str = "exact"
+    threads: int = 0
     source: str = "<memory>"
     map_path: str = ""
 
@@ -136,6 +142,7 @@ _ROBOT_KEYS = {
     "R",
     "la",
     "lb",
+    *ROBOT_KEY_ALIASES,
     "sensors",
     "controller",
 }
@@ -149,7 +156,20 @@ _WORLD_KEYS = {
     "lockstep_timeout",
     "history_steps",
     "robots",
+    "sensor_model",
+    "threads",
 }
+
+
+def _resolve_aliases(entry: dict, where: str) -> dict:
+    # the readable robot keys stand for the original's short ones; one of each pair at most
+    out = dict(entry)
+    for long, short in ROBOT_KEY_ALIASES.items():
+        if long in out:
+            if short in out:
+                raise InputError(f"{where}: {long!r} and {short!r} are the same field: give one")
+            out[short] = out.pop(long)
+    return out
 
 
 def _sensor(entry: Any, where: str) -> SensorSpec:
@@ -187,6 +207,9 @@ def _robot(entry: Any, where: str) -> RobotSpec:
     if not isinstance(entry, dict):
         raise InputError(f"{where}: expected a mapping, got {entry!r}")
     _check_keys(entry, _ROBOT_KEYS, where)
+    # errors name the key as the user wrote it
+    key = {short: long for long, short in ROBOT_KEY_ALIASES.items() if long in entry}
+    entry = _resolve_aliases(entry, where)
     name = entry.get("name")
     if not isinstance(name, str) or not name or not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
         raise InputError(f"{where}.name: required ROS name (letters, digits, _; no leading digit), got {name!r}")
@@ -221,7 +244,7 @@ def _robot(entry: Any, where: str) -> RobotSpec:
     if controller is not None and controller not in CONTROLLERS:
         known = ", ".join(CONTROLLERS)
         raise InputError(f"{where}.controller: unknown controller {controller!r}; expected one of {known}")
-    lb = _number(entry.get("lb", 0.0), f"{where}.lb")
+    lb = _number(entry.get("lb", 0.0), f"{where}.{key.get('lb', 'lb')}")
     return RobotSpec(
         name=name,
         position=_pair(entry["position"], f"{where}.position"),
@@ -230,8 +253,8 @@ def _robot(entry: Any, where: str) -> RobotSpec:
         shape=shape,
         scale=_number(entry.get("scale", 1.0), f"{where}.scale", positive=True),
         power=_bool(entry.get("power", True), f"{where}.power"),
-        R=_number(entry.get("R", 0.01), f"{where}.R", positive=True),
-        la=_number(entry.get("la", 0.03), f"{where}.la", positive=True),
+        R=_number(entry.get("R", 0.01), f"{where}.{key.get('R', 'R')}", positive=True),
+        la=_number(entry.get("la", 0.03), f"{where}.{key.get('la', 'la')}", positive=True),
         lb=lb,
         sensors=sensors,
         controller=controller,
@@ -257,6 +280,12 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         raise InputError(f"{source}: steps_limit: must be > 0 (or .inf), got {data.get('steps_limit')!r}")
     if math.isfinite(steps):
         steps = float(max(1, math.floor(steps + 0.5)))  # MATLAB round: halves away from zero
+    sensor_model = data.get("sensor_model", "exact")
+    if sensor_model not in SENSOR_MODELS:
+        raise InputError(f"{source}: sensor_model: expected one of {', '.join(SENSOR_MODELS)}, got {sensor_model!r}")
+    threads = data.get("threads", 0)
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+        raise InputError(f"{source}: threads: expected an integer >= 0 (0 = all cores), got {threads!r}")
     history = data.get("history_steps", 10000)
     if isinstance(history, bool) or not isinstance(history, int) or history <= 0:
         raise InputError(f"{source}: history_steps: must be a positive integer, got {history!r}")
@@ -289,6 +318,8 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         lockstep_timeout=_number(data.get("lockstep_timeout", 5.0), f"{source}: lockstep_timeout", positive=True),
         history_steps=history,
         robots=robots,
+        sensor_model=sensor_model,
+        threads=threads,
         source=source,
         map_path=str(map_path),
     )
@@ -310,6 +341,10 @@ def load_world(path: str | Path) -> WorldSpec:
                                  # non-crashed robot (or lockstep_timeout)
         lockstep_timeout: 5.0    # wall seconds to wait before stepping anyway (with a warning)
         history_steps: 10000     # poses kept per robot (oldest dropped beyond this)
+        sensor_model: exact      # exact (default) or original: the original SIMROBOT's sensor
+                                 # rules (cell-centre distances, 2-cell-wide Bresenham rays, its fan)
+        threads: 0               # threads sensing and moving robots; 0 (default) = all cores.
+                                 # Results are the same whatever the number.
         robots:                  # ids are 2, 3, ... in this order (the seed's matrix values)
           - name: r1             # required, unique, a ROS name: topics live under /r1/
             position: [0.5, 0.5] # required, pivot position (m)
@@ -319,9 +354,9 @@ def load_world(path: str | Path) -> WorldSpec:
                                  # polygon (m) around the pivot at 0,0; default = the seed's
             scale: 1.0           # multiplies shape and sensor positions (not ranges)
             power: true          # false: the robot does not move until set_power
-            R: 0.01              # wheel radius (m)
-            la: 0.03             # half wheel track (m)
-            lb: 0.0              # pivot offset from the wheel axle (m)
+            wheel_radius: 0.01   # wheel radius (m); or R, the original's name
+            half_track: 0.03     # half the wheel distance (m); or la
+            axle_offset: 0.0     # pivot offset from the wheel axle (m); or lb
             controller: avoid    # optional: run this controller in the world's process
             sensors:
               - name: sens1      # topic /r1/sens1 (+ /r1/sens1/obstacle for ultrasonic)

@@ -101,7 +101,6 @@ class SimrobotWorldNode(SimWorldNode):
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
         self.tf = TfBroadcaster(self)
-        self._start = np.array([(*r.position, r.heading) for r in spec.robots], dtype=float).reshape(-1, 3)
         # /tf messages reused every step: rclpy serialises on publish
         self._odom_tf = [
             transform_msg(self.robot_frame(i, "odom"), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
@@ -129,9 +128,9 @@ class SimrobotWorldNode(SimWorldNode):
             if s.kind == "laser":
                 msg = LaserScan()
                 msg.header.frame_id = frame
-                msg.angle_min = -0.5 * s.beamwidth if s.rays > 1 else 0.0
-                msg.angle_max = 0.5 * s.beamwidth if s.rays > 1 else 0.0
-                msg.angle_increment = s.beamwidth / (s.rays - 1) if s.rays > 1 else 0.0
+                msg.angle_min = s.angle_min
+                msg.angle_max = s.angle_max
+                msg.angle_increment = s.angle_increment
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)
@@ -218,7 +217,7 @@ class SimrobotWorldNode(SimWorldNode):
             m.action = Marker.ADD
             m.scale.x = max(model.resolution, 0.002)
             m.color = color_msg(*model.colors[i])
-            verts = model.verts[model.vstart[i] : model.vstart[i + 1]] * model.resolution
+            verts = model.shape(i)
             m.points = [Point(x=float(x), y=float(y)) for x, y in np.vstack([verts, verts[:1]])]
             out.markers.append(m)
         return out
@@ -329,7 +328,7 @@ class SimrobotWorldNode(SimWorldNode):
         model.sense()
         stamp = self.stamp()
         poses = model.poses()
-        odom_poses = self._odometry_poses(poses)
+        odom_poses = model.odometry()
         for i, io in enumerate(self._io):
             for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
                 msg.header.stamp = stamp
@@ -370,13 +369,6 @@ class SimrobotWorldNode(SimWorldNode):
                 set_planar(t, ox, oy, oh)
             self.tf.send(self._odom_tf)
         self._published_wall = self._republished_wall = time.monotonic()
-
-    def _odometry_poses(self, poses) -> np.ndarray:
-        """Each robot's pose (n, 3) in its odom frame, which is its start pose in ``map``."""
-        dx = poses[:, 0] - self._start[:, 0]
-        dy = poses[:, 1] - self._start[:, 1]
-        c, s = np.cos(self._start[:, 2]), np.sin(self._start[:, 2])
-        return np.column_stack([c * dx + s * dy, -s * dx + c * dy, poses[:, 2] - self._start[:, 2]])
 
 
 def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:

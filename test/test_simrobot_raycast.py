@@ -55,18 +55,17 @@ def test_fast_caster_matches_exact_on_random_maps_with_robots(seed):
     agree = hits = 0
     for step in range(3):
         world.sense()
-        fast_t, fast_v = world.ray_t.copy(), world.ray_v.copy()
         for k, s in enumerate(world.sensors):
-            ox, oy, axis = world.sensor_origin(k)
-            angles = axis + world.roff[world.rstart[k] : world.rstart[k + 1]]
+            ox, oy, _ = world.sensor_origin(k)
+            angles = world.ray_angles(k)
             dirs = np.column_stack([np.cos(angles), np.sin(angles)])
             exact_t = np.empty(len(angles))
             exact_v = np.empty(len(angles), dtype=np.int64)
             raycast.cast_scan_exact(
                 world.grid, ox / 0.01, oy / 0.01, dirs, s.range / 0.01, s.robot + 2, exact_t, exact_v
             )
-            got_t = fast_t[world.rstart[k] : world.rstart[k + 1]]
-            got_v = fast_v[world.rstart[k] : world.rstart[k + 1]]
+            got_t, got_v = world.ranges(k)
+            got_t = got_t / 0.01
             both = np.isfinite(exact_t) & np.isfinite(got_t)
             # a miss and a hit may differ only at the very end of the range
             one = np.isfinite(exact_t) != np.isfinite(got_t)
@@ -96,25 +95,8 @@ def test_fast_and_exact_single_rays_agree(seed, angle, ox, oy):
     d = np.array([[math.cos(angle), math.sin(angle)]])
     et, ev, ft, fv = np.empty(1), np.empty(1, np.int64), np.empty(1), np.empty(1, np.int64)
     raycast.cast_scan_exact(grid, ox, oy, d, 150.0, 0, et, ev)
-    empty = np.empty(0)
-    raycast.cast_scan_fast(
-        grid,
-        clear,
-        ox,
-        oy,
-        d,
-        angle,
-        0.0,
-        150.0,
-        0,
-        empty,
-        empty,
-        empty,
-        np.empty((0, 4)),
-        np.empty(0, np.int64),
-        ft,
-        fv,
-    )
+    fan = raycast.Fan(ox, oy, d, angle, 0.0, 150.0, 0)
+    raycast.cast_scan_fast(raycast.Occupancy(grid, clear), fan, raycast.no_candidates(), ft, fv)
     if math.isfinite(et[0]):
         assert ft[0] == pytest.approx(et[0], abs=1.0)
     else:
@@ -126,7 +108,7 @@ def test_exact_caster_cannot_slip_between_diagonal_cells():
     grid[10, 10] = grid[11, 11] = 1  # cells touching only at the corner (11, 11)
     t, v = raycast.cast_ray_exact(grid, 5.0, 5.0, math.sqrt(0.5), math.sqrt(0.5), 30.0, 0)
     assert v == 1 and t == pytest.approx(math.hypot(5.0, 5.0))
-    assert raycast.cast_ray_bresenham_python(grid.tolist(), 5.0, 5.0, math.pi / 4, 30.0)[1] == 1
+    assert raycast.cast_ray_plain_bresenham_python(grid.tolist(), 5.0, 5.0, math.pi / 4, 30.0)[1] == 1
 
 
 def test_squared_distance_transform_is_exact():

@@ -49,6 +49,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from create_sim import mounts as create_mounts
+from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 from sim_runtime.paths import mesh_path
 from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
@@ -874,7 +875,7 @@ class RerunLogger:
                 color = self._robot_series_color(robot)
                 error = math.hypot(x - truth[0], y - truth[1])
                 self._scalar("odom_error", robot.name, "position_m", error, color, "position (m)")
-                error = math.remainder(yaw - truth[2], 2 * math.pi)
+                error = wrap_angle(yaw - truth[2])
                 self._scalar("odom_error", robot.name, "heading_rad", error, _darker(color), "heading (rad)")
         self._set_time(now)
 
