@@ -27,6 +27,7 @@ EXECUTABLES = {
     "replay": "sim_runtime.bag.replay:main",
     "bag_to_rerun": "sim_runtime.rerun_view.convert:main",
     "draw_tracks": "sim_runtime.rerun_view.tracks:main",
+    "batch": "sim_runtime.batch.cli:main",
 }
 
 WRAPPER = """#!{python}
@@ -63,6 +64,7 @@ def config_files() -> list[tuple[str, list[str]]]:
 
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
+RAY = ["ray>=2.60"]
 
 setup(
     name=PACKAGE,
@@ -88,11 +90,14 @@ setup(
         "pyyaml",
         "pillow",
         "matplotlib",
+        "pyarrow",  # batch tables (Parquet); rerun-sdk needs it too
     ],
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
         "ros": ROS_WHEELS,
-        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support"],
+        "test": [*ROS_WHEELS, "pytest", "hypothesis", "ruff", "rosbags", "mcap-ros2-support", *RAY],
+        # `robot_sims batch --ray`: run sweeps on Ray (a local one, or a cluster).
+        "ray": RAY,
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },
