@@ -11,6 +11,7 @@ run side by side. All of an episode's nodes live in this process, where matching
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 import time
@@ -100,8 +101,11 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
     params = {**controller["parameters"], **ep.params}
     is_main = controller["kind"] == "user" and not isinstance(obj, type) and target.endswith(":main")
     if is_main:
-        # A main() makes its nodes on rclpy's global context: give it a fresh one per episode.
-        rclpy.init(args=[], domain_id=_domain_id)
+        # A main() makes its nodes on rclpy's global context: give it a fresh one per episode,
+        # with the parameters as the command line's (-p applies to every node of the context).
+        overrides = {"seed": ep.seed, **params}
+        argv = ["batch", "--ros-args"] + [a for k, v in overrides.items() for a in ("-p", f"{k}:={json.dumps(v)}")]
+        rclpy.init(args=argv, domain_id=_domain_id)
         context = rclpy.utilities.get_default_context()
     else:
         context = Context()
@@ -140,6 +144,12 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
         drain(executor)  # latched messages (maps, markers) reach late subscribers as in any run
         if transport == "direct":
             bus.attach()
+        if not world.ready_to_step() and hasattr(world, "_publish_step"):
+            # A lockstep SIMROBOT world published step 0 before its controllers existed and
+            # waits for their answers: publish it again now, as the world itself does after
+            # half a second of waiting (its re-publication).
+            world._publish_step()
+            bus.flush() if transport == "direct" else drain(executor)
         probe = _make_probe(ep, world)
         steps = round(ep.duration_s * world.physics_rate)
         t1 = time.perf_counter()

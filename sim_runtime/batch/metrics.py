@@ -97,9 +97,10 @@ def simrobot_crashes(data: EpisodeData) -> dict[str, float]:
 
 
 def simrobot_steps_survived(data: EpisodeData) -> dict[str, float]:
-    """Steps each robot ran before crashing (all steps if it never did), and their mean."""
-    crashed = data.arrays["crashed"]
-    steps = len(data.t)
+    """Steps each robot ran, the one it crashed in included (all steps if it never crashed), and
+    their mean."""
+    crashed = data.arrays["crashed"]  # row k: after step k (row 0: the start)
+    steps = len(data.t) - 1
     first = np.where(crashed.any(axis=0), crashed.argmax(axis=0), steps)
     out = {f"steps_survived.{name}": int(s) for name, s in zip(data.info["names"], first, strict=True)}
     return {"steps_survived": float(first.mean()), **out}

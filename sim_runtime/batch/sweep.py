@@ -63,6 +63,7 @@ TOP_KEYS = {
     "name",
 }
 KEEP_BAGS = ("none", "all", "failures")
+TOP = "(top level)"
 TRANSPORTS = ("auto", "direct", "ros")
 
 
@@ -132,7 +133,8 @@ class _Reader:
         if allowed is not None:
             unknown = sorted(set(map(str, value)) - allowed)
             if unknown:
-                raise self.fail(f"{where}.{unknown[0]}", f"unknown key (known: {', '.join(sorted(allowed))})")
+                field = unknown[0] if where == TOP else f"{where}.{unknown[0]}"
+                raise self.fail(field, f"unknown key (known: {', '.join(sorted(allowed))})")
         return value
 
     def listing(self, value: Any, where: str) -> list[Any]:
@@ -303,7 +305,7 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     source = Path(path)
     data = load_yaml(source, "sweep file")
     r = _Reader(source)
-    data = r.mapping(data, "(top level)", TOP_KEYS)
+    data = r.mapping(data, TOP, TOP_KEYS)
     for singular in ("world", "controller"):
         if singular in data and f"{singular}s" in data:
             raise r.fail(singular, f"give '{singular}' or '{singular}s', not both")
