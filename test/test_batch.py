@@ -165,6 +165,7 @@ def test_user_nodes_main_functions_and_metrics_and_a_failing_episode(tmp_path: P
           - my_ctl:Spinner
           - {name: spinner_direct, use: my_ctl:Spinner, transport: direct}
           - my_ctl:main
+          - {name: main_again, use: my_ctl:main}
           - my_ctl:drive
           - {name: quitter, use: my_ctl:Spinner, parameters: {fail_at: 1.5}}
         poses: [[0.0, 0.0, 0.0]]
@@ -183,6 +184,7 @@ def test_user_nodes_main_functions_and_metrics_and_a_failing_episode(tmp_path: P
     assert node["status"] == direct["status"] == main["status"] == function["status"] == "ok"
     same = ("distance_m", "final_x", "final_y", "final_theta", "net_displacement")
     assert [node[k] for k in same] == [direct[k] for k in same] == [main[k] for k in same]
+    assert [table["main_again"][k] for k in same] == [main[k] for k in same]  # a fresh global context each time
     assert float(node["distance_m"]) > 0.5 and float(node["net_displacement"]) > 0.3
     assert float(function["distance_m"]) > float(node["distance_m"])  # drives from step 1, not the first bump message
     assert quitter["status"] == "error" and "spinner gave up at 1.5" in quitter["error"]

@@ -31,17 +31,30 @@ DOMAIN_BASE = 100
 #: Wall seconds to wait for an episode's publishers and subscriptions to match.
 MATCH_TIMEOUT = 10.0
 
+#: Our nodes in an episode go without what nobody can reach there (parameter services, /rosout):
+#: a third of an episode's set-up was creating those DDS endpoints.
+LEAN_NODE = {"start_parameter_services": False, "enable_rosout": False}
+
 _domain_id: int | None = None
+_logging_keeper: Any = None
 
 
 def isolate_process(worker: int | None = None) -> int:
     """Make this process's ROS traffic invisible outside it; returns its domain id.
 
     Call before the first ``rclpy.init`` of the process (every engine's worker does)."""
-    global _domain_id
+    global _domain_id, _logging_keeper
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
     os.environ.pop("ROS_STATIC_PEERS", None)
     _domain_id = DOMAIN_BASE + (worker if worker is not None else os.getpid()) % 100
+    if _logging_keeper is None:
+        # rcl logging is set up when the first context starts and torn down when the last one
+        # ends: one idle context for the worker's life spares each episode doing both.
+        import rclpy
+        from rclpy.context import Context
+
+        _logging_keeper = Context()
+        rclpy.init(args=[], context=_logging_keeper, domain_id=_domain_id)
     return _domain_id
 
 
@@ -182,7 +195,10 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
             executor.remove_node(node)
             node.destroy_node()
         executor.shutdown()
-        rclpy.shutdown(context=context)
+        if is_main:
+            rclpy.shutdown()  # also lets the next episode's init() make a fresh global context
+        else:
+            rclpy.shutdown(context=context)
     end = time.perf_counter()
     if recorder is not None and recorder.error is not None:
         raise RuntimeError(f"recording the bag failed: {recorder.error}")
@@ -234,7 +250,7 @@ def _make_world(ep: Episode, context: Any) -> Any:
         ]
         if ep.pose is not None:
             overrides.append(Parameter("initial_pose", value=[float(v) for v in ep.pose]))
-        return CreateWorldNode(parameter_overrides=overrides, context=context)
+        return CreateWorldNode(parameter_overrides=overrides, context=context, **LEAN_NODE)
     if ep.simulator == "simrobot":
         from simrobot_sim.world_file import load_world
         from simrobot_sim.world_node import SimrobotWorldNode
@@ -242,12 +258,12 @@ def _make_world(ep: Episode, context: Any) -> Any:
         path = ep.world["world_file"]
         if path not in _world_specs:  # the bitmap is parsed once per worker
             _world_specs[path] = load_world(path)
-        return SimrobotWorldNode(_world_specs[path], parameter_overrides=overrides, context=context)
+        return SimrobotWorldNode(_world_specs[path], parameter_overrides=overrides, context=context, **LEAN_NODE)
     from arm_sim.arm_node import ArmNode
 
     overrides.append(Parameter("robot_config", value=ep.world["robot_config"]))
     overrides.append(Parameter("skip_missing_meshes", value=True))
-    world = ArmNode(parameter_overrides=overrides, context=context)
+    world = ArmNode(parameter_overrides=overrides, context=context, **LEAN_NODE)
     world.ik_failures = 0
     arm = world.arms[0].arm
     solve = arm.ikine
@@ -273,6 +289,8 @@ def _make_controller_nodes(ep: Episode, cls: type, world: Any, params: dict[str,
             sonar = next((s.name for s in robot.sensors if s.kind == "ultrasonic"), None)
             if sonar is not None:
                 kwargs = {"namespace": f"/{robot.name}", "parameter_overrides": overrides, "context": context}
+                if ep.controller["kind"] == "ours":
+                    kwargs.update(LEAN_NODE)
                 if "sensor" in _init_args(cls):
                     kwargs["sensor"] = sonar
                 nodes.append(cls(**kwargs))
@@ -280,8 +298,9 @@ def _make_controller_nodes(ep: Episode, cls: type, world: Any, params: dict[str,
     from sim_runtime.batch.arm_targets import ArmTargetsNode
 
     if ep.simulator == "arm" and cls is ArmTargetsNode:
-        return [ArmTargetsNode(_target_poses(ep, world), ep.world["hold_s"], context=context)]
-    return [cls(parameter_overrides=overrides, context=context)]
+        return [ArmTargetsNode(_target_poses(ep, world), ep.world["hold_s"], context=context, **LEAN_NODE)]
+    lean = LEAN_NODE if ep.controller["kind"] == "ours" else {}
+    return [cls(parameter_overrides=overrides, context=context, **lean)]
 
 
 def _init_args(cls: type) -> set[str]:
