@@ -145,6 +145,7 @@ def test_a_rerun_skips_finished_episodes_and_runs_new_ones(tmp_path: Path) -> No
     second = batch(str(sweep), "--workers", "1", "--no-plots", cwd=tmp_path)
     assert second.returncode == 0, second.stderr
     assert "4 episodes (2 already done)" in second.stderr
+    assert "] 4/4 100%" in second.stderr  # the progress bar's last line
     after = rows(folder / "episodes.csv")
     assert len(after) == 4
     kept = {r["key"]: r for r in after}
@@ -233,22 +234,22 @@ def test_simrobot_and_arm_sweeps_report_their_metrics(tmp_path: Path) -> None:
     assert float(row["max_tracking_error_m"]) > 2.0
 
 
+CREATE = "worlds: [{map: create/example.map}]\n"
+BUMP = CREATE + "controllers: [create_bump_turn]\n"
+
+
 @pytest.mark.parametrize(
     ("body", "field"),
     [
         ("worlds: [{map: nowhere.map}]\ncontrollers: [create_bump_turn]\nduration_s: 1\n", "worlds[0].map"),
-        ("worlds: [{map: create/example.map}]\ncontrollers: [simrobot_avoid]\nduration_s: 1\n", "controllers[0]"),
-        ("worlds: [{map: create/example.map}]\ncontrollers: [create_bump_turn]\nduration_s: -1\n", "duration_s"),
-        ("worlds: [{map: create/example.map}]\ncontrollers: [x]\nduration_s: 1\nmetrics: [speed]\n", "controllers[0]"),
-        (
-            "worlds: [{map: create/example.map}]\ncontrollers: [create_bump_turn]\nduration_s: 1\nmetrics: [speed]\n",
-            "metrics[0]",
-        ),
-        (
-            "worlds: [{map: create/example.map}]\ncontrollers: [create_bump_turn]\nduration_s: 1\nkeep_bags: some\n",
-            "keep_bags",
-        ),
-        ("worlds: [{map: create/example.map}]\ncontrollers: [create_bump_turn]\nduration_s: 1\nseed: [1]\n", "seed"),
+        (CREATE + "controllers: [simrobot_avoid]\nduration_s: 1\n", "controllers[0]"),
+        (CREATE + "controllers: [x]\nduration_s: 1\n", "controllers[0]"),
+        (CREATE + "controllers: [no_such_module:Node]\nduration_s: 1\n", "controllers[0].use"),
+        (BUMP + "duration_s: -1\n", "duration_s"),
+        (BUMP + "duration_s: 1\nmetrics: [speed]\n", "metrics[0]"),
+        (BUMP + "duration_s: 1\nmetrics: [os:nope]\n", "metrics[0]"),
+        (BUMP + "duration_s: 1\nkeep_bags: some\n", "keep_bags"),
+        (BUMP + "duration_s: 1\nseed: [1]\n", "seed"),
     ],
 )
 def test_a_bad_sweep_file_is_one_line_naming_the_file_and_field(tmp_path: Path, body: str, field: str) -> None:

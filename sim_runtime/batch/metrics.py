@@ -163,7 +163,7 @@ def check_metrics(simulator: str, metrics: tuple[Any, ...], fail: Callable[[str,
         name, options = (entry, {}) if isinstance(entry, str) else next(iter(entry.items()))
         where = f"metrics[{k}]"
         if ":" in name:
-            continue  # a user's function, imported (and checked) by the first episode
+            continue  # a user's function: imported by load_sweep
         if name not in known:
             raise fail(where, f"{name!r}: {simulator} metrics are {', '.join(known)} or module:function")
         if name == "goal_time_s":

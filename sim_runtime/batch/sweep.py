@@ -206,6 +206,7 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         kind = "ours"
     elif ":" in use:
         target, kind = use, "user"
+        _importable(r, use, f"{where}.use")
     else:
         raise r.fail(
             where, f"{use!r}: not one of our controllers ({', '.join(EXECUTABLE_CONTROLLERS)}) nor module:name"
@@ -221,6 +222,16 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         "parameters": {str(k): v for k, v in parameters.items()},
         "transport": transport,
     }
+
+
+def _importable(r: _Reader, target: str, where: str) -> None:
+    """Import a user's ``module:name`` now, so that a typo fails the sweep, not every episode."""
+    from sim_runtime.batch.metrics import load_callable
+
+    try:
+        load_callable(target, str(r.source.resolve().parent))
+    except Exception as exc:  # noqa: BLE001 - any failure to import is the user's to fix
+        raise r.fail(where, f"cannot import {target!r}: {type(exc).__name__}: {exc}") from None
 
 
 def _seeds(r: _Reader, value: Any) -> list[int]:
@@ -331,6 +342,10 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     duration = r.number(data.get("duration_s"), "duration_s", positive=True)
     metrics = _metrics(r, data.get("metrics"))
     check_metrics(simulator, metrics, lambda where, msg: r.fail(where, msg))
+    for k, entry in enumerate(metrics):
+        name = entry if isinstance(entry, str) else next(iter(entry))
+        if ":" in name:
+            _importable(r, name, f"metrics[{k}]")
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
