@@ -8,6 +8,7 @@ Executables are declared once, in EXECUTABLES. They reach users two ways:
 """
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -66,12 +67,22 @@ def config_files() -> list[tuple[str, list[str]]]:
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 RAY = ["ray>=2.60"]
 
+
+def package_version() -> str:
+    """The version, written once: package.xml's (ament and colcon read it there)."""
+    match = re.search(r"<version>([^<]+)</version>", (HERE / "package.xml").read_text())
+    if match is None:
+        raise RuntimeError("package.xml has no <version>")
+    return match.group(1).strip()
+
+
 setup(
     name=PACKAGE,
-    version="0.1.0",
+    version=package_version(),
     description="Simulated robot drivers for ROS 2 Jazzy: iRobot Create, SIMROBOT worlds, serial arms, MCAP bags",
     license="BSD-3-Clause",
-    python_requires=">=3.10",
+    # Tested on 3.11 (the ROS 2 Jazzy wheels on PyPI); a Jazzy install on Ubuntu 24.04 has 3.12.
+    python_requires=">=3.11",
     packages=find_packages(include=["sim_runtime*", "create_sim*", "simrobot_sim*", "arm_sim*"]),
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),

@@ -56,7 +56,7 @@ from arm_sim.scene import Scene, load_scene
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
 from sim_runtime.paths import config_path
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.rotations import quaternions_xyzw
 from sim_runtime.run import run_nodes
 from sim_runtime.world_node import SimWorldNode
@@ -161,12 +161,14 @@ class ArmInstance:
         )
         self.index = {name: i for i, name in enumerate(arm.joint_names)}
         frame = node.frame_id
-        self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", COMMAND_QOS)
-        self.marker_pub = node.create_publisher(MarkerArray, prefix + "robot_markers", COMMAND_QOS)
-        self.pose_pub = node.create_publisher(PoseStamped, prefix + "end_effector_pose", COMMAND_QOS)
-        node.create_subscription(JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_QOS)
-        node.create_subscription(JointState, prefix + "joint_command", self.on_joint_command, COMMAND_QOS)
-        node.create_subscription(PoseStamped, prefix + "target_pose", self.on_target_pose, COMMAND_QOS)
+        self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", SENSOR_PUBLISHER_QOS)
+        self.marker_pub = node.create_publisher(MarkerArray, prefix + "robot_markers", SENSOR_PUBLISHER_QOS)
+        self.pose_pub = node.create_publisher(PoseStamped, prefix + "end_effector_pose", SENSOR_PUBLISHER_QOS)
+        node.create_subscription(
+            JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_SUBSCRIBER_QOS
+        )
+        node.create_subscription(JointState, prefix + "joint_command", self.on_joint_command, COMMAND_SUBSCRIBER_QOS)
+        node.create_subscription(PoseStamped, prefix + "target_pose", self.on_target_pose, COMMAND_SUBSCRIBER_QOS)
         self.joint_msg = JointState(name=list(arm.joint_names))
         self.joint_msg.header.frame_id = frame
         self.pose_msg = PoseStamped()

@@ -34,7 +34,7 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
 
     from arm_sim.arm_node import ArmNode
     from sim_runtime.msgs import quaternion_from_matrix
-    from sim_runtime.qos import COMMAND_QOS
+    from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
     from sim_runtime.run import private_ros
     from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
@@ -48,10 +48,10 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         for node in nodes:
             executor.add_node(node)
         arm = world.arm("")
-        states = Collector(commander, JointState, "joint_states", COMMAND_QOS)
-        poses = Collector(commander, PoseStamped, "end_effector_pose", COMMAND_QOS)
-        traj_pub = commander.create_publisher(JointTrajectory, "joint_trajectory", COMMAND_QOS)
-        pose_pub = commander.create_publisher(PoseStamped, "target_pose", COMMAND_QOS)
+        states = Collector(commander, JointState, "joint_states", SENSOR_SUBSCRIBER_QOS)
+        poses = Collector(commander, PoseStamped, "end_effector_pose", SENSOR_SUBSCRIBER_QOS)
+        traj_pub = commander.create_publisher(JointTrajectory, "joint_trajectory", COMMAND_PUBLISHER_QOS)
+        pose_pub = commander.create_publisher(PoseStamped, "target_pose", COMMAND_PUBLISHER_QOS)
         for endpoint in (states.subscription, poses.subscription, traj_pub, pose_pub):
             wait_for_match(executor, endpoint)
 

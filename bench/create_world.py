@@ -193,14 +193,19 @@ except Exception:  # SIGTERM from the benchmark ends the listener
 """
 
 
-def bench_node(map_path: str, pose, budget: float, subscribed: bool) -> Rate:
+def bench_node(map_path: str, pose, budget: float, subscribed: bool, tf: bool = True) -> Rate:
     """Simulated seconds per wall second of the world node at real_time_factor 0, default rates.
 
     With ``subscribed`` a listener in another process (as a user's controller would be) takes
     every topic the world publishes, so every sensor is built, serialised and sent; without it
-    the world skips the sensors nobody listens to.
+    the world skips the sensors nobody listens to. ``tf=False`` runs the world as if tf2_msgs were
+    not installed (no /tf, /tf_static), to measure what TF costs.
     """
     import rclpy
+
+    import sim_runtime.tf
+
+    saved, sim_runtime.tf.TFMessage = sim_runtime.tf.TFMessage, (sim_runtime.tf.TFMessage if tf else None)
     from rclpy.parameter import Parameter
 
     from create_sim.world_node import CreateWorldNode
@@ -244,6 +249,7 @@ def bench_node(map_path: str, pose, budget: float, subscribed: bool) -> Rate:
             listener.terminate()
             listener.wait(10)
         rclpy.shutdown()
+        sim_runtime.tf.TFMessage = saved
 
 
 _COLD_START = r"""
@@ -252,7 +258,7 @@ from rclpy.parameter import Parameter
 import rclpy
 from create_sim.world_node import CreateWorldNode
 from sensor_msgs.msg import LaserScan
-from sim_runtime.qos import SENSOR_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import make_executor
 
 rclpy.init()
@@ -261,7 +267,7 @@ world = CreateWorldNode(parameter_overrides=[Parameter("map_file", value=sys.arg
                                              Parameter("real_time_factor", value=0.0)])
 listener = rclpy.create_node("cold_start_listener")
 got = []
-listener.create_subscription(LaserScan, "scan", got.append, SENSOR_QOS)
+listener.create_subscription(LaserScan, "scan", got.append, SENSOR_SUBSCRIBER_QOS)
 executor = make_executor()
 executor.add_node(world)
 executor.add_node(listener)

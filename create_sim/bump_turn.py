@@ -18,7 +18,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import Range
 
 from sim_runtime.msgs import time_from_msg
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.params import CheckedNode
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
 
 FORWARD_SPEED = 0.3  # m/s
@@ -28,16 +29,19 @@ TURN_SPEED = 1.5  # rad/s
 TURN_ANGLES = (math.radians(60), math.radians(150))  # random turn between these, away from the bump
 
 
-class BumpTurnNode(Node):
+class BumpTurnNode(CheckedNode):
     """Forward → (bump) → back up → turn away → forward."""
 
     def __init__(self, node_name: str = "create_bump_turn", **node_kwargs) -> None:
         super().__init__(node_name, **node_kwargs)
-        self.rng = np.random.default_rng(self.declare_parameter("seed", 0).value)
-        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_QOS)
+        seed = self.declare_checked("seed", 0, None, "seed of the random turn angles", bounds=(0, 2**63 - 1))
+        self.rng = np.random.default_rng(seed)
+        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self.pressed = {"left": False, "right": False}
         for side in self.pressed:
-            self.create_subscription(Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_QOS)
+            self.create_subscription(
+                Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_SUBSCRIBER_QOS
+            )
         self.state = "forward"
         self.state_end = 0.0  # sim time at which "back" or "turn" ends
         self.hit: set[str] = set()  # bumpers pressed since the last bump began
@@ -87,7 +91,12 @@ def demo(
     from sim_runtime.run import drain, private_ros
     from sim_runtime.testing import wait_for_match
 
-    overrides = [Parameter("real_time_factor", value=0.0), Parameter("seed", value=seed)]
+    # No localisation node runs in the demo: the world publishes the true map -> odom itself.
+    overrides = [
+        Parameter("real_time_factor", value=0.0),
+        Parameter("seed", value=seed),
+        Parameter("publish_map_tf", value=True),
+    ]
     if map_file is not None:
         overrides.append(Parameter("map_file", value=str(map_file)))
     with private_ros() as (context, executor):

@@ -44,7 +44,7 @@ from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from visualization_msgs.msg import MarkerArray
 
 from sim_runtime.msgs import time_from_msg, time_msg, yaw_from_quaternion
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
 MAX_WHEEL_SPEED = 0.5  # m/s
 WHEEL_BASE = 0.258  # m
@@ -149,7 +149,7 @@ class CreateRobot:
         self._spin = spin or (lambda: rclpy.spin_once(node, timeout_sec=0.05))  # hosted mode only
         self._stamped = stamped
         self.commands_sent = 0  # velocity commands published
-        self._cmd_pub = node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self._cmd_pub = node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self._subscribe()
         if self._thread:
             self._thread.start()
@@ -169,8 +169,10 @@ class CreateRobot:
             (BatteryState, "battery_state"),
         ]
         for msg_type, topic in topics:
-            self.node.create_subscription(msg_type, topic, lambda msg, t=topic: self._store(t, msg), SENSOR_QOS)
-        self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_QOS)
+            self.node.create_subscription(
+                msg_type, topic, lambda msg, t=topic: self._store(t, msg), SENSOR_SUBSCRIBER_QOS
+            )
+        self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
 
     # ------------------------------------------------------------ plumbing
     def _store(self, topic: str, msg) -> None:

@@ -115,6 +115,7 @@ class CreateModel:
         self._velocity = (0.0, 0.0)
         self._odom_pose = np.zeros(3)
         self._odom_totals = np.zeros(2)
+        self._odom_variance = np.zeros(2)  # of the summed distance and turn
 
     @property
     def pose(self) -> np.ndarray:
@@ -212,11 +213,19 @@ class CreateModel:
         mid = th + 0.5 * turn
         self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid), wrap_angle(th + turn))
         self._odom_totals += (dist, turn)
+        if std != 0.0:
+            self._odom_variance += ((std * dist) ** 2, (std * turn) ** 2)
 
     @property
     def odometry_pose(self) -> np.ndarray:
         """[x, y, θ] dead-reckoned from the noisy wheel odometry, from (0, 0, 0) at reset."""
         return self._odom_pose.copy()
+
+    @property
+    def odometry_variance(self) -> tuple[float, float]:
+        """Variance of the odometry's summed distance (m²) and turn (rad²) from its noise since reset:
+        each step's proportional error adds (std·step)²; zero for noise-free odometry."""
+        return float(self._odom_variance[0]), float(self._odom_variance[1])
 
     @property
     def odometry_totals(self) -> tuple[float, float]:

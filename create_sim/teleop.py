@@ -27,9 +27,9 @@ import tty
 
 import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
-from rclpy.node import Node
 
-from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.params import CheckedNode
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 
 LINEAR_STEP = 0.1  # m/s per key press, as the seed
 ANGULAR_STEP = 0.5  # rad/s per key press, as the seed
@@ -77,15 +77,24 @@ def split_keys(data: bytes) -> list[bytes]:
     return keys
 
 
-class TeleopNode(Node):
+class TeleopNode(CheckedNode):
     """Publishes ``cmd_vel`` from key presses read from a terminal file descriptor."""
 
-    def __init__(self) -> None:
-        super().__init__("create_teleop")
-        self.stamped = self.declare_parameter("cmd_vel_stamped", False).value
-        self.repeat_rate = float(self.declare_parameter("repeat_rate", 5.0).value)
+    def __init__(self, node_name: str = "create_teleop", **node_kwargs) -> None:
+        super().__init__(node_name, **node_kwargs)
+        self.stamped = self.declare_checked(
+            "cmd_vel_stamped", False, None, "publish geometry_msgs/TwistStamped instead of Twist"
+        )
+        self.repeat_rate = self.declare_checked(
+            "repeat_rate",
+            5.0,
+            None,
+            "re-send the current command this often (Hz) while no key comes, so a world's cmd_vel_timeout "
+            "does not stop the robot (0 = only on key presses)",
+            bounds=(0.0, 1000.0),
+        )
         msg_type = TwistStamped if self.stamped else Twist
-        self.publisher = self.create_publisher(msg_type, "cmd_vel", COMMAND_QOS)
+        self.publisher = self.create_publisher(msg_type, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self.linear_steps = 0
         self.angular_steps = 0
 

@@ -36,6 +36,7 @@ after its measurement (its stamp stays the measurement time, so the latency is v
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
 from collections.abc import Callable
@@ -53,7 +54,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
-from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -64,10 +65,11 @@ from sim_runtime.msgs import (
     pose_msg,
     yaw_from_quaternion,
 )
-from sim_runtime.paths import config_path
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.paths import config_path, resolve_input_file
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
 from sim_runtime.run import run_nodes
-from sim_runtime.world_node import SimWorldNode
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
+from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
 """Fixed physics rate (Hz), independent of ``real_time_factor``."""
@@ -91,11 +93,6 @@ DEFAULT_RATES: dict[str, float] = {
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 
 
-def _frame_prefix(namespace: str) -> str:
-    ns = namespace.strip("/")
-    return f"{ns}/" if ns else ""
-
-
 class CreateWorldNode(SimWorldNode):
     """The simulated Create: parameters → :class:`CreateModel`, model state → messages."""
 
@@ -103,6 +100,7 @@ class CreateWorldNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
+            self.note_compiling("create_sim.geometry", "create_sim.sensing", "create_sim.physics")
             self.model = self._make_model()
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
@@ -115,61 +113,87 @@ class CreateWorldNode(SimWorldNode):
         self.commands_received = 0  # velocity commands handled, rejected ones included (tests sync on it)
         self.buttons_state = [0, 0]  # [play, advance]
 
+        self.tf = TfBroadcaster(self)
         self._make_publishers()
+        self._publish_static_transforms()
         self._make_inputs()
         self._publish_map_markers()
+        self.get_logger().info(self._summary())
 
     # ---------------------------------------------------------------- parameters
     def _declare_parameters(self) -> None:
-        map_file = self.declare_checked(
+        declare = self.declare_checked
+        map_file = declare(
             "map_file",
             str(config_path("create/example.map")),
-            lambda v: isinstance(v, str),
-            "map file in the seed's text format ('' = empty map)",
+            None,
+            "map file in the Create simulator's text format: a path, or relative to the current directory "
+            "or to the shipped config/ ('' = an empty map); setting it loads the new map with the robot "
+            "where it is (refused if that is inside a wall)",
+            live=True,
+            on_change=self._change_map,
         )
-        config_file = self.declare_checked(
+        config_file = declare(
             "config_file",
             "",
-            lambda v: isinstance(v, str),
-            "noise/com_delay config file in the seed's text format ('' = noise-free)",
+            None,
+            "noise/com_delay config file in the Create simulator's text format ('' = noise-free); "
+            "setting it applies the new noise and delay at once",
+            live=True,
+            on_change=self._change_noise,
         )
-        pose = self.declare_checked(
+        pose = declare(
             "initial_pose",
             [0.0, 0.0, 0.0],
             lambda v: len(v) == 3 and all_finite(*v),
-            "initial pose [x, y, theta] in the map frame (m, rad)",
+            "initial pose [x, y, theta] in the map frame (m, rad); the reset service returns there",
         )
-        self.cmd_vel_stamped = self.declare_checked(
-            "cmd_vel_stamped",
-            False,
-            lambda v: isinstance(v, bool),
-            "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel",
+        self.cmd_vel_stamped = declare(
+            "cmd_vel_stamped", False, None, "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel"
         )
-        self.cmd_vel_timeout = self.declare_checked(
+        self.cmd_vel_timeout = declare(
             "cmd_vel_timeout",
             0.0,
-            lambda v: math.isfinite(v) and v >= 0.0,
+            None,
             "stop after this many sim seconds without cmd_vel (0 = hold the last command)",
+            live=True,
+            on_change=lambda v: setattr(self, "cmd_vel_timeout", v),
+            bounds=(0.0, 1e9),
         )
-        prefix = self.declare_checked(
+        prefix = declare(
             "frame_prefix",
             "",
-            lambda v: isinstance(v, str),
-            "prefix of the robot's frames ('' = derived from the namespace)",
+            None,
+            "prefix of the robot's frames ('' = from the namespace: /robot1 -> robot1/)",
+        )
+        self.publish_map_tf = declare(
+            "publish_map_tf",
+            False,
+            None,
+            "also publish the ground-truth map -> odom transform (off: a localisation node normally owns it)",
         )
         self.rates = {
-            name: self.declare_checked(
+            name: declare(
                 f"rate.{name}",
                 default,
-                lambda v: math.isfinite(v) and 0.0 <= v <= PHYSICS_RATE,
-                f"{name} publication rate in Hz (0 = never, at most the physics rate)",
+                None,
+                f"{name} publication rate in Hz (0 = never, at most the physics rate {PHYSICS_RATE:g})",
+                live=True,
+                on_change=lambda v, name=name: self._change_rate(name, v),
+                bounds=(0.0, PHYSICS_RATE),
             )
             for name, default in DEFAULT_RATES.items()
         }
-        self.prefix = prefix or _frame_prefix(self.get_namespace())
-        self.world = self._load_world(map_file)
-        self.noise = self._load_noise(config_file)
+        self.prefix = prefix or namespace_prefix(self.get_namespace())
+        self.map_file = self._resolve(map_file, "map_file")
+        self.config_file = self._resolve(config_file, "config_file")
+        self.world = self._load_world(self.map_file)
+        self.noise = self._load_noise(self.config_file)
         self.initial_pose = tuple(float(v) for v in pose)
+
+    @staticmethod
+    def _resolve(value: str, parameter: str) -> str:
+        return str(resolve_input_file(value, parameter)) if value else ""
 
     def _make_model(self) -> CreateModel:
         try:
@@ -195,48 +219,102 @@ class CreateWorldNode(SimWorldNode):
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
 
+    def _summary(self) -> str:
+        w = self.world
+        counts = (
+            f"{len(w.walls)} walls, {len(w.lines)} lines, {len(w.beacon_ids)} beacons, {len(w.virtwalls)} virtual walls"
+        )
+        return (
+            f"map {self.map_file or '(empty)'} ({counts}); config {self.config_file or '(noise-free)'}; "
+            f"robot at {list(self.initial_pose)}, frames {self.frame('base_link')}; {self.pace_text()}"
+        )
+
+    def _change_map(self, value: str) -> None:
+        """Live ``map_file``: the robot stays where it is, stopped; refused if that is inside a wall."""
+        path = self._resolve(value, "map_file")
+        world = self._load_world(path)
+        x, y, theta = self.model.pose.tolist()
+        try:
+            model = CreateModel(world, self.noise, rng=self.rng, pose=(x, y, theta))
+        except InputError as err:
+            raise InputError(f"the robot at ({x:.3f}, {y:.3f}) would be inside a wall of {path}: {err}") from err
+        try:
+            model.initial_pose = CreateModel(world, pose=self.initial_pose).initial_pose
+        except InputError:
+            self.get_logger().warning(
+                f"initial_pose {list(self.initial_pose)} is inside a wall of {path}: reset now returns to "
+                f"({x:.3f}, {y:.3f}, {theta:.3f})"
+            )
+        self.world, self.map_file, self.model = world, path, model
+        self._delayed_cmds.clear()
+        self._publish_map_markers()
+        self.get_logger().info(f"map_file: loaded {path or 'an empty map'}")
+
+    def _change_noise(self, value: str) -> None:
+        path = self._resolve(value, "config_file")
+        self.noise = self._load_noise(path)
+        self.model.noise = self.noise
+        self.config_file = path
+        self.com_delay = float(self.noise.com_delay)
+        self._make_templates()
+        self.get_logger().info(f"config_file: loaded {path or 'noise-free defaults'}")
+
+    def _change_rate(self, name: str, rate_hz: float) -> None:
+        self.rates[name] = rate_hz
+        self._schedule[name].set_rate(rate_hz / self.physics_rate, self.step_count)
+        if name == "scan":
+            self._make_templates()  # scan_time follows the rate
+
     def frame(self, name: str) -> str:
         """The robot frame ``name`` with this robot's prefix (e.g. ``robot1/laser``)."""
         return self.prefix + name
 
     # ---------------------------------------------------------------- topics
     def _make_publishers(self) -> None:
-        pub = self.create_publisher
-        self.pub_odom = pub(Odometry, "odom", SENSOR_QOS)
-        self.pub_overhead = pub(PoseStamped, "overhead_pose", SENSOR_QOS)
-        self.pub_bump = [pub(Range, f"bump/{side}", SENSOR_QOS) for side in ("left", "right")]
-        self.pub_wall = pub(Range, "wall", SENSOR_QOS)
-        self.pub_virtual_wall = pub(Range, "virtual_wall", SENSOR_QOS)
-        self.pub_cliff = [pub(Illuminance, f"cliff/{n}", SENSOR_QOS) for n in CLIFF_NAMES]
-        self.pub_sonar = [pub(Range, f"sonar/{n}", SENSOR_QOS) for n in SONAR_NAMES]
-        self.pub_scan = pub(LaserScan, "scan", SENSOR_QOS)
-        self.pub_camera = pub(MarkerArray, "camera/beacons", SENSOR_QOS)
-        self.pub_buttons = pub(Joy, "buttons", SENSOR_QOS)
-        self.pub_battery = pub(BatteryState, "battery_state", SENSOR_QOS)
+        def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
+            if qos is not SENSOR_PUBLISHER_QOS:
+                return self.create_publisher(msg_type, topic, qos)
+            # a copy: rclpy writes the overrides into the profile it is given
+            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+
+        self.pub_odom = pub(Odometry, "odom")
+        self.pub_overhead = pub(PoseStamped, "overhead_pose")
+        self.pub_bump = [pub(Range, f"bump/{side}") for side in ("left", "right")]
+        self.pub_wall = pub(Range, "wall")
+        self.pub_virtual_wall = pub(Range, "virtual_wall")
+        self.pub_cliff = [pub(Illuminance, f"cliff/{n}") for n in CLIFF_NAMES]
+        self.pub_sonar = [pub(Range, f"sonar/{n}") for n in SONAR_NAMES]
+        self.pub_scan = pub(LaserScan, "scan")
+        self.pub_camera = pub(MarkerArray, "camera/beacons")
+        self.pub_buttons = pub(Joy, "buttons")
+        self.pub_battery = pub(BatteryState, "battery_state")
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
         self._make_templates()
 
-        m = self.model
-        # rate name -> (model sensor read or None, publisher of its message, its publishers, config noise it draws)
-        sensors: dict[str, tuple[Callable[[], Any] | None, Callable[..., None], list[Publisher], str | None]] = {
-            "bump": (m.bumps, self._publish_bumps, self.pub_bump, None),
-            "cliff": (m.cliff_signals, self._publish_cliffs, self.pub_cliff, "cliff"),
-            "wall": (m.wall_sensor, self._publish_wall, [self.pub_wall], "wall"),
-            "virtual_wall": (m.virtual_wall, self._publish_virtual_wall, [self.pub_virtual_wall], None),
-            "odom": (None, self._publish_odom, [self.pub_odom], None),  # odometry noise is drawn by the physics
+        # rate name -> (CreateModel method reading it or None, publisher of its message, its publishers,
+        # config noise it draws). Methods are looked up at each tick: a live map_file swaps the model.
+        sensors: dict[str, tuple[str | None, Callable[..., None], list[Publisher], str | None]] = {
+            "bump": ("bumps", self._publish_bumps, self.pub_bump, None),
+            "cliff": ("cliff_signals", self._publish_cliffs, self.pub_cliff, "cliff"),
+            "wall": ("wall_sensor", self._publish_wall, [self.pub_wall], "wall"),
+            "virtual_wall": ("virtual_wall", self._publish_virtual_wall, [self.pub_virtual_wall], None),
+            # odometry noise is drawn by the physics; /tf's odom -> base_link goes with the odometry
+            "odom": (None, self._publish_odom, [self.pub_odom, *self.tf.publishers], None),
             "overhead_pose": (None, self._publish_overhead, [self.pub_overhead], None),
-            "sonar": (m.sonar, self._publish_sonar, self.pub_sonar, "sonar"),
-            "scan": (m.lidar, self._publish_scan, [self.pub_scan], "lidar"),
-            "camera": (m.camera, self._publish_camera, [self.pub_camera], "camera"),
+            "sonar": ("sonar", self._publish_sonar, self.pub_sonar, "sonar"),
+            "scan": ("lidar", self._publish_scan, [self.pub_scan], "lidar"),
+            "camera": ("camera", self._publish_camera, [self.pub_camera], "camera"),
             "buttons": (None, self._publish_buttons, [self.pub_buttons], None),
             "battery": (None, self._publish_battery, [self.pub_battery], None),
         }
-        for name, (read, publish, publishers, noise_key) in sensors.items():
-            self.every(self.rates[name], self._sensor_tick(read, publish, publishers, noise_key))
+        self._schedule = {
+            name: self.every(self.rates[name], self._sensor_tick(read, publish, publishers, noise_key))
+            for name, (read, publish, publishers, noise_key) in sensors.items()
+        }
 
     def _sensor_tick(
         self,
-        read: Callable[[], Any] | None,
+        read: str | None,
         publish: Callable[..., None],
         publishers: list[Publisher],
         noise_key: str | None,
@@ -244,15 +322,14 @@ class CreateWorldNode(SimWorldNode):
         """A sensor's scheduled callback. Messages nobody subscribes to are not built (most of the cost
         at real_time_factor 0), but a sensor that draws seeded noise is still read: skipping it would
         shift the noise of the others, and a run must not depend on who listens."""
-        draws_noise = noise_key is not None and self.noise.noise[noise_key][1] != 0.0
 
         def tick() -> None:
             heard = any(p.get_subscription_count() for p in publishers)
             if read is None:
                 if heard:
                     publish()
-            elif heard or draws_noise:
-                reading = read()
+            elif heard or (noise_key is not None and self.noise.noise[noise_key][1] != 0.0):
+                reading = getattr(self.model, read)()
                 if heard:
                     publish(reading)
 
@@ -261,11 +338,16 @@ class CreateWorldNode(SimWorldNode):
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
             self.create_subscription(
-                TwistStamped, "cmd_vel", lambda m: self.command(m.twist.linear.x, m.twist.angular.z), COMMAND_QOS
+                TwistStamped,
+                "cmd_vel",
+                lambda m: self.command(m.twist.linear.x, m.twist.angular.z),
+                COMMAND_SUBSCRIBER_QOS,
             )
         else:
-            self.create_subscription(Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_QOS)
-        self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_QOS)
+            self.create_subscription(
+                Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_SUBSCRIBER_QOS
+            )
+        self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_SUBSCRIBER_QOS)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
         self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))
@@ -374,26 +456,31 @@ class CreateWorldNode(SimWorldNode):
 
             return make
 
-        def detector(frame: str, distance: float, fov: float, radiation: int = Range.INFRARED):
+        def detector(frame: str, distance: float, fov: float, variance: float = 0.0):
             # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
             return stamped(
                 Range,
                 self.frame(frame),
-                radiation_type=radiation,
+                radiation_type=Range.INFRARED,
                 field_of_view=fov,
                 min_range=distance,
                 max_range=distance,
+                variance=variance,
             )
+
+        def variance(sensor: str) -> float:
+            """The config noise's variance (its std squared): what the readings scatter by."""
+            return self.noise.noise[sensor][1] ** 2
 
         lo, hi = m.LIDAR_RANGE
         scan_rate = self.rates["scan"] or 1.0
         templates = {
             self.pub_bump[0]: detector("bump_left", 0.0, BUMP_FOV),
             self.pub_bump[1]: detector("bump_right", 0.0, BUMP_FOV),
-            self.pub_wall: detector("wall_ir", m.IR_RANGE, 0.0),
+            self.pub_wall: detector("wall_ir", m.IR_RANGE, 0.0, variance("wall")),
             self.pub_virtual_wall: detector("virtual_wall_ir", 0.0, 2 * math.pi),
             **{
-                pub: stamped(Illuminance, self.frame(f"cliff_{name}"))
+                pub: stamped(Illuminance, self.frame(f"cliff_{name}"), variance=variance("cliff"))
                 for pub, name in zip(self.pub_cliff, CLIFF_NAMES, strict=True)
             },
             **{
@@ -402,6 +489,7 @@ class CreateWorldNode(SimWorldNode):
                     self.frame(f"sonar_{name}"),
                     radiation_type=Range.ULTRASOUND,
                     field_of_view=0.0,
+                    variance=variance("sonar"),
                     min_range=m.SONAR_RANGE[0],
                     max_range=m.SONAR_RANGE[1],
                 )
@@ -437,6 +525,11 @@ class CreateWorldNode(SimWorldNode):
                 power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH,
             ),
         }
+        if self.tf.publisher is not None:
+            moving = [(self.frame("odom"), self.frame("base_link"))]
+            if self.publish_map_tf:
+                moving.append(("map", self.frame("odom")))
+            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
         self._templates: dict[Publisher, Callable[[], Any]] = templates
         self._reusable: dict[Publisher, Any] = {}
 
@@ -504,14 +597,62 @@ class CreateWorldNode(SimWorldNode):
         self._send(self.pub_camera, MarkerArray(markers=markers))
 
     def _publish_odom(self) -> None:
+        """Odometry (with covariances from the config noise) and ``odom → base_link`` on /tf."""
         x, y, theta = self.model.odometry_pose.tolist()
-        v, w = self.model.velocity
-        msg = self._message(self.pub_odom)
-        msg.header.stamp = self.stamp()
-        msg.pose.pose = pose_msg(x, y, theta)
-        msg.twist.twist.linear.x = float(v)
-        msg.twist.twist.angular.z = float(w)
-        self._send(self.pub_odom, msg)
+        stamp = self.stamp()
+        if self.pub_odom.get_subscription_count():
+            v, w = self.model.velocity
+            msg = self._message(self.pub_odom)
+            msg.header.stamp = stamp
+            msg.pose.pose = pose_msg(x, y, theta)
+            msg.twist.twist.linear.x = float(v)
+            msg.twist.twist.angular.z = float(w)
+            msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
+            self._send(self.pub_odom, msg)
+        if self.tf.heard():
+            msg = self._message(self.tf.publisher)
+            odom_to_base = msg.transforms[0]
+            odom_to_base.header.stamp = stamp
+            set_planar(odom_to_base, x, y, theta)
+            if self.publish_map_tf:
+                map_to_odom = msg.transforms[1]
+                map_to_odom.header.stamp = stamp
+                set_planar(map_to_odom, *self._map_to_odom(x, y, theta))
+            self._send(self.tf.publisher, msg)
+
+    def _odometry_covariances(self, v: float, w: float) -> tuple[np.ndarray, np.ndarray]:
+        """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the noisy odometry.
+
+        Distance and turn errors are proportional to each step's motion; a heading error also moves
+        the position sideways by about the distance driven. z, roll and pitch are exact (a planar
+        robot): zero, as everything is for noise-free odometry."""
+        std = self.noise.noise["odometry"][1]
+        var_dist, var_turn = self.model.odometry_variance
+        distance = abs(self.model.odometry_totals[0])
+        pose = np.zeros(36)
+        pose[0] = pose[7] = var_dist + distance * distance * var_turn
+        pose[35] = var_turn
+        twist = np.zeros(36)
+        twist[0] = (std * v) ** 2
+        twist[35] = (std * w) ** 2
+        return pose, twist
+
+    def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float) -> tuple[float, float, float]:
+        """Ground truth ``map → odom`` (x, y, yaw): where the odometry frame's origin really is."""
+        x, y, theta = self.model.pose.tolist()
+        yaw = theta - odom_theta
+        c, s = math.cos(yaw), math.sin(yaw)
+        return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
+
+    def _publish_static_transforms(self) -> None:
+        base = self.frame("base_link")
+        self.tf.send_static(
+            [
+                transform_msg(base, self.frame(name), mount.x_m, mount.y_m, mount.z_m, mount.yaw_rad)
+                for name, mount in SENSOR_MOUNTS.items()
+            ],
+            self.stamp(),
+        )
 
     def _publish_overhead(self) -> None:
         msg = self._message(self.pub_overhead)

@@ -1,30 +1,69 @@
-"""The three QoS profiles every node uses (design.md §3)."""
+"""The QoS profiles every node uses, named for who uses them (REP-2003).
+
+Publishers of sensor data and state are reliable and volatile (the system default): a reliable
+publisher serves both reliable subscribers (``create_subscription(..., 10)``, RViz, Nav2) and
+best-effort ones. Subscribers to sensors take :data:`SENSOR_SUBSCRIBER_QOS` (best effort), which
+matches any publisher. Maps, robot descriptions and ``/tf_static`` are latched (transient local).
+"""
 
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
+    QoSPolicyKind,
     QoSProfile,
     ReliabilityPolicy,
     qos_profile_sensor_data,
 )
+from rclpy.qos_overriding_options import QoSOverridingOptions
 
-#: Sensor streams: best effort, keep last 5 (REP-2003 / SensorDataQoS).
-SENSOR_QOS: QoSProfile = qos_profile_sensor_data
-
-#: Commands: every message matters, a short queue absorbs bursts.
-COMMAND_QOS = QoSProfile(
+#: Sensor and state publishers: reliable, volatile, a short queue (REP-2003's system default).
+SENSOR_PUBLISHER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=10,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
 
-#: Maps and static descriptions: late joiners still get the last message.
+#: Lets users change a sensor publisher's QoS at start, as with any rclcpp/rclpy driver:
+#: ``-p qos_overrides./scan.publisher.reliability:=best_effort`` (read-only parameters).
+SENSOR_QOS_OVERRIDES = QoSOverridingOptions(
+    policy_kinds=(QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
+)
+
+#: Subscribers to sensor streams: best effort, keep last 5 (SensorDataQoS); matches any publisher.
+SENSOR_SUBSCRIBER_QOS: QoSProfile = qos_profile_sensor_data
+
+#: Publishers of commands (controllers, teleop, clients): every message matters.
+COMMAND_PUBLISHER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
+#: Subscribers to commands (the worlds' cmd_vel, set_pose, …): best effort so that reliable and
+#: best-effort command publishers are both heard; a queue of 10 absorbs bursts.
+COMMAND_SUBSCRIBER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
+#: Maps, robot descriptions, /tf_static, crash flags: late joiners still get the last message.
 LATCHED_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=1,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
+#: /tf: as tf2's transform broadcaster (reliable, volatile, a deep queue for bursts of frames).
+TF_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
 )
 
 #: /clock: reliable like rosgraph's clock publishers, shallow.

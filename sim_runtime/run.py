@@ -148,26 +148,23 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
                 from sim_runtime.rerun_view.live import attach_live_view
 
                 attach_live_view(world)
-        fast = [world for world in worlds if world.real_time_factor == 0.0]
         for world in worlds:
-            if world not in fast:
-                world.start_pacing()
-        if fast:
-            while stop.running:
-                stepped = False
-                for world in fast:
-                    if world.ready_to_step():
-                        world.step()
-                        stepped = True
-                if stepped:
-                    drain(executor)
-                else:
-                    executor.spin_once(timeout_sec=0.01)
-        else:
-            # EventsExecutor.spin() neither fires these timers nor returns on SIGINT here;
-            # short spin_once calls do both.
-            while stop.running:
-                executor.spin_once(timeout_sec=0.1)
+            world.start_pacing()  # no-op at real_time_factor 0
+            world.get_logger().info(f"ready: {world.pace_text()}")
+        while stop.running:
+            # Re-read every turn: real_time_factor is a live parameter.
+            stepped = False
+            for world in worlds:
+                if world.real_time_factor == 0.0 and world.ready_to_step():
+                    world.step()
+                    stepped = True
+            if stepped:
+                drain(executor)
+            else:
+                # EventsExecutor.spin() neither fires these timers nor returns on SIGINT here;
+                # short spin_once calls do both.
+                fast = any(world.real_time_factor == 0.0 for world in worlds)
+                executor.spin_once(timeout_sec=0.01 if fast else 0.1)
     except ExternalShutdownException:
         pass
     finally:

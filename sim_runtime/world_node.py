@@ -2,21 +2,20 @@
 
 from __future__ import annotations
 
-import array
 import math
 import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
-from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import time_msg
+from sim_runtime.params import CheckedNode
+from sim_runtime.paths import kernels_cached
 from sim_runtime.qos import CLOCK_QOS
 
 #: How many physics steps one wall-timer tick may run to catch up before the world
@@ -25,26 +24,10 @@ from sim_runtime.qos import CLOCK_QOS
 MAX_CATCH_UP_STEPS = 50
 
 
-def _like(default: Any, value: Any) -> Any:
-    """``value`` converted to ``default``'s type where that loses nothing, else None."""
-    if isinstance(default, bool) or default is None:
-        return value if isinstance(value, bool) or default is None else None
-    if isinstance(default, float):
-        return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
-    if isinstance(default, int):
-        return value if isinstance(value, int) and not isinstance(value, bool) else None
-    if isinstance(default, str):
-        return value if isinstance(value, str) else None
-    if isinstance(default, list | tuple):
-        if not isinstance(value, list | tuple | array.array):
-            return None
-        items = list(value)
-        if default and isinstance(default[0], float):
-            if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in items):
-                return None
-            return [float(v) for v in items]
-        return items
-    return value
+def namespace_prefix(namespace: str) -> str:
+    """The frame prefix a node's namespace gives its robot frames: ``/robot1`` → ``robot1/``, ``/`` → ``''``."""
+    ns = namespace.strip("/")
+    return f"{ns}/" if ns else ""
 
 
 class _Scheduled:
@@ -57,6 +40,13 @@ class _Scheduled:
         self.ticks_per_step = ticks_per_step
         self.done = 0
 
+    def set_rate(self, ticks_per_step: float, step_count: int) -> None:
+        """Ticks per physics step from now on (0 = never, capped at every step)."""
+        if not (math.isfinite(ticks_per_step) and ticks_per_step >= 0.0):
+            raise InputError(f"publish rate must be >= 0 Hz, got {ticks_per_step!r} per step")
+        self.ticks_per_step = min(ticks_per_step, 1.0)
+        self.done = math.floor(step_count * self.ticks_per_step + 1e-9)
+
     def due(self, step_count: int) -> bool:
         # Integer tick counts from the step count: no drift however long the run.
         ticks = math.floor(step_count * self.ticks_per_step + 1e-9)
@@ -66,7 +56,7 @@ class _Scheduled:
         return False
 
 
-class SimWorldNode(Node):
+class SimWorldNode(CheckedNode):
     """A node that owns the simulation clock.
 
     Subclasses override :meth:`physics_step` and register publishers with :meth:`every`.
@@ -80,16 +70,17 @@ class SimWorldNode(Node):
             raise InputError(f"physics rate must be a positive number of Hz, got {physics_rate!r}")
         self.physics_rate = float(physics_rate)
         self.physics_dt = 1.0 / self.physics_rate
-        self.real_time_factor = float(
-            self.declare_checked(
-                "real_time_factor",
-                1.0,
-                lambda v: math.isfinite(v) and v >= 0.0,
-                "sim seconds per wall second: 1 real time, 0 as fast as possible (must be >= 0)",
-            )
+        self.real_time_factor = self.declare_checked(
+            "real_time_factor",
+            1.0,
+            math.isfinite,
+            "sim seconds per wall second: 1 real time, 0 as fast as possible (>= 0)",
+            live=True,
+            on_change=self.set_real_time_factor,
+            bounds=(0.0, 1e6),
         )
-        self.seed = int(self.declare_checked("seed", 0, lambda v: v >= 0, "noise seed (must be >= 0)"))
-        self.live_view = bool(self.declare_parameter("rerun", False).value)
+        self.seed = self.declare_checked("seed", 0, None, "noise seed", bounds=(0, 2**63 - 1))
+        self.live_view = self.declare_checked("rerun", False, None, "also show the world live in a Rerun viewer")
         self.rng = np.random.default_rng(self.seed)
         self.sim_time = 0.0
         self.step_count = 0
@@ -98,6 +89,7 @@ class SimWorldNode(Node):
         self._last_warning: dict[str, float] = {}
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         self._pacer = None
+        self._paced = False  # stepped by a wall timer (run_nodes), not only by calls to step()
 
     # -- for subclasses -------------------------------------------------------------------
     def physics_step(self) -> None:
@@ -107,33 +99,29 @@ class SimWorldNode(Node):
         """Whether the next step may run now; lockstep worlds wait for their controllers."""
         return not self.finished
 
-    def every(self, rate_hz: float, callback: Callable[[], None]) -> None:
+    def every(self, rate_hz: float, callback: Callable[[], None]) -> _Scheduled:
         """Run ``callback`` after each physics step at which sim time crosses a multiple of
-        ``1/rate_hz`` (rate 0 disables it; rates above the physics rate fire every step)."""
-        if not (math.isfinite(rate_hz) and rate_hz >= 0.0):
-            raise InputError(f"publish rate must be >= 0 Hz, got {rate_hz!r}")
-        if rate_hz > 0.0:
-            entry = _Scheduled(callback, min(rate_hz / self.physics_rate, 1.0))
-            entry.done = math.floor(self.step_count * entry.ticks_per_step + 1e-9)
-            self._scheduled.append(entry)
+        ``1/rate_hz`` (rate 0 disables it; rates above the physics rate fire every step).
+        The returned entry's :meth:`_Scheduled.set_rate` changes the rate later."""
+        entry = _Scheduled(callback, 0.0)
+        entry.set_rate(rate_hz / self.physics_rate, self.step_count)
+        self._scheduled.append(entry)
+        return entry
 
-    def declare_checked(self, name: str, default: Any, check: Callable[[Any], bool], description: str) -> Any:
-        """Declare a parameter and return its value, typed like ``default``.
+    def pace_text(self) -> str:
+        """How this world runs, for its start-up lines."""
+        rate = f"physics {self.physics_rate:g} Hz"
+        if self.real_time_factor == 0.0:
+            return f"{rate}, as fast as possible (real_time_factor 0)"
+        if self.real_time_factor == 1.0:
+            return f"{rate}, real time"
+        return f"{rate}, {self.real_time_factor:g} x real time"
 
-        Whole numbers are accepted where a float is expected (``-p real_time_factor:=0``,
-        ``-p initial_pose:=[1,0,0]``); a value of another type, or failing ``check``, raises
-        :class:`InputError` naming the parameter, the value and what is expected.
-        """
-        descriptor = ParameterDescriptor(description=description, dynamic_typing=True)
-        given = self.declare_parameter(name, default, descriptor).value
-        value = _like(default, given)
-        try:
-            ok = value is not None and bool(check(value))
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise InputError(f"parameter '{name}' = {given!r} is invalid: {description}")
-        return value
+    def note_compiling(self, *modules: str) -> None:
+        """Log a line before numba compiles ``modules``' kernels for the first time (tens of seconds
+        with no other sign of life); later starts load them from the cache."""
+        if not all(kernels_cached(module) for module in modules):
+            self.get_logger().info("compiling kernels (first run only, ~30 s) ...")
 
     def stamp(self):
         """Current sim time as a ``builtin_interfaces/Time``."""
@@ -159,7 +147,10 @@ class SimWorldNode(Node):
                     entry.callback()
 
     def start_pacing(self) -> None:
-        """Step on a steady wall timer at ``real_time_factor`` (> 0); catches up in bursts."""
+        """Step on a steady wall timer at ``real_time_factor`` (> 0); catches up in bursts.
+
+        At 0 the process's loop steps the world instead (:func:`sim_runtime.run.run_nodes`)."""
+        self._paced = True
         if self.real_time_factor <= 0.0 or self._pacer is not None:
             return
         # At most 10 ms between looks, however long a step is: a lockstep world with 1 s steps
@@ -167,6 +158,21 @@ class SimWorldNode(Node):
         period = min(max(self.physics_dt / self.real_time_factor, 0.001), 0.01)
         self._pace_origin = (time.monotonic(), self.sim_time)
         self._pacer = self.create_timer(period, self._pace, clock=RosClock(clock_type=ClockType.STEADY_TIME))
+
+    def stop_pacing(self) -> None:
+        """Stop the wall timer (the world then steps only when told to)."""
+        if self._pacer is not None:
+            self.destroy_timer(self._pacer)
+            self._pacer = None
+
+    def set_real_time_factor(self, factor: float) -> None:
+        """Change the pace while running: the wall-clock anchor restarts now, so sim time never jumps.
+
+        0 hands the world to the process's as-fast-as-possible loop (:func:`sim_runtime.run.run_nodes`)."""
+        self.real_time_factor = float(factor)
+        if self._paced:
+            self.stop_pacing()
+            self.start_pacing()
 
     def _pace(self) -> None:
         wall0, sim0 = self._pace_origin

@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import math
 
-from rclpy.node import Node
 from sensor_msgs.msg import JointState, Range
 
-from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.params import CheckedNode
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
 
 #: alg2's constants: 20 cm, [0 0.5] and [0.5 0.5] rad/s.
@@ -28,27 +27,40 @@ TURN = (0.0, 0.5)
 STRAIGHT = (0.5, 0.5)
 
 
-class AvoidNode(Node):
-    """Drives the robot of its namespace (or ``robot``) with alg2."""
+class AvoidNode(CheckedNode):
+    """Drives one robot with alg2: the robot of its namespace, or ``robot`` (topics ``<robot>/…``)."""
 
-    def __init__(self, robot: str | None = None, sensor: str = "sens1", **node_kwargs) -> None:
-        """``robot``: namespace to drive (default: the node's own, e.g. from ``__ns``)."""
-        if robot is not None:
-            node_kwargs.setdefault("namespace", f"/{robot}")
-        super().__init__("simrobot_avoid", **node_kwargs)
-        self.sensor = self.declare_parameter("sensor", sensor).value
-        self.threshold = float(self.declare_parameter("threshold", THRESHOLD).value)
-        self.turn = tuple(float(v) for v in self.declare_parameter("turn", list(TURN)).value)
-        self.straight = tuple(float(v) for v in self.declare_parameter("straight", list(STRAIGHT)).value)
-        for name, value in (("turn", self.turn), ("straight", self.straight)):
-            if len(value) != 2 or not all(math.isfinite(v) for v in value):
-                raise InputError(f"parameter '{name}' = {list(value)!r} is invalid: expected [left, right] rad/s")
-        if not (math.isfinite(self.threshold) and self.threshold > 0):
-            raise InputError(f"parameter 'threshold' = {self.threshold!r} is invalid: must be > 0 m")
+    def __init__(
+        self, robot: str | None = None, sensor: str = "sens1", node_name: str | None = None, **node_kwargs
+    ) -> None:
+        """``robot``: the robot to drive, relative to the node's namespace (default: the namespace itself,
+        e.g. ``simrobot_avoid --ros-args -r __ns:=/r1``)."""
+        super().__init__(node_name or (f"{robot}_avoid" if robot else "simrobot_avoid"), **node_kwargs)
+        self.sensor = self.declare_checked("sensor", sensor, bool, "name of the ultrasonic sensor to steer by")
+        self.threshold = self.declare_checked(
+            "threshold",
+            THRESHOLD,
+            None,
+            "turn when the sensor reads less than this (m)",
+            live=True,
+            on_change=lambda v: setattr(self, "threshold", v),
+            bounds=(1e-6, 1e6),
+        )
+        for name, default in (("turn", TURN), ("straight", STRAIGHT)):
+            value = self.declare_checked(
+                name,
+                list(default),
+                lambda v: len(v) == 2 and all(math.isfinite(x) for x in v),
+                f"wheel speeds [left, right] (rad/s) when {'an obstacle is near' if name == 'turn' else 'clear'}",
+                live=True,
+                on_change=lambda v, name=name: setattr(self, name, tuple(v)),
+            )
+            setattr(self, name, tuple(value))
         self._cmd = JointState()
         self._cmd.name = ["left_wheel", "right_wheel"]
-        self.publisher = self.create_publisher(JointState, "wheel_cmd", COMMAND_QOS)
-        self.subscription = self.create_subscription(Range, self.sensor, self._on_range, SENSOR_QOS)
+        prefix = f"{robot}/" if robot else ""
+        self.publisher = self.create_publisher(JointState, prefix + "wheel_cmd", COMMAND_PUBLISHER_QOS)
+        self.subscription = self.create_subscription(Range, prefix + self.sensor, self._on_range, SENSOR_SUBSCRIBER_QOS)
 
     def _on_range(self, msg: Range) -> None:
         speeds = self.turn if msg.range < self.threshold else self.straight

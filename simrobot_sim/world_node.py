@@ -31,7 +31,6 @@ alg2) in this process, in the same executor.
 from __future__ import annotations
 
 import array
-import math
 import time
 
 import numpy as np
@@ -53,11 +52,13 @@ from sim_runtime.msgs import (
     quaternion_from_yaw,
     time_from_msg,
 )
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.paths import resolve_input_file
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
-from sim_runtime.world_node import SimWorldNode
+from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
+from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
-from simrobot_sim.world_file import WorldSpec, load_world
+from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
 
 #: Wall seconds between re-publications of a step's data while lockstep waits.
 REPUBLISH_PERIOD = 0.5
@@ -72,17 +73,31 @@ class _RobotIO:
 class SimrobotWorldNode(SimWorldNode):
     """A SIMROBOT world on ROS 2: see the module docstring for the interface."""
 
-    def __init__(self, spec: WorldSpec | None = None, **node_kwargs) -> None:
+    def __init__(self, spec: WorldSpec | None = None, node_name: str = "simrobot_world", **node_kwargs) -> None:
         """Load ``spec`` or, when None, the world file named by parameter ``world_file``."""
         if spec is None:
             # parameters exist only once the node does: peek at world_file through a short-lived node
-            spec = _spec_from_parameter(node_kwargs)
+            spec = _spec_from_parameter(node_name, node_kwargs)
         self.spec = spec
-        super().__init__("simrobot_world", physics_rate=1.0 / spec.dt, **node_kwargs)
-        if not self.has_parameter("world_file"):
-            self.declare_parameter("world_file", spec.source)
+        super().__init__(node_name, physics_rate=1.0 / spec.dt, **node_kwargs)
+        self.declare_checked(
+            "world_file",
+            spec.source,
+            None,
+            "world file (YAML): a path, or relative to the current directory or to the shipped config/",
+        )
+        self.cmd_vel_stamped = self.declare_checked(
+            "cmd_vel_stamped",
+            False,
+            None,
+            "subscribe geometry_msgs/TwistStamped on cmd_vel (its stamp then counts like wheel_cmd's in lockstep)",
+        )
+        prefix = self.declare_checked(
+            "frame_prefix", "", None, "prefix of every robot's frames ('' = from the namespace: /sim1 -> sim1/)"
+        )
+        self.prefix = prefix or namespace_prefix(self.get_namespace())
+        self.note_compiling("simrobot_sim.model", "simrobot_sim.raycast")
         self.model = SimrobotWorld(spec)
-        self.cmd_vel_stamped = bool(self.declare_parameter("cmd_vel_stamped", False).value)
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)
         n = len(self.model.names)
@@ -90,14 +105,26 @@ class SimrobotWorldNode(SimWorldNode):
         self._published_wall = time.monotonic()
         self._republished_wall = self._published_wall
         self._io = [self._make_robot_io(i) for i in range(n)]
-        self._map_pub = self.create_publisher(OccupancyGrid, "/map", LATCHED_QOS)
+        self._map_pub = self.create_publisher(OccupancyGrid, "map", LATCHED_QOS)
         self._map_pub.publish(self._map_msg())
-        self._robots_pub = self.create_publisher(MarkerArray, "/robots", SENSOR_QOS)
+        self._robots_pub = self.create_publisher(MarkerArray, "robots", SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
+        self.tf = TfBroadcaster(self)
+        self._start = np.array([(*r.position, r.heading) for r in spec.robots], dtype=float).reshape(-1, 3)
+        # /tf messages reused every step: rclpy serialises on publish
+        self._odom_tf = [
+            transform_msg(self.robot_frame(i, "odom"), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
+        ]
+        self.tf.send_static(self._static_transforms(), self.stamp())
         self.every(self.physics_rate, self._publish_step)
         self._publish_step()
+        nx, ny = self.model.grid.shape
+        self.get_logger().info(
+            f"world {spec.source}: {n} robots on a {nx}x{ny} map at {spec.resolution:g} m/cell, "
+            f"dt {spec.dt:g} s{', lockstep' if self.lockstep else ''}; {self.pace_text()}"
+        )
 
     # -- construction -----------------------------------------------------------------------
     def _make_robot_io(self, i: int) -> _RobotIO:
@@ -109,7 +136,7 @@ class SimrobotWorldNode(SimWorldNode):
         for k, s in enumerate(model.sensors):
             if s.robot != i:
                 continue
-            frame = f"{name}/{s.name}"
+            frame = f"{self.prefix}{name}/{s.name}"
             if s.kind == "laser":
                 msg = LaserScan()
                 msg.header.frame_id = frame
@@ -119,7 +146,7 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)
-                pub = self.create_publisher(LaserScan, f"/{name}/{s.name}", SENSOR_QOS)
+                pub = self.create_publisher(LaserScan, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "laser", pub, None))
                 io.msgs.append((msg, None))
             else:
@@ -129,34 +156,51 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.field_of_view = float(s.beamwidth)
                 msg.min_range = 0.0
                 msg.max_range = float(s.range)
-                pub = self.create_publisher(Range, f"/{name}/{s.name}", SENSOR_QOS)
-                obst_pub = self.create_publisher(UInt8, f"/{name}/{s.name}/obstacle", SENSOR_QOS)
+                pub = self.create_publisher(Range, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
+                obst_pub = self.create_publisher(UInt8, f"{name}/{s.name}/obstacle", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "ultrasonic", pub, obst_pub))
                 io.msgs.append((msg, UInt8()))
-        io.odom_pub = self.create_publisher(Odometry, f"/{name}/odom", SENSOR_QOS)
+        io.odom_pub = self.create_publisher(Odometry, f"{name}/odom", SENSOR_PUBLISHER_QOS)
         io.odom = Odometry()
-        io.odom.header.frame_id = f"{name}/odom"
-        io.odom.child_frame_id = f"{name}/base_link"
-        io.pose_pub = self.create_publisher(PoseStamped, f"/{name}/pose", SENSOR_QOS)
+        io.odom.header.frame_id = f"{self.prefix}{name}/odom"
+        io.odom.child_frame_id = f"{self.prefix}{name}/base_link"
+        io.pose_pub = self.create_publisher(PoseStamped, f"{name}/pose", SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
-        io.crashed_pub = self.create_publisher(Bool, f"/{name}/crashed", LATCHED_QOS)
+        io.crashed_pub = self.create_publisher(Bool, f"{name}/crashed", LATCHED_QOS)
         io.subs = [
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
-                f"/{name}/cmd_vel",
+                f"{name}/cmd_vel",
                 lambda m, i=i: self._on_cmd_vel(i, m),
-                COMMAND_QOS,
+                COMMAND_SUBSCRIBER_QOS,
             ),
             self.create_subscription(
-                JointState, f"/{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_QOS
+                JointState, f"{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_SUBSCRIBER_QOS
             ),
         ]
         io.services = [
-            self.create_service(SetBool, f"/{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
-            self.create_service(Trigger, f"/{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
+            self.create_service(SetBool, f"{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
+            self.create_service(Trigger, f"{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
         ]
         return io
+
+    def robot_frame(self, i: int, name: str) -> str:
+        """Frame ``name`` of robot ``i``, e.g. ``r1/base_link`` (with the world's prefix in front)."""
+        return f"{self.prefix}{self.model.names[i]}/{name}"
+
+    def _static_transforms(self) -> list:
+        """``map → <robot>/odom`` (odometry starts at the start pose) and ``<robot>/base_link →
+        <robot>/<sensor>`` at each sensor's mount."""
+        transforms = []
+        for i, robot in enumerate(self.spec.robots):
+            x, y = robot.position
+            transforms.append(transform_msg("map", self.robot_frame(i, "odom"), x, y, yaw=robot.heading))
+            base = self.robot_frame(i, "base_link")
+            for sensor in robot.sensors:
+                sx, sy, axis = sensor_mount(robot, sensor)
+                transforms.append(transform_msg(base, self.robot_frame(i, sensor.name), sx, sy, yaw=axis))
+        return transforms
 
     def _map_msg(self) -> OccupancyGrid:
         model = self.model
@@ -223,20 +267,20 @@ class SimrobotWorldNode(SimWorldNode):
             return
         if len(msg.velocity) != 2:
             self.warn_throttled(
-                f"wheel{i}", f"/{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
+                f"wheel{i}", f"{name}/wheel_cmd ignored: velocity must be [left, right], got {list(msg.velocity)}"
             )
             return
         if not command_ok(*msg.velocity):
             self.warn_throttled(
                 f"wheel{i}",
-                f"/{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
+                f"{name}/wheel_cmd ignored: {list(msg.velocity)} is not finite or "
                 f"absurdly large (|value| > {ABSURD_COMMAND:g} rad/s)",
             )
             return
         try:
             self.model.set_wheel_speeds(i, float(msg.velocity[0]), float(msg.velocity[1]))
         except InputError as err:
-            self.warn_throttled(f"wheel{i}", f"/{name}/wheel_cmd ignored: {err}")
+            self.warn_throttled(f"wheel{i}", f"{name}/wheel_cmd ignored: {err}")
             return
         self._answered[i] = True
 
@@ -296,8 +340,7 @@ class SimrobotWorldNode(SimWorldNode):
         model.sense()
         stamp = self.stamp()
         poses = model.poses()
-        start = model.start_pose
-        res = model.resolution
+        odom_poses = self._odometry_poses(poses)
         for i, io in enumerate(self._io):
             for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
                 msg.header.stamp = stamp
@@ -317,12 +360,10 @@ class SimrobotWorldNode(SimWorldNode):
             io.pose.pose = pose_msg(x, y, h)
             io.pose_pub.publish(io.pose)
             # odometry: the pose in the frame of the start pose (exact wheel odometry)
-            sx, sy, sh = start[i]
-            dx, dy = (model.pose[i, 0] - sx) * res, (model.pose[i, 1] - sy) * res
-            c, s = math.cos(sh), math.sin(sh)
+            ox, oy, oh = odom_poses[i]
             odom = io.odom
             odom.header.stamp = stamp
-            odom.pose.pose = pose_msg(c * dx + s * dy, -s * dx + c * dy, h - sh)
+            odom.pose.pose = pose_msg(ox, oy, oh)
             v, v_lat, w = model.body_velocity(i)
             odom.twist.twist.linear.x = v
             odom.twist.twist.linear.y = v_lat
@@ -334,18 +375,32 @@ class SimrobotWorldNode(SimWorldNode):
             m.pose.position.y = float(poses[i, 1])
             m.pose.orientation = quaternion_from_yaw(poses[i, 2])
         self._robots_pub.publish(self._markers)
+        if self.tf.heard():
+            for t, (ox, oy, oh) in zip(self._odom_tf, odom_poses.tolist(), strict=True):
+                t.header.stamp = stamp
+                set_planar(t, ox, oy, oh)
+            self.tf.send(self._odom_tf)
         self._published_wall = self._republished_wall = time.monotonic()
 
+    def _odometry_poses(self, poses) -> np.ndarray:
+        """Each robot's pose (n, 3) in its odom frame, which is its start pose in ``map``."""
+        dx = poses[:, 0] - self._start[:, 0]
+        dy = poses[:, 1] - self._start[:, 1]
+        c, s = np.cos(self._start[:, 2]), np.sin(self._start[:, 2])
+        return np.column_stack([c * dx + s * dy, -s * dx + c * dy, poses[:, 2] - self._start[:, 2]])
 
-def _spec_from_parameter(node_kwargs: dict) -> WorldSpec:
-    probe = Node("simrobot_world", **node_kwargs)
+
+def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:
+    probe = Node(node_name, **node_kwargs)
     try:
         path = probe.declare_parameter("world_file", "").value
     finally:
         probe.destroy_node()
     if not path:
         raise InputError("parameter 'world_file' is required: --ros-args -p world_file:=<world.yaml>")
-    return load_world(path)
+    if not isinstance(path, str):
+        raise InputError(f"parameter 'world_file' = {path!r} is invalid: a file name is expected")
+    return load_world(resolve_input_file(path, "world_file"))
 
 
 def make_nodes() -> list[Node]:

@@ -1,7 +1,8 @@
 """Launch-free test harness: rclpy once per session, one fresh executor per test.
 
 DDS traffic must stay on this machine, and parallel runs must not see each other, so the
-environment is fixed here before rclpy loads.
+environment is fixed here before rclpy loads. rclpy is imported only by the fixtures that need it:
+the pure-model tests run where ROS is not installed.
 """
 
 from __future__ import annotations
@@ -19,17 +20,14 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
 
-import rclpy  # noqa: E402  (after the environment above)
-from rclpy.node import Node  # noqa: E402
-
-from sim_runtime.run import make_executor  # noqa: E402
-
 _names = itertools.count()
 
 
 @pytest.fixture(scope="session")
 def ros():
     """rclpy initialised once for the whole session."""
+    import rclpy
+
     rclpy.init()
     yield
     rclpy.shutdown()
@@ -38,6 +36,8 @@ def ros():
 @pytest.fixture
 def executor(ros):
     """A fresh executor; every node added to it is destroyed after the test."""
+    from sim_runtime.run import make_executor
+
     ex = make_executor()
     yield ex
     for node in list(ex.get_nodes()):
@@ -49,6 +49,8 @@ def executor(ros):
 @pytest.fixture
 def make_node(executor):
     """Factory of plain nodes (unique names) already added to ``executor``."""
+
+    from rclpy.node import Node
 
     def factory(name: str = "test_node", **kwargs) -> Node:
         node = Node(f"{name}_{next(_names)}", **kwargs)

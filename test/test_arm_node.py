@@ -18,7 +18,7 @@ from arm_sim.arm import Arm
 from arm_sim.arm_node import ArmNode
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.paths import config_path
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
@@ -37,13 +37,13 @@ def world(executor):
 
 def publish_and_wait(executor, node, topic, msg_type, msg, done):
     """Publish on ``topic`` once the arm subscribes, spin until ``done()``."""
-    pub = node.create_publisher(msg_type, topic, COMMAND_QOS)
+    pub = node.create_publisher(msg_type, topic, COMMAND_PUBLISHER_QOS)
     assert wait_for_match(executor, pub)
     pub.publish(msg)
     assert spin_until(executor, done), f"{topic} message not handled"
 
 
-def collect(executor, node, msg_type, topic, qos=COMMAND_QOS) -> Collector:
+def collect(executor, node, msg_type, topic, qos=SENSOR_SUBSCRIBER_QOS) -> Collector:
     collector = Collector(node, msg_type, topic, qos)
     assert wait_for_match(executor, collector.subscription)
     return collector

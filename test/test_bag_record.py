@@ -14,6 +14,7 @@ import pytest
 import yaml
 from mcap.reader import make_reader
 from rclpy.duration import Duration
+from rclpy.qos import qos_profile_sensor_data
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import Reader as RosbagsReader
 from rosbags.typesys import Stores, get_typestore
@@ -25,7 +26,7 @@ from std_srvs.srv import Trigger
 from sim_runtime.bag.reader import BagWarning, open_bag
 from sim_runtime.bag.record import Recorder
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -47,8 +48,8 @@ def start_recorder(executor, folder, topics, **kw):
 
 def test_records_every_message_with_publisher_qos(executor, make_node, tmp_path):
     node = make_node("talker")
-    chatter = node.create_publisher(String, "/rec_test/chatter", COMMAND_QOS)
-    scans = node.create_publisher(LaserScan, "/rec_test/scan", SENSOR_QOS)
+    chatter = node.create_publisher(String, "/rec_test/chatter", COMMAND_PUBLISHER_QOS)
+    scans = node.create_publisher(LaserScan, "/rec_test/scan", qos_profile_sensor_data)
     latched = node.create_publisher(String, "/rec_test/map", LATCHED_QOS)
     latched.publish(String(data="the map"))  # before the recorder exists: latched
     recorder = start_recorder(executor, tmp_path / "bag", ["/rec_test/.*"])
@@ -268,12 +269,12 @@ def test_replay_cli_republishes_a_bag(executor, make_node, tmp_path):
 
 def test_resubscribes_when_a_best_effort_publisher_joins(executor, make_node, tmp_path):
     node = make_node("mixed")
-    reliable = node.create_publisher(String, "/mixed_test/data", COMMAND_QOS)
+    reliable = node.create_publisher(String, "/mixed_test/data", COMMAND_PUBLISHER_QOS)
     recorder = start_recorder(executor, tmp_path / "bag", ["/mixed_test/data"])
     assert wait_for_match(executor, reliable)
     reliable.publish(String(data="from reliable"))
     assert spin_until(executor, lambda: recorder.writer.message_count == 1)
-    best_effort = node.create_publisher(String, "/mixed_test/data", SENSOR_QOS)
+    best_effort = node.create_publisher(String, "/mixed_test/data", qos_profile_sensor_data)
     assert wait_for_match(executor, best_effort)  # only after the recorder resubscribed
     best_effort.publish(String(data="from best effort"))
     assert spin_until(executor, lambda: recorder.writer.message_count == 2)

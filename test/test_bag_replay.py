@@ -15,7 +15,7 @@ from sim_runtime.bag.reader import open_bag
 from sim_runtime.bag.record import Recorder
 from sim_runtime.bag.replay import Player, play_bag, replay_qos
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
-from sim_runtime.qos import LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 T0 = 5_000_000_000
@@ -53,7 +53,7 @@ def test_replay_with_timing_and_clock(executor, make_node, tmp_path):
     bag = make_bag(tmp_path / "bag")
     node = make_node("listener")
     chatter = Collector(node, String, "/rp/chatter", 100)
-    scans = Collector(node, LaserScan, "/rp/scan", SENSOR_QOS)
+    scans = Collector(node, LaserScan, "/rp/scan", SENSOR_SUBSCRIBER_QOS)
     the_map = Collector(node, String, "/rp/map", LATCHED_QOS)
     clock = Collector(node, Clock, "/clock", 1000)
     start = time.monotonic()

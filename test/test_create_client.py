@@ -15,7 +15,7 @@ from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.paths import config_path
-from sim_runtime.qos import SENSOR_QOS
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 
@@ -23,7 +23,7 @@ def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
     """A client on the probe node; while it blocks, the world steps, after it has received every
     command sent and with each odometry message handled before the next step (deterministic
     however loaded the machine is)."""
-    odom = Collector(rig.probe, Odometry, "odom", SENSOR_QOS)
+    odom = Collector(rig.probe, Odometry, "odom", SENSOR_SUBSCRIBER_QOS)
 
     def spin() -> None:
         spin_until(rig.executor, lambda: rig.world.commands_received >= robot.commands_sent)

@@ -22,7 +22,7 @@ from create_sim.bump_turn import BumpTurnNode, demo
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import pose_msg, time_from_msg, time_msg, yaw_from_quaternion
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
 
 # A 4 m x 4 m room around the origin, a floor line at x = 1, a beacon ahead, a virtual wall.
@@ -118,12 +118,12 @@ class Rig:
         self.probe = make_node("probe")
         self.collectors: dict[str, Collector] = {}
         stamped = params.get("cmd_vel_stamped", False)
-        self.cmd_pub = self.probe.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self.cmd_pub = self.probe.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         assert wait_for_match(executor, self.cmd_pub)
 
     def listen(self, *topics: str) -> None:
         for topic in topics:
-            qos = LATCHED_QOS if topic == "map_markers" else SENSOR_QOS
+            qos = LATCHED_QOS if topic == "map_markers" else SENSOR_SUBSCRIBER_QOS
             msg_type = MarkerArray if topic == "map_markers" else SENSOR_TOPICS[topic]
             self.collectors[topic] = Collector(self.probe, msg_type, topic, qos)
             assert wait_for_match(self.executor, self.collectors[topic].subscription)
@@ -401,7 +401,7 @@ def test_reset_and_set_pose(executor, make_node, tmp_path):
     rig.step(100)
     target = PoseStamped(pose=pose_msg(0.5, -0.5, -1.0))
     target.header.frame_id = "map"
-    pub = rig.probe.create_publisher(PoseStamped, "set_pose", COMMAND_QOS)
+    pub = rig.probe.create_publisher(PoseStamped, "set_pose", COMMAND_PUBLISHER_QOS)
     assert wait_for_match(rig.executor, pub)
     pub.publish(target)
     rig.wait(lambda: tuple(rig.world.model.pose[:2]) == pytest.approx((0.5, -0.5)))
@@ -438,8 +438,8 @@ def test_namespace_prefixes_robot_frames(executor, make_node, tmp_path):
     rig = Rig(executor, make_node, tmp_path)
     world = CreateWorldNode(namespace="robot2", parameter_overrides=[Parameter("map_file", value="")])
     executor.add_node(world)
-    scan = Collector(rig.probe, LaserScan, "/robot2/scan", SENSOR_QOS)
-    odom = Collector(rig.probe, Odometry, "/robot2/odom", SENSOR_QOS)
+    scan = Collector(rig.probe, LaserScan, "/robot2/scan", SENSOR_SUBSCRIBER_QOS)
+    odom = Collector(rig.probe, Odometry, "/robot2/odom", SENSOR_SUBSCRIBER_QOS)
     assert wait_for_match(executor, scan.subscription) and wait_for_match(executor, odom.subscription)
     world.step(10)
     assert spin_until(executor, lambda: scan.last is not None and odom.last is not None)
@@ -499,9 +499,10 @@ def test_seeded_noise_does_not_depend_on_who_listens(executor, make_node, tmp_pa
     executor.add_node(heard)
     executor.add_node(alone)
     collectors = [
-        Collector(probe, msg_type, f"/heard/{topic}", SENSOR_QOS) for topic, msg_type in SENSOR_TOPICS.items()
+        Collector(probe, msg_type, f"/heard/{topic}", SENSOR_SUBSCRIBER_QOS)
+        for topic, msg_type in SENSOR_TOPICS.items()
     ]
-    odom = Collector(probe, Odometry, "/alone/odom", SENSOR_QOS)
+    odom = Collector(probe, Odometry, "/alone/odom", SENSOR_SUBSCRIBER_QOS)
     for c in [*collectors, odom]:
         assert wait_for_match(executor, c.subscription)
     for world in (heard, alone):
@@ -557,9 +558,9 @@ def test_create_world_process_serves_another_process(executor, make_node, rtf):
     )
     try:
         probe = make_node("user_node")
-        odom = Collector(probe, Odometry, "/e2e/odom", SENSOR_QOS)
-        scan = Collector(probe, LaserScan, "/e2e/scan", SENSOR_QOS)
-        cmd = probe.create_publisher(Twist, "/e2e/cmd_vel", COMMAND_QOS)
+        odom = Collector(probe, Odometry, "/e2e/odom", SENSOR_SUBSCRIBER_QOS)
+        scan = Collector(probe, LaserScan, "/e2e/scan", SENSOR_SUBSCRIBER_QOS)
+        cmd = probe.create_publisher(Twist, "/e2e/cmd_vel", COMMAND_PUBLISHER_QOS)
         for endpoint in (odom.subscription, scan.subscription, cmd):
             assert wait_for_match(executor, endpoint, timeout=30.0)
         assert spin_until(executor, lambda: odom.last is not None and scan.last is not None, timeout=10.0)

@@ -14,7 +14,7 @@ import pytest
 from geometry_msgs.msg import Twist
 
 from create_sim.teleop import split_keys
-from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -73,7 +73,7 @@ def terminal():
 
 def test_keys_publish_the_seed_manual_control_velocities(terminal, executor, make_node):
     probe = make_node("teleop_probe")
-    cmd = Collector(probe, Twist, "cmd_vel", COMMAND_QOS)
+    cmd = Collector(probe, Twist, "cmd_vel", SENSOR_SUBSCRIBER_QOS)
     assert wait_for_match(executor, cmd.subscription, timeout=30.0)
     terminal.read_until(b"Create teleop")  # the terminal is in cbreak mode from here on
     assert spin_until(executor, lambda: cmd.last is not None, timeout=10.0)

@@ -12,7 +12,7 @@ from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.msgs import float32_array, pose_msg
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.rerun_view.live import attach_live_view
 from sim_runtime.testing import spin_until, wait_for_match
 from sim_runtime.world_node import SimWorldNode
@@ -24,8 +24,8 @@ class ToyWorld(SimWorldNode):
     def __init__(self) -> None:
         super().__init__("toy_world", physics_rate=50.0, namespace="toy")
         self.x = 0.0
-        self.pub_pose = self.create_publisher(PoseStamped, "overhead_pose", SENSOR_QOS)
-        self.pub_scan = self.create_publisher(LaserScan, "scan", SENSOR_QOS)
+        self.pub_pose = self.create_publisher(PoseStamped, "overhead_pose", SENSOR_PUBLISHER_QOS)
+        self.pub_scan = self.create_publisher(LaserScan, "scan", SENSOR_PUBLISHER_QOS)
         self.pub_map = self.create_publisher(MarkerArray, "map_markers", LATCHED_QOS)
         wall = Marker(ns="walls", id=0, type=Marker.LINE_LIST, points=[Point(x=0.0, y=1.0), Point(x=2.0, y=1.0)])
         wall.header.frame_id = "map"
@@ -61,7 +61,7 @@ def test_live_view_draws_the_worlds_topics_and_discovers_others(executor, make_n
     assert {"/toy/overhead_pose", "/toy/scan", "/toy/map_markers"} <= set(view.subscriptions)
 
     controller = make_node("controller")
-    cmd = controller.create_publisher(Twist, "/toy/cmd_vel", COMMAND_QOS)
+    cmd = controller.create_publisher(Twist, "/toy/cmd_vel", COMMAND_PUBLISHER_QOS)
     assert spin_until(executor, lambda: "/toy/cmd_vel" in dict(world.get_topic_names_and_types()))
     view.discover()  # what the discovery timer does every DISCOVERY_PERIOD s
     assert "/toy/cmd_vel" in view.subscriptions

@@ -16,7 +16,7 @@ from rerun_test_helpers import column, load_entities
 
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.paths import config_path
-from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
 from sim_runtime.rerun_view.convert import bag_to_rerun
 from sim_runtime.rerun_view.live import attach_live_view
@@ -71,7 +71,7 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     world = create_world.CreateWorldNode()
     executor.add_node(world)
     driver = make_node("driver")
-    cmd = driver.create_publisher(Twist, "/cmd_vel", COMMAND_QOS)
+    cmd = driver.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
     assert wait_for_match(executor, cmd)
 
     def drive(k: int) -> None:

@@ -19,7 +19,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
-from sim_runtime.qos import COMMAND_QOS, LATCHED_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import drain, make_executor, spin_steps
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 from simrobot_sim.avoid import AvoidNode
@@ -68,14 +68,14 @@ def test_topics_carry_sensor_pose_and_map_data(executor, make_node):
         node,
         executor,
         [
-            ("/a/front", Range, SENSOR_QOS),
-            ("/a/front/obstacle", UInt8, SENSOR_QOS),
-            ("/a/scan", LaserScan, SENSOR_QOS),
-            ("/a/odom", Odometry, SENSOR_QOS),
-            ("/a/pose", PoseStamped, SENSOR_QOS),
+            ("/a/front", Range, SENSOR_SUBSCRIBER_QOS),
+            ("/a/front/obstacle", UInt8, SENSOR_SUBSCRIBER_QOS),
+            ("/a/scan", LaserScan, SENSOR_SUBSCRIBER_QOS),
+            ("/a/odom", Odometry, SENSOR_SUBSCRIBER_QOS),
+            ("/a/pose", PoseStamped, SENSOR_SUBSCRIBER_QOS),
             ("/a/crashed", Bool, LATCHED_QOS),
             ("/map", OccupancyGrid, LATCHED_QOS),
-            ("/robots", MarkerArray, SENSOR_QOS),
+            ("/robots", MarkerArray, SENSOR_SUBSCRIBER_QOS),
         ],
     )
     world.step()
@@ -110,10 +110,10 @@ def test_topics_carry_sensor_pose_and_map_data(executor, make_node):
 def test_cmd_vel_and_wheel_cmd_move_the_robot_and_nan_is_rejected(executor, make_node):
     world = two_robot_world(executor)
     node = make_node("driver")
-    cmd = node.create_publisher(Twist, "/a/cmd_vel", COMMAND_QOS)
-    wheels = node.create_publisher(JointState, "/b/wheel_cmd", COMMAND_QOS)
+    cmd = node.create_publisher(Twist, "/a/cmd_vel", COMMAND_PUBLISHER_QOS)
+    wheels = node.create_publisher(JointState, "/b/wheel_cmd", COMMAND_PUBLISHER_QOS)
     assert wait_for_match(executor, cmd) and wait_for_match(executor, wheels)
-    poses = Collector(node, PoseStamped, "/a/pose", SENSOR_QOS)
+    poses = Collector(node, PoseStamped, "/a/pose", SENSOR_SUBSCRIBER_QOS)
     assert wait_for_match(executor, poses.subscription)
 
     cmd.publish(Twist())  # zero first, so a rejected command would visibly leave it
@@ -243,7 +243,7 @@ def test_lockstep_waits_for_commands_then_times_out_with_a_warning(executor, mak
     world = SimrobotWorldNode(spec)
     executor.add_node(world)
     node = make_node("talker_ctl")
-    pub = node.create_publisher(JointState, "/talker/wheel_cmd", COMMAND_QOS)
+    pub = node.create_publisher(JointState, "/talker/wheel_cmd", COMMAND_PUBLISHER_QOS)
     assert wait_for_match(executor, pub)
     drain(executor)
     world._published_wall = time.monotonic()  # start the wait now, after discovery
@@ -280,7 +280,7 @@ def test_cmd_vel_stamped_parameter_takes_twist_stamped(executor, make_node):
     world = SimrobotWorldNode(spec, parameter_overrides=[Parameter("cmd_vel_stamped", value=True)])
     executor.add_node(world)
     node = make_node("stamped_driver")
-    pub = node.create_publisher(TwistStamped, "/a/cmd_vel", COMMAND_QOS)
+    pub = node.create_publisher(TwistStamped, "/a/cmd_vel", COMMAND_PUBLISHER_QOS)
     assert wait_for_match(executor, pub)
     world.step()
     cmd = TwistStamped()

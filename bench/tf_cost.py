@@ -1,0 +1,45 @@
+"""What publishing /tf costs the Create world node: real-time factor with TF on vs off.
+
+Run:  ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python bench/tf_cost.py [--budget SECONDS]
+
+The world runs at real_time_factor 0 on the benchmark map of bench/create_world.py with every
+sensor at its default rate, a listener in another process subscribed to every topic it publishes
+(/tf included when on). "Off" is the world as it runs without tf2_msgs. Goal: TF costs < 10 %.
+Runs alternate off/on three times; the best of each is compared (the machine's load varies).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from create_world import bench_node, free_poses, random_map, write_map  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--budget", type=float, default=3.0, help="wall seconds per measurement")
+    args = parser.parse_args()
+    world = random_map()
+    pose = free_poses(world, 1)[0]
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_map(world, folder)
+        off, on = [], []
+        for _ in range(3):
+            off.append(bench_node(path, pose, args.budget, subscribed=True, tf=False))
+            on.append(bench_node(path, pose, args.budget, subscribed=True, tf=True))
+    best_off, best_on = max(off), max(on)
+    runs = {name: ", ".join(f"{v:.1f}" for v in values) for name, values in (("off", off), ("on", on))}
+    print(f"load average {os.getloadavg()[0]:.2f}")
+    print("create_world, every topic subscribed by another process, real_time_factor 0:")
+    print(f"  TF off {best_off:6.1f}x real time (runs {runs['off']})")
+    print(f"  TF on  {best_on:6.1f}x real time (runs {runs['on']})")
+    print(f"TF costs {100 * (1 - best_on / best_off):.1f} % (goal < 10 %)")
+
+
+if __name__ == "__main__":
+    main()

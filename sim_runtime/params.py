@@ -1,0 +1,160 @@
+"""Parameters that behave: fixed types, ranges in the descriptor, read-only or live.
+
+Every node of the package declares its parameters through :meth:`CheckedNode.declare_checked`.
+A parameter is either
+
+- **read-only** (files, initial pose, frames, seed: what the node was built from):
+  ``ros2 param set`` answers "Trying to set a read-only parameter", or
+- **live** (``real_time_factor``, publication rates, timeouts, …): a new value is checked and,
+  if good, applied at once through the parameter's ``on_change``; a bad one is refused with the
+  reason, and the node keeps its old value (``ros2 param get`` then reports what is in use).
+
+Whole numbers are accepted where a float is expected, on the command line
+(``-p real_time_factor:=0``) and from ``ros2 param set`` (which sends ``0`` as an integer).
+"""
+
+from __future__ import annotations
+
+import array
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from sim_runtime.errors import InputError
+
+
+def like(default: Any, value: Any) -> Any:
+    """``value`` converted to ``default``'s type where that loses nothing, else None."""
+    if isinstance(default, bool) or default is None:
+        return value if isinstance(value, bool) or default is None else None
+    if isinstance(default, float):
+        return float(value) if isinstance(value, int | float) and not isinstance(value, bool) else None
+    if isinstance(default, int):
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+    if isinstance(default, str):
+        return value if isinstance(value, str) else None
+    if isinstance(default, list | tuple):
+        if not isinstance(value, list | tuple | array.array):
+            return None
+        items = list(value)
+        if default and isinstance(default[0], float):
+            if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in items):
+                return None
+            return [float(v) for v in items]
+        return items
+    return value
+
+
+class _Spec(NamedTuple):
+    default: Any
+    check: Callable[[Any], bool]
+    description: str
+    on_change: Callable[[Any], None] | None
+
+
+def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float, float] | None) -> ParameterDescriptor:
+    descriptor = ParameterDescriptor(description=description, read_only=not live)
+    if bounds is not None:
+        lo, hi = bounds
+        if isinstance(default, float):
+            descriptor.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+        elif isinstance(default, int) and not isinstance(default, bool):
+            descriptor.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=0)]
+    return descriptor
+
+
+class CheckedNode(Node):
+    """A node whose parameters are declared with :meth:`declare_checked`."""
+
+    def __init__(self, node_name: str, **node_kwargs: Any) -> None:
+        super().__init__(node_name, **node_kwargs)
+        self._checked: dict[str, _Spec] = {}
+        self.add_pre_set_parameters_callback(self._widen_whole_numbers)
+        self.add_on_set_parameters_callback(self._check_and_apply)
+
+    def declare_checked(
+        self,
+        name: str,
+        default: Any,
+        check: Callable[[Any], bool] | None,
+        description: str,
+        *,
+        live: bool = False,
+        on_change: Callable[[Any], None] | None = None,
+        bounds: tuple[float, float] | None = None,
+    ) -> Any:
+        """Declare parameter ``name`` typed like ``default`` and return its starting value.
+
+        ``check`` (and ``bounds``, inclusive, also shown by ``ros2 param describe``) decide which
+        values are good. A bad value given at start raises :class:`InputError` naming the
+        parameter, the value and what is expected. With ``live=True`` the parameter can be set
+        while the node runs: ``on_change(value)`` applies a good value (it may raise
+        :class:`InputError` to refuse it after all, e.g. a map file that does not load).
+        """
+        if bounds is not None:
+            lo, hi = bounds
+            inner = check
+
+            def check(v: Any, inner=inner, lo=lo, hi=hi) -> bool:
+                return lo <= v <= hi and (inner is None or inner(v))
+
+        spec = _Spec(default, check or (lambda _v: True), description, on_change if live else None)
+        override = self._parameter_overrides.get(name)
+        if override is not None:
+            given = override.value
+            value = like(default, given)
+            if value is None or not self._passes(spec, value):
+                raise InputError(f"parameter '{name}' = {given!r} is invalid: {description}")
+            # The override takes the declared type (an integer for a float parameter, say) so
+            # that rclpy's fixed-type check accepts it.
+            self._parameter_overrides[name] = Parameter(name, value=value)
+        declared = self.declare_parameter(name, default, _descriptor(default, description, live, bounds))
+        self._checked[name] = spec
+        return like(default, declared.value)
+
+    @staticmethod
+    def _passes(spec: _Spec, value: Any) -> bool:
+        try:
+            return bool(spec.check(value))
+        except (TypeError, ValueError):
+            return False
+
+    def _widen_whole_numbers(self, parameters: list[Parameter]) -> list[Parameter]:
+        """``ros2 param set node rate 5`` sends an integer: a float parameter takes it as 5.0."""
+        widened = []
+        for parameter in parameters:
+            spec = self._checked.get(parameter.name)
+            if spec is not None and isinstance(spec.default, float | list) and parameter.value is not None:
+                value = like(spec.default, parameter.value)
+                if value is not None and type(value) is not type(parameter.value):
+                    parameter = Parameter(parameter.name, value=value)
+            widened.append(parameter)
+        return widened
+
+    def _check_and_apply(self, parameters: list[Parameter]) -> SetParametersResult:
+        for parameter in parameters:
+            spec = self._checked.get(parameter.name)
+            if spec is None:
+                continue  # parameters of rclpy itself (use_sim_time, qos_overrides, …)
+            value = like(spec.default, parameter.value)
+            if value is None or not self._passes(spec, value):
+                return SetParametersResult(
+                    successful=False, reason=f"{parameter.name} = {parameter.value!r} refused: {spec.description}"
+                )
+        for parameter in parameters:
+            spec = self._checked.get(parameter.name)
+            if spec is not None and spec.on_change is not None:
+                try:
+                    spec.on_change(like(spec.default, parameter.value))
+                except InputError as error:
+                    return SetParametersResult(successful=False, reason=f"{parameter.name} refused: {error}")
+        return SetParametersResult(successful=True)
+
+
+def finite_at_least(lo: float) -> Callable[[float], bool]:
+    """A check: a finite number ≥ ``lo``."""
+    return lambda v: math.isfinite(v) and v >= lo
