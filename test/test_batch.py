@@ -24,7 +24,7 @@ from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
 
 class Spinner(Node):
@@ -34,8 +34,8 @@ class Spinner(Node):
         super().__init__("spinner", **kwargs)
         self.turn = self.declare_parameter("turn", 0.5).value
         self.fail_at = self.declare_parameter("fail_at", 0.0).value
-        self.pub = self.create_publisher(Twist, "cmd_vel", COMMAND_QOS)
-        self.create_subscription(Range, "bump/left", self.on_bump, SENSOR_QOS)
+        self.pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
+        self.create_subscription(Range, "bump/left", self.on_bump, SENSOR_SUBSCRIBER_QOS)
 
     def on_bump(self, msg):
         now = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec

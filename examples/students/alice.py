@@ -6,21 +6,18 @@ from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 
-from sim_runtime.msgs import time_from_msg
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
-
 
 class Wanderer(Node):
     def __init__(self, **kwargs):
         super().__init__("wanderer", **kwargs)
         self.turn_s = float(self.declare_parameter("turn_s", 1.0).value)
-        self.pub = self.create_publisher(Twist, "cmd_vel", COMMAND_QOS)
-        self.create_subscription(Range, "bump/left", self.on_bump, SENSOR_QOS)
-        self.create_subscription(Range, "bump/right", self.on_bump, SENSOR_QOS)
+        self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+        self.create_subscription(Range, "bump/left", self.on_bump, 10)
+        self.create_subscription(Range, "bump/right", self.on_bump, 10)
         self.mode, self.until = "forward", 0.0
 
     def on_bump(self, msg: Range) -> None:
-        now = time_from_msg(msg.header.stamp)
+        now = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         if self.mode == "forward" and msg.range == float("-inf"):
             self.mode, self.until = "back", now + 0.4
         elif self.mode == "back" and now >= self.until:

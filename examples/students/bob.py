@@ -7,15 +7,13 @@ from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 
-from sim_runtime.qos import COMMAND_QOS, SENSOR_QOS
-
 
 class SonarDriver(Node):
     def __init__(self):
         super().__init__("sonar_driver")
         self.clear_m = float(self.declare_parameter("clear_m", 0.3).value)
-        self.pub = self.create_publisher(Twist, "cmd_vel", COMMAND_QOS)
-        self.create_subscription(Range, "sonar/front", self.on_sonar, SENSOR_QOS)
+        self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+        self.create_subscription(Range, "sonar/front", self.on_sonar, 10)
 
     def on_sonar(self, msg: Range) -> None:
         cmd = Twist()

@@ -11,7 +11,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from sim_runtime.msgs import quaternion_from_matrix, time_from_msg
-from sim_runtime.qos import COMMAND_QOS
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
 
 def target_poses(arm: Any, targets: list[list[float]]) -> np.ndarray:
@@ -30,8 +30,8 @@ class ArmTargetsNode(Node):
         self.poses = poses
         self.hold_s = hold_s
         self.sent = 0
-        self.publisher = self.create_publisher(PoseStamped, "target_pose", COMMAND_QOS)
-        self.create_subscription(JointState, "joint_states", self._on_state, COMMAND_QOS)
+        self.publisher = self.create_publisher(PoseStamped, "target_pose", COMMAND_PUBLISHER_QOS)
+        self.create_subscription(JointState, "joint_states", self._on_state, SENSOR_SUBSCRIBER_QOS)
 
     def _on_state(self, msg: JointState) -> None:
         now = time_from_msg(msg.header.stamp)
