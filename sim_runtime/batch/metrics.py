@@ -59,14 +59,16 @@ def create_min_clearance_m(data: EpisodeData) -> float:
 def create_area_covered_m2(data: EpisodeData, cell_m: float = COVERAGE_CELL_M) -> float:
     """Floor area the body passed over (m²), counted in ``cell_m`` squares whose centre it covered."""
     radius = float(data.info["radius_m"])
-    cells = np.unique(np.floor(np.column_stack([data.arrays["x"], data.arrays["y"]]) / cell_m).astype(np.int64), axis=0)
     reach = int(math.ceil(radius / cell_m)) + 1
+    span = 1 << 24  # cell (i, j) -> the int64 key i·span + j, unique while |j| < 2^23 cells (400 km)
+    ij = np.floor(np.column_stack([data.arrays["x"], data.arrays["y"]]) / cell_m).astype(np.int64)
+    keys = np.unique(ij[:, 0] * span + ij[:, 1])
     di, dj = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
     # a cell counts when its centre is within the radius of a sample's cell centre
     disc = (np.hypot(di, dj) * cell_m <= radius).ravel()
-    offsets = np.column_stack([di.ravel()[disc], dj.ravel()[disc]])
-    covered = (cells[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
-    return float(len(np.unique(covered, axis=0)) * cell_m * cell_m)
+    offsets = di.ravel()[disc] * span + dj.ravel()[disc]
+    covered = np.unique((keys[:, None] + offsets[None, :]).ravel())
+    return float(len(covered) * cell_m * cell_m)
 
 
 def create_goal_time_s(data: EpisodeData, center: list[float], radius_m: float = 0.3) -> float:
