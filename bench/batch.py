@@ -3,8 +3,8 @@
 Runs ``examples/01_bump_turn_sweep.yaml`` (random poses on the example map, metrics collected)
 as a user would, each configuration in its own process and output folder:
 
-- the headline: ``--episodes`` (default 1,000) on the local engine with 2 workers (goal: ≥ 7,000
-  episodes/hour, i.e. 1,000 in ≤ 9 minutes);
+- the headline: ``--episodes`` (default 1,000) on the local engine with 2 workers, then on a
+  local Ray with 2 CPUs (goal: ≥ 7,000 episodes/hour, i.e. 1,000 in ≤ 9 minutes);
 - side by side on ``--ratio-episodes`` (default 100): 1 worker vs 2 (goal: ≥ 1.7×), the DDS
   transport (the baseline: every message through the executor) vs the direct bus, and Ray with
   2 CPUs (skipped without Ray);
@@ -127,11 +127,15 @@ def main() -> int:
         parts = ", ".join(f"{k[:-2]} {v:.3f} s" for k, v in one["parts"].items())
         print(f"per-episode overhead (median, local 1 worker): {one['overhead_s']:.3f} s = {parts} (goal <= 0.1 s)")
         if args.episodes:
-            head = run("headline: local, 2 workers", SWEEP, args.episodes, out, "--workers", "2")
-            print(
-                f"{args.episodes} episodes in {head['wall_s'] / 60:.1f} min = {head['per_hour']:,.0f} episodes/h "
-                f"(goal >= 7,000/h; 1,000 in <= 9 min)"
-            )
+            heads = [run("headline: local, 2 workers", SWEEP, args.episodes, out, "--workers", "2")]
+            if not args.no_ray and ray_available():
+                heads.append(run("headline: ray (local), 2 CPUs", SWEEP, args.episodes, out, "--ray", "--workers", "2"))
+            for head in heads:
+                print(
+                    f"{head['label']}: {args.episodes} episodes in {head['wall_s'] / 60:.1f} min = "
+                    f"{head['per_hour']:,.0f} episodes/h (goal >= 7,000/h; 1,000 in <= 9 min)"
+                )
+            same = same and all(h["table"] == heads[0]["table"] for h in heads)
         if not same:
             print("ERROR: the tables differ", file=sys.stderr)
             return 1
