@@ -13,10 +13,12 @@ export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
 venv: $(STAMP)
 
-$(STAMP): setup.py
+$(STAMP): setup.py interfaces/build_tf2_msgs.py interfaces/tf2_msgs/pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) interfaces/build_tf2_msgs.py
 	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m sim_runtime.warmup
 	touch $@
 
 lint: venv

@@ -1,34 +1,12 @@
-"""ROS 2 node for simulated serial arms (design.md §6): ``robot_sims arm``.
+"""ROS 2 node for simulated serial arms: ``robot_sims arm`` (topics, frames, parameters: docs/arm.md).
 
 One world node (it owns ``/clock``; physics at a fixed 100 Hz) holding one or more arms. The arm
-of ``robot_config`` uses the node's namespace directly (``joint_states``, …); arms listed in the
-scene file get their own prefix (``<name>/joint_states``, …). Per arm:
-
-=====================  =================================  =========================================
-topic                  type                               notes
-=====================  =================================  =========================================
-``joint_states``       sensor_msgs/JointState             position, velocity, effort (RNE)
-``robot_markers``      visualization_msgs/MarkerArray     one MESH_RESOURCE per STL element at its
-                                                          FK pose (``file://`` URI), colour with
-                                                          ``alpha``; plus the base axes (RefSystem)
-``end_effector_pose``  geometry_msgs/PoseStamped          flange pose
-``joint_trajectory``   trajectory_msgs/JointTrajectory    in: followed in time (cubic spline through
-                                                          the points), within velocity limits; a
-                                                          new one replaces the old; empty = stop
-``joint_command``      sensor_msgs/JointState             in: position targets (all joints, or the
-                                                          named ones), clamped to the limits
-``target_pose``        geometry_msgs/PoseStamped          in: flange pose, solved by IK then moved
-                                                          to; unreachable → warning, no motion
-=====================  =================================  =========================================
-
-World-level: ``scene_markers`` (MarkerArray, transient local): scene objects and world axes.
-
-Parameters (besides ``real_time_factor``, ``seed``): ``robot_config`` (robot config file: a path,
-or relative to the shipped ``config/``; default ``arm/irb120.yaml``; ``""`` = only the scene's
-arms), ``scene_file`` (scene YAML, same lookup; default none), ``alpha`` (0..1 marker opacity,
-RoboClass's setTransparency), ``frame_id`` (frame of every pose, default ``world``),
-``publish_rate`` (Hz of joint states, markers and end-effector pose, default 50),
-``skip_missing_meshes`` (draw a placeholder cube for an unreadable STL instead of failing).
+of ``robot_config_file`` uses the node's namespace directly (``joint_states``, …); arms listed in
+the scene file get their own prefix (``<name>/joint_states``, …) and frame prefix
+(``<name>/base_link``, …). Per arm: ``joint_states``, ``robot_markers``, ``end_effector_pose``
+and ``/tf`` at ``publish_rate``; ``robot_description`` (latched URDF, :mod:`arm_sim.urdf`); in:
+``joint_trajectory``, ``joint_command``, ``target_pose``. World-level: ``scene_markers`` and
+``/tf_static`` (arm bases, tool frames, scene objects).
 
 Commands with NaN/inf, unknown joint names, non-increasing trajectory times or target poses in
 another frame are rejected with a throttled warning and change nothing. Positions beyond the
@@ -40,40 +18,32 @@ from __future__ import annotations
 
 import math
 import struct
-from pathlib import Path
+import sys
 
 import numpy as np
 from geometry_msgs.msg import Point, PoseStamped
+from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import ColorRGBA
+from std_msgs.msg import ColorRGBA, String
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.arm import PLACEHOLDER_SIZE, Arm
 from arm_sim.motion import JointMotion
 from arm_sim.scene import Scene, load_scene
+from arm_sim.urdf import arm_tree, arm_urdf, fixed_transforms, joint_transforms
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
-from sim_runtime.paths import config_path
+from sim_runtime.paths import mesh_uri, resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.rotations import quaternions_xyzw
 from sim_runtime.run import run_nodes
+from sim_runtime.tf import TfBroadcaster, transform_msg
 from sim_runtime.world_node import SimWorldNode
 
 PHYSICS_RATE = 100.0
 AXES_LENGTH = 0.2  # m, RefSystem axes
-
-
-def resolve_config(value: str) -> Path:
-    """A config parameter: an existing path as given, else a shipped file under ``config/``."""
-    path = Path(value).expanduser()
-    if path.is_file():
-        return path.resolve()
-    shipped = config_path(value)
-    if shipped.is_file():
-        return shipped
-    raise InputError(f"file {value!r} not found (neither as a path nor in {config_path('')})")
 
 
 def _color(rgba, alpha: float = 1.0) -> ColorRGBA:
@@ -102,49 +72,67 @@ def _set_pose(marker_or_pose, xyz, quat) -> None:
     o.x, o.y, o.z, o.w = float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])
 
 
-class PatchedMarkers:
-    """A MarkerArray serialized once; each publication only patches poses and stamps in the bytes.
+class PatchedPoses:
+    """A message serialized once; each publication only patches poses and stamps in the bytes.
 
-    Converting a Python MarkerArray of a few dozen markers to its C form costs about a
-    millisecond per publication, most of the node's CPU at 100 Hz; patching the CDR bytes with
-    numpy costs microseconds. The byte offsets are found by serializing sentinel values once.
+    Converting a Python MarkerArray of a few dozen markers (or a TFMessage of a dozen transforms)
+    to its C form costs about a millisecond per publication, most of the node's CPU at 100 Hz;
+    patching the CDR bytes with numpy costs microseconds. ``poses`` lists the (position,
+    orientation) field pairs to patch (a Pose's position/orientation or a Transform's
+    translation/rotation: 7 contiguous doubles), ``stamps`` the header stamps; the byte offsets are
+    found by serializing sentinel values once.
     """
 
-    def __init__(self, markers: MarkerArray, posed: int) -> None:
-        sentinel_poses = 0x5EED0000 + np.arange(posed * 7, dtype=float).reshape(posed, 7) + 0.25
-        for marker, pose in zip(markers.markers[:posed], sentinel_poses.tolist(), strict=True):
-            _set_pose(marker, pose[:3], pose[3:])
-        count = len(markers.markers)
-        for k, marker in enumerate(markers.markers):
-            marker.header.stamp.sec = 0x5EED00 + k
-            marker.header.stamp.nanosec = 999_000_000 + k
-        data = serialize_message(markers)
+    def __init__(self, msg, poses: list, stamps: list) -> None:
+        sentinel_poses = 0x5EED0000 + np.arange(len(poses) * 7, dtype=float).reshape(len(poses), 7) + 0.25
+        for (position, orientation), values in zip(poses, sentinel_poses.tolist(), strict=True):
+            position.x, position.y, position.z = values[:3]
+            orientation.x, orientation.y, orientation.z, orientation.w = values[3:]
+        for k, stamp in enumerate(stamps):
+            stamp.sec = 0x5EED00 + k
+            stamp.nanosec = 999_000_000 + k
+        data = serialize_message(msg)
         self.buffer = np.frombuffer(bytearray(data), dtype=np.uint8)
-        self.pose_index = np.array([self._find(data, struct.pack("<d", p[0])) for p in sentinel_poses])[
+        self.pose_index = np.array([self._find(data, struct.pack("<d", p[0])) for p in sentinel_poses], dtype=int)[
             :, None
         ] + np.arange(56)
         self.stamp_index = np.array(
-            [self._find(data, struct.pack("<iI", 0x5EED00 + k, 999_000_000 + k)) for k in range(count)]
+            [self._find(data, struct.pack("<iI", 0x5EED00 + k, 999_000_000 + k)) for k in range(len(stamps))],
+            dtype=int,
         )[:, None] + np.arange(8)
-        expected = sentinel_poses.view(np.uint8).reshape(posed, 56)
+        expected = sentinel_poses.view(np.uint8).reshape(len(poses), 56)
         if not np.array_equal(self.buffer[self.pose_index], expected):
-            raise RuntimeError("marker pose fields are not contiguous in the serialized message")
-        self.stamps = np.zeros(count, dtype=[("sec", "<i4"), ("nanosec", "<u4")])
+            raise RuntimeError("pose fields are not contiguous in the serialized message")
+        self.stamps = np.zeros(len(stamps), dtype=[("sec", "<i4"), ("nanosec", "<u4")])
 
     @staticmethod
     def _find(data: bytes, pattern: bytes) -> int:
         at = data.find(pattern)
         if at < 0 or data.find(pattern, at + 1) >= 0:
-            raise RuntimeError("sentinel not found exactly once in the serialized markers")
+            raise RuntimeError("sentinel not found exactly once in the serialized message")
         return at
 
     def fill(self, poses: np.ndarray, stamp) -> bytes:
-        """Serialized MarkerArray with ``poses`` (posed, 7: x y z qx qy qz qw) and ``stamp``."""
+        """Serialized message with ``poses`` (posed, 7: x y z qx qy qz qw) and ``stamp``."""
         self.buffer[self.pose_index] = np.ascontiguousarray(poses, dtype="<f8").view(np.uint8).reshape(-1, 56)
         self.stamps["sec"] = stamp.sec
         self.stamps["nanosec"] = stamp.nanosec
         self.buffer[self.stamp_index] = self.stamps.view(np.uint8).reshape(-1, 8)
         return self.buffer.tobytes()
+
+
+def patched_markers(markers: MarkerArray, posed: int) -> PatchedPoses:
+    """The first ``posed`` markers' poses and every marker's stamp patched per publication."""
+    poses = [(m.pose.position, m.pose.orientation) for m in markers.markers[:posed]]
+    return PatchedPoses(markers, poses, [m.header.stamp for m in markers.markers])
+
+
+def poses_from_frames(frames: np.ndarray) -> np.ndarray:
+    """(m, 7) x y z qx qy qz qw of poses (m, 4, 4)."""
+    out = np.empty((len(frames), 7))
+    out[:, :3] = frames[:, :3, 3]
+    out[:, 3:] = quaternions_xyzw(frames)
+    return out
 
 
 class ArmInstance:
@@ -156,6 +144,9 @@ class ArmInstance:
         self.prefix = prefix
         namespace = node.get_namespace().strip("/")
         self.label = "/".join(part for part in (namespace, prefix.rstrip("/")) if part) or arm.name
+        # Frames are global: the namespace goes into their names (/ns + csa/ -> ns/csa/base_link).
+        self.frame_prefix = "".join(part + "/" for part in (namespace, prefix.rstrip("/")) if part)
+        self.tree = arm_tree(arm.config, self.frame_prefix, base=arm.base, world_frame=node.frame_id)
         self.motion = JointMotion(
             np.clip(np.zeros(arm.n), arm.lower, arm.upper), arm.lower, arm.upper, arm.velocity_limits
         )
@@ -164,6 +155,7 @@ class ArmInstance:
         self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", SENSOR_PUBLISHER_QOS)
         self.marker_pub = node.create_publisher(MarkerArray, prefix + "robot_markers", SENSOR_PUBLISHER_QOS)
         self.pose_pub = node.create_publisher(PoseStamped, prefix + "end_effector_pose", SENSOR_PUBLISHER_QOS)
+        self.description_pub = node.create_publisher(String, prefix + "robot_description", LATCHED_QOS)
         node.create_subscription(
             JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_SUBSCRIBER_QOS
         )
@@ -173,10 +165,16 @@ class ArmInstance:
         self.joint_msg.header.frame_id = frame
         self.pose_msg = PoseStamped()
         self.pose_msg.header.frame_id = frame
-        self.markers = self._build_markers(node.alpha)
-        self.marker_bytes = PatchedMarkers(self.markers, len(arm.elements))
+        self.set_marker_alpha(node.marker_alpha)
+        self.description = arm_urdf(arm.config, self.frame_prefix, base=arm.base, world_frame=frame)
+        self.description_pub.publish(String(data=self.description))
 
     # --- messages out -----------------------------------------------------------------------
+    def set_marker_alpha(self, alpha: float) -> None:
+        """(Re)build the markers with opacity ``alpha``: every publication from now on uses it."""
+        self.markers = self._build_markers(alpha)
+        self.marker_bytes = patched_markers(self.markers, len(self.arm.elements))
+
     def _build_markers(self, alpha: float) -> MarkerArray:
         """Every element's marker with its static fields; poses are filled at publish time."""
         markers = []
@@ -189,14 +187,28 @@ class ArmInstance:
                 m.scale.x = m.scale.y = m.scale.z = PLACEHOLDER_SIZE
             else:
                 m.type = Marker.MESH_RESOURCE
-                m.mesh_resource = element.element.mesh.as_uri()
+                m.mesh_resource = mesh_uri(element.element.mesh)
                 m.scale.x = m.scale.y = m.scale.z = element.element.scale
             markers.append(m)
         self.axes = _axes_marker(self.node.frame_id, f"{self.label}/axes", self.arm.base, self.node.stamp())
         return MarkerArray(markers=[*markers, self.axes])
 
-    def publish(self) -> None:
-        """Publish this arm's joint_states, robot_markers and end_effector_pose at sim time."""
+    def static_transforms(self) -> list:
+        """The fixed joints of this arm's URDF (world -> base_link, link_n -> tool0), for /tf_static."""
+        out = []
+        for joint in fixed_transforms(self.tree):
+            x, y, z = joint.origin[:3, 3]
+            quaternion = quaternions_xyzw(joint.origin[None])[0]
+            out.append(transform_msg(joint.parent, joint.child, x, y, z, quaternion=quaternion))
+        return out
+
+    def tf_entries(self) -> list:
+        """One TransformStamped per moving joint (parent link -> child link), poses to be patched."""
+        return [transform_msg(j.parent, j.child, 0.0, 0.0, 0.0) for j in self.tree.moving]
+
+    def publish(self) -> np.ndarray:
+        """Publish this arm's joint_states, robot_markers and end_effector_pose at sim time;
+        return its joints' transforms (n, 4, 4) at the published joint state, for /tf."""
         stamp = self.node.stamp()
         q, qd, qdd = self.motion.q, self.motion.qd, self.motion.qdd
         msg = self.joint_msg
@@ -217,6 +229,7 @@ class ArmInstance:
         poses[:, :3] = frames[self.arm.element_links, :3, 3]
         poses[:, 3:] = quats[:-1]
         self.marker_pub.publish(self.marker_bytes.fill(poses, stamp))
+        return joint_transforms(self.tree, q)
 
     # --- commands in ------------------------------------------------------------------------
     def _reject(self, what: str, why: str) -> None:
@@ -317,30 +330,105 @@ class ArmInstance:
 
 
 class ArmNode(SimWorldNode):
-    """The arm world: arms from ``robot_config`` and ``scene_file``, scene objects, axes."""
+    """The arm world: arms from ``robot_config_file`` and ``scene_file``, scene objects, axes."""
 
-    def __init__(self, **node_kwargs) -> None:
-        super().__init__("arm", physics_rate=PHYSICS_RATE, **node_kwargs)
-        robot_config = str(self.declare_parameter("robot_config", "arm/irb120.yaml").value)
-        scene_file = str(self.declare_parameter("scene_file", "").value)
-        self.alpha = float(
-            self.declare_checked("alpha", 1.0, lambda v: 0.0 <= v <= 1.0, "marker opacity in 0..1 (setTransparency)")
+    def __init__(self, node_name: str = "arm", **node_kwargs) -> None:
+        super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
+        try:
+            self._declare_parameters()
+            self.tf = TfBroadcaster(self)
+            self._add_arms()
+        except InputError:
+            self.destroy_node()  # a half-built node must not linger in the graph
+            raise
+        self.scene_pub = self.create_publisher(MarkerArray, "scene_markers", LATCHED_QOS)
+        self.scene_pub.publish(self._scene_markers())
+        self._publish_static_transforms()
+        entries = [t for arm in self.arms for t in arm.tf_entries()]
+        self.tf_msg = self.tf.message(entries) if self.tf.enabled else None
+        self.tf_bytes = (
+            PatchedPoses(
+                self.tf_msg,
+                [(t.transform.translation, t.transform.rotation) for t in entries],
+                [t.header.stamp for t in entries],
+            )
+            if self.tf.enabled
+            else None
         )
-        self.frame_id = str(self.declare_checked("frame_id", "world", lambda v: bool(v), "a frame name"))
-        rate = float(self.declare_checked("publish_rate", 50.0, lambda v: math.isfinite(v) and v >= 0, "Hz, >= 0"))
-        skip = bool(self.declare_parameter("skip_missing_meshes", False).value)
-        self.scene: Scene | None = load_scene(resolve_config(scene_file)) if scene_file else None
+        self.publisher_entry = self.every(self.publish_rate, self.publish)
+        names = ", ".join(f"{a.arm.name} ({a.arm.n} joints{', ' + a.prefix if a.prefix else ''})" for a in self.arms)
+        self.get_logger().info(f"arms: {names}; publishing at {self.publish_rate:g} Hz")
+
+    def _deprecated_alias(self, old: str, new: str) -> None:
+        """Accept parameter ``old`` given at start as ``new``, with a warning."""
+        if old not in self._parameter_overrides:
+            return
+        if new in self._parameter_overrides:
+            self.get_logger().warning(f"parameter '{old}' is deprecated and ignored: '{new}' is also set")
+            return
+        self.get_logger().warning(f"parameter '{old}' is deprecated: use '{new}'")
+        self._parameter_overrides[new] = Parameter(new, value=self._parameter_overrides[old].value)
+
+    def _declare_parameters(self) -> None:
+        declare = self.declare_checked
+        self._deprecated_alias("robot_config", "robot_config_file")
+        self._deprecated_alias("alpha", "marker_alpha")
+        self.robot_config_file = declare(
+            "robot_config_file",
+            "arm/irb120.yaml",
+            None,
+            "robot config YAML of the main arm: a path, or relative to the current directory or to the "
+            "shipped config/ ('' = only the scene file's arms)",
+        )
+        self.scene_file = declare(
+            "scene_file",
+            "",
+            None,
+            "scene YAML (objects and more arms): a path, or relative to the current directory or to the "
+            "shipped config/ ('' = none)",
+        )
+        self.marker_alpha = declare(
+            "marker_alpha",
+            1.0,
+            None,
+            "opacity of the arms' mesh markers, 0 (invisible) to 1 (opaque), times each element's own alpha",
+            live=True,
+            on_change=self._change_marker_alpha,
+            bounds=(0.0, 1.0),
+        )
+        self.frame_id = declare(
+            "frame_id", "world", lambda v: bool(v), "world frame: of every pose and marker, root of every arm's TF"
+        )
+        self.publish_rate = declare(
+            "publish_rate",
+            50.0,
+            math.isfinite,
+            f"Hz of joint_states, robot_markers, end_effector_pose and /tf (0 = never, at most the physics "
+            f"rate {PHYSICS_RATE:g})",
+            live=True,
+            on_change=self._change_publish_rate,
+            bounds=(0.0, PHYSICS_RATE),
+        )
+        self.skip_missing_meshes = declare(
+            "skip_missing_meshes",
+            False,
+            None,
+            "draw a placeholder cube for an unreadable STL file instead of refusing to start",
+        )
+
+    def _add_arms(self) -> None:
+        skip = self.skip_missing_meshes
+        scene_file = self.scene_file
+        self.scene: Scene | None = load_scene(resolve_input_file(scene_file, "scene_file")) if scene_file else None
         self.arms: list[ArmInstance] = []
-        if robot_config:
-            self._add_arm(Arm.from_file(resolve_config(robot_config), skip_missing_meshes=skip), "")
+        if self.robot_config_file:
+            path = resolve_input_file(self.robot_config_file, "robot_config_file")
+            self._add_arm(Arm.from_file(path, skip_missing_meshes=skip), "")
         for scene_arm in self.scene.arms if self.scene else ():
             arm = Arm.from_file(scene_arm.config, base=scene_arm.base, skip_missing_meshes=skip)
             self._add_arm(arm, scene_arm.name + "/")
         if not self.arms:
-            raise InputError("no arm: set robot_config or list arms in the scene file")
-        self.scene_pub = self.create_publisher(MarkerArray, "scene_markers", LATCHED_QOS)
-        self.scene_pub.publish(self._scene_markers())
-        self.every(rate, self.publish)
+            raise InputError("no arm: set robot_config_file or list arms in the scene file")
 
     def _add_arm(self, arm: Arm, prefix: str) -> None:
         for element in arm.elements:
@@ -348,18 +436,41 @@ class ArmNode(SimWorldNode):
                 self.get_logger().warning(f"{element.error}: drawing a placeholder cube")
         self.arms.append(ArmInstance(self, arm, prefix))
 
+    def _change_marker_alpha(self, alpha: float) -> None:
+        self.marker_alpha = alpha
+        for arm in self.arms:
+            arm.set_marker_alpha(alpha)
+
+    def _change_publish_rate(self, rate: float) -> None:
+        self.publish_rate = rate
+        self.publisher_entry.set_rate(rate / self.physics_rate, self.step_count)
+
+    def _scene_frame_prefix(self) -> str:
+        namespace = self.get_namespace().strip("/")
+        return namespace + "/" if namespace else ""
+
     def _scene_markers(self) -> MarkerArray:
         markers = [_axes_marker(self.frame_id, "world_axes", np.eye(4), self.stamp())]
         for k, obj in enumerate(self.scene.objects if self.scene else ()):
             m = Marker(ns=f"scene/{obj.name}", id=k, type=Marker.MESH_RESOURCE, action=Marker.ADD)
             m.header.frame_id = self.frame_id
             m.header.stamp = self.stamp()
-            m.mesh_resource = obj.mesh.as_uri()
+            m.mesh_resource = mesh_uri(obj.mesh)
             m.scale.x = m.scale.y = m.scale.z = obj.scale
             m.color = _color(obj.color, 1.0)
             _set_pose(m, obj.pose[:3, 3], quaternions_xyzw(obj.pose[None])[0])
             markers.append(m)
         return MarkerArray(markers=markers)
+
+    def _publish_static_transforms(self) -> None:
+        """Every arm's base and tool frames, and a frame per scene object (``<object name>``)."""
+        transforms = [t for arm in self.arms for t in arm.static_transforms()]
+        prefix = self._scene_frame_prefix()
+        for obj in self.scene.objects if self.scene else ():
+            x, y, z = obj.pose[:3, 3]
+            quaternion = quaternions_xyzw(obj.pose[None])[0]
+            transforms.append(transform_msg(self.frame_id, prefix + obj.name, x, y, z, quaternion=quaternion))
+        self.tf.send_static(transforms, self.stamp())
 
     def physics_step(self) -> None:
         """Advance every arm's motion by one physics step."""
@@ -367,12 +478,13 @@ class ArmNode(SimWorldNode):
             arm.motion.step(self.physics_dt)
 
     def publish(self) -> None:
-        """Publish every arm's state and markers."""
-        for arm in self.arms:
-            arm.publish()
+        """Publish every arm's state and markers, and every moving joint's transform on /tf."""
+        joints = [arm.publish() for arm in self.arms]
+        if self.tf.heard():
+            self.tf.publisher.publish(self.tf_bytes.fill(poses_from_frames(np.concatenate(joints)), self.stamp()))
 
     def arm(self, prefix: str = "") -> ArmInstance:
-        """The arm whose topics live under ``prefix`` ('' for robot_config's, else '<name>/')."""
+        """The arm whose topics live under ``prefix`` ('' for robot_config_file's, else '<name>/')."""
         for arm in self.arms:
             if arm.prefix == prefix:
                 return arm
@@ -385,4 +497,4 @@ def main(args: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -275,7 +275,10 @@ def bench_node() -> None:
     try:
         for config in ("arm/csa7.yaml", "arm/irb120.yaml"):
             node = ArmNode(
-                parameter_overrides=[Parameter("robot_config", value=config), Parameter("publish_rate", value=100.0)]
+                parameter_overrides=[
+                    Parameter("robot_config_file", value=config),
+                    Parameter("publish_rate", value=100.0),
+                ]
             )
             node.step(100)
             arm = node.arm("")

@@ -6,7 +6,7 @@ All figures on one core, on a map of 200 random walls (0.2–2.5 m long) in a 10
 (plus 20 lines, 10 beacons and 5 virtual walls so that every sensor has work),
 with a 681-beam scan (the URG-04LX-like LIDAR). Baselines are measured in the same run:
 a numpy rays × segments matrix and a brute-force numba loop (every ray against every wall).
-Goals (issue 2 §5): grid LIDAR ≥ 5 M rays/s, full-sensor model step ≥ 2,000 steps/s, node at
+Goals: grid LIDAR ≥ 5 M rays/s, full-sensor model step ≥ 2,000 steps/s, node at
 real_time_factor 0 ≥ 20× real time, cold start (numba cache warm) to first scan ≤ 3 s.
 """
 

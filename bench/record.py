@@ -7,7 +7,7 @@ Recorder: a publisher process (pinned to CPU 1) sends mixed-size messages — 70
 on three topics; the recorder (this process, pinned to CPU 0, zstd chunks) must write every
 one. Player: replays 2 s of a 1,000 msg/s robot-like bag, then of the recorded scans+grids
 (6,000 msg/s), at rate 1, and reports median / 99th percentile lateness against the schedule.
-Goals (issue 5): ≥ 20,000 msg/s with zero drops; median lateness ≤ 1 ms.
+Goals: ≥ 20,000 msg/s with zero drops; median lateness ≤ 1 ms.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ what is missing.
 For each world (create_world on its example map, simrobot_world on the demo world, arm with
 the IRB120) a world process runs at real_time_factor 1 beside a `robot_sims record` process.
 After the run, every periodic topic's header stamps must advance by exactly one period (a gap
-is a dropped message) between the first and last message recorded. Goal (issue 5): zero drops.
+is a dropped message) between the first and last message recorded. Goal: zero drops.
 """
 
 from __future__ import annotations

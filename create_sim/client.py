@@ -2,16 +2,19 @@
 
 Each method is the snake_case twin of a function of the MATLAB Toolbox for the iRobot Create
 (``SetFwdVelAngVelCreate(serPort, v, w)`` → ``robot.set_fwd_vel_ang_vel(v, w)``), talking to any
-robot that speaks the ``create_world`` topics (design.md §4)::
+robot that speaks the ``create_world`` topics::
 
     from create_sim.client import CreateRobot
 
-    robot = CreateRobot()                       # RoombaInit: a node + background spinner
-    robot.travel_dist(0.2, 0.5)                 # drive 0.5 m forward at 0.2 m/s, blocking
-    robot.turn_angle(0.2, 90)                   # turn 90° counter-clockwise, blocking
-    bump_right, bump_left, *_, bump_front = robot.bumps_wheel_drops()
-    print(robot.read_sonar(2), robot.overhead_localization())
-    robot.close()
+    with CreateRobot() as robot:                # RoombaInit: a node + background spinner
+        robot.travel_dist(0.2, 0.5)             # drive 0.5 m forward at 0.2 m/s, blocking
+        robot.turn_angle(0.2, 90)               # turn 90° counter-clockwise, blocking
+        bump_right, bump_left, *_, bump_front = robot.bumps_wheel_drops()
+        print(robot.read_sonar(2), robot.overhead_localization())
+
+However the program ends (the end of the ``with`` block or of the program, an exception,
+Ctrl-C, SIGTERM), the robot is sent zero velocity and the client's node and thread are shut
+down, so the process exits as Python does (status, traceback) and the robot does not drive on.
 
 Readings are the latest message on each topic (the first call waits for one). Time is the
 robot's sim time, taken from message stamps, so blocking calls behave the same at any
@@ -27,10 +30,14 @@ front sonar, as the toolbox documented.
 
 from __future__ import annotations
 
+import atexit
 import math
+import os
+import signal
 import threading
 import time
 import warnings
+import weakref
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -40,6 +47,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from visualization_msgs.msg import MarkerArray
 
@@ -54,6 +62,30 @@ TURN_SPEED_RANGE = (0.025, 0.2)  # rad/s, turnAngle
 RADIUS_RANGE = (0.001, 2.0)  # m, SetFwdVelRadiusRoomba
 SONAR_NUMBERS = {1: "right", 2: "front", 3: "left", 4: "back"}  # the toolbox's ReadSonar numbering
 CLIFF_NAMES = ("left", "front_left", "front_right", "right")
+STOP_CONFIRM_TIMEOUT = 1.0  # s, wall: how long closing waits for the robot to report it has stopped
+
+# Standalone clients still open, stopped by SIGTERM before the process dies of it.
+_clients: weakref.WeakSet[CreateRobot] = weakref.WeakSet()
+
+
+def _stop_on_sigterm() -> None:
+    """On SIGTERM, stop every open client, then die of SIGTERM as Python does by default.
+
+    Only when nobody else handles SIGTERM: a program with its own handler keeps it (and ends
+    through it, when atexit stops the robot).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return  # signal handlers can only be set from the main thread
+    if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        return
+
+    def stop_then_die(signum: int, _frame: object) -> None:
+        for client in list(_clients):
+            client.close()
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+
+    signal.signal(signal.SIGTERM, stop_then_die)
 
 
 class AllSensors(NamedTuple):
@@ -135,9 +167,16 @@ class CreateRobot:
         self._angle_mark = 0.0
         self._thread = None
         self._executor = None
+        self._closed = False
+        self._odom_count = 0  # odometry messages received
+        self._heard = False  # the robot has shown a command of ours in its odometry
+        self._owns_rclpy = False
         if node is None:
             if not rclpy.ok():
-                rclpy.init()
+                # Without rclpy's signal handlers: they shut the context down on Ctrl-C/SIGTERM,
+                # after which the robot could not be told to stop.
+                rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+                self._owns_rclpy = True
             node = Node("create_client", namespace=namespace)
             self._executor = SingleThreadedExecutor()
             self._executor.add_node(node)
@@ -153,6 +192,11 @@ class CreateRobot:
         self._subscribe()
         if self._thread:
             self._thread.start()
+            # However the program ends, the robot stops and the spinner thread ends before the
+            # interpreter does (a thread still inside rclpy at exit aborts the process).
+            atexit.register(self.close)
+            _stop_on_sigterm()
+            _clients.add(self)
 
     def _subscribe(self) -> None:
         topics: list[tuple[type, str]] = [
@@ -179,6 +223,8 @@ class CreateRobot:
         with self._cond:
             self._latest[topic] = msg
             self._updates += 1
+            if topic == "odom":
+                self._odom_count += 1
             if hasattr(msg, "header"):
                 self._sim_time = max(self._sim_time, time_from_msg(msg.header.stamp))
             self._cond.notify_all()
@@ -238,13 +284,68 @@ class CreateRobot:
         self._wait_until(lambda: self._sim_time >= end - 1e-9, "pause")
 
     def close(self) -> None:
-        """Stop the robot and release the node (standalone mode)."""
-        self.set_fwd_vel_ang_vel(0.0, 0.0)
-        if self._executor is not None:
-            self._executor.shutdown()
-            self._thread.join(timeout=2.0)
-        if self._owned_node:
-            self.node.destroy_node()
+        """Stop the robot and release the node, its spinner thread and rclpy (standalone mode).
+
+        Safe to call more than once. Also runs by itself when the program ends (normally, by an
+        exception, Ctrl-C or SIGTERM) and at the end of a ``with`` block.
+        """
+        if self._closed:
+            return
+        self._closed = True
+        _clients.discard(self)
+        try:
+            self._send_stop()
+        finally:
+            if self._executor is not None:
+                self._executor.shutdown(timeout_sec=2.0)
+                self._thread.join(timeout=2.0)
+            if self._owned_node:
+                self.node.destroy_node()
+            if self._owns_rclpy and rclpy.ok():
+                rclpy.shutdown()
+            if self._thread is not None:
+                atexit.unregister(self.close)
+
+    def _send_stop(self) -> None:
+        """Zero velocity to whoever listens on cmd_vel, confirmed before the node goes away.
+
+        The world's command subscription is best effort and acknowledges nothing, so the
+        confirmation is the robot's own odometry reporting zero velocity after the stop was sent.
+        The stop is repeated every 0.1 s until then, for at most ``STOP_CONFIRM_TIMEOUT`` seconds
+        (a robot that publishes no odometry gets the stop ten times).
+        """
+        if not self.node.context.ok() or self._cmd_pub.get_subscription_count() == 0:
+            return  # no world to stop
+        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        while time.monotonic() < deadline:
+            self._publish(0.0, 0.0)
+            with self._cond:
+                sent_after = self._odom_count
+            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(0.0, 0.0), timeout=0.1):
+                return
+
+    def _odom_is(self, v: float, w: float) -> bool:
+        """The newest odometry reports velocity (v, w)."""
+        twist = self._latest["odom"].twist.twist
+        return abs(twist.linear.x - v) < 1e-6 and abs(twist.angular.z - w) < 1e-6
+
+    def _await(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Wait up to ``timeout`` wall seconds for ``done()``, spinning in hosted mode; never raises."""
+        end = time.monotonic() + timeout
+        with self._cond:
+            while not done():
+                remaining = end - time.monotonic()
+                if remaining <= 0:
+                    return False
+                if self._thread:
+                    self._cond.wait(min(remaining, 0.02))
+                else:
+                    self._cond.release()
+                    try:
+                        self._spin()
+                    finally:
+                        self._cond.acquire()
+        return True
 
     def __enter__(self) -> CreateRobot:
         return self
@@ -287,13 +388,37 @@ class CreateRobot:
         right = _clamp(right_wheel_vel, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
         left = _clamp(left_wheel_vel, -MAX_WHEEL_SPEED, MAX_WHEEL_SPEED)
         v, w = (right + left) / 2, (right - left) / WHEEL_BASE
-        twist = Twist()
-        twist.linear.x, twist.angular.z = v, w
+        if self._closed:
+            raise RuntimeError("this CreateRobot is closed: create a new one to drive again")
         if self._cmd_pub.get_subscription_count() == 0:
             # A command published before the world has matched would be lost silently.
             self._wait_until(
                 lambda: self._cmd_pub.get_subscription_count() > 0, "waiting for the world to subscribe to cmd_vel"
             )
+        self._publish(v, w)
+        if not self._heard and self._thread is not None:
+            self._confirm_first_command(v, w)
+        return v, w
+
+    def _confirm_first_command(self, v: float, w: float) -> None:
+        """Repeat the first command until the robot's odometry shows it (at most 1 s).
+
+        The world's command subscription is best effort: just after discovery our publisher may
+        see the world before the world sees it, and the world then drops what we send. A ported
+        MATLAB program commands once and waits, so that first command must arrive.
+        """
+        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        while time.monotonic() < deadline:
+            with self._cond:
+                sent_after = self._odom_count
+            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(v, w), timeout=0.1):
+                break
+            self._publish(v, w)
+        self._heard = True  # once only, also for a robot that publishes no odometry
+
+    def _publish(self, v: float, w: float) -> None:
+        twist = Twist()
+        twist.linear.x, twist.angular.z = v, w
         if self._stamped:
             msg = TwistStamped(twist=twist)
             msg.header.stamp = time_msg(self._sim_time)  # the newest sim time the robot reported
@@ -301,7 +426,6 @@ class CreateRobot:
         else:
             self._cmd_pub.publish(twist)
         self.commands_sent += 1
-        return v, w
 
     def travel_dist(self, speed: float, distance: float, timeout: float | None = None) -> float:
         """``travelDist``: drive ``distance`` m (negative = backwards) at ``|speed|`` m/s, then stop.

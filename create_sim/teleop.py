@@ -1,4 +1,4 @@
-"""Keyboard teleoperation for the Create, like the seed simulator's manual control.
+"""Keyboard teleoperation for the Create, like the original simulator's manual control.
 
 Keys (in the terminal that runs ``create_teleop``):
 
@@ -31,8 +31,8 @@ from geometry_msgs.msg import Twist, TwistStamped
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 
-LINEAR_STEP = 0.1  # m/s per key press, as the seed
-ANGULAR_STEP = 0.5  # rad/s per key press, as the seed
+LINEAR_STEP = 0.1  # m/s per key press, as the original
+ANGULAR_STEP = 0.5  # rad/s per key press, as the original
 MAX_LINEAR_STEPS = 5  # ±0.5 m/s
 MAX_ANGULAR_STEPS = 5  # ±2.5 rad/s
 

@@ -1,37 +1,17 @@
-"""ROS 2 world node for the simulated iRobot Create (design.md §4).
+"""``create_world``: the simulated iRobot Create on ROS 2.
 
-The node is a thin mapping of :class:`create_sim.model.CreateModel` onto topics, parameters and
-services. Physics runs at a fixed 100 Hz whatever ``real_time_factor`` is; every sensor is
-published at its own rate (parameters ``rate.<sensor>``, Hz, 0 = never), stamped with the sim
-time at which it was measured.
+A thin mapping of :class:`create_sim.model.CreateModel` onto topics, parameters, services and TF;
+the interface (every topic, parameter and frame) is in ``docs/executables.md``. What the code
+below has to keep true:
 
-Parameters (besides ``real_time_factor`` and ``seed`` from :class:`SimWorldNode`):
-
-``map_file``        map in the seed's text format; default the shipped ``config/create/example.map``;
-                    ``""`` = an empty (open) map.
-``config_file``     noise/com_delay file in the seed's text format; ``""`` = noise-free, no delay.
-``initial_pose``    ``[x, y, theta]`` in ``map`` (m, rad); inside a wall is an error.
-``rate.<sensor>``   publication rate in Hz for ``bump, cliff, wall, virtual_wall, odom,
-                    overhead_pose, sonar, scan, camera, buttons, battery``.
-``cmd_vel_stamped`` subscribe ``TwistStamped`` instead of ``Twist`` on ``cmd_vel``.
-``cmd_vel_timeout`` seconds of sim time without a command after which the robot stops; 0 = hold
-                    the last command forever, as the seed does.
-``frame_prefix``    prefix of the robot's frames; default derived from the namespace
-                    (``/robot1`` → ``robot1/``, so ``robot1/base_link``).
-
-Commands: each wheel is limited to ±0.5 m/s (an over-limit command is clamped per wheel and
-v, ω recomputed, as the seed's keyboard control meant to). A command with a NaN/inf component,
-or a component whose magnitude exceeds :data:`sim_runtime.msgs.ABSURD_COMMAND` (1000 m/s or rad/s: a unit or
-uninitialised-variable bug, not a request to drive fast), is rejected with a throttled warning
-and leaves the state unchanged.
-
-Sensors nobody subscribes to are not built or published (most of the cost at
-``real_time_factor: 0``), except those that draw seeded noise: they are always evaluated, so a
-run with a given ``seed`` reads the same whoever listens.
-
-``com_delay`` (config file) delays both directions by that much sim time: a command takes
-effect ``com_delay`` after it is received, and each sensor message is published ``com_delay``
-after its measurement (its stamp stays the measurement time, so the latency is visible).
+- physics runs at a fixed 100 Hz whatever ``real_time_factor`` is; each sensor is published at its
+  own rate, stamped with the sim time at which it was measured;
+- a command with a NaN/inf component, or one above :data:`sim_runtime.msgs.ABSURD_COMMAND`, is
+  rejected with a throttled warning and leaves the state unchanged;
+- sensors nobody subscribes to are not built, except those that draw seeded noise: a run with a
+  given ``seed`` reads the same whoever listens;
+- ``com_delay`` delays both directions: a command takes effect ``com_delay`` after it arrives, a
+  message is published ``com_delay`` after its measurement and keeps the measurement's stamp.
 """
 
 from __future__ import annotations
@@ -48,6 +28,7 @@ from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -55,6 +36,7 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
 from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -63,6 +45,7 @@ from sim_runtime.msgs import (
     command_ok,
     float32_array,
     pose_msg,
+    set_planar_pose,
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
@@ -116,6 +99,7 @@ class CreateWorldNode(SimWorldNode):
         self.tf = TfBroadcaster(self)
         self._make_publishers()
         self._publish_static_transforms()
+        self.create_publisher(String, "robot_description", LATCHED_QOS).publish(String(data=create_urdf(self.prefix)))
         self._make_inputs()
         self._publish_map_markers()
         self.get_logger().info(self._summary())
@@ -406,7 +390,7 @@ class CreateWorldNode(SimWorldNode):
         return response
 
     def _on_button(self, index: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        # The seed's GUI buttons are toggles that stay down until pressed again (several may be down).
+        # The original GUI's buttons are toggles that stay down until pressed again (several may be down).
         self.buttons_state[index] = int(bool(request.data))
         response.success = True
         response.message = "pressed" if request.data else "released"
@@ -511,7 +495,7 @@ class CreateWorldNode(SimWorldNode):
             self.pub_buttons: stamped(Joy, self.frame("base_link")),
             self.pub_battery: stamped(
                 BatteryState,
-                self.frame("base_link"),  # the seed's battery readings are constants
+                self.frame("base_link"),  # the original's battery readings are constants
                 voltage=m.BATTERY_VOLTAGE,
                 current=m.BATTERY_CURRENT,
                 temperature=m.TEMPERATURE,
@@ -604,7 +588,7 @@ class CreateWorldNode(SimWorldNode):
             v, w = self.model.velocity
             msg = self._message(self.pub_odom)
             msg.header.stamp = stamp
-            msg.pose.pose = pose_msg(x, y, theta)
+            set_planar_pose(msg.pose.pose, x, y, theta)
             msg.twist.twist.linear.x = float(v)
             msg.twist.twist.angular.z = float(w)
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
@@ -657,7 +641,7 @@ class CreateWorldNode(SimWorldNode):
     def _publish_overhead(self) -> None:
         msg = self._message(self.pub_overhead)
         msg.header.stamp = self.stamp()
-        msg.pose = pose_msg(*self.model.pose.tolist())
+        set_planar_pose(msg.pose, *self.model.pose.tolist())
         self._send(self.pub_overhead, msg)
 
     def _publish_buttons(self) -> None:

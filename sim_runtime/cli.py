@@ -2,25 +2,39 @@
 
 from __future__ import annotations
 
+import importlib
 import sys
-from importlib.metadata import entry_points
 
-USAGE = "usage: robot_sims <executable> [arguments] [--ros-args ...]"
+from sim_runtime.executables import EXECUTABLES
+
+USAGE = "usage: robot_sims <executable> [arguments] [--ros-args -p name:=value ...]"
 
 
 def executables() -> dict[str, str]:
-    """Executable name → ``module:function``, as declared once in setup.py."""
-    return {ep.name: ep.value for ep in entry_points(group="robot_sims.executables")}
+    """Executable name → ``module:function``, as declared once in :mod:`sim_runtime.executables`."""
+    return {name: target for name, (target, _what) in EXECUTABLES.items()}
+
+
+def help_text() -> str:
+    """What ``robot_sims --help`` prints: each executable with one line on what it does."""
+    width = max(len(name) for name in EXECUTABLES) + 2
+    lines = [USAGE, "", "executables:"]
+    lines += [f"  {name:{width}s}{what}" for name, (_target, what) in EXECUTABLES.items()]
+    lines += [
+        "",
+        "On a ROS 2 install, `ros2 run robot_sims <executable>` is the same command.",
+        "World parameters are set with --ros-args -p name:=value (see `ros2 param describe`).",
+    ]
+    return "\n".join(lines)
 
 
 def run(name: str, argv: list[str]) -> int:
     """Run executable ``name`` with ``argv`` as its command-line arguments."""
-    table = executables()
-    if name not in table:
-        print(f"robot_sims: unknown executable '{name}'. Known: {', '.join(sorted(table))}", file=sys.stderr)
+    if name not in EXECUTABLES:
+        print(f"robot_sims: unknown executable '{name}'. Known: {', '.join(EXECUTABLES)}", file=sys.stderr)
         return 2
-    entry = next(ep for ep in entry_points(group="robot_sims.executables") if ep.name == name)
-    main = entry.load()
+    module, function = EXECUTABLES[name][0].split(":")
+    main = getattr(importlib.import_module(module), function)
     # Nodes read sys.argv (rclpy.init, argparse): make it look like a direct call.
     sys.argv = [name, *argv]
     result = main()
@@ -30,9 +44,6 @@ def run(name: str, argv: list[str]) -> int:
 def main() -> int:
     """Dispatch ``robot_sims <exe> ...``; with no executable, list them."""
     if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
-        print(USAGE)
-        print("executables:")
-        for name, target in sorted(executables().items()):
-            print(f"  {name:18s} {target}")
+        print(help_text())
         return 0 if len(sys.argv) >= 2 else 2
     return run(sys.argv[1], sys.argv[2:])

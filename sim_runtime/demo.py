@@ -1,7 +1,7 @@
 """``make demo``: each simulator's demo, recorded into a bag, converted for the Rerun viewer.
 
 1. Create world + ``create_bump_turn`` for 60 simulated seconds, as fast as the CPU allows;
-2. SIMROBOT: the seed's four robots avoiding obstacles and each other, 300 lockstep steps,
+2. SIMROBOT: the original's four robots avoiding obstacles and each other, 300 lockstep steps,
    plus the tracks PNG;
 3. the IRB120 arm following a joint trajectory, then a target pose.
 
@@ -88,7 +88,7 @@ def _hosted_demo(name: str, module: str) -> Callable[[Path], dict]:
 
 DEMOS = {
     "create": create_demo,
-    # The seed's SIMROBOT demo: four robots, 300 lockstep steps, tracks PNG.
+    # The original SIMROBOT demo: four robots, 300 lockstep steps, tracks PNG.
     "simrobot": _hosted_demo("simrobot", "simrobot_sim.demo"),
     # IRB120 following a joint trajectory, then a target pose.
     "arm": _hosted_demo("arm", "arm_sim.demo"),

@@ -74,6 +74,14 @@ def pose_msg(x: float, y: float, yaw: float, z: float = 0.0) -> Pose:
     return Pose(position=Point(x=float(x), y=float(y), z=float(z)), orientation=quaternion_from_yaw(yaw))
 
 
+def set_planar_pose(pose: Pose, x: float, y: float, yaw: float) -> None:
+    """Move a planar ``geometry_msgs/Pose`` in place: a reused message needs no new Point and
+    Quaternion objects per publication (their constructors cost more than the publish)."""
+    p, q = pose.position, pose.orientation
+    p.x, p.y = x, y
+    q.z, q.w = math.sin(0.5 * yaw), math.cos(0.5 * yaw)
+
+
 def color_msg(r: float, g: float, b: float, a: float = 1.0) -> ColorRGBA:
     """RGBA in 0–1 as ``std_msgs/ColorRGBA``."""
     return ColorRGBA(r=float(r), g=float(g), b=float(b), a=float(a))

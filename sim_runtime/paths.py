@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import filecmp
+import os
 from pathlib import Path
 
 PACKAGE_NAME = "robot_sims"
@@ -20,6 +22,70 @@ def config_dir() -> Path:
 def config_path(relative: str) -> Path:
     """Absolute path of a shipped file, e.g. ``config_path('create/example.map')``."""
     return config_dir() / relative
+
+
+def package_share_dir() -> Path | None:
+    """``share/robot_sims`` as the ament index finds it (AMENT_PREFIX_PATH), or None (also
+    without ROS at all: the URDF and the models work there too)."""
+    share = _share_dir(PACKAGE_NAME)
+    return share.resolve() if share is not None and share.is_dir() else None
+
+
+def _share_dir(package: str) -> Path | None:
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    except ImportError:
+        return None
+    try:
+        return Path(get_package_share_directory(package, print_warning=False))
+    except (PackageNotFoundError, OSError, ValueError):
+        return None
+
+
+def mesh_uri(path: str | os.PathLike[str]) -> str:
+    """URI of a mesh file for URDFs and markers: ``package://robot_sims/…`` when possible.
+
+    A ``package://`` URI is resolved by whoever loads it (RViz, Foxglove, robot_state_publisher
+    users) through their own ament index, so it also works on another machine that has the
+    package installed; an absolute ``file://`` URI only works where the file is. So: a file inside
+    the installed ``share/robot_sims`` (found through the ament index), or a shipped file of this
+    checkout whose identical copy is installed there, gets ``package://robot_sims/<path in
+    share>``; anything else (a checkout without an install, a user's own meshes) gets ``file://``.
+    """
+    path = Path(path).resolve()
+    share = package_share_dir()
+    if share is not None:
+        relative = _relative_to(path, share)
+        if relative is None:
+            # A checkout's shipped file: its installed copy, if it is the same file.
+            in_config = _relative_to(path, config_dir().resolve())
+            installed = share / "config" / in_config if in_config is not None else None
+            if installed is not None and installed.is_file() and filecmp.cmp(path, installed, shallow=False):
+                relative = installed.relative_to(share)
+        if relative is not None:
+            return f"package://{PACKAGE_NAME}/{relative.as_posix()}"
+    return path.as_uri()
+
+
+def mesh_path(uri: str) -> Path | None:
+    """The local file a mesh URI names: ``file://`` (or a bare path), or ``package://<package>/…``
+    through the ament index, as RViz resolves it; None where it cannot be resolved here."""
+    from urllib.parse import unquote, urlparse
+
+    parsed = urlparse(uri)
+    if parsed.scheme in ("file", ""):
+        return Path(unquote(parsed.path))
+    if parsed.scheme == "package":
+        share = _share_dir(parsed.netloc)
+        return None if share is None else share / unquote(parsed.path).lstrip("/")
+    return None
+
+
+def _relative_to(path: Path, folder: Path) -> Path | None:
+    try:
+        return path.relative_to(folder)
+    except ValueError:
+        return None
 
 
 def kernels_cached(module: str) -> bool:

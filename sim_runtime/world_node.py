@@ -11,6 +11,7 @@ import numpy as np
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
 from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Trigger
 
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import time_msg
@@ -81,6 +82,15 @@ class SimWorldNode(CheckedNode):
         )
         self.seed = self.declare_checked("seed", 0, None, "noise seed", bounds=(0, 2**63 - 1))
         self.live_view = self.declare_checked("rerun", False, None, "also show the world live in a Rerun viewer")
+        self.paused = self.declare_checked(
+            "paused",
+            False,
+            None,
+            "hold the simulation (sim time stops); the step service then advances it one physics step",
+            live=True,
+            on_change=lambda v: setattr(self, "paused", v),
+        )
+        self.create_service(Trigger, "step", self._on_step)
         self.rng = np.random.default_rng(self.seed)
         self.sim_time = 0.0
         self.step_count = 0
@@ -96,8 +106,20 @@ class SimWorldNode(CheckedNode):
         """Advance the model by ``physics_dt``; override."""
 
     def ready_to_step(self) -> bool:
-        """Whether the next step may run now; lockstep worlds wait for their controllers."""
-        return not self.finished
+        """Whether the next step may run now: not while paused or finished; lockstep worlds also
+        wait for their controllers."""
+        return not (self.finished or self.paused)
+
+    def _on_step(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """One physics step by hand, while paused (the SimulatorGUI's step button)."""
+        if not self.paused:
+            response.success, response.message = False, "not paused: set the 'paused' parameter to true first"
+        elif self.finished:
+            response.success, response.message = False, "the world has finished"
+        else:
+            self.step()
+            response.success, response.message = True, f"sim time {self.sim_time:.6g} s"
+        return response
 
     def every(self, rate_hz: float, callback: Callable[[], None]) -> _Scheduled:
         """Run ``callback`` after each physics step at which sim time crosses a multiple of

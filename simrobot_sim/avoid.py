@@ -1,4 +1,4 @@
-"""``simrobot_avoid``: the seed's demo algorithm alg2 as a ROS 2 node driving one robot.
+"""``simrobot_avoid``: the original SIMROBOT's demo algorithm alg2 as a ROS 2 node driving one robot.
 
 alg2 reads the front ultrasonic sensor each step: nearer than 20 cm → wheel speeds [0, 0.5] rad/s
 (turn left), otherwise [0.5, 0.5] (straight on; no echo counts as far). The node answers every

@@ -1,31 +1,19 @@
-"""ROS 2 world node for SIMROBOT worlds: many robots on a bitmap map (design.md §5).
+"""``simrobot_world``: a SIMROBOT world (many robots on a bitmap map) on ROS 2.
 
-``simrobot_world --ros-args -p world_file:=world.yaml`` (format: :func:`simrobot_sim.world_file.load_world`).
-One physics step is the world file's ``dt``; after every step the world publishes, per robot
-under ``/<name>/``: one topic per sensor (``Range`` for ultrasonic — nearest ray, ``+inf`` for no
-hit — plus ``<sensor>/obstacle`` ``UInt8``; ``LaserScan`` for laser — every ray counter-clockwise
-from the rightmost, ``intensities`` = obstacle number), ``odom`` (``<name>/odom`` →
-``<name>/base_link``, from the start pose), ``pose`` (ground truth in ``map``) and, when it
-changes, ``crashed`` (transient local). World-level: ``/map`` (walls, transient local),
-``/robots`` (outlines and colours) and ``/clock``.
+A thin mapping of :class:`simrobot_sim.model.SimrobotWorld` onto topics, services and TF, all
+relative to the node's namespace; the interface is in ``docs/executables.md``. What the code below
+has to keep true:
 
-Inputs per robot: ``cmd_vel`` (Twist: linear.x, angular.z through the inverse model; parameter
-``cmd_vel_stamped: true`` makes it TwistStamped, whose stamp then counts like wheel_cmd's),
-``wheel_cmd`` (JointState: ``velocity`` = [left, right] rad/s, the seed's setvel), services
-``set_power`` (SetBool) and ``clear_crash`` (Trigger). NaN/inf commands are rejected with a
-throttled warning. A command holds until the next one, as the seed's setvel.
-
-Lockstep (``lockstep: true`` in the world file): after publishing step k the world waits until
-every powered, non-crashed robot has sent a command *for step k* before computing step k+1. A
-command counts for step k when it arrives after step k was published (unstamped), or when it is
-stamped with step k's sim time; a ``wheel_cmd`` stamped with an older step's time is stale and
-ignored (a plain Twist ``cmd_vel`` has no stamp: it always counts on arrival). If
-``lockstep_timeout`` wall seconds pass first, the world warns which robots did not answer and goes
-on. Unanswered step data is re-published every 0.5 s while waiting, so a controller that joined
-late still gets it. A run is then identical whatever the machine's load.
-
-Robots naming a ``controller`` in the world file get that controller node (``avoid``: the seed's
-alg2) in this process, in the same executor.
+- one physics step is the world file's ``dt``; after each step every robot's sensors, odometry,
+  pose and ``/tf`` are published, stamped with the step's sim time;
+- a command holds until the next one (the original's setvel); NaN/inf or absurd commands are
+  rejected with a throttled warning;
+- lockstep (``lockstep: true``): after publishing step k the world waits until every powered,
+  non-crashed robot has answered step k (unstamped commands count on arrival, stamped ones when
+  stamped with step k's time; older stamps are stale), re-publishing the step's data every 0.5 s
+  while it waits, and steps on with a warning after ``lockstep_timeout`` wall seconds: a run is
+  then identical whatever the machine's load;
+- robots naming a ``controller`` (``avoid``: the original's alg2) get that node in this process.
 """
 
 from __future__ import annotations
@@ -50,6 +38,7 @@ from sim_runtime.msgs import (
     float32_array,
     pose_msg,
     quaternion_from_yaw,
+    set_planar_pose,
     time_from_msg,
 )
 from sim_runtime.paths import resolve_input_file
@@ -304,7 +293,7 @@ class SimrobotWorldNode(SimWorldNode):
     def ready_to_step(self) -> bool:
         """False once ``steps_limit`` is reached; in lockstep, also until every powered,
         non-crashed robot answered the current step or ``lockstep_timeout`` passed."""
-        if self.finished:
+        if not super().ready_to_step():
             return False
         if not self.lockstep:
             return True
@@ -357,13 +346,13 @@ class SimrobotWorldNode(SimWorldNode):
                     obst_pub.publish(obst)
             x, y, h = poses[i]
             io.pose.header.stamp = stamp
-            io.pose.pose = pose_msg(x, y, h)
+            set_planar_pose(io.pose.pose, x, y, h)
             io.pose_pub.publish(io.pose)
             # odometry: the pose in the frame of the start pose (exact wheel odometry)
             ox, oy, oh = odom_poses[i]
             odom = io.odom
             odom.header.stamp = stamp
-            odom.pose.pose = pose_msg(ox, oy, oh)
+            set_planar_pose(odom.pose.pose, ox, oy, oh)
             v, v_lat, w = model.body_velocity(i)
             odom.twist.twist.linear.x = v
             odom.twist.twist.linear.y = v_lat

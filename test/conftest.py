@@ -58,3 +58,22 @@ def make_node(executor):
         return node
 
     return factory
+
+
+@pytest.fixture(scope="session")
+def tf2_msgs():
+    """The installed tf2_msgs. A test using it is skipped only where the setup step turned TF off
+    for want of a compiler or the Python headers (the one case where the package works without TF);
+    anywhere else a missing tf2_msgs fails the test."""
+    import importlib.util
+
+    if importlib.util.find_spec("tf2_msgs") is None:
+        spec = importlib.util.spec_from_file_location("build_tf2_msgs", ROOT / "interfaces" / "build_tf2_msgs.py")
+        build = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(build)
+        missing = build.missing_build_tools()
+        if missing:
+            pytest.skip(f"TF is off on this machine: {missing}")
+    import tf2_msgs
+
+    return tf2_msgs

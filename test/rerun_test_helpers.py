@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
+import struct
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
 import rerun.chunk as rrc
+import yaml
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, PoseStamped, Quaternion
 from mcap.writer import Writer
@@ -27,6 +30,14 @@ def stamp(t: float) -> Time:
     return Time(sec=ns // NS, nanosec=ns % NS)
 
 
+@dataclass
+class Raw:
+    """A message given as its type name and CDR bytes (a type whose package may not be installed)."""
+
+    type: str
+    data: bytes
+
+
 def write_bag(path: Path, messages: list[tuple[str, object, float]]) -> Path:
     """A minimal rosbag2-style MCAP (ros2 profile, cdr) holding ``(topic, msg, t)``, t in seconds."""
     with path.open("wb") as f:
@@ -35,12 +46,66 @@ def write_bag(path: Path, messages: list[tuple[str, object, float]]) -> Path:
         channels: dict[str, int] = {}
         for topic, msg, t in messages:
             if topic not in channels:
-                schema = writer.register_schema(name=type_name(msg), encoding="ros2msg", data=b"")
+                kind = msg.type if isinstance(msg, Raw) else type_name(msg)
+                schema = writer.register_schema(name=kind, encoding="ros2msg", data=b"")
                 channels[topic] = writer.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
             ns = int(round(t * NS))
-            writer.add_message(channels[topic], log_time=ns, data=serialize_message(msg), publish_time=ns)
+            data = msg.data if isinstance(msg, Raw) else serialize_message(msg)
+            writer.add_message(channels[topic], log_time=ns, data=data, publish_time=ns)
         writer.finish()
     return path
+
+
+def tf_message(transforms: list[tuple[str, str, float, float, float, float]], t: float = 0.0) -> Raw:
+    """A tf2_msgs/TFMessage as CDR bytes (little endian), written by hand so that tests do not
+    need tf2_msgs: transforms are (parent, child, x, y, z, yaw)."""
+    out = bytearray(b"\x00\x01\x00\x00")
+
+    def align(n: int) -> None:
+        out.extend(b"\x00" * (-(len(out) - 4) % n))
+
+    def string(text: str) -> None:
+        align(4)
+        data = text.encode() + b"\x00"
+        out.extend(struct.pack("<I", len(data)) + data)
+
+    align(4)
+    out.extend(struct.pack("<I", len(transforms)))
+    ns = int(round(t * NS))
+    for parent, child, x, y, z, yaw in transforms:
+        align(4)
+        out.extend(struct.pack("<iI", ns // NS, ns % NS))
+        string(parent)
+        string(child)
+        align(8)
+        out.extend(struct.pack("<3d", x, y, z))
+        out.extend(struct.pack("<4d", 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)))
+    return Raw("tf2_msgs/msg/TFMessage", bytes(out))
+
+
+def blueprint_views(rrd: Path) -> list[dict]:
+    """The views of the blueprint stored in ``rrd``: class, name, origin and their properties."""
+    reader = rrc.RrdReader(rrd)
+    views: dict[str, dict] = {}
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store).to_chunks():
+            path = str(chunk.entity_path)
+            if not path.startswith("/view/"):
+                continue
+            view = views.setdefault(path.split("/")[2], {})
+            batch = chunk.to_record_batch()
+            for name in batch.schema.names:
+                if ":" in name:
+                    values = [v for v in batch.column(name).to_pylist() if v is not None]
+                    if values:
+                        view[name] = values[-1]
+    return list(views.values())
+
+
+def world_file_colors(world_file: Path) -> dict[str, tuple[int, int, int]]:
+    """Robot name → its colour in a SIMROBOT world file, as rgb 0-255."""
+    spec = yaml.safe_load(world_file.read_text())
+    return {r["name"]: tuple(round(255 * c) for c in r["color"]) for r in spec["robots"]}
 
 
 def load_entities(rrd: Path) -> dict[str, list[pa.RecordBatch]]:

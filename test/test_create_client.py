@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import math
+import os
+import signal
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import pytest
 from nav_msgs.msg import Odometry
@@ -17,6 +22,8 @@ from sim_runtime.msgs import time_from_msg
 from sim_runtime.paths import config_path
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def hosted_robot(rig: Rig, **kwargs) -> CreateRobot:
@@ -259,3 +266,104 @@ def test_odometry_counters_ignore_the_jump_of_a_world_reset(rig, robot):
     robot.pause(0.2)
     assert robot.angle_sensor() == pytest.approx(math.radians(60), abs=0.02)
     assert robot.distance_sensor() == pytest.approx(0.2, abs=0.01)
+
+
+# ------------------------------------------------------------ how a student's program ends
+STUDENT_START = """
+from create_sim.client import CreateRobot
+robot = CreateRobot(namespace="ending", timeout=60)
+robot.set_fwd_vel_ang_vel(0.2, 0.0)
+robot.pause(0.2)
+"""
+DRIVE_ON = "while True:\n    robot.pause(0.1)\n"
+ENDINGS = {
+    # name: (program, signal sent once the robot drives, exit status, what stderr shows)
+    "normal_end_without_close": (STUDENT_START, None, 0, None),
+    "exception": (STUDENT_START + "raise RuntimeError('a bug in the program')\n", None, 1, "RuntimeError: a bug"),
+    "ctrl_c": (STUDENT_START + DRIVE_ON, signal.SIGINT, -signal.SIGINT, "KeyboardInterrupt"),
+    "sigterm": (STUDENT_START + DRIVE_ON, signal.SIGTERM, -signal.SIGTERM, None),
+    "with_block": (
+        "from create_sim.client import CreateRobot\n"
+        "with CreateRobot(namespace='ending', timeout=60) as robot:\n"
+        "    robot.set_fwd_vel_ang_vel(0.2, 0.0)\n"
+        "    robot.pause(0.2)\n",
+        None,
+        0,
+        None,
+    ),
+    "exception_in_a_with_block": (
+        "from create_sim.client import CreateRobot\n"
+        "with CreateRobot(namespace='ending', timeout=60) as robot:\n"
+        "    robot.set_fwd_vel_ang_vel(0.2, 0.0)\n"
+        "    robot.pause(0.2)\n"
+        "    raise ValueError('inside the with block')\n",
+        None,
+        1,
+        "ValueError: inside the with block",
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def world_process():
+    """A create_world in another process (namespace /ending, free space, real time) that holds the
+    last command forever, as by default: a robot left driving keeps driving."""
+    world = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from create_sim.world_node import main; sys.exit(main())",
+            "--ros-args",
+            "-p",
+            "map_file:=''",
+            "-r",
+            "__ns:=/ending",
+        ],
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    yield world
+    world.send_signal(signal.SIGINT)
+    world.communicate(timeout=30)
+
+
+@pytest.mark.parametrize("ending", ENDINGS)
+def test_however_a_program_ends_the_robot_stops_and_python_exits_as_usual(ending, world_process, executor, make_node):
+    program, stop_signal, status, shown = ENDINGS[ending]
+    odom = Collector(make_node("ending_probe"), Odometry, "/ending/odom", SENSOR_SUBSCRIBER_QOS)
+    # The world is up (its first start may compile its kernels) and the robot stands still.
+    assert spin_until(executor, lambda: odom.last is not None, timeout=120), "no odometry from create_world"
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=10)
+    student = subprocess.Popen(
+        [sys.executable, "-c", program],
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        moving = lambda: [m for m in odom.msgs if m.twist.twist.linear.x == pytest.approx(0.2)]  # noqa: E731
+        assert spin_until(executor, lambda: moving() or student.poll() is not None, timeout=60)
+        assert moving(), f"the program never drove the robot: {student.communicate()[1]}"
+        if stop_signal is not None:
+            student.send_signal(stop_signal)
+        _out, err = student.communicate(timeout=60)
+    finally:
+        if student.poll() is None:
+            student.kill()
+            student.communicate()
+    assert student.returncode == status, err
+    assert "terminate called" not in err, err
+    if shown is None:
+        assert "Traceback" not in err, err
+    else:
+        assert "Traceback" in err and shown in err, err
+    # After the program ended, the world reports the robot standing: every odometry message
+    # newer than the last moving one, half a second of them, has zero velocity.
+    last_moving = time_from_msg(moving()[-1].header.stamp)
+    after = lambda: [m for m in odom.msgs if time_from_msg(m.header.stamp) > last_moving]  # noqa: E731
+    assert spin_until(executor, lambda: len(after()) >= 25, timeout=60), "the world stopped publishing"
+    assert all(m.twist.twist.linear.x == 0.0 and m.twist.twist.angular.z == 0.0 for m in after())

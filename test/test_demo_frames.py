@@ -42,7 +42,7 @@ def _run(name: str, recording: _Recording, out) -> None:
 
 
 @pytest.mark.parametrize("name", ["create", "simrobot", "arm"])
-def test_every_frame_in_a_demo_bag_resolves_to_the_map_through_the_bags_tf(name, tmp_path):
+def test_every_frame_in_a_demo_bag_resolves_to_the_map_through_the_bags_tf(name, tmp_path, tf2_msgs):
     recording = _Recording(tmp_path / "bag")
     _run(name, recording, tmp_path)
     recording.close()

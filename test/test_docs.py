@@ -52,11 +52,15 @@ def _declared(node) -> set[str]:
     return {n for n in node._parameters if n not in rclpys_own and not n.startswith("qos_overrides")}
 
 
-@pytest.mark.parametrize("executable", ["create_world", "simrobot_world", "simrobot_avoid", "create_bump_turn"])
+@pytest.mark.parametrize(
+    "executable", ["create_world", "simrobot_world", "simrobot_avoid", "create_bump_turn", "create_teleop", "arm"]
+)
 def test_every_parameter_a_node_declares_is_in_its_docs_table(ros, executable, tmp_path):
     import numpy as np
 
+    from arm_sim.arm_node import ArmNode
     from create_sim.bump_turn import BumpTurnNode
+    from create_sim.teleop import TeleopNode
     from create_sim.world_node import CreateWorldNode
     from simrobot_sim.avoid import AvoidNode
     from simrobot_sim.world_file import RobotSpec, WorldSpec
@@ -69,6 +73,8 @@ def test_every_parameter_a_node_declares_is_in_its_docs_table(ros, executable, t
         ),
         "simrobot_avoid": AvoidNode,
         "create_bump_turn": BumpTurnNode,
+        "create_teleop": TeleopNode,
+        "arm": ArmNode,
     }[executable]
     node = make()
     try:

@@ -3,6 +3,7 @@ cleanly on SIGTERM, as a user running it from a terminal or a script relies on."
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import subprocess
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 from rosgraph_msgs.msg import Clock
 
+from sim_runtime.executables import EXECUTABLES
 from sim_runtime.testing import Collector, spin_until
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -44,7 +46,7 @@ def bad_inputs(garbage: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     return {
         "create_world": (["--ros-args", "-p", "map_file:=/no/such.map"], "/no/such.map"),
         "simrobot_world": (["--ros-args", "-p", f"world_file:={garbage}"], str(garbage)),
-        "arm": (["--ros-args", "-p", f"robot_config:={garbage}"], str(garbage)),
+        "arm": (["--ros-args", "-p", f"robot_config_file:={garbage}"], str(garbage)),
         "record": (["-o", str(existing)], str(existing)),
         "replay": (["/no/such/bag"], "/no/such/bag"),
         "bag_to_rerun": (["/no/such/bag"], "/no/such/bag"),
@@ -91,3 +93,37 @@ def test_worlds_stop_cleanly_on_sigterm(name, args, executor, make_node):
         if process.poll() is None:
             process.kill()
             process.communicate()
+
+
+def test_help_lists_every_executable_with_what_it_does():
+    console_script = Path(sys.executable).with_name("robot_sims")
+    done = subprocess.run(
+        [str(console_script), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("usage: robot_sims <executable>")
+    for name, (target, what) in EXECUTABLES.items():
+        (line,) = [line for line in lines if line.split()[:1] == [name]]
+        assert line.split(None, 1)[1] == what, line
+        assert target not in done.stdout  # what it does, not where it lives
+
+
+def test_every_declared_executable_has_a_main_and_a_description():
+    for name, (target, what) in EXECUTABLES.items():
+        module, function = target.split(":")
+        assert callable(getattr(importlib.import_module(module), function)), name
+        assert what and "\n" not in what and len(what) < 80, name
+
+
+def test_the_executables_page_lists_each_executable_at_its_entry_point():
+    rows = {}
+    for line in (ROOT / "docs" / "executables.md").read_text().splitlines():
+        cells = [cell.strip().strip("`") for cell in line.strip().strip("|").split("|")]
+        if len(cells) == 3 and cells[0] in EXECUTABLES:
+            rows[cells[0]] = cells[1]
+    assert rows == {name: target for name, (target, _what) in EXECUTABLES.items()}

@@ -7,19 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from sim_runtime.executables import EXECUTABLES as DECLARED
+
 ROOT = Path(__file__).resolve().parent.parent
-EXECUTABLES = [
-    "create_world",
-    "create_teleop",
-    "create_bump_turn",
-    "simrobot_world",
-    "simrobot_avoid",
-    "arm",
-    "record",
-    "replay",
-    "bag_to_rerun",
-    "draw_tracks",
-]
+EXECUTABLES = list(DECLARED)  # declared once, in sim_runtime/executables.py
 
 
 @pytest.fixture(scope="module")

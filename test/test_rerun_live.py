@@ -75,10 +75,10 @@ def test_live_view_draws_the_worlds_topics_and_discovers_others(executor, make_n
     rec.disconnect()
 
     ents = load_entities(out)
-    assert len(column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")) == 1
-    poses = column(ents["/world/robots/toy"], "Transform3D:translation")
+    assert len(column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")) == 1
+    poses = column(ents["/top/map/robots/toy"], "Transform3D:translation")
     assert len(poses) == 10 and poses[-1][0] == [1.0, 0.0, 0.0]
-    assert len(column(ents["/world/tracks/toy/truth/0"], "LineStrips3D:strips")[-1][0]) == 10
-    scans = column(ents["/world/robots/toy/laser/scan"], "Points3D:positions")
+    assert len(column(ents["/top/map/tracks/toy/truth/0"], "LineStrips2D:strips")[-1][0]) == 10
+    scans = column(ents["/top/map/robots/toy/laser/scan"], "Points2D:positions")
     assert len(scans) == 5 and len(scans[-1]) == 2  # the +inf beam has no point
-    assert "/plots/toy/cmd_vel/linear_x" in ents
+    assert "/plots/commands/toy/cmd_vel_linear_x" in ents

@@ -12,8 +12,9 @@ from geometry_msgs.msg import Twist
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy
-from rerun_test_helpers import column, load_entities
+from rerun_test_helpers import column, load_entities, world_file_colors
 
+from create_sim import mounts
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
@@ -89,18 +90,20 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     )
     assert verify.returncode == 0, verify.stderr
     ents = load_entities(out)
-    walls = column(ents["/world/map_markers/walls/0"], "LineStrips3D:strips")[0]
+    walls = column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")[0]
     assert len(walls) == len(world.world.walls)
-    assert column(ents["/world/map_markers/beacons/0"], "Points3D:labels") == [["Red1"]]
-    poses = column(ents["/world/robots/robot"], "Transform3D:translation")
+    assert column(ents["/top/map/map_markers/beacon_ids/0"], "Points2D:labels") == [["Red1"]]
+    poses = column(ents["/top/map/robots/robot"], "Transform3D:translation")
     assert len(poses) >= 90  # 50 Hz for 2 s, a few may be in flight when recording starts
     x, y, _ = world.model.pose
     assert poses[-1][0][:2] == pytest.approx([x, y], abs=0.02)
-    scans = column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")
+    scans = column(ents["/top/map/robots/robot/laser/scan"], "Points2D:positions")
     assert len(scans) >= 18 and 300 < len(scans[-1]) <= 681
-    assert "/world/robots/robot/sonar_front/ray" in ents
-    assert "/world/tracks/robot/truth/0" in ents and "/world/tracks/robot/odom/0" in ents
-    assert "/plots/robot/odom_error/position_m" in ents
+    for sensor in ("laser", "sonar_left", "bump_right", "cliff_front_left", "wall_ir"):  # at the model's mounts
+        mount = mounts.SENSOR_MOUNTS[sensor]
+        translation = column(ents[f"/top/map/robots/robot/{sensor}"], "Transform3D:translation")
+        assert translation == [[pytest.approx([mount.x_m, mount.y_m, 0.0])]]
+    assert "/top/map/tracks/robot/truth/0" in ents and "/top/map/tracks/robot/odom/0" in ents
 
     data = tracks_from_bag(bag)
     assert data.image is not None and data.image.any()
@@ -117,18 +120,24 @@ def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_pat
     record_world(executor, world, bag, steps=20, chunk=1)  # 20 steps of 1 s, in-process avoid controllers
 
     ents = load_entities(bag_to_rerun(bag, tmp_path / "simrobot.rrd", progress=False))
-    cells = column(ents["/world/map/obstacles"], "Points3D:positions")[0]
-    assert 1000 < len(cells) < int(world.spec.walls.sum())  # the outline, fewer than every wall cell
+    fmt = column(ents["/top/map/map"], "Image:format")[0][0]
+    assert (fmt["width"], fmt["height"]) == world.spec.walls.shape
+    colors = world_file_colors(config_path("simrobot/demo.yaml"))
     for name in world.model.names:
-        poses = column(ents[f"/world/robots/{name}"], "Transform3D:translation")
+        poses = column(ents[f"/top/map/robots/{name}"], "Transform3D:translation")
         assert len(poses) >= 15
-        assert f"/world/tracks/{name}/truth/0" in ents
-    outlines = [e for e in ents if e.startswith("/world/markers/robots/robots/")]
+        # the world file's colour, as the outline and the tracks PNG have it
+        track_colors = column(ents[f"/top/map/tracks/{name}/truth/0"], "LineStrips2D:colors")
+        assert track_colors[-1] == [_packed(colors[name])]
+        assert column(ents[f"/top/map/robots/{name}/body/name"], "Points2D:colors")[-1] == [_packed(colors[name])]
+    outlines = [e for e in ents if e.startswith("/top/map/markers/robots/robots/")]
     assert len(outlines) == len(world.model.names)  # the /robots shapes
-    assert "/world/robots/r1/sens1/ray" in ents  # the ultrasonic sensor's ray (to the hit, or its range)
+    assert "/top/map/robots/r1/sens1/beam" in ents  # the ultrasonic sensor's cone
 
     data = tracks_from_bag(bag)
     assert sorted(data.tracks) == sorted(world.model.names)
+    # draw_tracks' PNG uses the same colours as the Rerun views: the world file's
+    assert {n: tuple(round(255 * c) for c in rgb) for n, rgb in data.colors.items()} == colors
     assert data.image.shape == (world.spec.walls.shape[1], world.spec.walls.shape[0])
 
 
@@ -145,8 +154,8 @@ def test_arm_bag_logs_each_mesh_once_then_transforms(executor, tmp_path):
     for entity in meshes:
         assert len(column(ents[entity], "Asset3D:blob")) == 1  # logged once
         assert len(column(ents[entity], "Transform3D:translation")) >= 18  # moved each publication
-    joints = [e for e in ents if e.startswith("/plots/joint_states/position/")]
-    assert len(joints) == len(world.arms[0].arm.joint_names)
+    joints = [e for e in ents if e.startswith("/plots/joint_position/")]
+    assert not joints  # the arm stayed parked: values that never change are not plotted
 
 
 def test_live_view_of_the_create_world(executor, tmp_path):
@@ -156,13 +165,19 @@ def test_live_view_of_the_create_world(executor, tmp_path):
     out = tmp_path / "live.rrd"
     rec.save(out)
     view = attach_live_view(world, recording=rec, discover=False)
+    assert "/tf_static" in view.subscriptions  # sensor mounts from TF, as RViz gets them
     for _ in range(10):  # 1 s, as run_nodes does at real_time_factor 0: step, then handle callbacks
         world.step(10)
         drain(executor)
     view.close()
     rec.disconnect()
     ents = load_entities(out)
-    assert "/world/map_markers/walls/0" in ents
-    assert len(column(ents["/world/robots/robot/laser/scan"], "Points3D:positions")) >= 9
-    assert len(column(ents["/world/robots/robot"], "Transform3D:translation")) >= 45
+    assert "/top/map/map_markers/walls/0" in ents
+    assert len(column(ents["/top/map/robots/robot/laser/scan"], "Points2D:positions")) >= 9
+    assert len(column(ents["/top/map/robots/robot"], "Transform3D:translation")) >= 45
     assert len(rrc.RrdReader(out).blueprints()) == 1
+
+
+def _packed(rgb: tuple[int, int, int]) -> int:
+    """An rgb colour as Rerun stores it (0xRRGGBBAA)."""
+    return (rgb[0] << 24) | (rgb[1] << 16) | (rgb[2] << 8) | 0xFF

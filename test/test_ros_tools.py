@@ -57,7 +57,9 @@ def step(executor, world, n: int) -> None:
 def create_world(executor, tmp_path, map_text: str = ROOM, **params) -> CreateWorldNode:
     map_file = tmp_path / "room.map"
     map_file.write_text(map_text)
-    world = CreateWorldNode(parameter_overrides=overrides(map_file=str(map_file), real_time_factor=0.0, **params))
+    world = CreateWorldNode(
+        parameter_overrides=overrides(**{"map_file": str(map_file), "real_time_factor": 0.0, **params})
+    )
     executor.add_node(world)
     return world
 
@@ -144,7 +146,7 @@ def _scan_points(scan: LaserScan) -> tuple[np.ndarray, np.ndarray]:
     return points, np.column_stack([np.cos(a), np.sin(a)])
 
 
-def test_every_lidar_return_of_the_create_lands_on_a_wall_through_tf(executor, make_node, tmp_path):
+def test_every_lidar_return_of_the_create_lands_on_a_wall_through_tf(executor, make_node, tmp_path, tf2_msgs):
     world = create_world(executor, tmp_path, initial_pose=[-0.5, 0.3, 0.4], publish_map_tf=True)
     probe = make_node("tf_listener")
     tf = TfBuffer(probe)
@@ -172,7 +174,7 @@ def world_vector(x: float = 0.0, y: float = 0.0, z: float = 0.0):
     return Vector3(x=x, y=y, z=z)
 
 
-def test_every_create_sensor_frame_is_on_tf_static_at_its_mount(executor, make_node, tmp_path):
+def test_every_create_sensor_frame_is_on_tf_static_at_its_mount(executor, make_node, tmp_path, tf2_msgs):
     create_world(executor, tmp_path, frame_prefix="robot1/")
     tf = TfBuffer(make_node("tf_listener"))
     assert spin_until(executor, lambda: all(f"robot1/{name}" in tf.parent for name in SENSOR_MOUNTS))
@@ -183,7 +185,7 @@ def test_every_create_sensor_frame_is_on_tf_static_at_its_mount(executor, make_n
         assert math.atan2(m[1, 0], m[0, 0]) == pytest.approx(mount.yaw_rad)
 
 
-def test_every_laser_return_of_a_simrobot_robot_lands_on_a_wall_through_tf(executor, make_node):
+def test_every_laser_return_of_a_simrobot_robot_lands_on_a_wall_through_tf(executor, make_node, tf2_msgs):
     world = simrobot_world(executor)
     probe = make_node("tf_listener")
     tf = TfBuffer(probe)
@@ -361,7 +363,7 @@ def test_a_sensor_publishers_qos_can_be_overridden_at_start_as_in_any_ros_driver
 
 
 def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and_replay_latches_them(
-    executor, make_node, tmp_path
+    executor, make_node, tmp_path, tf2_msgs
 ):
     from sim_runtime.bag.reader import open_bag
     from sim_runtime.bag.record import Recorder
@@ -377,7 +379,11 @@ def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and
     tf_probe = TfBuffer(probe)  # subscribing to /tf makes the world publish it
     assert spin_until(executor, lambda: world.tf.heard())
     step(executor, world, 10)
-    assert spin_until(executor, lambda: recorder.writer.message_count >= 3)
+
+    def recorded(topic: str) -> int:
+        return recorder.writer.topic_message_count(recorder.topic_ids[topic])
+
+    assert spin_until(executor, lambda: recorded("/tf_static") >= 1 and recorded("/tf") >= 1)
     recorder.close()
     executor.remove_node(recorder)
     recorder.destroy_node()
@@ -397,3 +403,44 @@ def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and
     late = TfBuffer(make_node("late_listener"))
     assert spin_until(executor, lambda: "late/laser" in late.parent)
     assert tf_probe.parent
+
+
+def test_the_create_publishes_a_latched_robot_description_with_every_sensor_frame(executor, make_node, tmp_path):
+    import yourdfpy
+    from std_msgs.msg import String
+
+    from sim_runtime.qos import LATCHED_QOS
+
+    create_world(executor, tmp_path, frame_prefix="robot1/")
+    description = Collector(make_node("robot_state_publisher"), String, "robot_description", LATCHED_QOS)
+    assert spin_until(executor, lambda: description.msgs)
+    urdf = tmp_path / "create.urdf"
+    urdf.write_text(description.last.data)
+    robot = yourdfpy.URDF.load(str(urdf), load_meshes=False)
+    assert {f"robot1/{name}" for name in SENSOR_MOUNTS} <= set(robot.link_map)
+    assert robot.base_link == "robot1/base_link"
+
+
+def test_a_paused_world_holds_its_time_and_the_step_service_advances_one_physics_step(executor, make_node, tmp_path):
+    import time
+
+    from std_srvs.srv import Trigger
+
+    world = create_world(executor, tmp_path, real_time_factor=1.0)
+    probe = make_node("gui")
+    params = Params(executor, probe, "/create_world")
+    assert params.set("paused", True).successful
+    world.start_pacing()
+    world._pace_origin = (time.monotonic() - 1.0, 0.0)  # a second of wall time is due...
+    world._pace()
+    assert world.sim_time == 0.0  # ...but a paused world does not step
+    client = probe.create_client(Trigger, "step")
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    assert future.result().success and world.sim_time == pytest.approx(0.01)
+    assert params.set("paused", False).successful
+    assert spin_until(executor, lambda: world.sim_time > 0.05)
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    assert not future.result().success and "not paused" in future.result().message

@@ -224,7 +224,12 @@ class BagWriter:
 
     @property
     def message_count(self) -> int:
+        """Messages written so far, all topics."""
         return sum(t.message_count for t in self._topics)
+
+    def topic_message_count(self, topic_id: int) -> int:
+        """Messages written so far on one topic (an id from :meth:`add_topic`)."""
+        return self._topics[topic_id].message_count
 
     @property
     def files(self) -> list[Path]:

@@ -20,6 +20,7 @@ import rerun as rr
 from sim_runtime.bag.reader import UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
+from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, decode_tf_message
 
 APPLICATION_ID = "robot_sims"
 ROS_INTERNAL_TOPICS = frozenset({"/parameter_events", "/rosout"})
@@ -106,6 +107,13 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
             try:
                 msg = m.msg
             except UnknownMessageType as err:
+                if m.type == TF_MESSAGE_TYPE:  # tf2_msgs is not installed: read the CDR directly
+                    try:
+                        logger.log(m.topic, decode_tf_message(m.data), m.log_time_ns, TF_MESSAGE_TYPE)
+                        done += 1
+                    except ValueError as bad:
+                        warnings.warn(f"{bag.path}: topic {m.topic}: {bad}; message skipped", stacklevel=2)
+                    continue
                 warnings.warn(f"{bag.path}: {err}; topic {m.topic} skipped", stacklevel=2)
                 wanted.remove(m.topic)
                 skipped[m.topic] = m.type

@@ -17,7 +17,7 @@ import numpy as np
 
 from sim_runtime.bag.reader import UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
-from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, robot_color
+from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, outline_at, robot_color, robot_outlines
 from simrobot_sim.tracks import draw_tracks
 
 RASTER_RESOLUTION = 0.01
@@ -60,17 +60,23 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
         for t, kind in bag.topics.items()
         if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"
     }
+    outline_topics = {
+        t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "robots" and kind.endswith("/MarkerArray")
+    }
+    outlines = []
 
     points: dict[str, list[tuple[float, float]]] = {}
     grid = None
     walls: list[np.ndarray] = []
-    for m in bag.messages(topics=truth | odom | maps | markers):
+    for m in bag.messages(topics=truth | odom | maps | markers | outline_topics):
         try:
             msg = m.msg
         except UnknownMessageType as err:
             warnings.warn(f"{bag.path}: {err}; skipped", stacklevel=2)
             continue
-        if m.topic in maps:
+        if m.topic in outline_topics:
+            outlines = outlines or robot_outlines(msg.markers)  # the first: robots at their start
+        elif m.topic in maps:
             grid = msg
         elif m.topic in markers:
             walls = [_marker_segments(mk) for mk in msg.markers if mk.ns == "walls" and mk.type == 5]
@@ -81,7 +87,7 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     names = sorted(points)
     data = TrackData(
         tracks={n: np.array(points[n], dtype=float) for n in names},
-        colors={n: tuple(c / 255 for c in robot_color(n, names)) for n in names},
+        colors={n: tuple(c / 255 for c in _color(n, names, points[n][0], outlines)) for n in names},
     )
     if grid is not None:
         info = grid.info
@@ -91,6 +97,12 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     elif walls:
         data.image, data.origin = _rasterise(np.concatenate(walls), list(data.tracks.values()))
     return data
+
+
+def _color(name: str, names: list[str], start: tuple[float, float], outlines: list) -> tuple[int, int, int]:
+    """The world's colour for the robot (its outline at its start), else the views' palette."""
+    outline = outline_at(outlines, *start)
+    return outline.color if outline is not None else robot_color(name, names)
 
 
 def _marker_segments(marker) -> np.ndarray:

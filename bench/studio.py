@@ -1,0 +1,168 @@
+"""Benchmark the studio's live view in a real browser (Debian's headless Chromium).
+
+    ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python bench/studio.py [--seconds 15]
+
+A ``create_world`` (default rates: scan 10 Hz with 681 beams, pose/odom/bump/cliff/wall 50 Hz,
+sonar 20 Hz, camera 10 Hz) runs in its own process, the studio in another, and Chromium shows
+the Simulator page with every layer on while the robot turns on the spot. Measured:
+
+- frames/s: scans drawn per second in the browser (a MutationObserver reads the LIDAR
+  polyline's stamp), goal >= 10 (every 10 Hz scan drawn);
+- delay: from the scan's arrival in this process (its publication, within a fraction of a
+  millisecond on one machine) to the browser's DOM holding it, median and 90th percentile,
+  goal median <= 100 ms;
+- studio CPU (% of one core, /proc utime+stime), goal <= 25 %; side by side with the same
+  studio and world with no page open (the ROS side alone), as the baseline.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
+os.environ.setdefault("ROS_DOMAIN_ID", str(50 + os.getpid() % 50))
+
+GOAL_FPS = 10.0
+GOAL_DELAY_MS = 100.0
+GOAL_CPU = 25.0
+CHROMIUM = "/usr/lib/chromium/chromium"
+CHROMEDRIVER = "/usr/bin/chromedriver"
+
+OBSERVER_JS = """
+window.__drawn = [];
+const view = document.querySelector('.studio-view');
+let last = null;
+new MutationObserver(() => {
+  const p = view.querySelector('polyline.lidar');
+  const stamp = p && p.dataset.stamp;
+  if (stamp && stamp !== last) { last = stamp; window.__drawn.push([stamp, Date.now() / 1000]); }
+}).observe(view, {childList: true, subtree: true});
+"""
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=15.0)
+    args = parser.parse_args()
+    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
+        print("bench/studio.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
+        return 0
+
+    import rclpy
+    from geometry_msgs.msg import Twist
+    from rclpy.node import Node
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    from sensor_msgs.msg import LaserScan
+
+    from sim_runtime.msgs import time_from_msg
+    from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS
+    from sim_runtime.run import make_executor
+    from sim_runtime.testing import spin_until
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    run = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
+    world = subprocess.Popen([sys.executable, "-c", run, "create_world"], env=env, stdout=subprocess.DEVNULL)
+    port = free_port()
+    studio = subprocess.Popen(
+        [sys.executable, "-m", "studio", "--port", str(port), "--workspace", str(ROOT)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        cwd=ROOT,
+    )
+    rclpy.init()
+    node = Node("studio_bench")
+    executor = make_executor()
+    executor.add_node(node)
+    arrivals: dict[str, float] = {}
+    node.create_subscription(
+        LaserScan,
+        "/scan",
+        lambda m: arrivals.setdefault(f"{time_from_msg(m.header.stamp):.9f}", time.time()),
+        ANY_PUBLISHER_QOS,
+    )
+    cmd = node.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
+    driver = None
+    try:
+        assert spin_until(executor, lambda: len(arrivals) > 5, timeout=60.0), "no scans from create_world"
+        turn = Twist()
+        turn.angular.z = 1.0  # keep every layer changing
+        cmd.publish(turn)
+
+        def measure_cpu(seconds: float) -> float:
+            c0, t0 = cpu_seconds(studio.pid), time.monotonic()
+            spin_until(executor, lambda: time.monotonic() - t0 >= seconds, timeout=seconds + 5)
+            return 100.0 * (cpu_seconds(studio.pid) - c0) / (time.monotonic() - t0)
+
+        idle_cpu = measure_cpu(args.seconds / 2)
+
+        options = webdriver.ChromeOptions()
+        options.binary_location = CHROMIUM
+        for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
+            options.add_argument(arg)
+        os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
+        driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+        driver.get(f"http://127.0.0.1:{port}/")
+        spin_until(
+            executor,
+            lambda: driver.execute_script("return !!document.querySelector('.studio-view polyline.lidar')"),
+            timeout=60,
+        )
+        driver.execute_script(OBSERVER_JS)
+        arrivals.clear()
+        t0 = time.time()
+        view_cpu = measure_cpu(args.seconds)
+        elapsed = time.time() - t0
+        drawn = driver.execute_script("return window.__drawn")
+    finally:
+        if driver is not None:
+            driver.quit()
+        for child in (studio, world):
+            child.terminate()
+            child.wait(timeout=20)
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown()
+
+    delays = sorted(1000.0 * (t - arrivals[s]) for s, t in drawn if s in arrivals)
+    fps = len(drawn) / elapsed
+    median = delays[len(delays) // 2] if delays else float("nan")
+    p90 = delays[int(len(delays) * 0.9)] if delays else float("nan")
+    scans_published = len(arrivals) / elapsed
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    print(f"studio live view, {args.seconds:.0f} s, {os.cpu_count()} CPUs, load average {load}")
+    print(f"{'measure':34s} {'value':>9s} {'goal':>9s} {'ratio':>7s}")
+    ratio = fps / GOAL_FPS
+    print(f"{'scans drawn per s (published/s)':34s} {fps:9.1f} {GOAL_FPS:9.1f} {ratio:7.2f}  ({scans_published:.1f})")
+    print(f"{'delay arrival->DOM median (ms)':34s} {median:9.1f} {GOAL_DELAY_MS:9.1f} {median / GOAL_DELAY_MS:7.2f}")
+    print(f"{'delay arrival->DOM p90 (ms)':34s} {p90:9.1f}")
+    print(f"{'studio CPU, page open (% core)':34s} {view_cpu:9.1f} {GOAL_CPU:9.1f} {view_cpu / GOAL_CPU:7.2f}")
+    print(f"{'studio CPU, no page (baseline)':34s} {idle_cpu:9.1f}  page/baseline {view_cpu / max(idle_cpu, 0.1):.2f}")
+    ok = fps >= GOAL_FPS * 0.95 and median <= GOAL_DELAY_MS and view_cpu <= GOAL_CPU
+    print("all goals met" if ok else "GOAL MISSED (check the load average: the machine may be busy)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

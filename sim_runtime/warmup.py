@@ -1,0 +1,96 @@
+"""Compile every numba kernel once, into numba's on-disk cache, so a user's first world starts in seconds.
+
+``python -m sim_runtime.warmup`` (run by ``make venv``) drives each simulator's pure model the way its
+node does, on small inputs: the Create's step and every sensor, a SIMROBOT world with both sensor
+types, an arm's forward/inverse kinematics and dynamics, the STL readers (binary and ASCII) and the
+rotation kernel. Without it the first start of a world spends ~30 s compiling. Each kernel is
+cached per argument types, so the calls below pass what the nodes pass.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def warm_create() -> None:
+    from create_sim.configfile import load_config
+    from create_sim.mapfile import CreateMap, load_map
+    from create_sim.model import CreateModel
+    from sim_runtime.paths import config_path
+
+    maps = (load_map(config_path("create/example.map")), CreateMap())  # walls and all; empty space
+    for world in maps:
+        model = CreateModel(world, load_config(config_path("create/example_config.txt")))
+        model.set_velocity(0.3, 0.5)
+        for _ in range(5):
+            model.step(0.01)
+        model.bumps(), model.cliff_signals(), model.wall_sensor(), model.virtual_wall()
+        model.sonar(), model.lidar(), model.camera()
+
+
+def warm_simrobot() -> None:
+    from sim_runtime.paths import config_path
+    from simrobot_sim.model import SimrobotWorld
+    from simrobot_sim.world_file import load_world
+
+    sensor = "{{name: {0}, type: {1}, position: [0.05, 0], axis: 0, beamwidth: 60, range: 0.5, resolution: 30}}"
+    robot = "  - name: r{0}\n    position: [{1}, 1.55]\n    sensors:\n      - {2}\n      - {3}\n"
+    robots = "".join(
+        robot.format(i, x, sensor.format("us", "ultrasonic"), sensor.format("lz", "laser"))
+        for i, x in ((1, 1.3), (2, 1.8))
+    )
+    world_text = f"map: {config_path('simrobot/demo_map.png')}\nresolution: 0.01\ndt: 1.0\nrobots:\n{robots}"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "warmup.yaml"
+        path.write_text(world_text)
+        world = SimrobotWorld(load_world(path))
+    world.set_wheel_speeds(0, 0.5, 0.4)
+    world.set_cmd_vel(1, 0.1, 0.2)
+    for _ in range(2):
+        world.step()
+        world.sense()
+    for k in range(len(world.sensors)):
+        world.ranges(k), world.nearest(k)
+
+
+def warm_arm() -> None:
+    from arm_sim.arm import Arm
+    from arm_sim.stl import parse_stl
+    from sim_runtime.paths import config_path
+    from sim_runtime.rotations import quaternions_xyzw
+
+    arm = Arm.from_file(config_path("arm/irb120.yaml"))  # reads its binary STL meshes
+    q = arm.mid_range()
+    frames = arm.fkine_all(q)
+    quaternions_xyzw(np.ascontiguousarray(frames))
+    arm.fkine(q), arm.jacob0(q), arm.rne(q, q, q), arm.gravload(q), arm.inertia(q)
+    arm.ikine(arm.fkine(q + 0.1), q0=q)
+    arm.ikine_batch(np.stack([arm.fkine(q)] * 2), np.tile(q, (2, 1)))
+    Q = np.tile(q, (2, 1))
+    arm.fkine_batch(Q), arm.jacob0_batch(Q), arm.rne_batch(Q, Q, Q)
+    triangle = b"facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+    parse_stl(b"solid t\n" + triangle + b"endsolid t\n")  # the ASCII reader
+
+
+WARMERS = {"create": warm_create, "simrobot": warm_simrobot, "arm": warm_arm}
+
+
+def main() -> int:
+    """Warm every simulator's kernels; one line with the time taken."""
+    start = time.monotonic()
+    for name, warm in WARMERS.items():
+        try:
+            warm()
+        except Exception as error:  # a warm-up failure must not fail the install; the world would compile later
+            print(f"numba warm-up of {name} failed ({type(error).__name__}: {error}); it compiles on first use")
+    print(f"numba kernels compiled and cached in {time.monotonic() - start:.0f} s (worlds now start in seconds)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""``robot_sims studio``: start the web app (pages in sim_page, map_page, config_page)."""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import socket
+import sys
+from dataclasses import dataclass, field
+
+from sim_runtime.errors import InputError
+from sim_runtime.run import split_ros_args
+from studio.processes import Child, parse_controller
+from studio.workspace import Workspace
+
+DEFAULT_CONTROLLERS = {"create_bump_turn": "create_bump_turn"}
+WHEEL_JS = "(e) => emit({dy: e.deltaY, x: e.offsetX, y: e.offsetY, w: e.target.clientWidth, h: e.target.clientHeight})"
+"""A view's wheel events, reduced to what zooming needs (pixel position, scroll direction)."""
+
+
+@dataclass
+class Studio:
+    """What every page shares: the workspace, the ROS client and the child processes."""
+
+    workspace: Workspace
+    controllers: dict[str, str]
+    ros: object = None  # studio.ros_client.StudioRos once the app has started
+    worlds: dict[str, Child] = field(default_factory=dict)  # namespace → world the studio started
+    running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
+    selected: str | None = None  # the Create last picked or started: every page's default
+    recorder: Child | None = None
+    recording_to: str = ""
+
+    def default_robot(self, names: list[str], current: str | None) -> str | None:
+        """What a robot selector shows: its current choice, else the studio's, else the first."""
+        for choice in (current, self.selected):
+            if choice in names:
+                return choice
+        return names[0] if names else None
+
+    def stop_children(self) -> None:
+        children = [self.recorder, *self.running_controllers.values(), *self.worlds.values()]
+        for child in children:
+            if child is not None:
+                child.stop()
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="robot_sims studio",
+        description="The Create simulator, map maker and config maker in the browser.",
+    )
+    parser.add_argument(
+        "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1, this machine only)"
+    )
+    parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    parser.add_argument(
+        "--workspace", default=".", help="the only folder whose files the pages read and write (default: here)"
+    )
+    parser.add_argument(
+        "--controller",
+        action="append",
+        default=[],
+        metavar="NAME=TARGET",
+        help="a controller the Start button may run: name=module:function or name=command (repeatable)",
+    )
+    parser.add_argument("--show", action="store_true", help="open a browser tab")
+    return parser.parse_args(argv)
+
+
+def host_warning(host: str) -> str | None:
+    """The warning printed when listening beyond this machine (None for loopback)."""
+    try:
+        if ipaddress.ip_address(host).is_loopback:
+            return None
+    except ValueError:
+        if host == "localhost":
+            return None
+    return (
+        f"warning: the studio listens on {host}: anyone who can reach this address can drive your robots "
+        "and read and write files in the workspace. Use --host 127.0.0.1 unless you mean it."
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point ``studio``."""
+    args, _ros_args = split_ros_args(sys.argv if argv is None else ["studio", *argv])
+    options = parse_args(args)
+    try:
+        workspace = Workspace(options.workspace)
+        controllers = dict(DEFAULT_CONTROLLERS)
+        controllers.update(parse_controller(spec) for spec in options.controller)
+    except InputError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    try:  # a taken port or unknown address: one line, not uvicorn's traceback
+        with socket.create_server((options.host, options.port)):
+            pass
+    except OSError as err:
+        print(f"error: cannot listen on {options.host}:{options.port}: {err.strerror or err}", file=sys.stderr)
+        return 2
+    warning = host_warning(options.host)
+    if warning:
+        print(warning, file=sys.stderr)
+
+    from nicegui import app, ui  # noqa: PLC0415 - the web stack loads only when the studio runs
+
+    from studio import config_page, map_page, sim_page  # noqa: PLC0415
+    from studio.ros_client import StudioRos  # noqa: PLC0415
+
+    studio = Studio(workspace=workspace, controllers=controllers)
+
+    def startup() -> None:
+        studio.ros = StudioRos()
+
+    def shutdown() -> None:
+        studio.stop_children()
+        if studio.ros is not None:
+            studio.ros.shutdown()
+
+    app.on_startup(startup)
+    app.on_shutdown(shutdown)
+    sim_page.register(studio)
+    map_page.register(studio)
+    config_page.register(studio)
+    print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
+    ui.run(
+        host=options.host,
+        port=options.port,
+        title="robot_sims studio",
+        reload=False,
+        show=options.show,
+        show_welcome_message=False,
+        favicon="🤖",
+    )
+    return 0
+
+
+def nav(current: str) -> None:
+    """The links between the pages (the seed's three windows)."""
+    from nicegui import ui  # noqa: PLC0415
+
+    with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
+        ui.label("robot_sims studio").classes("text-lg font-bold")
+        for target, text in (("/", "Simulator"), ("/map", "Map maker"), ("/config", "Config maker")):
+            link = ui.link(text, target).classes("text-base")
+            if target == current:
+                link.classes("font-bold no-underline")

@@ -1,0 +1,146 @@
+"""The Config maker page (the seed's ConfigMakerGUI): noise per sensor and com_delay; load, save, apply."""
+
+from __future__ import annotations
+
+import warnings
+
+from nicegui import ui
+
+from create_sim.configfile import SENSORS, NoiseConfig, parse_config
+from sim_runtime.errors import InputError
+from studio.app import Studio, nav
+
+MEANINGS = {
+    "wall": "offset of the IR range (m)",
+    "cliff": "added to the signal (%)",
+    "odometry": "proportional (0.02 = 2 %)",
+    "sonar": "added to the distance (m)",
+    "lidar": "added to each distance (m)",
+    "camera": "proportional (distance and angle)",
+}
+
+
+def register(studio: Studio) -> None:
+    @ui.page("/config")
+    def config_maker_page() -> None:
+        ConfigMakerPage(studio)
+
+
+class ConfigMakerPage:
+    def __init__(self, studio: Studio) -> None:
+        self.studio = studio
+        self.fields: dict[str, tuple] = {}
+        self.own_file = ""
+        nav("/config")
+        with ui.column().classes("p-4 gap-2"):
+            ui.label("Noise: mean and standard deviation per sensor; all zero = an ideal robot").classes(
+                "text-gray-700"
+            )
+            with ui.grid(columns=4).classes("items-center gap-x-4 gap-y-1"):
+                for head in ("sensor", "mean", "std", "meaning"):
+                    ui.label(head).classes("font-bold")
+                for name in SENSORS:
+                    ui.label(name)
+                    mean = ui.number(value=0.0, format="%g", step=0.01).classes(f"w-28 studio-{name}-mean")
+                    std = ui.number(value=0.0, format="%g", step=0.01, min=0.0).classes(f"w-28 studio-{name}-std")
+                    ui.label(MEANINGS[name]).classes("text-sm text-gray-600")
+                    self.fields[name] = (mean, std)
+                ui.label("com_delay")
+                self.delay = ui.number(value=0.0, format="%g", step=0.01, min=0.0).classes("w-28 studio-com-delay")
+                ui.label("")
+                ui.label("seconds, commands and readings").classes("text-sm text-gray-600")
+            self.file_name = ui.input("config file (in the workspace)", value="my.cfg").classes(
+                "w-96 studio-config-file"
+            )
+            with ui.row().classes("items-center gap-2"):
+                ui.button("Load", on_click=self.load).props("dense").classes("studio-config-load")
+                ui.button("Save", on_click=self.save).props("dense").classes("studio-config-save")
+                self.overwrite = ui.checkbox("overwrite")
+                ui.button("Reset to zero", on_click=lambda: self.show(NoiseConfig())).props("dense outline")
+            with ui.row().classes("items-center gap-2"):
+                self.world_select = ui.select([], label="running world").classes("w-40")
+                ui.button("Apply to the running world", on_click=self.apply_to_world).props("dense outline")
+            self.message = ui.label("").classes("text-sm break-all studio-config-message")
+        ui.timer(1.0, self.refresh_worlds)
+
+    def say(self, text: str, error: bool = False) -> None:
+        self.message.set_text(text)
+        self.message.classes(
+            replace="text-sm break-all studio-config-message " + ("text-red-700" if error else "text-green-800")
+        )
+
+    def config(self) -> NoiseConfig:
+        """The form as a NoiseConfig; InputError naming the field for a bad value."""
+        noise = {}
+        for name, (mean, std) in self.fields.items():
+            m, s = mean.value, std.value
+            if m is None or s is None:
+                raise InputError(f"{name}: mean and std need numbers")
+            if s < 0:
+                raise InputError(f"{name} std {s!r} must be >= 0")
+            noise[name] = (float(m), float(s))
+        delay = self.delay.value
+        if delay is None or delay < 0:
+            raise InputError(f"com_delay {delay!r} must be a number >= 0")
+        return NoiseConfig(noise=noise, com_delay=float(delay))
+
+    def show(self, config: NoiseConfig) -> None:
+        for name, (mean, std) in self.fields.items():
+            mean.set_value(config.noise[name][0])
+            std.set_value(config.noise[name][1])
+        self.delay.set_value(config.com_delay)
+
+    def load(self) -> None:
+        name = (self.file_name.value or "").strip()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                text, _ = self.studio.workspace.read_text(name, "config")
+                config = parse_config(text, name)
+            except InputError as err:
+                self.say(f"error: {err}", error=True)
+                return
+        self.show(config)
+        self.own_file = name
+        notes = "; ".join(str(w.message) for w in caught)
+        self.say(f"loaded {name}" + (f" (warnings: {notes})" if notes else ""), error=bool(notes))
+
+    def save(self) -> bool:
+        name = (self.file_name.value or "").strip()
+        try:
+            path = self.studio.workspace.write_text(name, self.config().to_text(), overwrite=self.overwrite.value)
+        except (InputError, OSError) as err:
+            self.say(f"error: {err}", error=True)
+            return False
+        self.own_file = name
+        self.say(f"saved {self.studio.workspace.relative(path)}")
+        return True
+
+    def refresh_worlds(self) -> None:
+        ros = self.studio.ros
+        names = ros.namespaces() if ros is not None else []
+        if names != list(self.world_select.options):
+            value = self.studio.default_robot(names, self.world_select.value)
+            self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)
+
+    async def apply_to_world(self) -> None:
+        ns = self.world_select.value
+        if ns is None:
+            self.say("no running world to apply to", error=True)
+            return
+        name = (self.file_name.value or "").strip()
+        if name != self.own_file:
+            self.say(f"{name} was not loaded or saved here: Save (or Load) it first", error=True)
+            return
+        self.overwrite.set_value(True)
+        if not self.save():
+            return
+        path = self.studio.workspace.path(name)
+        try:
+            refused = await self.studio.ros.set_parameters(ns, {"config_file": str(path)})
+        except TimeoutError as err:
+            refused = [str(err)]
+        if refused:
+            self.say("the world refused the config: " + "; ".join(refused), error=True)
+        else:
+            self.say(f"saved {name} and applied it to the world in {ns or '/'}")

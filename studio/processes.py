@@ -1,0 +1,122 @@
+"""Worlds, controllers and recorders the studio starts: each a child process of its own.
+
+A world runs as ``robot_sims create_world`` in a subprocess rather than in the studio's executor:
+its paced physics must not share a Python interpreter (GIL) with the web server, a bad map ends
+that process with its one-line error instead of the studio, and it is exactly the program a
+student runs in a terminal. Controllers and the recorder are the existing executables too.
+Nothing here ever runs a file that came from the browser: only executables and the
+``module:function`` controllers given on the studio's command line.
+"""
+
+from __future__ import annotations
+
+import collections
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+from sim_runtime.errors import InputError
+
+RUN_EXECUTABLE = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
+RUN_FUNCTION = (
+    "import importlib, sys; module, function = sys.argv[1].split(':'); sys.argv = sys.argv[1:]; "
+    "sys.exit(getattr(importlib.import_module(module), function)() or 0)"
+)
+
+
+def executable_command(name: str, args: list[str]) -> list[str]:
+    """argv running ``robot_sims <name> <args>`` with this interpreter."""
+    return [sys.executable, "-c", RUN_EXECUTABLE, name, *args]
+
+
+def controller_command(target: str, ros_args: list[str]) -> list[str]:
+    """argv of a controller: a robot_sims executable name, ``module:function``, or a command line."""
+    if ":" in target and "/" not in target and " " not in target:
+        return [sys.executable, "-c", RUN_FUNCTION, target, "--ros-args", *ros_args]
+    words = shlex.split(target)
+    if len(words) == 1 and "/" not in target:
+        return executable_command(target, ["--ros-args", *ros_args])
+    return [*words, "--ros-args", *ros_args]
+
+
+def parse_controller(spec: str) -> tuple[str, str]:
+    """``name=module:function`` or ``name=command`` from ``--controller``."""
+    name, sep, target = spec.partition("=")
+    if not sep or not name.strip() or not target.strip():
+        raise InputError(f"--controller {spec!r}: expected name=module:function or name=command")
+    return name.strip(), target.strip()
+
+
+def _yaml_string(value: str) -> str:
+    """A parameter value rcl reads back as exactly this string (YAML single quotes; '' = empty)."""
+    return "'" + value.replace("'", "''") + "'"
+
+
+def world_ros_args(ns: str, map_file: str, config_file: str, pose: tuple[float, float, float]) -> list[str]:
+    """``--ros-args`` of a Create world in namespace ``ns`` ('' = root) with these files and pose.
+
+    A namespaced world publishes its clock as ``<ns>/clock`` so several worlds share a domain."""
+    args = [
+        "--ros-args",
+        "-p", f"map_file:={_yaml_string(map_file)}",
+        "-p", f"config_file:={_yaml_string(config_file)}",
+        "-p", f"initial_pose:=[{pose[0]!r}, {pose[1]!r}, {pose[2]!r}]",
+    ]  # fmt: skip
+    if ns:
+        args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
+    return args
+
+
+class Child:
+    """A child process with the last lines of its output kept for the page."""
+
+    def __init__(self, label: str, argv: list[str], cwd: Path | None = None) -> None:
+        self.label = label
+        self.argv = argv
+        self.output: collections.deque[str] = collections.deque(maxlen=50)
+        self.process = subprocess.Popen(
+            argv,
+            cwd=cwd,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            start_new_session=True,  # Ctrl-C in the studio's terminal reaches the studio only
+            env=os.environ.copy(),
+        )
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self.output.append(line.rstrip())
+
+    @property
+    def running(self) -> bool:
+        return self.process.poll() is None
+
+    def error_line(self) -> str:
+        """The child's ``error: …`` line (or last line) once it has ended."""
+        self._reader.join(timeout=1.0)  # its last lines may still be in the pipe
+        errors = [line for line in self.output if line.startswith("error")]
+        return (errors or list(self.output) or [f"exited with status {self.process.returncode}"])[-1]
+
+    def wait(self, timeout: float) -> int | None:
+        try:
+            return self.process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        """SIGINT (a recorder finishes its bag), then SIGKILL after ``timeout``."""
+        if self.running:
+            self.process.send_signal(signal.SIGINT)
+            if self.wait(timeout) is None:
+                self.process.kill()
+                self.wait(2.0)
+        return self.process.returncode

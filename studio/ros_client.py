@@ -1,0 +1,327 @@
+"""The studio's ROS side: one rclpy node in its own context, spun by an executor in a daemon thread.
+
+Like RViz it is only a client: it finds Create worlds by their ``overhead_pose`` topics (any
+namespace, started by the studio or not) and talks to them through topics, services and
+parameters. Callbacks run in the executor thread and only store the latest readings on a
+:class:`RobotState`; the pages read those from NiceGUI's event loop (plain attribute reads).
+Every ROS entity is created in the executor thread; the pages publish and call services.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import math
+import os
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import Illuminance, LaserScan, Range
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
+
+from create_sim.mapfile import CreateMap
+from create_sim.model import CreateModel
+from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
+from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
+from sim_runtime.run import make_executor
+
+POSE_TYPE = "geometry_msgs/msg/PoseStamped"
+TRACK_POINTS = 2000
+TRACK_MIN_STEP_M = 0.01
+
+
+@dataclass
+class RobotState:
+    """Latest readings of one Create (namespace ``ns``, '' for the root), written by ROS callbacks."""
+
+    ns: str
+    node_name: str = ""  # the world node's full name, for its parameter services
+    seq: int = 0  # bumped by every drawn reading: the view redraws when it changes
+    map_seq: int = 0
+    world: CreateMap = field(default_factory=CreateMap)
+    pose: tuple[float, float, float] | None = None
+    odom: tuple[float, float, float] | None = None
+    velocity: tuple[float, float] = (0.0, 0.0)
+    sim_time: float = 0.0
+    rtf: float = float("nan")  # sim seconds per wall second, measured over the last seconds
+    scan: tuple[float, float, np.ndarray] | None = None
+    scan_stamp: float = 0.0
+    scan_count: int = 0
+    sonar: dict[str, float] = field(default_factory=dict)
+    bumps: tuple[bool, bool] = (False, False)
+    wall: bool = False
+    virtual_wall: bool = False
+    cliffs: dict[str, float] = field(default_factory=dict)
+    sightings: list[tuple[float, float, str]] = field(default_factory=list)
+    track: deque = field(default_factory=lambda: deque(maxlen=TRACK_POINTS))
+    last_heard: float = 0.0  # wall time of the last message
+    _rtf_ref: tuple[float, float] | None = None
+
+    def topic(self, name: str) -> str:
+        return f"{self.ns}/{name}"
+
+    def _tick(self, stamp) -> None:
+        now = time.monotonic()
+        self.sim_time = time_from_msg(stamp)
+        self.last_heard = now
+        if self._rtf_ref is None or self.sim_time < self._rtf_ref[1]:
+            self._rtf_ref = (now, self.sim_time)
+        elif now - self._rtf_ref[0] >= 2.0:
+            self.rtf = (self.sim_time - self._rtf_ref[1]) / (now - self._rtf_ref[0])
+            self._rtf_ref = (now, self.sim_time)
+        self.seq += 1
+
+
+def map_from_markers(msg: MarkerArray) -> CreateMap:
+    """The world's map rebuilt from its ``map_markers`` (walls, lines, beacons, virtual walls).
+
+    Works with any world, local or not; a virtual wall's setting is the field whose length
+    matches its triangle."""
+    walls, lines, beacons, vwalls = [], [], [], []
+    for m in msg.markers:
+        pts = [(p.x, p.y) for p in m.points]
+        if m.ns in ("walls", "lines"):
+            segs = [(*pts[i], *pts[i + 1]) for i in range(0, len(pts) - 1, 2)]
+            (walls if m.ns == "walls" else lines).extend(segs)
+        elif m.ns == "beacons":
+            beacons.append((m.pose.position.x, m.pose.position.y, (m.color.r, m.color.g, m.color.b), m.text))
+        elif m.ns == "virtual_wall_fields" and len(pts) >= 3:
+            (ex, ey), (ax, ay), (bx, by) = pts[:3]
+            theta = math.atan2((ay + by) / 2 - ey, (ax + bx) / 2 - ex)
+            length = math.hypot(ax - ex, ay - ey)
+            setting = min(CreateModel.VWALL_FIELDS, key=lambda s: abs(CreateModel.VWALL_FIELDS[s][0] - length))
+            vwalls.append((ex, ey, theta, setting))
+    return CreateMap(
+        walls=np.array(walls, dtype=np.float64).reshape(-1, 4),
+        lines=np.array(lines, dtype=np.float64).reshape(-1, 4),
+        beacon_xy=np.array([b[:2] for b in beacons], dtype=np.float64).reshape(-1, 2),
+        beacon_rgb=np.array([b[2] for b in beacons], dtype=np.float64).reshape(-1, 3),
+        beacon_ids=[b[3] for b in beacons],
+        virtwalls=np.array(vwalls, dtype=np.float64).reshape(-1, 4),
+    )
+
+
+def parameter(name: str, value: bool | float | str | list[float]) -> Parameter:
+    """An rcl_interfaces Parameter of a bool, double, string or double array."""
+    if isinstance(value, bool):
+        pv = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
+    elif isinstance(value, str):
+        pv = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
+    elif isinstance(value, list):
+        pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[float(v) for v in value])
+    else:
+        pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
+    return Parameter(name=name, value=pv)
+
+
+class _Robot:
+    """A RobotState plus the ROS entities that feed it and command it."""
+
+    def __init__(self, node: Node, ns: str, node_name: str) -> None:
+        self.state = RobotState(ns=ns, node_name=node_name, last_heard=time.monotonic())
+        s = self.state
+        sub, q = node.create_subscription, ANY_PUBLISHER_QOS
+        self.subs = [
+            sub(PoseStamped, s.topic("overhead_pose"), self._on_pose, q),
+            sub(Odometry, s.topic("odom"), self._on_odom, q),
+            sub(LaserScan, s.topic("scan"), self._on_scan, q),
+            sub(Range, s.topic("wall"), lambda m: setattr(s, "wall", m.range == -math.inf), q),
+            sub(Range, s.topic("virtual_wall"), lambda m: setattr(s, "virtual_wall", m.range == -math.inf), q),
+            sub(Range, s.topic("bump/left"), lambda m: self._on_bump(0, m), q),
+            sub(Range, s.topic("bump/right"), lambda m: self._on_bump(1, m), q),
+            sub(MarkerArray, s.topic("camera/beacons"), self._on_camera, q),
+            sub(MarkerArray, s.topic("map_markers"), self._on_map, LATCHED_QOS),
+        ]
+        for name in SONAR_NAMES:
+            self.subs.append(sub(Range, s.topic(f"sonar/{name}"), lambda m, n=name: s.sonar.__setitem__(n, m.range), q))
+        for name in CLIFF_NAMES:
+            self.subs.append(
+                sub(Illuminance, s.topic(f"cliff/{name}"), lambda m, n=name: s.cliffs.__setitem__(n, m.illuminance), q)
+            )
+        self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
+        self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
+        self.reset = node.create_client(Trigger, s.topic("reset"))
+        self.step = node.create_client(Trigger, s.topic("step"))
+        self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
+        self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")
+        self.get_params = node.create_client(GetParameters, f"{node_name}/get_parameters")
+
+    def destroy(self, node: Node) -> None:
+        for sub in self.subs:
+            node.destroy_subscription(sub)
+        for pub in (self.cmd_vel, self.set_pose):
+            node.destroy_publisher(pub)
+        for client in (self.reset, *self.buttons, self.set_params, self.get_params):
+            node.destroy_client(client)
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        s = self.state
+        p = msg.pose.position
+        s.pose = (p.x, p.y, yaw_from_quaternion(msg.pose.orientation))
+        if not s.track or math.hypot(p.x - s.track[-1][0], p.y - s.track[-1][1]) >= TRACK_MIN_STEP_M:
+            s.track.append((p.x, p.y))
+        s._tick(msg.header.stamp)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        p = msg.pose.pose
+        self.state.odom = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
+        self.state.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        s = self.state
+        s.scan = (msg.angle_min, msg.angle_increment, np.asarray(msg.ranges, dtype=np.float32))
+        s.scan_stamp = time_from_msg(msg.header.stamp)
+        s.scan_count += 1
+        s.seq += 1
+
+    def _on_bump(self, index: int, msg: Range) -> None:
+        bumps = list(self.state.bumps)
+        bumps[index] = msg.range == -math.inf
+        self.state.bumps = (bumps[0], bumps[1])
+
+    def _on_camera(self, msg: MarkerArray) -> None:
+        self.state.sightings = [(m.pose.position.x, m.pose.position.y, m.text) for m in msg.markers]
+
+    def _on_map(self, msg: MarkerArray) -> None:
+        self.state.world = map_from_markers(msg)
+        self.state.map_seq += 1
+        self.state.seq += 1
+
+
+class StudioRos:
+    """The studio's node and executor thread; ``robots`` maps namespace → :class:`RobotState`."""
+
+    _ids = itertools.count()
+
+    def __init__(self) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = Node(f"studio_{os.getpid()}_{next(self._ids)}", context=self.context)
+        self.executor = make_executor(self.context)
+        self.executor.add_node(self.node)
+        self._robots: dict[str, _Robot] = {}
+        self.robots: dict[str, RobotState] = {}
+        self.node.create_timer(0.5, self._discover)
+        self._thread = threading.Thread(target=self._spin, name="studio-ros", daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            while self.context.ok():
+                self.executor.spin_once(timeout_sec=0.1)
+        except Exception:  # noqa: BLE001 - shutdown races end the thread quietly
+            if self.context.ok():
+                raise
+
+    def _discover(self) -> None:
+        """Follow every namespace with a Create world (an ``overhead_pose`` PoseStamped topic);
+        forget a world whose publisher has gone (stopped, or restarted under another node)."""
+        now = time.monotonic()
+        for ns, robot in list(self._robots.items()):
+            if (
+                self.node.count_publishers(robot.state.topic("overhead_pose")) == 0
+                and now - robot.state.last_heard > 2.0
+            ):
+                robot.destroy(self.node)
+                del self._robots[ns]
+                self.robots = {k: v for k, v in self.robots.items() if k != ns}
+        for topic, types in self.node.get_topic_names_and_types():
+            if not topic.endswith("/overhead_pose") or POSE_TYPE not in types:
+                continue
+            ns = topic[: -len("/overhead_pose")]
+            if ns in self._robots:
+                continue
+            publishers = self.node.get_publishers_info_by_topic(topic)
+            if not publishers:
+                continue
+            info = publishers[0]
+            node_name = info.node_namespace.rstrip("/") + "/" + info.node_name
+            robot = _Robot(self.node, ns, node_name)
+            self._robots[ns] = robot
+            self.robots = {**self.robots, ns: robot.state}
+
+    def namespaces(self) -> list[str]:
+        return sorted(self.robots)
+
+    # ---------------------------------------------------------------- commands (from the pages)
+    def drive(self, ns: str, v: float, w: float) -> None:
+        """Publish ``cmd_vel`` (m/s, rad/s) to the Create in ``ns``."""
+        msg = Twist()
+        msg.linear.x, msg.angular.z = float(v), float(w)
+        self._robots[ns].cmd_vel.publish(msg)
+
+    def set_pose(self, ns: str, x: float, y: float, theta: float) -> None:
+        """Publish ``set_pose`` (map frame) to the Create in ``ns``."""
+        msg = PoseStamped()
+        msg.header.frame_id = "map"
+        msg.pose = pose_msg(x, y, theta)
+        self._robots[ns].set_pose.publish(msg)
+
+    async def _call(self, client, request, timeout: float = 15.0):
+        if not client.wait_for_service(timeout_sec=0.0):
+            deadline = time.monotonic() + timeout
+            while not client.service_is_ready():
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"service {client.srv_name} is not available")
+                await asyncio.sleep(0.05)
+        loop = asyncio.get_running_loop()
+        done: asyncio.Future = loop.create_future()
+        future = client.call_async(request)
+        future.add_done_callback(lambda f: loop.call_soon_threadsafe(done.set_result, f.result()))
+        return await asyncio.wait_for(done, timeout)
+
+    async def reset(self, ns: str) -> str:
+        response = await self._call(self._robots[ns].reset, Trigger.Request())
+        return response.message
+
+    async def step(self, ns: str) -> tuple[bool, str]:
+        """One physics step of a paused world: (done, the world's answer)."""
+        response = await self._call(self._robots[ns].step, Trigger.Request())
+        return response.success, response.message
+
+    async def press(self, ns: str, button: int, down: bool) -> str:
+        response = await self._call(self._robots[ns].buttons[button], SetBool.Request(data=down))
+        return response.message
+
+    async def set_parameters(self, ns: str, values: dict[str, bool | float | str | list[float]]) -> list[str]:
+        """Set the world's parameters; the reasons of refused ones (empty when all were taken)."""
+        request = SetParameters.Request(parameters=[parameter(k, v) for k, v in values.items()])
+        response = await self._call(self._robots[ns].set_params, request)
+        return [
+            f"{name}: {r.reason or 'refused'}"
+            for name, r in zip(values, response.results, strict=True)
+            if not r.successful
+        ]
+
+    async def get_parameter(self, ns: str, name: str):
+        """A parameter of the world (python value), or None when it has none."""
+        response = await self._call(self._robots[ns].get_params, GetParameters.Request(names=[name]))
+        if not response.values:
+            return None
+        v = response.values[0]
+        return {
+            ParameterType.PARAMETER_DOUBLE: v.double_value,
+            ParameterType.PARAMETER_INTEGER: v.integer_value,
+            ParameterType.PARAMETER_STRING: v.string_value,
+            ParameterType.PARAMETER_BOOL: v.bool_value,
+        }.get(v.type)
+
+    def shutdown(self) -> None:
+        if self.context.ok():
+            rclpy.shutdown(context=self.context)
+        self._thread.join(timeout=2.0)
+        self.executor.shutdown()
+        self.node.destroy_node()

@@ -1,0 +1,600 @@
+"""The Simulator page (the seed's SimulatorGUI): live view, status, driving, worlds, controllers, recording."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from html import escape
+
+import numpy as np
+from nicegui import ui
+
+from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
+from sim_runtime.errors import InputError
+from studio import draw
+from studio.app import WHEEL_JS, Studio, nav
+from studio.processes import Child, controller_command, executable_command, world_ros_args
+
+VIEW_SIZE = (800, 600)
+FRAME_PERIOD_S = 0.04
+"""The view is redrawn at most this often (25 frames/s), and only when a new reading came in."""
+LAYERS = {
+    "lidar": "LIDAR",
+    "sonar": "Sonar",
+    "wall": "IR wall",
+    "bump": "Bump",
+    "cliff": "Cliff",
+    "camera": "Camera",
+    "track": "Track",
+    "fields": "Virtual-wall fields",
+    "grid": "Grid",
+}
+RTF_OPTIONS = {0.25: "0.25×", 0.5: "0.5×", 1.0: "1× (real time)", 2.0: "2×", 4.0: "4×", 0.0: "as fast as possible"}
+KEYS = {
+    "ArrowUp": (1, 0),
+    "w": (1, 0),
+    "ArrowDown": (-1, 0),
+    "s": (-1, 0),
+    "ArrowLeft": (0, 1),
+    "a": (0, 1),
+    "ArrowRight": (0, -1),
+    "d": (0, -1),
+    " ": None,
+    "Escape": None,
+    "Enter": None,
+}
+"""Key → (linear steps, angular steps) change, None = stop: the keys of ``create_teleop``."""
+SET_POSE_MIN_DRAG_PX = 5.0
+
+
+def _fmt(value: float | None, digits: int = 3) -> str:
+    if value is None:
+        return "–"
+    return f"{value:.{digits}f}" if math.isfinite(value) else ("+inf" if value > 0 else "-inf" if value < 0 else "nan")
+
+
+def status_html(ns: str, st) -> str:
+    """The live Read Sensors table of one robot."""
+    rows = [
+        ("namespace", escape(ns or "/")),
+        ("sim time (s)", _fmt(st.sim_time, 2)),
+        ("real-time factor", _fmt(st.rtf, 2)),
+    ]
+    pose = st.pose or (None, None, None)
+    odom = st.odom or (None, None, None)
+    rows += [
+        ("x (m) truth / odometry", f"{_fmt(pose[0])} / {_fmt(odom[0])}"),
+        ("y (m) truth / odometry", f"{_fmt(pose[1])} / {_fmt(odom[1])}"),
+        ("θ (rad) truth / odometry", f"{_fmt(pose[2])} / {_fmt(odom[2])}"),
+        ("v (m/s), ω (rad/s)", f"{_fmt(st.velocity[0], 2)}, {_fmt(st.velocity[1], 2)}"),
+        ("bump left / right", f"{int(st.bumps[0])} / {int(st.bumps[1])}"),
+        ("wall / virtual wall", f"{int(st.wall)} / {int(st.virtual_wall)}"),
+        (
+            "cliff (%) " + " ".join(n.replace("_", "-") for n in CLIFF_NAMES),
+            " ".join(_fmt(st.cliffs.get(n), 1) for n in CLIFF_NAMES),
+        ),
+        ("sonar (m) " + " ".join(SONAR_NAMES), " ".join(_fmt(st.sonar.get(n), 2) for n in SONAR_NAMES)),
+    ]
+    if st.scan is not None:
+        ranges = st.scan[2]
+        finite = ranges[np.isfinite(ranges)]
+        nearest = _fmt(float(finite.min()), 2) if len(finite) else "none"
+        rows.append(("LIDAR beams, nearest (m)", f"{len(ranges)}, {nearest}"))
+    sightings = ", ".join(
+        f"{escape(i)} at {math.hypot(x, y):.2f} m {math.degrees(math.atan2(y, x)):.0f}°" for x, y, i in st.sightings
+    )
+    rows.append(("camera beacons", sightings or "none"))
+    body = "".join(f"<tr><td class='pr-3 text-gray-600'>{k}</td><td class='font-mono'>{v}</td></tr>" for k, v in rows)
+    return f"<table class='studio-status text-sm'>{body}</table>"
+
+
+def register(studio: Studio) -> None:
+    @ui.page("/")
+    def simulator_page() -> None:
+        SimulatorPage(studio)
+
+
+class SimulatorPage:
+    """One browser tab's simulator view: its own zoom, layers and selected robot."""
+
+    def __init__(self, studio: Studio) -> None:
+        self.studio = studio
+        self.view = draw.View(*VIEW_SIZE, scale=60.0)
+        self.selected: str | None = None
+        self.layers = set(LAYERS)
+        self.centred = False
+        self.mouse_mode = "pan"
+        self.steps = {}  # namespace → [linear steps, angular steps]
+        self.drawn_seq = -1
+        self.drawn_map = (None, -1)
+        self.view_dirty = True
+        self.mouse_down: tuple[float, float] | None = None  # pixel of the mouse press
+        self.view_at_press = (0.0, 0.0)
+        self.fitted: set[str] = set()
+        self.frames = 0
+        self.build()
+
+    # ---------------------------------------------------------------- layout
+    def build(self) -> None:
+        studio = self.studio
+        nav("/")
+        # Keys still drive after a click on a button, switch or checkbox: a clicked control gives the
+        # focus back at once, so Space stops the robot instead of pressing Record again. Only
+        # typing in a text field is left alone.
+        ui.add_body_html(
+            "<script>document.addEventListener('pointerup', (e) => {"
+            " const c = e.target.closest && e.target.closest('button, .q-toggle, .q-checkbox, .q-btn');"
+            " if (c) setTimeout(() => document.activeElement && document.activeElement.blur(), 0); });</script>"
+        )
+        ui.keyboard(on_key=self.on_key, ignore=["input", "select", "textarea"])
+        with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
+            with ui.column().classes("gap-1"):
+                self.image = (
+                    ui.interactive_image(
+                        size=VIEW_SIZE,
+                        events=["mousedown", "mousemove", "mouseup"],
+                        on_mouse=self.on_mouse,
+                        sanitize=False,
+                    )
+                    .classes("studio-view")
+                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fafafa;outline:1px solid #bbb")
+                )
+                self.image.on("wheel.prevent", self.on_wheel, js_handler=WHEEL_JS, throttle=0.05)
+                self.dynamic = self.image.add_layer()
+                self.overlay = self.image.add_layer()
+                with ui.row().classes("items-center gap-2"):
+                    ui.toggle(
+                        {"pan": "Pan", "pose": "Set position"}, value="pan", on_change=self.on_mouse_mode
+                    ).classes("studio-mouse-mode")
+                    ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
+                    ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
+                    ui.button("Fit map", on_click=self.fit).props("dense flat")
+                    ui.checkbox("Robot-centred", on_change=self.on_centred)
+                with ui.row().classes("gap-3"):
+                    for key, text in LAYERS.items():
+                        ui.checkbox(
+                            text, value=key in self.layers, on_change=lambda e, k=key: self.toggle_layer(k, e.value)
+                        )
+            with ui.column().classes("gap-2 w-[430px]"):
+                with ui.row().classes("items-center gap-2 w-full"):
+                    self.robot_select = ui.select([], label="Robot (namespace)", on_change=self.on_select).classes(
+                        "w-56 studio-robot"
+                    )
+                    self.no_world = ui.label("no Create world found yet").classes("text-orange-700 text-sm")
+                self.build_world_panel()
+                with ui.card().classes("w-full"):
+                    ui.label("Manual control (arrows/WASD, space = stop)").classes("font-bold")
+                    with ui.row().classes("items-center gap-6"):
+                        with ui.grid(columns=3).classes("gap-1 w-40"):
+                            ui.element()
+                            self.drive_button("▲", 1, 0).classes("studio-forward")
+                            ui.element()
+                            self.drive_button("◀", 0, 1)
+                            self.drive_button("■", 0, 0).props("color=red").classes("studio-stop")
+                            self.drive_button("▶", 0, -1)
+                            ui.element()
+                            self.drive_button("▼", -1, 0)
+                        ui.joystick(
+                            on_move=self.on_joystick, on_end=lambda _: self.stop(), color="#1565c0", size=70
+                        ).classes("w-28 h-28 bg-slate-100 rounded-full")
+                    self.command_label = ui.label("v 0.00 m/s, ω 0.00 rad/s").classes("font-mono text-sm")
+                    with ui.row().classes("items-center gap-2"):
+                        ui.switch("Play", on_change=lambda e: self.press(0, e.value))
+                        ui.switch("Advance", on_change=lambda e: self.press(1, e.value))
+                        ui.button("Reset", on_click=self.reset).props("dense outline")
+                    with ui.row().classes("items-center gap-2"):
+                        self.rtf_select = ui.select(
+                            RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
+                        ).classes("w-48 studio-rtf")
+                        self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("studio-pause")
+                        ui.button("Step", on_click=self.step_once).props("dense outline").classes("studio-step")
+                with ui.card().classes("w-full"):
+                    ui.label("Autonomous").classes("font-bold")
+                    with ui.row().classes("items-center gap-2"):
+                        names = list(studio.controllers)
+                        self.controller_select = ui.select(names, value=names[0], label="controller").classes("w-48")
+                        ui.button("Start", on_click=self.start_controller).props("dense").classes(
+                            "studio-controller-start"
+                        )
+                        ui.button("Stop", on_click=self.stop_controller).props("dense outline").classes(
+                            "studio-controller-stop"
+                        )
+                    self.controller_label = ui.label("").classes("text-sm")
+                with ui.card().classes("w-full"):
+                    with ui.row().classes("items-center gap-2"):
+                        ui.label("Save Data").classes("font-bold")
+                        self.record_button = (
+                            ui.button("Record", on_click=self.toggle_recording).props("dense").classes("studio-record")
+                        )
+                    self.record_label = ui.label("").classes("text-sm break-all")
+                self.status = ui.html("", sanitize=False).classes("w-full")
+        ui.timer(FRAME_PERIOD_S, self.tick)
+        ui.timer(0.5, self.slow_tick)
+
+    def build_world_panel(self) -> None:
+        ws = self.studio.workspace
+        with ui.expansion("New world", icon="add").classes("w-full border studio-new-world"):
+            self.world_map = ui.input("map file (empty = open floor)", autocomplete=ws.files((".map", ".txt"))).classes(
+                "w-full studio-world-map"
+            )
+            self.world_config = ui.input(
+                "config file (empty = noise-free)", autocomplete=ws.files((".cfg", ".txt", ".config"))
+            ).classes("w-full studio-world-config")
+            with ui.row().classes("gap-2 no-wrap"):
+                self.world_x = ui.number("x (m)", value=0.0, step=0.1).classes("w-20")
+                self.world_y = ui.number("y (m)", value=0.0, step=0.1).classes("w-20")
+                self.world_theta = ui.number("θ (rad)", value=0.0, step=0.1).classes("w-20")
+                self.world_ns = ui.input("namespace", value="").classes("w-28 studio-world-ns")
+            with ui.row().classes("gap-2"):
+                ui.button("Start world", on_click=self.start_world).props("dense").classes("studio-start-world")
+                ui.button("Stop world", on_click=self.stop_world).props("dense outline")
+            self.world_label = ui.label("").classes("text-sm text-red-700 break-all studio-world-error")
+
+    # ---------------------------------------------------------------- robots
+    def robot(self):
+        ros = self.studio.ros
+        return None if ros is None or self.selected is None else ros.robots.get(self.selected)
+
+    async def on_select(self, e) -> None:
+        self.selected = e.value
+        if e.value is not None:
+            self.studio.selected = e.value
+        self.view_dirty = True
+        if self.robot() is None:
+            return
+        try:  # show the selected world's speed
+            rtf = await self.studio.ros.get_parameter(self.selected, "real_time_factor")
+        except TimeoutError:
+            return
+        if rtf is not None and float(rtf) in RTF_OPTIONS and float(rtf) != self.rtf_select.value:
+            self.rtf_select.set_value(float(rtf))
+
+    def slow_tick(self) -> None:
+        ros = self.studio.ros
+        if ros is None:
+            return
+        names = ros.namespaces()
+        if names != list(self.robot_select.options):
+            value = self.studio.default_robot(names, self.selected)
+            self.robot_select.set_options({ns: ns or "/" for ns in names}, value=value)
+        self.no_world.set_visibility(not names)
+        st = self.robot()
+        if st is not None:
+            self.status.set_content(status_html(self.selected, st))
+        for ns, world in list(self.studio.worlds.items()):
+            if not world.running:  # a world that ended (bad map, pose in a wall): its one-line error
+                self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
+                del self.studio.worlds[ns]
+        child = self.studio.running_controllers.get(self.selected or "")
+        self.controller_label.set_text(
+            f"{child.label} running"
+            if child and child.running
+            else (f"{child.label} ended: {child.error_line()}" if child else "manual control")
+        )
+        if self.studio.recorder is not None:
+            running = self.studio.recorder.running
+            self.record_button.set_text("Stop recording" if running else "Record")
+            self.record_label.set_text(f"{'recording to' if running else 'saved'} {self.studio.recording_to}")
+
+    # ---------------------------------------------------------------- drawing
+    def tick(self) -> None:
+        st = self.robot()
+        if st is None or st.pose is None:
+            return
+        if self.selected not in self.fitted:
+            self.fitted.add(self.selected)
+            self.fit()
+        if self.centred:
+            self.view.centre_x, self.view.centre_y = st.pose[0], st.pose[1]
+            self.view_dirty = True
+        if self.view_dirty or self.drawn_map != (self.selected, st.map_seq):
+            self.drawn_map = (self.selected, st.map_seq)
+            base = draw.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
+            self.image.set_content(base + draw.map_svg(self.view, st.world, fields="fields" in self.layers))
+        if self.view_dirty or st.seq != self.drawn_seq:
+            self.drawn_seq = st.seq
+            self.view_dirty = False
+            self.dynamic.set_content(self.dynamic_svg(st))
+            self.frames += 1
+
+    def dynamic_svg(self, st) -> str:
+        v = self.view  # the transform, for tools and tests that map pixels back to metres
+        parts = [
+            f'<g class="view" data-centre-x="{float(v.centre_x)!r}" data-centre-y="{float(v.centre_y)!r}" '
+            f'data-scale="{float(v.scale)!r}"/>'
+        ]
+        for ns, other in self.studio.ros.robots.items():
+            if ns != self.selected and other.pose is not None:
+                parts.append(draw.robot_svg(self.view, other.pose, selected=False, label=ns))
+        readings = draw.Readings(
+            pose=st.pose,
+            scan=st.scan,
+            scan_stamp=st.scan_stamp,
+            sonar=st.sonar,
+            wall=st.wall,
+            bumps=st.bumps,
+            cliffs=st.cliffs,
+            sightings=st.sightings,
+            track=np.array(list(st.track)) if "track" in self.layers else None,  # list(): one atomic copy
+        )
+        parts.append(draw.sensors_svg(self.view, readings, self.layers))
+        parts.append(draw.robot_svg(self.view, st.pose, selected=True, label=self.selected or ""))
+        return "".join(parts)
+
+    def toggle_layer(self, key: str, on: bool) -> None:
+        (self.layers.add if on else self.layers.discard)(key)
+        self.view_dirty = True
+
+    def zoom(self, factor: float) -> None:
+        self.view.zoom(factor)
+        self.view_dirty = True
+
+    def on_wheel(self, e) -> None:
+        a = e.args
+        if a.get("w") and a.get("h"):
+            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
+            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+            self.view_dirty = True
+
+    def fit(self) -> None:
+        st = self.robot()
+        if st is None:
+            return
+        w = st.world
+        xs = np.concatenate(
+            [w.walls[:, 0], w.walls[:, 2], w.lines[:, 0], w.lines[:, 2], w.beacon_xy[:, 0], w.virtwalls[:, 0]]
+        )
+        ys = np.concatenate(
+            [w.walls[:, 1], w.walls[:, 3], w.lines[:, 1], w.lines[:, 3], w.beacon_xy[:, 1], w.virtwalls[:, 1]]
+        )
+        if st.pose is not None:
+            xs, ys = np.append(xs, st.pose[0]), np.append(ys, st.pose[1])
+        self.view.fit(xs, ys, margin_m=1.0)
+        self.view_dirty = True
+
+    def on_centred(self, e) -> None:
+        self.centred = e.value
+        self.view_dirty = True
+
+    # ---------------------------------------------------------------- mouse: pan or set position
+    def on_mouse_mode(self, e) -> None:
+        self.mouse_mode = e.value
+        self.overlay.set_content("")
+
+    def on_mouse(self, e) -> None:
+        if e.type == "mousedown":
+            self.mouse_down = (e.image_x, e.image_y)
+            self.view_at_press = (self.view.centre_x, self.view.centre_y)
+            return
+        if self.mouse_down is None:
+            return
+        px, py = self.mouse_down
+        if self.mouse_mode == "pan":
+            self.view.centre_x = self.view_at_press[0] - (e.image_x - px) / self.view.scale
+            self.view.centre_y = self.view_at_press[1] + (e.image_y - py) / self.view.scale
+            self.view_dirty = True
+            if e.type == "mouseup":
+                self.mouse_down = None
+            return
+        if e.type == "mousemove":
+            self.overlay.set_content(
+                f'<circle cx="{px:.1f}" cy="{py:.1f}" r="6" fill="#1565c0"/>'
+                f'<line x1="{px:.1f}" y1="{py:.1f}" x2="{e.image_x:.1f}" y2="{e.image_y:.1f}" '
+                'stroke="#1565c0" stroke-width="3"/>'
+            )
+        elif e.type == "mouseup":
+            self.mouse_down = None
+            self.overlay.set_content("")
+            st = self.robot()
+            if st is None:
+                return
+            x, y = self.view.to_world(px, py)
+            if math.hypot(e.image_x - px, e.image_y - py) >= SET_POSE_MIN_DRAG_PX:
+                theta = math.atan2(-(e.image_y - py), e.image_x - px)
+            else:
+                theta = st.pose[2] if st.pose else 0.0
+            self.studio.ros.set_pose(self.selected, x, y, theta)
+            st.track.clear()  # no line across the jump
+            ui.notify(f"set_pose x={x:.2f} y={y:.2f} θ={theta:.2f}")
+
+    # ---------------------------------------------------------------- driving
+    def on_key(self, e) -> None:
+        # One step per press: a held key (auto-repeat) does not run the speed up to the limit.
+        if not e.action.keydown or e.action.repeat or e.modifiers.ctrl or e.modifiers.alt or e.modifiers.meta:
+            return
+        name = e.key.name if len(e.key.name) > 1 else e.key.name.lower()
+        if name not in KEYS:
+            return
+        change = KEYS[name]
+        if change is None:
+            self.stop()
+        else:
+            self.change(*change)
+
+    def drive_button(self, text: str, linear: int, angular: int) -> ui.button:
+        """An arrow button (■ = stop)."""
+
+        def clicked() -> None:
+            if linear or angular:
+                self.change(linear, angular)
+            else:
+                self.stop()
+
+        return ui.button(text, on_click=clicked).props("dense")
+
+    def on_joystick(self, e) -> None:
+        """Joystick: up/down = forward speed, left/right = turn rate, up to the teleop limits."""
+        if self.selected is None or self.robot() is None or e.x is None or e.y is None:
+            return
+        if self.controller_running():
+            return
+        v = round(e.y * MAX_LINEAR_STEPS * LINEAR_STEP, 2)
+        w = round(-e.x * MAX_ANGULAR_STEPS * ANGULAR_STEP, 2)
+        self.steps[self.selected] = [0, 0]
+        self.studio.ros.drive(self.selected, v, w)
+        self.command_label.set_text(f"v {v:.2f} m/s, ω {w:.2f} rad/s")
+
+    def controller_running(self) -> bool:
+        child = self.studio.running_controllers.get(self.selected or "")
+        return child is not None and child.running
+
+    def change(self, linear: int, angular: int) -> None:
+        if self.selected is None or self.robot() is None:
+            ui.notify("no robot selected", type="warning")
+            return
+        if self.controller_running():
+            ui.notify("a controller is driving: Stop it for manual control", type="warning")
+            return
+        steps = self.steps.setdefault(self.selected, [0, 0])
+        steps[0] = max(-MAX_LINEAR_STEPS, min(MAX_LINEAR_STEPS, steps[0] + linear))
+        steps[1] = max(-MAX_ANGULAR_STEPS, min(MAX_ANGULAR_STEPS, steps[1] + angular))
+        self.send(steps)
+
+    def stop(self) -> None:
+        if self.selected is None or self.robot() is None:
+            return
+        self.steps[self.selected] = [0, 0]
+        self.send([0, 0])
+
+    def send(self, steps: list[int]) -> None:
+        v, w = steps[0] * LINEAR_STEP, steps[1] * ANGULAR_STEP
+        self.studio.ros.drive(self.selected, v, w)
+        self.command_label.set_text(f"v {v:.2f} m/s, ω {w:.2f} rad/s")
+
+    async def press(self, button: int, down: bool) -> None:
+        if self.robot() is None:
+            return
+        try:
+            ui.notify(await self.studio.ros.press(self.selected, button, down))
+        except TimeoutError as err:
+            ui.notify(str(err), type="negative")
+
+    async def reset(self) -> None:
+        if self.robot() is None:
+            return
+        self.steps[self.selected] = [0, 0]
+        try:
+            ui.notify(await self.studio.ros.reset(self.selected))
+        except TimeoutError as err:
+            ui.notify(str(err), type="negative")
+        self.robot().track.clear()
+
+    async def on_pause(self, e) -> None:
+        """Hold or release the selected world (its live ``paused`` parameter)."""
+        if self.robot() is None:
+            return
+        try:
+            refused = await self.studio.ros.set_parameters(self.selected, {"paused": bool(e.value)})
+        except TimeoutError as err:
+            refused = [str(err)]
+        for reason in refused:
+            ui.notify(reason, type="negative")
+
+    async def step_once(self) -> None:
+        """One physics step of the paused world (SimulatorGUI's step)."""
+        if self.robot() is None:
+            return
+        try:
+            done, message = await self.studio.ros.step(self.selected)
+        except TimeoutError as err:
+            done, message = False, str(err)
+        ui.notify(message, type="positive" if done else "negative")
+
+    async def on_rtf(self, e) -> None:
+        if self.robot() is None or e.value is None:
+            return
+        try:
+            refused = await self.studio.ros.set_parameters(self.selected, {"real_time_factor": float(e.value)})
+        except TimeoutError as err:
+            refused = [str(err)]
+        for reason in refused:
+            ui.notify(reason, type="negative")
+
+    # ---------------------------------------------------------------- worlds, controllers, recording
+    async def start_world(self) -> None:
+        studio, ws = self.studio, self.studio.workspace
+        ns = (self.world_ns.value or "").strip().rstrip("/")
+        if ns and not ns.startswith("/"):
+            ns = "/" + ns
+        self.world_label.set_text("")
+        try:
+            map_file = str(ws.path(self.world_map.value)) if (self.world_map.value or "").strip() else ""
+            config_file = str(ws.path(self.world_config.value)) if (self.world_config.value or "").strip() else ""
+            pose = tuple(float(v.value or 0.0) for v in (self.world_x, self.world_y, self.world_theta))
+        except InputError as err:
+            self.world_label.set_text(f"error: {err}")
+            return
+        if (ns in studio.worlds and studio.worlds[ns].running) or ns in studio.ros.robots:
+            self.world_label.set_text(
+                f"error: a world already runs in {ns or '/'}: give another namespace (e.g. /robot2) or stop it"
+            )
+            return
+        child = Child(
+            f"create_world {ns or '/'}",
+            executable_command("create_world", world_ros_args(ns, map_file, config_file, pose)),
+            cwd=ws.root,
+        )
+        studio.worlds[ns] = child
+        self.world_label.set_text(f"starting a world in {ns or '/'}…")
+        for _ in range(200):  # a bad map or pose ends the world with its one-line error (shown by slow_tick)
+            await asyncio.sleep(0.05)
+            if not child.running:
+                return
+            if ns in studio.ros.robots:
+                break
+        else:
+            return
+        self.world_label.set_text("")
+        self.selected = self.studio.selected = ns
+        if ns in self.robot_select.options:
+            self.robot_select.set_value(ns)
+        self.fitted.discard(ns)
+        self.view_dirty = True
+        ui.notify(f"world started in {ns or '/'}")
+
+    def stop_world(self) -> None:
+        child = self.studio.worlds.pop(self.selected or "", None)
+        if child is None:
+            ui.notify("the selected world was not started by the studio (stop it where it runs)", type="warning")
+            return
+        child.stop()
+        ui.notify(f"{child.label} stopped")
+
+    def start_controller(self) -> None:
+        ns = self.selected
+        if ns is None:
+            ui.notify("no robot selected", type="warning")
+            return
+        running = self.studio.running_controllers.get(ns)
+        if running and running.running:
+            ui.notify(f"{running.label} already runs for {ns or '/'}", type="warning")
+            return
+        name = self.controller_select.value
+        target = self.studio.controllers[name]
+        ros_args = ["-r", f"__ns:={ns}"] if ns else []
+        self.studio.running_controllers[ns] = Child(
+            name, controller_command(target, ros_args), cwd=self.studio.workspace.root
+        )
+        ui.notify(f"{name} started for {ns or '/'}")
+
+    def stop_controller(self) -> None:
+        child = self.studio.running_controllers.pop(self.selected or "", None)
+        if child is not None:
+            child.stop()
+        self.stop()
+
+    def toggle_recording(self) -> None:
+        studio = self.studio
+        if studio.recorder is not None and studio.recorder.running:
+            studio.recorder.stop(timeout=10.0)
+            self.record_button.set_text("Record")
+            self.record_label.set_text(f"saved {studio.recording_to}")
+            return
+        ws = studio.workspace
+        name = ws.new_folder_name("studio_data/SimulatorOutputData")
+        ws.path(name).parent.mkdir(parents=True, exist_ok=True)
+        studio.recording_to = name
+        studio.recorder = Child("record", executable_command("record", ["-o", str(ws.path(name))]), cwd=ws.root)
+        self.record_button.set_text("Stop recording")
+        self.record_label.set_text(f"recording to {name}")

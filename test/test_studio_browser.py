@@ -1,0 +1,413 @@
+"""The studio driven as a student drives it: a real Chromium (Debian's) through Selenium.
+
+One studio process and one browser serve the whole module; the tests run in order (draw a
+map, start a world on it, drive, set the pose, edit a config, record). Without Debian's
+``chromium`` and ``chromium-driver`` the module is skipped with one line saying how to enable it.
+``STUDIO_SCREENSHOTS=1`` also saves each page's screenshot into docs/.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = Path("/usr/lib/chromium/chromium")
+CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+if not (CHROMIUM.exists() and Path(CHROMEDRIVER).exists()):
+    pytest.skip(
+        "browser tests skipped: no Chromium; enable them with `apt-get install -y chromium chromium-driver`",
+        allow_module_level=True,
+    )
+
+from geometry_msgs.msg import PoseStamped  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from rcl_interfaces.srv import GetParameters  # noqa: E402
+from selenium import webdriver  # noqa: E402
+from selenium.common.exceptions import ElementNotInteractableException  # noqa: E402
+from selenium.webdriver.chrome.service import Service  # noqa: E402
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.actions.wheel_input import ScrollOrigin  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
+from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
+from visualization_msgs.msg import MarkerArray  # noqa: E402
+
+from create_sim.configfile import load_config  # noqa: E402
+from create_sim.mapfile import load_map  # noqa: E402
+from sim_runtime.msgs import yaw_from_quaternion  # noqa: E402
+from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS  # noqa: E402
+from sim_runtime.testing import Collector, spin_until  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+SCALE = 60.0  # the pages' initial px per metre, view centred on (0, 0)
+NS = "/box"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("studio_ws")
+
+
+@pytest.fixture(scope="module")
+def studio_url(workspace):
+    port = free_port()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        cwd=ROOT,
+        env={k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},  # else NiceGUI runs in test mode
+    )
+    first = process.stdout.readline()  # printed just before the server starts
+    assert f"http://127.0.0.1:{port}/" in first, first
+    deadline = time.monotonic() + 60.0
+    while True:  # until the server accepts connections
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+            break
+        except OSError:
+            assert process.poll() is None and time.monotonic() < deadline, process.stdout.read()
+            time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}"
+    process.terminate()  # the studio stops the worlds, controllers and recorder it started
+    process.wait(timeout=20)
+
+
+@pytest.fixture(scope="module")
+def browser(studio_url):
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
+        options.add_argument(arg)
+    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER  # never let Selenium Manager download a driver
+    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+    driver.implicitly_wait(0)
+    yield driver
+    driver.quit()
+
+
+def wait(driver, condition, timeout: float = 15.0):
+    return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d))
+
+
+def find(driver, css: str):
+    return wait(driver, lambda d: d.find_element(By.CSS_SELECTOR, css))
+
+
+def click_text(driver, text: str, within: str = "body") -> None:
+    xpath = f"//*[contains(@class,'q-btn') and .//*[normalize-space(text())='{text}']]"
+    scope = find(driver, within)
+    wait(driver, lambda d: scope.find_element(By.XPATH, "." + xpath)).click()
+
+
+def open_page(driver, url: str) -> None:
+    driver.get(url)
+    wait(driver, lambda d: d.execute_script("return document.readyState") == "complete")
+    find(driver, ".nicegui-content")
+
+
+def click_at(driver, image, x_m: float, y_m: float) -> None:
+    """Click the view at world point (x, y) (the page's initial view: centre 0,0)."""
+    ActionChains(driver).move_to_element_with_offset(image, round(x_m * SCALE), round(-y_m * SCALE)).click().perform()
+
+
+def type_into(driver, css: str, text: str) -> None:
+    """Replace a text field's contents, once it takes input (an expansion may still be opening)."""
+
+    def typed(d) -> bool:
+        field = find(d, f"{css} input")
+        try:
+            field.send_keys(Keys.CONTROL, "a")
+            field.send_keys(Keys.BACKSPACE)
+            field.send_keys(text)
+        except ElementNotInteractableException:
+            return False
+        return True
+
+    wait(driver, typed)
+
+
+def view_transform(driver) -> tuple[float, float, float]:
+    """The simulator view's centre (m) and scale (px/m), as the page draws them."""
+    values = wait(
+        driver,
+        lambda d: d.execute_script(
+            "const g = document.querySelector('.studio-view g.view');"
+            "return g && [g.dataset.centreX, g.dataset.centreY, g.dataset.scale];"
+        ),
+    )
+    return tuple(float(v) for v in values)
+
+
+def screenshot(driver, name: str) -> None:
+    if os.environ.get("STUDIO_SCREENSHOTS"):
+        driver.save_screenshot(str(ROOT / "docs" / f"studio_{name}.png"))
+
+
+@pytest.fixture(scope="module")
+def listener(ros):
+    """The test's own ROS node: what the world publishes, read as any client would."""
+    from rclpy.node import Node
+
+    from sim_runtime.run import make_executor
+
+    executor = make_executor()
+    node = Node("studio_test_listener")
+    executor.add_node(node)
+    odom = Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
+    pose = Collector(node, PoseStamped, f"{NS}/overhead_pose", ANY_PUBLISHER_QOS)
+    yield executor, odom, pose
+    executor.remove_node(node)
+    node.destroy_node()
+    executor.shutdown()
+
+
+def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, workspace):
+    open_page(browser, studio_url + "/map")
+    image = find(browser, ".studio-map-view")
+    click_text(browser, "Rectangle", ".studio-tools")
+    click_at(browser, image, -2.0, 1.5)
+    click_at(browser, image, 2.0, -1.5)
+    click_text(browser, "Beacon", ".studio-tools")
+    click_at(browser, image, 1.0, 0.5)
+    click_text(browser, "Line", ".studio-tools")
+    click_at(browser, image, -1.8, -0.5)
+    click_at(browser, image, 0.5, -0.5)
+    click_text(browser, "Virtual wall", ".studio-tools")
+    click_at(browser, image, 1.8, -1.3)
+    click_at(browser, image, 1.8, 0.0)
+    wait(browser, lambda d: "4 walls, 1 lines, 1 beacons, 1 virtual walls" in d.page_source)
+    type_into(browser, ".studio-map-file", "box.map")
+    find(browser, ".studio-map-save").click()
+    wait(browser, lambda d: "saved box.map" in find(d, ".studio-map-message").text)
+    screenshot(browser, "map_maker")
+
+    world = load_map(workspace / "box.map")
+    corners = {(x, y) for wall in world.walls.tolist() for x, y in (wall[:2], wall[2:])}
+    assert corners == {(-2.0, 1.5), (2.0, 1.5), (2.0, -1.5), (-2.0, -1.5)}
+    assert world.beacon_ids == ["b1"] and world.beacon_xy.tolist() == [[1.0, 0.5]]
+    assert world.lines.tolist() == [[-1.8, -0.5, 0.5, -0.5]]
+    assert world.virtwalls.tolist() == [[1.8, -1.3, pytest.approx(math.pi / 2), 2.0]]
+
+    find(browser, ".studio-map-save").click()  # a second save must not overwrite silently
+    wait(browser, lambda d: "file exists" in find(d, ".studio-map-message").text)
+    type_into(browser, ".studio-map-file", "../escape.map")
+    find(browser, ".studio-map-save").click()
+    wait(browser, lambda d: "outside the workspace" in find(d, ".studio-map-message").text)
+    assert not (workspace.parent / "escape.map").exists()
+
+
+def test_a_new_world_on_the_saved_map_shows_the_lidar_hitting_its_walls(browser, studio_url, listener):
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-new-world").click()
+    type_into(browser, ".studio-world-map", "box.map")
+    type_into(browser, ".studio-world-ns", NS)
+    find(browser, ".studio-start-world").click()
+    executor, odom, _pose = listener
+    started = spin_until(executor, lambda: odom.last is not None, timeout=30.0)
+    assert started, f"the world did not start: {find(browser, '.studio-world-error').text!r}"
+
+    def lidar_points(d):  # read in one script: the view redraws its layers many times a second
+        return d.execute_script(
+            "const p = document.querySelector('.studio-view polyline.lidar'); return p && p.getAttribute('points');"
+        )
+
+    points = wait(browser, lidar_points, timeout=20.0)
+    cx, cy, scale = view_transform(browser)
+    pts = [tuple(map(float, p.split(","))) for p in points.split()]
+    assert len(pts) == 681
+    xs = [cx + (px - 400) / scale for px, _ in pts]
+    ys = [cy - (py - 300) / scale for _, py in pts]
+    # Every beam ends on the box's walls (2 m and 1.5 m from its centre), none at the 4 m limit.
+    assert max(abs(x) for x in xs) == pytest.approx(2.0, abs=0.05)
+    assert max(abs(y) for y in ys) == pytest.approx(1.5, abs=0.05)
+    assert all(abs(x) < 2.05 and abs(y) < 1.55 for x, y in zip(xs, ys, strict=True))
+
+
+def test_the_keyboard_drives_the_create_forward(browser, listener):
+    executor, odom, _pose = listener
+    find(browser, ".studio-forward").click()  # 0.1 m/s; the keys must still work after a click
+    wait(browser, lambda d: d.execute_script("return document.activeElement === document.body"))  # focus given back
+    ActionChains(browser).send_keys(Keys.ARROW_UP).perform()  # 0.2 m/s
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.2), timeout=15.0)
+    assert spin_until(executor, lambda: odom.last.pose.pose.position.x > 0.05, timeout=15.0)
+    ActionChains(browser).send_keys(" ").perform()  # stop, without pressing the clicked button again
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    ActionChains(browser).send_keys("w").perform()  # WASD as create_teleop
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.1), timeout=15.0)
+    ActionChains(browser).send_keys(Keys.ENTER).perform()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+
+
+def test_dragging_in_set_position_mode_sets_the_pose(browser, listener):
+    executor, _odom, pose = listener
+    click_text(browser, "Set position", ".studio-mouse-mode")
+    image = find(browser, ".studio-view")
+    size = browser.execute_script("const r = arguments[0].getBoundingClientRect(); return [r.width, r.height];", image)
+    assert size == [800, 600]
+    scale_before = view_transform(browser)[2]
+    ActionChains(browser).scroll_from_origin(ScrollOrigin.from_element(image, 100, 50), 0, -100).perform()
+    wait(browser, lambda d: view_transform(d)[2] > scale_before)  # the wheel zooms in about the pointer
+    assert browser.execute_script("return window.scrollY") == 0  # ... and does not scroll the page
+    cx, cy, scale = view_transform(browser)
+    # Press at world (-1, -0.5), drag straight up (+y): position, then heading +90 degrees.
+    dx, dy = round((-1.0 - cx) * scale), round(-(-0.5 - cy) * scale)
+    assert browser.execute_script("return window.scrollY") == 0  # the page fits: nothing scrolls mid-drag
+    ActionChains(browser).move_to_element_with_offset(image, dx, dy).click_and_hold().move_to_element_with_offset(
+        image, dx, dy - 80
+    ).release().perform()
+
+    def moved():
+        p = pose.last.pose
+        return abs(yaw_from_quaternion(p.orientation) - math.pi / 2) < 0.05
+
+    assert spin_until(executor, moved, timeout=15.0), "set_pose was not applied"
+    p = pose.last.pose.position
+    assert (p.x, p.y) == (pytest.approx(-1.0, abs=1.5 / scale), pytest.approx(-0.5, abs=1.5 / scale))
+    click_text(browser, "Pan", ".studio-mouse-mode")
+
+
+def test_start_runs_create_bump_turn_on_the_selected_robot_and_stop_ends_it(browser, listener):
+    executor, odom, _pose = listener
+    find(browser, ".studio-controller-start").click()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x > 0.2, timeout=30.0), (
+        "the controller did not drive"
+    )
+    if os.environ.get("STUDIO_SCREENSHOTS"):  # a stretch of track for the picture
+        spin_until(executor, lambda: odom.last.pose.pose.position.y > 0.8, timeout=10.0)
+        screenshot(browser, "simulator")
+    find(browser, ".studio-controller-stop").click()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+
+
+def test_a_world_on_a_missing_map_shows_its_one_line_error(browser, studio_url):
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-new-world").click()
+    type_into(browser, ".studio-world-map", "missing.map")
+    type_into(browser, ".studio-world-ns", "/bad")
+    find(browser, ".studio-start-world").click()
+    error = wait(browser, lambda d: "error" in (t := find(d, ".studio-world-error").text) and t, timeout=60.0)
+    assert error.startswith("/bad: error: ") and "missing.map" in error and "\n" not in error
+
+
+def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, workspace):
+    open_page(browser, studio_url + "/config")
+    type_into(browser, ".studio-lidar-std", "0.05")
+    type_into(browser, ".studio-com-delay", "0.1")
+    type_into(browser, ".studio-config-file", "noisy.cfg")
+    find(browser, ".studio-config-save").click()
+    wait(browser, lambda d: "saved noisy.cfg" in find(d, ".studio-config-message").text)
+    screenshot(browser, "config_maker")
+    config = load_config(workspace / "noisy.cfg")
+    assert config.noise["lidar"] == (0.0, 0.05)
+    assert config.com_delay == 0.1
+    assert config.noise["sonar"] == (0.0, 0.0)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "applied it to" in find(d, ".studio-config-message").text, timeout=40.0)
+    assert "applied it to the world in /box" in find(browser, ".studio-config-message").text
+
+
+def test_apply_to_the_running_world_loads_the_map_or_shows_why_not(browser, studio_url, workspace, listener):
+    executor, _odom, pose = listener
+    node = executor.get_nodes()[0]
+    markers = Collector(node, MarkerArray, f"{NS}/map_markers", LATCHED_QOS)
+    assert spin_until(executor, lambda: markers.last is not None, timeout=10.0)
+    x, y = pose.last.pose.position.x, pose.last.pose.position.y
+    (workspace / "box2.map").write_text((workspace / "box.map").read_text() + "wall -3 2 3 2\n")
+    (workspace / "blocked.map").write_text(f"wall {x - 1} {y} {x + 1} {y}\n")
+
+    def walls() -> int:
+        return sum(len(m.points) // 2 for m in markers.last.markers if m.ns == "walls")
+
+    open_page(browser, studio_url + "/map")
+    type_into(browser, ".studio-map-file", "box2.map")
+    find(browser, ".studio-map-load").click()
+    wait(browser, lambda d: "loaded box2.map" in find(d, ".studio-map-message").text)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "applied it to the world in /box" in find(d, ".studio-map-message").text, timeout=40.0)
+    assert spin_until(executor, lambda: walls() == 5, timeout=10.0)
+
+    type_into(browser, ".studio-map-file", "blocked.map")
+    find(browser, ".studio-map-load").click()
+    wait(browser, lambda d: "loaded blocked.map" in find(d, ".studio-map-message").text)
+    click_text(browser, "Apply to the running world")
+    wait(browser, lambda d: "inside a wall" in find(d, ".studio-map-message").text, timeout=40.0)
+    assert walls() == 5  # the world kept its map
+
+
+def test_the_speed_selector_sets_the_worlds_real_time_factor(browser, studio_url, listener):
+    executor, _odom, _pose = listener
+    client = executor.get_nodes()[0].create_client(GetParameters, f"{NS}/create_world/get_parameters")
+
+    def rtf() -> float:
+        future = client.call_async(GetParameters.Request(names=["real_time_factor"]))
+        assert spin_until(executor, future.done, timeout=10.0)
+        return future.result().values[0].double_value
+
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-rtf").click()
+    wait(browser, lambda d: d.find_element(By.XPATH, "//*[contains(@class,'q-item') and contains(., '2×')]")).click()
+    assert spin_until(executor, lambda: rtf() == 2.0, timeout=30.0)
+
+
+def test_pause_holds_the_world_and_step_advances_it_one_physics_step(browser, studio_url, listener):
+    executor, odom, _pose = listener
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-pause").click()
+    odom.clear()
+
+    def stamp() -> float:
+        return odom.last.header.stamp.sec + 1e-9 * odom.last.header.stamp.nanosec
+
+    # the world stops publishing: odometry at 50 Hz stops growing once paused
+    assert spin_until(executor, lambda: len(odom.msgs) >= 1, timeout=10.0)
+    held = len(odom.msgs)
+    assert not spin_until(executor, lambda: len(odom.msgs) > held + 1, timeout=1.0)
+    before = stamp()
+    for _ in range(2):  # two physics steps of 10 ms: one odometry message (50 Hz)
+        click_text(browser, "Step")
+        wait(browser, lambda d: "sim time" in d.find_element(By.CSS_SELECTOR, ".q-notification").text)
+    assert spin_until(executor, lambda: stamp() == pytest.approx(before + 0.02), timeout=10.0)
+    find(browser, ".studio-pause").click()  # resume
+    assert spin_until(executor, lambda: stamp() > before + 0.5, timeout=20.0)
+
+
+def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and_goes_when_it_stops(
+    browser, studio_url
+):
+    code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
+    args = ["--ros-args", "-r", "__ns:=/other", "-r", "/clock:=/other/clock", "-p", "initial_pose:=[3.0, 0.0, 0.0]"]
+    other = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, stdout=subprocess.DEVNULL)
+    try:
+        open_page(browser, studio_url + "/")
+        drawn = "return [...document.querySelectorAll('.studio-view text')].map(t => t.textContent)"
+        wait(browser, lambda d: "/other" in d.execute_script(drawn) and "/box" in d.execute_script(drawn), timeout=30.0)
+    finally:
+        other.terminate()
+        other.wait(timeout=20)
+    wait(browser, lambda d: "/other" not in d.execute_script(drawn), timeout=30.0)
+
+
+def test_save_data_records_the_run_into_a_new_folder(browser, studio_url, workspace):
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-record").click()
+    bag = workspace / "studio_data" / "SimulatorOutputData_1"
+    wait(browser, lambda d: any(bag.glob("*.mcap")), timeout=20.0)
+    wait(browser, lambda d: "stop recording" in find(d, ".studio-record").text.lower())
+    find(browser, ".studio-record").click()
+    wait(browser, lambda d: (bag / "metadata.yaml").exists(), timeout=20.0)

@@ -1,0 +1,252 @@
+"""The studio's logic without a browser: map editing, file round trips, workspace safety, drawing."""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from create_sim.configfile import NoiseConfig, parse_config
+from create_sim.mapfile import CreateMap, load_map, parse_map
+from create_sim.world_node import map_markers
+from sim_runtime.errors import InputError
+from sim_runtime.paths import config_path
+from studio import draw
+from studio.app import host_warning, parse_args
+from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
+from studio.processes import controller_command, parse_controller, world_ros_args
+from studio.ros_client import map_from_markers
+from studio.workspace import MAX_UPLOAD_BYTES, Workspace
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def same_map(a: CreateMap, b: CreateMap) -> bool:
+    return (
+        all(
+            np.array_equal(getattr(a, k), getattr(b, k))
+            for k in ("walls", "lines", "beacon_xy", "beacon_rgb", "virtwalls")
+        )
+        and a.beacon_ids == b.beacon_ids
+    )
+
+
+# ---------------------------------------------------------------- map document
+
+
+def test_a_rectangle_is_four_axis_aligned_walls_sharing_corners():
+    walls = rectangle(-2.0, 1.5, 2.0, -1.5)
+    assert len(walls) == 4 and all(w.kind == "wall" for w in walls)
+    for a, b in zip(walls, walls[1:] + walls[:1], strict=True):
+        assert (a.x2, a.y2) == (b.x1, b.y1)
+        assert a.x1 == a.x2 or a.y1 == a.y2
+
+
+def test_a_multi_segment_wall_joins_consecutive_clicks_and_skips_repeated_points():
+    walls = polyline([(0, 0), (1, 0), (1, 0), (1, 1)])
+    assert [(w.x1, w.y1, w.x2, w.y2) for w in walls] == [(0, 0, 1, 0), (1, 0, 1, 1)]
+
+
+def test_snapping_lands_exactly_on_the_grid():
+    assert snap(0.30000000004, 0.1) == 0.3
+    assert snap(-1.26, 0.25) == -1.25
+    assert snap(0.123456, 0.0) == 0.123456
+
+
+def test_undo_and_redo_step_through_every_edit_exactly():
+    doc = MapDocument()
+    doc.add(*rectangle(0, 0, 1, 1))
+    doc.add(Beacon(0.5, 0.5, (1.0, 0.0, 0.0), doc.next_beacon_id()))
+    doc.replace(4, moved(doc.elements[4], 0.1, 0.0))
+    doc.remove(0)
+    states = [list(doc.elements)]
+    while doc.undo():
+        states.append(list(doc.elements))
+    assert [len(s) for s in states] == [4, 5, 5, 4, 0]
+    assert states[1][4].x == pytest.approx(0.6) and states[2][4].x == 0.5
+    while doc.redo():
+        pass
+    assert doc.elements == states[0]
+    doc.undo()
+    doc.add(Segment("line", 0, 0, 1, 1))  # a new edit drops the redo history
+    assert not doc.redo()
+
+
+def test_beacon_ids_default_to_the_first_free_b_number():
+    doc = MapDocument()
+    assert doc.next_beacon_id() == "b1"
+    doc.add(Beacon(0, 0, (0, 0, 0), "b1"), Beacon(1, 0, (0, 0, 0), "b3"))
+    assert doc.next_beacon_id() == "b2"
+
+
+def test_selection_picks_the_nearest_element_within_the_tolerance():
+    doc = MapDocument()
+    doc.add(Segment("wall", 0, 0, 2, 0), Beacon(1, 1, (0, 0, 0), "b1"), VirtualWall(3, 3, 0.0, 2))
+    assert doc.nearest(1.0, 0.05, 0.1) == 0
+    assert doc.nearest(1.02, 0.98, 0.1) == 1
+    assert doc.nearest(3.0, 3.0, 0.1) == 2
+    assert doc.nearest(5.0, 5.0, 0.1) is None
+
+
+def test_the_shipped_map_round_trips_exactly_through_the_editor(tmp_path):
+    original = load_map(config_path("create/example.map"))
+    doc = MapDocument()
+    doc.load(original)
+    saved = tmp_path / "copy.map"
+    saved.write_text(doc.to_map().to_text())
+    assert same_map(load_map(saved), original)
+    again = MapDocument()
+    again.load(load_map(saved))
+    assert again.to_map().to_text() == saved.read_text()
+
+
+def test_awkward_numbers_survive_a_save_and_load_bit_for_bit():
+    doc = MapDocument()
+    doc.add(Segment("wall", 0.1 + 0.2, -1e-7, math.pi, 12345.678901234567), VirtualWall(1 / 3, 2 / 3, -2.725, 3))
+    doc.add(Beacon(1.267, -1.31, (1.0, 0.5, 0.0), "beac04"))
+    assert same_map(parse_map(doc.to_map().to_text()), doc.to_map())
+
+
+def test_the_config_form_values_round_trip_through_the_file_format():
+    config = NoiseConfig(noise={"lidar": (0.01, 0.05), "odometry": (0.092, 0.05)}, com_delay=0.1)
+    back = parse_config(config.to_text())
+    assert back.noise == config.noise and back.com_delay == 0.1
+
+
+# ---------------------------------------------------------------- the world's map seen through its markers
+
+
+def test_the_map_rebuilt_from_a_worlds_markers_is_the_map_it_loaded():
+    world = load_map(config_path("create/example.map"))
+    rebuilt = map_from_markers(map_markers(world, None))
+    assert rebuilt.beacon_ids == world.beacon_ids
+    for key in ("walls", "lines", "beacon_xy", "beacon_rgb"):
+        np.testing.assert_allclose(getattr(rebuilt, key), getattr(world, key), atol=1e-6)
+    np.testing.assert_allclose(rebuilt.virtwalls, world.virtwalls, atol=1e-6)
+
+
+# ---------------------------------------------------------------- workspace safety
+
+
+def test_the_workspace_refuses_paths_outside_it(tmp_path):
+    (tmp_path / "ws").mkdir()
+    (tmp_path / "secret.txt").write_text("x")
+    os.symlink(tmp_path / "secret.txt", tmp_path / "ws" / "link.map")
+    ws = Workspace(tmp_path / "ws")
+    for name in ("../secret.txt", "/etc/passwd", "a/../../secret.txt", "link.map", ""):
+        with pytest.raises(InputError):
+            ws.read_text(name, "map")
+    assert ws.path("maps/room.map") == (tmp_path / "ws" / "maps" / "room.map").resolve()
+
+
+def test_the_workspace_never_overwrites_unless_asked_and_limits_sizes(tmp_path):
+    ws = Workspace(tmp_path)
+    ws.write_text("a.map", "wall 0 0 1 1\n")
+    with pytest.raises(InputError, match="exists"):
+        ws.write_text("a.map", "")
+    ws.write_text("a.map", "line 0 0 1 1\n", overwrite=True)
+    assert ws.read_text("a.map", "map")[0] == "line 0 0 1 1\n"
+    (tmp_path / "big.map").write_text("%" * (MAX_UPLOAD_BYTES + 1))
+    with pytest.raises(InputError, match="limit"):
+        ws.read_text("big.map", "map")
+
+
+def test_new_data_folders_count_up_and_never_reuse_a_name(tmp_path):
+    ws = Workspace(tmp_path)
+    assert ws.new_folder_name("data/run") == "data/run_1"
+    (tmp_path / "data" / "run_1").mkdir(parents=True)
+    assert ws.new_folder_name("data/run") == "data/run_2"
+
+
+# ---------------------------------------------------------------- command line, processes
+
+
+def test_the_studio_listens_on_loopback_unless_told_and_then_warns():
+    assert parse_args([]).host == "127.0.0.1"
+    assert host_warning("127.0.0.1") is None and host_warning("localhost") is None and host_warning("::1") is None
+    assert "anyone who can reach" in host_warning("0.0.0.0")
+
+
+def test_a_bad_workspace_is_one_error_line_and_status_2(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "studio", "--workspace", str(tmp_path / "missing")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [f"error: workspace {str(tmp_path / 'missing')!r} is not a folder"]
+
+
+def test_controllers_run_executables_functions_or_commands_never_files_from_the_browser():
+    exe = controller_command("create_bump_turn", ["-r", "__ns:=/r1"])
+    assert exe[0] == sys.executable and exe[3:] == ["create_bump_turn", "--ros-args", "-r", "__ns:=/r1"]
+    fn = controller_command("mypkg.ctrl:main", [])
+    assert fn[3:] == ["mypkg.ctrl:main", "--ros-args"]
+    cmd = controller_command("/opt/bin/my_ctrl --fast", [])
+    assert cmd == ["/opt/bin/my_ctrl", "--fast", "--ros-args"]
+    assert parse_controller("wander=mypkg.ctrl:main") == ("wander", "mypkg.ctrl:main")
+    with pytest.raises(InputError):
+        parse_controller("no_equals_sign")
+
+
+def test_a_world_started_by_the_studio_gets_its_files_and_pose_verbatim():
+    args = world_ros_args("/r2", "/ws/it's.map", "", (1.0, -0.5, 0.25))
+    assert "map_file:='/ws/it''s.map'" in args and "config_file:=''" in args
+    assert "initial_pose:=[1.0, -0.5, 0.25]" in args
+    assert args[-4:] == ["-r", "__ns:=/r2", "-r", "/clock:=/r2/clock"]
+
+
+# ---------------------------------------------------------------- drawing
+
+
+def test_a_scan_is_drawn_as_one_polyline_of_every_beam():
+    view = draw.View()
+    readings = draw.Readings(pose=(0.0, 0.0, 0.0), scan=(-2.0, 4.0 / 680, np.full(681, 1.0, dtype=np.float32)))
+    svg = draw.sensors_svg(view, readings, {"lidar"})
+    assert svg.count("<polyline") == 1
+    points = svg.split('points="')[1].split('"')[0].split()
+    assert len(points) == 681
+
+
+def test_beacon_ids_are_escaped_in_the_drawing():
+    world = parse_map("beacon 0 0 [1 0 0] <script>alert(1)</script>")
+    svg = draw.map_svg(draw.View(), world)
+    assert "<script>" not in svg and "&lt;script&gt;" in svg
+
+
+def test_the_view_maps_pixels_back_to_the_same_world_point():
+    view = draw.View(centre_x=1.5, centre_y=-2.0, scale=73.0)
+    px, py = view.to_px(0.3, 0.7)
+    assert view.to_world(float(px), float(py)) == (pytest.approx(0.3), pytest.approx(0.7))
+    assert draw.hex_rgb(draw.rgb_hex((1.0, 0.5, 0.0))) == (1.0, 0.502, 0.0)
+
+
+def test_a_taken_port_is_one_error_line_and_status_2(tmp_path):
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        result = subprocess.run(
+            [sys.executable, "-m", "studio", "--workspace", str(tmp_path), "--port", str(port)],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=60,
+        )
+    assert result.returncode == 2
+    (line,) = result.stderr.strip().splitlines()
+    assert line.startswith(f"error: cannot listen on 127.0.0.1:{port}: ")
+
+
+def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
+    view = draw.View(centre_x=1.0, centre_y=2.0, scale=50.0)
+    before = view.to_world(620.0, 130.0)
+    view.zoom_at(620.0, 130.0, 1.2)
+    assert view.scale == 60.0
+    assert view.to_world(620.0, 130.0) == (pytest.approx(before[0]), pytest.approx(before[1]))

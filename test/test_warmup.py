@@ -1,0 +1,69 @@
+"""After the setup step's numba warm-up, a world's first start compiles nothing: a user's first
+``robot_sims create_world`` (or simrobot_world, arm) starts in seconds, not after ~30 s of compiling."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import JointState, LaserScan
+
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
+from sim_runtime.testing import Collector, spin_until
+
+ROOT = Path(__file__).resolve().parent.parent
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+
+
+@pytest.fixture(scope="module")
+def warmed_up():
+    """``python -m sim_runtime.warmup`` as ``make venv`` runs it (fast when the cache is warm already)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "sim_runtime.warmup"], cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=900
+    )
+    assert done.returncode == 0, done.stderr
+    assert "failed" not in done.stdout, done.stdout  # every simulator warmed without error
+    assert done.stdout.startswith("numba kernels compiled and cached"), done.stdout
+    return done.stdout
+
+
+@pytest.mark.parametrize(
+    "name,args,topic,msg_type",
+    [
+        ("create_world", ["-r", "__ns:=/warm_create"], "/warm_create/scan", LaserScan),
+        (
+            "simrobot_world",
+            ["-p", f"world_file:={ROOT / 'config/simrobot/demo.yaml'}"],  # real time: one step a second
+            "/r1/odom",
+            Odometry,
+        ),
+        ("arm", ["-r", "__ns:=/warm_arm"], "/warm_arm/joint_states", JointState),
+    ],
+)
+def test_after_the_warm_up_a_worlds_first_start_compiles_no_kernel(
+    name, args, topic, msg_type, warmed_up, executor, make_node
+):
+    received = Collector(make_node("warm_probe"), msg_type, topic, SENSOR_SUBSCRIBER_QOS)
+    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
+    world = subprocess.Popen(
+        [sys.executable, "-c", code, "--ros-args", *args],
+        cwd=ROOT,
+        env=dict(ENV, NUMBA_DEBUG_CACHE="1"),  # numba reports each kernel it loads or compiles+saves
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert spin_until(executor, lambda: received.msgs or world.poll() is not None, timeout=120)
+        assert received.msgs, world.communicate()[1]
+    finally:
+        world.send_signal(signal.SIGINT)
+        out, err = world.communicate(timeout=60)
+    assert "data loaded from" in out  # the kernels came from the cache...
+    compiled = [line for line in out.splitlines() if "data saved to" in line]
+    assert compiled == [], f"{name} compiled kernels the warm-up missed: {compiled}"  # ...none compiled
