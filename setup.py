@@ -56,6 +56,7 @@ def config_files() -> list[tuple[str, list[str]]]:
 
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
+RAY = ["ray>=2.60"]
 
 
 def package_version() -> str:
@@ -92,6 +93,7 @@ setup(
         "pillow",
         "matplotlib",
         "nicegui>=3.18",  # robot_sims studio (web app)
+        "pyarrow",  # batch tables (Parquet); rerun-sdk needs it too
     ],
     extras_require={
         # On a stock ROS 2 Jazzy install rclpy and the messages come from the distro instead.
@@ -105,7 +107,10 @@ setup(
             "mcap-ros2-support",
             "yourdfpy",
             "selenium>=4.20",
+            *RAY,
         ],
+        # `robot_sims batch --ray`: run sweeps on Ray (a local one, or a cluster).
+        "ray": RAY,
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },

@@ -18,4 +18,5 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "draw_tracks": ("sim_runtime.rerun_view.tracks:main", "draw the map and every robot's track from a bag (PNG)"),
     "urdf": ("arm_sim.urdf:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
     "studio": ("studio.app:main", "web app: Create simulator view and controls, map maker, config maker"),
+    "batch": ("sim_runtime.batch.cli:main", "run a sweep of isolated episodes (locally or on Ray): table and plots"),
 }

@@ -1,0 +1,141 @@
+"""``robot_sims batch SWEEP.yaml [--workers N | --ray [ADDRESS]] [--out DIR]``.
+
+Runs every episode of the sweep that the output folder does not already hold, then writes
+``episodes.parquet``, ``episodes.csv``, ``timings.csv`` and ``plots/*.png`` there and prints a
+summary. Exit status: 0 when the sweep ran (failed episodes are rows of the table), 2 for a bad
+sweep file or arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sim_runtime.errors import InputError
+
+
+def parse_args(argv: Sequence[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="robot_sims batch",
+        description="Run a sweep of isolated, deterministic simulation episodes; write a table and plots.",
+    )
+    parser.add_argument("sweep", help="sweep file (YAML)")
+    parser.add_argument("--out", help="output folder (default: the sweep's 'out', else out/batch/<sweep name>)")
+    parser.add_argument(
+        "--workers", type=int, default=None, help="worker processes (default: all cores; Ray: CPUs of a local Ray)"
+    )
+    parser.add_argument(
+        "--ray",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="ADDRESS",
+        help="run on Ray: a local Ray without ADDRESS, else the cluster at ADDRESS (host:port)",
+    )
+    parser.add_argument("--retry-failed", action="store_true", help="run failed episodes again")
+    parser.add_argument("--limit", type=int, default=None, help="run only the first N episodes of the sweep")
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(list(argv))
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers {args.workers}: must be >= 1")
+    if args.limit is not None and args.limit < 1:
+        parser.error(f"--limit {args.limit}: must be >= 1")
+    return args
+
+
+def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
+    """Run the sweep the arguments describe; returns paths and counts (the tests' entry point)."""
+    from sim_runtime.batch import engines, output
+    from sim_runtime.batch.sweep import load_sweep
+
+    args = parse_args(argv)
+    sweep = load_sweep(args.sweep, out=args.out)
+    episodes = sweep.episodes[: args.limit] if args.limit else sweep.episodes
+    folder = sweep.out
+    log = output.ResultLog(folder)
+    if args.retry_failed:
+        log.forget_failed()
+    bags = folder / "bags"
+    todo = []
+    for ep in episodes:
+        if ep.key in log.rows:
+            continue
+        if ep.record_bag:
+            ep = dataclasses.replace(ep, bag_dir=str(bags / f"episode_{ep.index:05d}"))
+        todo.append(ep)
+    skipped = len(episodes) - len(todo)
+    engine = "ray" if args.ray is not None else "local"
+    workers = args.workers or (os.cpu_count() or 1)
+    where = f"ray {args.ray or '(local)'}" if engine == "ray" else f"{workers} local workers"
+    print(f"{sweep.source}: {len(episodes)} episodes ({skipped} already done) -> {folder} [{where}]", file=sys.stderr)
+    progress = None if args.quiet else output.Progress(len(episodes), skipped)
+
+    def on_result(result: dict[str, Any]) -> None:
+        log.add(result)
+        if progress is not None:
+            progress.update(result["row"]["status"] == "ok")
+
+    try:
+        if engine == "ray":
+            engines.run_ray(todo, args.ray or None, args.workers, on_result)
+        else:
+            engines.run_local(todo, workers, on_result)
+        if sweep.keep_bags == "failures":
+            failed = [ep for ep in todo if log.rows.get(ep.key, {}).get("status") != "ok"]
+            _record_failures(failed, bags)
+    finally:
+        log.close()
+    keys = [ep.key for ep in episodes]
+    rows = output.table_rows(log, keys)
+    parquet, csv = output.write_table(rows, folder)
+    output.write_timings(log, keys, folder)
+    output.summary(rows, sweep.grid_keys)
+    pngs = [] if args.no_plots else output.plots(rows, sweep.grid_keys, folder / "plots")
+    print(f"table: {parquet} and {csv}" + (f"; plots: {folder / 'plots'}/" if pngs else ""))
+    return {
+        "folder": folder,
+        "parquet": parquet,
+        "csv": csv,
+        "plots": pngs,
+        "ran": len(todo),
+        "skipped": skipped,
+        "failed": sum(r.get("status") != "ok" for r in rows),
+    }
+
+
+def _record_failures(failed: list[Any], bags: Path) -> None:
+    """Run each failed episode again with a recorder (episodes are deterministic: it fails the
+    same way) and keep its bag."""
+    from sim_runtime.batch.episode import isolate_process, run_episode
+
+    if not failed:
+        return
+    isolate_process(0)
+    for ep in failed:
+        folder = bags / f"episode_{ep.index:05d}"
+        run_episode(dataclasses.replace(ep, record_bag=True, bag_dir=str(folder)))
+        print(f"bag of failed episode {ep.index}: {folder}", file=sys.stderr)
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point ``batch``."""
+    argv = sys.argv[1:] if args is None else list(args)
+    try:
+        run_sweep(argv)
+    except InputError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\ninterrupted: finished episodes are kept; run the same command to resume", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
