@@ -112,6 +112,9 @@ class SimulatorPage:
         self.mouse_down: tuple[float, float] | None = None  # pixel of the mouse press
         self.view_at_press = (0.0, 0.0)
         self.fitted: set[str] = set()
+        # Worlds whose end this page has shown. Every open page shows a world's end (a tab left open
+        # earlier must not swallow the error of a world started from this one).
+        self.endings_shown: set[Child] = set()
         self.frames = 0
         self.build()
 
@@ -250,6 +253,11 @@ class SimulatorPage:
         if rtf is not None and float(rtf) in RTF_OPTIONS and float(rtf) != self.rtf_select.value:
             self.rtf_select.set_value(float(rtf))
 
+    def show_ending(self, ns: str, world: Child) -> None:
+        """A world that ended (bad map, pose in a wall): its one-line error."""
+        self.endings_shown.add(world)
+        self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
+
     def slow_tick(self) -> None:
         ros = self.studio.ros
         if ros is None:
@@ -263,9 +271,8 @@ class SimulatorPage:
         if st is not None:
             self.status.set_content(status_html(self.selected, st))
         for ns, world in list(self.studio.worlds.items()):
-            if not world.running:  # a world that ended (bad map, pose in a wall): its one-line error
-                self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
-                del self.studio.worlds[ns]
+            if not world.running and world not in self.endings_shown:
+                self.show_ending(ns, world)
         child = self.studio.running_controllers.get(self.selected or "")
         self.controller_label.set_text(
             f"{child.label} running"
@@ -537,9 +544,10 @@ class SimulatorPage:
         )
         studio.worlds[ns] = child
         self.world_label.set_text(f"starting a world in {ns or '/'}…")
-        for _ in range(200):  # a bad map or pose ends the world with its one-line error (shown by slow_tick)
+        for _ in range(200):  # a bad map or pose ends the world with its one-line error
             await asyncio.sleep(0.05)
             if not child.running:
+                self.show_ending(ns, child)
                 return
             if ns in studio.ros.robots:
                 break

@@ -63,29 +63,32 @@ def workspace(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def studio_url(workspace):
+def studio_url(workspace, tmp_path_factory):
     port = free_port()
-    process = subprocess.Popen(
-        [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        cwd=ROOT,
-        env={k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},  # else NiceGUI runs in test mode
-    )
-    first = process.stdout.readline()  # printed just before the server starts
-    assert f"http://127.0.0.1:{port}/" in first, first
+    # The studio's output goes to a file: a pipe nobody reads would block the studio once full.
+    log = tmp_path_factory.mktemp("studio_log") / "studio.log"
+    with log.open("w") as out:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            text=True,
+            cwd=ROOT,
+            env={k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},  # else NiceGUI runs in test mode
+        )
     deadline = time.monotonic() + 60.0
     while True:  # until the server accepts connections
         try:
             socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
             break
         except OSError:
-            assert process.poll() is None and time.monotonic() < deadline, process.stdout.read()
+            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
             time.sleep(0.05)
+    assert f"http://127.0.0.1:{port}/" in log.read_text().splitlines()[0]  # printed before the server starts
     yield f"http://127.0.0.1:{port}"
     process.terminate()  # the studio stops the worlds, controllers and recorder it started
     process.wait(timeout=20)
+    print(log.read_text()[-5000:])  # shown with a failing test's report
 
 
 @pytest.fixture(scope="module")
