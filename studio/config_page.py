@@ -9,6 +9,7 @@ from nicegui import ui
 from create_sim.configfile import SENSORS, NoiseConfig, parse_config
 from sim_runtime.errors import InputError
 from studio.app import Studio, nav
+from studio.file_page import FilePage
 
 MEANINGS = {
     "wall": "offset of the IR range (m)",
@@ -26,11 +27,12 @@ def register(studio: Studio) -> None:
         ConfigMakerPage(studio)
 
 
-class ConfigMakerPage:
+class ConfigMakerPage(FilePage):
+    message_class = "studio-config-message"
+
     def __init__(self, studio: Studio) -> None:
-        self.studio = studio
+        super().__init__(studio)
         self.fields: dict[str, tuple] = {}
-        self.own_file = ""
         nav("/config")
         with ui.column().classes("p-4 gap-2"):
             ui.label("Noise: mean and standard deviation per sensor; all zero = an ideal robot").classes(
@@ -62,12 +64,6 @@ class ConfigMakerPage:
                 ui.button("Apply to the running world", on_click=self.apply_to_world).props("dense outline")
             self.message = ui.label("").classes("text-sm break-all studio-config-message")
         ui.timer(1.0, self.refresh_worlds)
-
-    def say(self, text: str, error: bool = False) -> None:
-        self.message.set_text(text)
-        self.message.classes(
-            replace="text-sm break-all studio-config-message " + ("text-red-700" if error else "text-green-800")
-        )
 
     def config(self) -> NoiseConfig:
         """The form as a NoiseConfig; InputError naming the field for a bad value."""
@@ -106,22 +102,12 @@ class ConfigMakerPage:
         self.say(f"loaded {name}" + (f" (warnings: {notes})" if notes else ""), error=bool(notes))
 
     def save(self) -> bool:
-        name = (self.file_name.value or "").strip()
         try:
-            path = self.studio.workspace.write_text(name, self.config().to_text(), overwrite=self.overwrite.value)
-        except (InputError, OSError) as err:
+            text = self.config().to_text()
+        except InputError as err:  # a field that is not a number
             self.say(f"error: {err}", error=True)
             return False
-        self.own_file = name
-        self.say(f"saved {self.studio.workspace.relative(path)}")
-        return True
-
-    def refresh_worlds(self) -> None:
-        ros = self.studio.ros
-        names = ros.namespaces() if ros is not None else []
-        if names != list(self.world_select.options):
-            value = self.studio.default_robot(names, self.world_select.value)
-            self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)
+        return self.save_text(text)
 
     async def apply_to_world(self) -> None:
         ns = self.world_select.value

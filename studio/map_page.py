@@ -12,6 +12,7 @@ from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
 from studio import draw
 from studio.app import WHEEL_JS, Studio, nav
+from studio.file_page import FilePage
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
 from studio.workspace import MAX_UPLOAD_BYTES
 
@@ -43,9 +44,11 @@ def element_label(element) -> str:
     return f"virtwall at ({element.x:g}, {element.y:g}) θ {element.theta:.3f} setting {element.setting}"
 
 
-class MapMakerPage:
+class MapMakerPage(FilePage):
+    message_class = "studio-map-message"
+
     def __init__(self, studio: Studio) -> None:
-        self.studio = studio
+        super().__init__(studio)
         self.doc = MapDocument()
         self.view = draw.View(*VIEW_SIZE, scale=60.0)
         self.tool = "wall"
@@ -54,7 +57,6 @@ class MapMakerPage:
         self.cursor: tuple[float, float] | None = None
         self.selected: int | None = None
         self.drag_from: tuple[float, float] | None = None
-        self.own_file = ""  # the workspace file this page last loaded or saved
         self.build()
         self.redraw()
 
@@ -125,12 +127,6 @@ class MapMakerPage:
                     self.message = ui.label("").classes("text-sm break-all studio-map-message")
                 self.count_label = ui.label("").classes("text-sm")
         ui.timer(1.0, self.refresh_worlds)
-
-    def say(self, text: str, error: bool = False) -> None:
-        self.message.set_text(text)
-        self.message.classes(
-            replace="text-sm break-all studio-map-message " + ("text-red-700" if error else "text-green-800")
-        )
 
     # ---------------------------------------------------------------- drawing
     def redraw(self) -> None:
@@ -398,22 +394,7 @@ class MapMakerPage:
         self.load_text(await e.file.text(), e.file.name)
 
     def save(self) -> bool:
-        name = (self.file_name.value or "").strip()
-        try:
-            path = self.studio.workspace.write_text(name, self.doc.to_map().to_text(), overwrite=self.overwrite.value)
-        except (InputError, OSError) as err:
-            self.say(f"error: {err}", error=True)
-            return False
-        self.own_file = name
-        self.say(f"saved {self.studio.workspace.relative(path)}")
-        return True
-
-    def refresh_worlds(self) -> None:
-        ros = self.studio.ros
-        names = ros.namespaces() if ros is not None else []
-        if names != list(self.world_select.options):
-            value = self.studio.default_robot(names, self.world_select.value)
-            self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)
+        return self.save_text(self.doc.to_map().to_text())
 
     async def apply_to_world(self) -> None:
         ns = self.world_select.value
