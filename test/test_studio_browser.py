@@ -49,6 +49,16 @@ from sim_runtime.testing import Collector, spin_until  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 SCALE = 60.0  # the pages' initial px per metre, view centred on (0, 0)
 NS = "/box"
+# The studio, its worlds and the listener get a domain of their own: worlds or graph entries other
+# tests leave behind in the suite's domain must not show up in the studio's world list.
+STUDIO_DOMAIN = (int(os.environ.get("ROS_DOMAIN_ID", "0")) + 50) % 101
+
+
+def studio_env() -> dict[str, str]:
+    """The environment of the studio and of worlds started beside it: the studio's own domain, and
+    no PYTEST_CURRENT_TEST (NiceGUI would run in its test mode)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
+    return {**env, "ROS_DOMAIN_ID": str(STUDIO_DOMAIN)}
 
 
 def free_port() -> int:
@@ -74,7 +84,11 @@ def studio_url(workspace, tmp_path_factory):
             stderr=subprocess.STDOUT,
             text=True,
             cwd=ROOT,
-            env={k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},  # else NiceGUI runs in test mode
+            # without PYTEST_CURRENT_TEST: NiceGUI would run in its test mode
+            env={
+                **{k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},
+                "ROS_DOMAIN_ID": str(STUDIO_DOMAIN),
+            },
         )
     deadline = time.monotonic() + 60.0
     while True:  # until the server accepts connections
@@ -163,14 +177,18 @@ def screenshot(driver, name: str) -> None:
 
 
 @pytest.fixture(scope="module")
-def listener(ros):
-    """The test's own ROS node: what the world publishes, read as any client would."""
+def listener():
+    """The test's own ROS node, in the studio's domain: what the world publishes, read as any client would."""
+    import rclpy
+    from rclpy.context import Context
     from rclpy.node import Node
 
     from sim_runtime.run import make_executor
 
-    executor = make_executor()
-    node = Node("studio_test_listener")
+    context = Context()
+    rclpy.init(context=context, domain_id=STUDIO_DOMAIN)
+    executor = make_executor(context)
+    node = Node("studio_test_listener", context=context)
     executor.add_node(node)
     odom = Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
     pose = Collector(node, PoseStamped, f"{NS}/overhead_pose", ANY_PUBLISHER_QOS)
@@ -178,6 +196,7 @@ def listener(ros):
     executor.remove_node(node)
     node.destroy_node()
     executor.shutdown()
+    rclpy.shutdown(context=context)
 
 
 def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, workspace):
@@ -404,7 +423,7 @@ def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and
 ):
     code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
     args = ["--ros-args", "-r", "__ns:=/other", "-r", "/clock:=/other/clock", "-p", "initial_pose:=[3.0, 0.0, 0.0]"]
-    other = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, stdout=subprocess.DEVNULL)
+    other = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, stdout=subprocess.DEVNULL, env=studio_env())
     try:
         open_page(browser, studio_url + "/")
         drawn = "return [...document.querySelectorAll('.studio-view text')].map(t => t.textContent)"
