@@ -14,7 +14,9 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy
 from rerun_test_helpers import column, load_entities, world_file_colors
 
+from arm_sim import arm_node
 from create_sim import mounts
+from create_sim import world_node as create_world
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
@@ -25,8 +27,7 @@ from sim_runtime.rerun_view.logger import type_name
 from sim_runtime.rerun_view.tracks import tracks_from_bag
 from sim_runtime.run import drain
 from sim_runtime.testing import spin_until, wait_for_match
-
-create_world = pytest.importorskip("create_sim.world_node")
+from simrobot_sim import world_node as simrobot
 
 
 def record_world(executor, world, bag_dir, steps: int, chunk: int = 10, before_step=None) -> None:
@@ -111,7 +112,6 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
 
 
 def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_path):
-    simrobot = pytest.importorskip("simrobot_sim.world_node")
     world = simrobot.SimrobotWorldNode(
         parameter_overrides=[Parameter("world_file", value=str(config_path("simrobot/demo.yaml")))]
     )
@@ -142,7 +142,6 @@ def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_pat
 
 
 def test_arm_bag_logs_each_mesh_once_then_transforms(executor, tmp_path):
-    arm_node = pytest.importorskip("arm_sim.arm_node")
     world = arm_node.ArmNode(parameter_overrides=[Parameter("publish_rate", value=20.0)])
     executor.add_node(world)
     bag = tmp_path / "arm_bag"
