@@ -71,8 +71,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     if not args.force:
+        # Not the interface folder beside this script: run as `python interfaces/build_tf2_msgs.py`,
+        # Python would import interfaces/tf2_msgs (.msg files only) as a namespace package.
+        here = Path(__file__).resolve().parent
+        sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != here]
         spec = importlib.util.find_spec("tf2_msgs")
-        if spec is not None:
+        if spec is not None and spec.origin is not None:  # a real package, with generated code
             try:
                 ours = importlib.metadata.version("ros-jazzy-tf2-msgs") == project_version()
             except importlib.metadata.PackageNotFoundError:
