@@ -16,8 +16,9 @@ venv: $(STAMP)
 $(STAMP): setup.py interfaces/build_tf2_msgs.py interfaces/tf2_msgs/pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) interfaces/build_tf2_msgs.py
 	$(PY) -m pip install --quiet -e '.[test]'
+	# After the project: tf2_msgs' build finds the ROS wheels (fastrtps_cmake_module, ...) in the venv.
+	$(PY) interfaces/build_tf2_msgs.py
 	$(PY) -m sim_runtime.warmup
 	touch $@
 
