@@ -136,6 +136,25 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+VIEW_SIZE = (800, 600)
+"""Pixels of the simulator's and the map maker's drawing area."""
+
+
+def view_image(on_mouse, on_wheel, css_class: str, background: str):
+    """The pan/zoom SVG drawing area both the simulator and the map maker draw on."""
+    from nicegui import ui  # noqa: PLC0415
+
+    image = (
+        ui.interactive_image(
+            size=VIEW_SIZE, events=["mousedown", "mousemove", "mouseup"], on_mouse=on_mouse, sanitize=False
+        )
+        .classes(css_class)
+        .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:{background};outline:1px solid #bbb")
+    )
+    image.on("wheel.prevent", on_wheel, js_handler=WHEEL_JS, throttle=0.05)
+    return image
+
+
 def nav(current: str) -> None:
     """The links between the pages (the seed's three windows)."""
     from nicegui import ui  # noqa: PLC0415

@@ -11,12 +11,11 @@ from nicegui import ui
 from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import WHEEL_JS, Studio, nav
+from studio.app import VIEW_SIZE, Studio, nav, view_image
 from studio.file_page import FilePage
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
 from studio.workspace import MAX_UPLOAD_BYTES
 
-VIEW_SIZE = (800, 600)
 TOOLS = {
     "select": "Select/move",
     "wall": "Wall",
@@ -66,17 +65,7 @@ class MapMakerPage(FilePage):
         ui.keyboard(on_key=self.on_key)
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
-                self.image = (
-                    ui.interactive_image(
-                        size=VIEW_SIZE,
-                        events=["mousedown", "mousemove", "mouseup"],
-                        on_mouse=self.on_mouse,
-                        sanitize=False,
-                    )
-                    .classes("studio-map-view")
-                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fff;outline:1px solid #bbb")
-                )
-                self.image.on("wheel.prevent", self.on_wheel, js_handler=WHEEL_JS, throttle=0.05)
+                self.image = view_image(self.on_mouse, self.on_wheel, "studio-map-view", "#fff")
                 self.preview = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
                     ui.select(GRID_STEPS, value=self.grid, label="snap to grid", on_change=self.on_grid).classes("w-32")

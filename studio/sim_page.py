@@ -13,10 +13,9 @@ from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import WHEEL_JS, Studio, nav
+from studio.app import VIEW_SIZE, Studio, nav, view_image
 from studio.processes import Child, controller_command, executable_command, world_ros_args
 
-VIEW_SIZE = (800, 600)
 FRAME_PERIOD_S = 0.04
 """The view is redrawn at most this often (25 frames/s), and only when a new reading came in."""
 LAYERS = {
@@ -133,17 +132,7 @@ class SimulatorPage:
         ui.keyboard(on_key=self.on_key, ignore=["input", "select", "textarea"])
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
-                self.image = (
-                    ui.interactive_image(
-                        size=VIEW_SIZE,
-                        events=["mousedown", "mousemove", "mouseup"],
-                        on_mouse=self.on_mouse,
-                        sanitize=False,
-                    )
-                    .classes("studio-view")
-                    .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:#fafafa;outline:1px solid #bbb")
-                )
-                self.image.on("wheel.prevent", self.on_wheel, js_handler=WHEEL_JS, throttle=0.05)
+                self.image = view_image(self.on_mouse, self.on_wheel, "studio-view", "#fafafa")
                 self.dynamic = self.image.add_layer()
                 self.overlay = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
