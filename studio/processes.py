@@ -72,7 +72,8 @@ def world_ros_args(ns: str, map_file: str, config_file: str, pose: tuple[float, 
 
 
 class Child:
-    """A child process with the last lines of its output kept for the page."""
+    """A child process with the last lines of its output kept for the page (and echoed, prefixed
+    with its label, to the studio's own output)."""
 
     def __init__(self, label: str, argv: list[str], cwd: Path | None = None) -> None:
         self.label = label
@@ -95,6 +96,8 @@ class Child:
         assert self.process.stdout is not None
         for line in self.process.stdout:
             self.output.append(line.rstrip())
+            # The studio's terminal shows every child's lines, prefixed as ros2 launch does.
+            print(f"[{self.label}] {line.rstrip()}", flush=True)
 
     @property
     def running(self) -> bool:

@@ -39,6 +39,8 @@ from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QO
 from sim_runtime.run import make_executor
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
+#: The node name rmw reports for an endpoint whose participant is not fully discovered yet.
+UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"
 TRACK_POINTS = 2000
 TRACK_MIN_STEP_M = 0.01
 
@@ -125,6 +127,12 @@ def parameter(name: str, value: bool | float | str | list[float]) -> Parameter:
     else:
         pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
     return Parameter(name=name, value=pv)
+
+
+def _settle(done: asyncio.Future, future) -> None:
+    """Hand a service response to the awaiting page, unless it has stopped waiting."""
+    if not done.done():
+        done.set_result(future.result())
 
 
 class _Robot:
@@ -235,6 +243,7 @@ class StudioRos:
                 self.node.count_publishers(robot.state.topic("overhead_pose")) == 0
                 and now - robot.state.last_heard > 2.0
             ):
+                print(f"studio: the world in {ns or '/'} has gone", flush=True)
                 robot.destroy(self.node)
                 del self._robots[ns]
                 self.robots = {k: v for k, v in self.robots.items() if k != ns}
@@ -248,8 +257,11 @@ class StudioRos:
             if not publishers:
                 continue
             info = publishers[0]
+            if info.node_name == UNKNOWN_NODE_NAME:  # the topic was discovered before its node's name
+                continue  # next round: the parameter services need the real name
             node_name = info.node_namespace.rstrip("/") + "/" + info.node_name
             robot = _Robot(self.node, ns, node_name)
+            print(f"studio: following the world in {ns or '/'} (node {node_name})", flush=True)
             self._robots[ns] = robot
             self.robots = {**self.robots, ns: robot.state}
 
@@ -280,8 +292,14 @@ class StudioRos:
         loop = asyncio.get_running_loop()
         done: asyncio.Future = loop.create_future()
         future = client.call_async(request)
-        future.add_done_callback(lambda f: loop.call_soon_threadsafe(done.set_result, f.result()))
-        return await asyncio.wait_for(done, timeout)
+        future.add_done_callback(lambda f: loop.call_soon_threadsafe(_settle, done, f))
+        try:
+            return await asyncio.wait_for(done, timeout)
+        except TimeoutError:
+            client.remove_pending_request(future)
+            message = f"service {client.srv_name} did not answer within {timeout:g} s"
+            print(f"studio: {message}", flush=True)
+            raise TimeoutError(message) from None
 
     async def reset(self, ns: str) -> str:
         response = await self._call(self._robots[ns].reset, Trigger.Request())

@@ -8,12 +8,14 @@ map, start a world on it, drive, set the pose, edit a config, record). Without D
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -31,7 +33,11 @@ from geometry_msgs.msg import PoseStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rcl_interfaces.srv import GetParameters  # noqa: E402
 from selenium import webdriver  # noqa: E402
-from selenium.common.exceptions import ElementNotInteractableException  # noqa: E402
+from selenium.common.exceptions import (  # noqa: E402
+    ElementNotInteractableException,
+    TimeoutException,
+    WebDriverException,
+)
 from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.actions.wheel_input import ScrollOrigin  # noqa: E402
@@ -52,6 +58,7 @@ NS = "/box"
 # The studio, its worlds and the listener get a domain of their own: worlds or graph entries other
 # tests leave behind in the suite's domain must not show up in the studio's world list.
 STUDIO_DOMAIN = (int(os.environ.get("ROS_DOMAIN_ID", "0")) + 50) % 101
+STUDIO_LOG = Path(tempfile.mkdtemp(prefix="studio_log_")) / "studio.log"  # the studio's output, for failures
 
 
 def studio_env() -> dict[str, str]:
@@ -76,7 +83,7 @@ def workspace(tmp_path_factory) -> Path:
 def studio_url(workspace, tmp_path_factory):
     port = free_port()
     # The studio's output goes to a file: a pipe nobody reads would block the studio once full.
-    log = tmp_path_factory.mktemp("studio_log") / "studio.log"
+    log = STUDIO_LOG
     with log.open("w") as out:
         process = subprocess.Popen(
             [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
@@ -103,6 +110,7 @@ def studio_url(workspace, tmp_path_factory):
     process.terminate()  # the studio stops the worlds, controllers and recorder it started
     process.wait(timeout=20)
     print(log.read_text()[-5000:])  # shown with a failing test's report
+    shutil.rmtree(log.parent, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +127,21 @@ def browser(studio_url):
 
 
 def wait(driver, condition, timeout: float = 15.0):
-    return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d))
+    """``condition(driver)`` once truthy; on timeout a failure showing the page and the studio's log."""
+    try:
+        return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d))
+    except TimeoutException:
+        pytest.fail(f"not true within {timeout:g} s: {inspect.getsource(condition).strip()}\n{what_happened(driver)}")
+
+
+def what_happened(driver) -> str:
+    """The page's text and the studio's latest output (its worlds' lines included), for a failure."""
+    try:
+        page = driver.find_element(By.TAG_NAME, "body").text
+    except WebDriverException as err:
+        page = f"(unreadable: {err.msg})"
+    log = STUDIO_LOG.read_text().splitlines()[-60:] if STUDIO_LOG.exists() else ["(no studio log)"]
+    return "the page says:\n" + page[-2000:] + "\nthe studio's output ends:\n" + "\n".join(log)
 
 
 def find(driver, css: str):
@@ -384,7 +406,7 @@ def test_the_speed_selector_sets_the_worlds_real_time_factor(browser, studio_url
     open_page(browser, studio_url + "/")
     find(browser, ".studio-rtf").click()
     wait(browser, lambda d: d.find_element(By.XPATH, "//*[contains(@class,'q-item') and contains(., '2×')]")).click()
-    assert spin_until(executor, lambda: rtf() == 2.0, timeout=30.0)
+    assert spin_until(executor, lambda: rtf() == 2.0, timeout=30.0), what_happened(browser)
 
 
 def test_pause_holds_the_world_and_step_advances_it_one_physics_step(browser, studio_url, listener):
@@ -402,7 +424,7 @@ def test_pause_holds_the_world_and_step_advances_it_one_physics_step(browser, st
     open_page(browser, studio_url + "/")
     find(browser, ".studio-pause").click()
     try:
-        assert spin_until(executor, paused, timeout=30.0)
+        assert spin_until(executor, paused, timeout=30.0), what_happened(browser)
         spin_until(executor, lambda: False, timeout=0.2)  # what was in flight has arrived
         odom.clear()
         assert not spin_until(executor, lambda: odom.msgs, timeout=1.0)  # a paused world publishes nothing

@@ -250,3 +250,31 @@ def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
     view.zoom_at(620.0, 130.0, 1.2)
     assert view.scale == 60.0
     assert view.to_world(620.0, 130.0) == (pytest.approx(before[0]), pytest.approx(before[1]))
+
+
+def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
+    """DDS can report a topic before the name of the node publishing it; parameter clients made
+    for ``_NODE_NAME_UNKNOWN_`` would never reach the world, so the studio waits for the name."""
+    from rclpy.topic_endpoint_info import TopicEndpointInfo
+
+    from studio.ros_client import POSE_TYPE, UNKNOWN_NODE_NAME, StudioRos
+
+    def endpoint(name: str, namespace: str) -> TopicEndpointInfo:
+        return TopicEndpointInfo(node_name=name, node_namespace=namespace, topic_type=POSE_TYPE)
+
+    ros = StudioRos()
+    try:
+        for timer in list(ros.node.timers):  # this test runs the discovery rounds itself
+            ros.node.destroy_timer(timer)
+        graph = [endpoint(UNKNOWN_NODE_NAME, "_NODE_NAMESPACE_UNKNOWN_")]
+        monkeypatch.setattr(ros.node, "get_topic_names_and_types", lambda: [("/box/overhead_pose", [POSE_TYPE])])
+        monkeypatch.setattr(ros.node, "get_publishers_info_by_topic", lambda topic: graph)
+        monkeypatch.setattr(ros.node, "count_publishers", lambda topic: len(graph))
+        ros._discover()
+        assert ros.namespaces() == []
+        graph[:] = [endpoint("create_world", "/box")]
+        ros._discover()
+        assert ros.namespaces() == ["/box"] and ros.robots["/box"].node_name == "/box/create_world"
+        assert ros._robots["/box"].set_params.srv_name == "/box/create_world/set_parameters"
+    finally:
+        ros.shutdown()
