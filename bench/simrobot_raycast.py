@@ -1,6 +1,6 @@
 """Ray-casting speed on the issue's reference scene, single thread.
 
-Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the seed's shape at scale 3,
+Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the original's shape at scale 3,
 24 cm long, or at the scale given as the first argument) each with a 683-ray, 240 degree laser of
 range 560 cells (13,660 rays per frame). Casters:
 

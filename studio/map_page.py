@@ -1,4 +1,4 @@
-"""The Map maker page (the seed's MapMakerGUI): draw, select, move, edit, load, save, apply."""
+"""The Map maker page (the original's MapMakerGUI): draw, select, move, edit, load, save, apply."""
 
 from __future__ import annotations
 

@@ -117,7 +117,7 @@ class MapDocument:
         self._edit([e for i, e in enumerate(self.elements) if i != index])
 
     def clear(self) -> None:
-        """Delete everything (undoable, unlike the seed's Clear)."""
+        """Delete everything (undoable, unlike the original's Clear)."""
         if self.elements:
             self._edit([])
 
@@ -152,7 +152,7 @@ class MapDocument:
         return best
 
     def next_beacon_id(self) -> str:
-        """``b1``, ``b2``, …: the first id of that form not yet used (the seed's default ids)."""
+        """``b1``, ``b2``, …: the first id of that form not yet used (the original's default ids)."""
         used = {e.id for e in self.elements if isinstance(e, Beacon)}
         n = 1
         while f"b{n}" in used:

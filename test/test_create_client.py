@@ -87,7 +87,7 @@ def test_travel_dist_drives_the_distance_and_stops(rig, robot):
 
 
 def test_travel_dist_speed_limits(rig, robot):
-    robot.travel_dist(5.0, 0.1)  # capped at 0.5 m/s (the seed's limit), still stops at 0.1 m
+    robot.travel_dist(5.0, 0.1)  # capped at 0.5 m/s (the original's limit), still stops at 0.1 m
     assert rig.world.model.pose[0] == pytest.approx(0.1, abs=0.015)
     robot.pause(0.1)
     start = rig.world.sim_time

@@ -1,4 +1,4 @@
-"""Create map and config file parsers: the seed's formats, warnings for unknown rows, errors for bad values."""
+"""Create map and config file parsers: the original's formats, warnings for unknown rows, errors for bad values."""
 
 from __future__ import annotations
 

@@ -396,7 +396,7 @@ def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
 
 def _draw_tracks(path: Path, out: Path, draw: bool) -> None:
     from sim_runtime.rerun_view.tracks import tracks_from_bag
-    from simrobot_sim.tracks import draw_tracks
+    from sim_runtime.track_plot import draw_tracks
 
     data = tracks_from_bag(path)
     for track in data.tracks.values():

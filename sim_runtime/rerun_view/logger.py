@@ -72,7 +72,7 @@ TRACK_SEGMENT_POINTS = 256
 """Tracks are logged as growing strips of at most this many points, then a new strip starts, so a
 long run costs O(n) instead of re-logging the whole track every pose."""
 CLIFF_THRESHOLD = 5.4
-"""Cliff signal (percent) at or below which the seed's GUI marks a cliff/line."""
+"""Cliff signal (percent) at or below which the original's GUI marks a cliff/line."""
 EPOCH_NS = 10**17
 """Times above this (1973) are wall-clock epochs, below it sim time since the world started."""
 CONSTANT_SPAN = 1e-9
