@@ -21,11 +21,11 @@ from pathlib import Path
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from arm_sim.arm import Arm  # noqa: E402
-from arm_sim.stl import load_stl, write_stl  # noqa: E402
-from sim_runtime.paths import config_path  # noqa: E402
+from arm_sim.arm import Arm
+from arm_sim.stl import load_stl, write_stl
+from sim_runtime.paths import config_path
 
 STL_FACES = 756_290  # the original's largest table row
 

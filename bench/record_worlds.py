@@ -12,6 +12,7 @@ is a dropped message) between the first and last message recorded. Goal: zero dr
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import signal
 import subprocess
@@ -38,7 +39,7 @@ def exe(name: str, *args: str) -> subprocess.Popen:
     """``robot_sims name args`` in its own process; its log goes to a temporary file (a pipe
     nobody reads until the end can fill up and block the process)."""
     code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
-    log = tempfile.TemporaryFile(mode="w+")
+    log = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 - read after the process ends, then closed
     process = subprocess.Popen(
         [sys.executable, "-c", code, *args],
         cwd=ROOT,
@@ -80,7 +81,7 @@ def drops(bag: Path) -> tuple[int, int, dict[str, int]]:
     for topic, times in stamps.items():
         if len(times) < 3 or len(set(times)) == 1:
             continue  # latched or one-off messages: nothing periodic to check
-        steps = sorted({round(b - a, 6) for a, b in zip(times, times[1:], strict=False) if b > a})
+        steps = sorted({round(b - a, 6) for a, b in itertools.pairwise(times) if b > a})
         period = steps[0]
         checked += 1
         expected = round((times[-1] - times[0]) / period) + 1

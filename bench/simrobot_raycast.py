@@ -26,9 +26,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from simrobot_sim import raycast  # noqa: E402
-from simrobot_sim.model import SimrobotWorld  # noqa: E402
-from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec  # noqa: E402
+from simrobot_sim import raycast
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 
 N_CELLS = 1000
 N_RECTS = 60

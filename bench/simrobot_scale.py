@@ -31,8 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from simrobot_sim.model import SimrobotWorld  # noqa: E402
-from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec  # noqa: E402
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 
 SENSORS = (
     SensorSpec("sonar_front", "ultrasonic", position=(0.05, 0.0), beamwidth=math.radians(60), range=0.5, rays=30),

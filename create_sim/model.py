@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class CreateModel:
     IR_MOUNT_ANGLE = mounts.IR_MOUNT_ANGLE_RAD  # on the perimeter, looking straight right
     VWALL_HALO = 0.45
     # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
-    VWALL_FIELDS = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
+    VWALL_FIELDS: ClassVar[dict[int, tuple[float, float]]] = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
     BUMP_FRONT_HALF = mounts.BUMP_FRONT_HALF_RAD
     CLIFF_FLOOR = 21.5
     CLIFF_LINE = 1.5
@@ -197,7 +198,7 @@ class CreateModel:
 
     # ----------------------------------------------------------------------------- odometry
     def _integrate_odometry(self, dist: float, turn: float) -> None:
-        mean, std = self.noise.noise["odometry"]
+        _mean, std = self.noise.noise["odometry"]
         if dist != 0.0:
             dist += self._noise("odometry") * abs(dist)
         if turn != 0.0:

@@ -363,9 +363,7 @@ def _robot_in_sector(qx, qy, rj, max_range, sector):
         return False  # beyond the range
     if sector.kind == _HALF_PLANE and qx * sector.mid_x + qy * sector.mid_y < -rj:
         return False  # behind a 180 degree fan
-    if sector.kind == _CONE and not _disc_meets_cone(qx, qy, d2, rj, sector.e1x, sector.e1y, sector.e2x, sector.e2y):
-        return False
-    return True
+    return sector.kind != _CONE or _disc_meets_cone(qx, qy, d2, rj, sector.e1x, sector.e1y, sector.e2x, sector.e2y)
 
 
 @numba.njit(cache=True, inline="always")
@@ -567,7 +565,7 @@ class PoseHistory:
         """All kept rows, oldest first: shape (steps, n_robots, 3)."""
         if not self._chunks:
             return np.empty((0, self.n_robots, 3), dtype=np.float32)
-        parts = self._chunks[:-1] + [self._chunks[-1][: self._fill]]
+        parts = [*self._chunks[:-1], self._chunks[-1][: self._fill]]
         return np.concatenate(parts, axis=0)
 
     def nbytes(self) -> int:
@@ -671,10 +669,7 @@ class SimrobotWorld:
         for i, robot in enumerate(robots):
             for s in robot.sensors:
                 off = ray_offsets(s.beamwidth, s.rays, self.sensor_model)
-                if s.rays == 1:
-                    step = 0.0
-                else:
-                    step = s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
+                step = 0.0 if s.rays == 1 else s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
                 infos.append(
                     SensorInfo(
                         i,

@@ -229,7 +229,7 @@ def test_markers_carry_meshes_colours_alpha_and_fk_poses(executor, make_node):
         assert marker.mesh_resource == mesh_uri(element.element.mesh)  # file:// in a checkout
         assert Path(marker.mesh_resource[len("file://") :]).is_file()
         assert marker.header.frame_id == "world"
-        r, g, b, a = element.element.color
+        r, g, b, _a = element.element.color
         assert (marker.color.r, marker.color.g, marker.color.b) == pytest.approx((r, g, b))
         assert marker.color.a == pytest.approx(0.5)
         T = frames[element.link]
@@ -276,7 +276,7 @@ def test_broken_mesh_fails_unless_skipped(tmp_path, executor):
     (tmp_path / "IRB120_link3.stl").write_bytes((folder / "IRB120_link3.stl").read_bytes()[:500])
     from sim_runtime.errors import InputError
 
-    with pytest.raises(InputError, match="IRB120_link3.stl"):
+    with pytest.raises(InputError, match=r"IRB120_link3\.stl"):
         make_arm_node(executor, robot_config_file=str(config))
     world = make_arm_node(executor, robot_config_file=str(config), skip_missing_meshes=True)
     markers = world.arm("").markers.markers
@@ -406,7 +406,7 @@ def set_one(executor, client, name, value):
 
 
 @pytest.mark.parametrize(
-    "name,value,why",
+    ("name", "value", "why"),
     [
         ("robot_config_file", "arm/csa7.yaml", "read-only"),
         ("scene_file", "arm/workcell.yaml", "read-only"),

@@ -77,7 +77,7 @@ def robot(rig):
 def test_travel_dist_drives_the_distance_and_stops(rig, robot):
     travelled = robot.travel_dist(0.2, 0.5)
     assert travelled == pytest.approx(0.5, abs=0.01)
-    x, y, theta = robot.overhead_localization()
+    x, y, _theta = robot.overhead_localization()
     assert x == pytest.approx(0.5, abs=0.015) and y == pytest.approx(0.0, abs=1e-9)
     robot.pause(0.1)  # the stop command is on its way to the world
     assert rig.world.model.command == (0.0, 0.0)

@@ -292,7 +292,8 @@ def test_garbage_never_raises_anything_but_input_error(rows):
             try:
                 result = parser(text, "junk.txt")
             except InputError as error:
-                assert str(error).startswith("junk.txt:")
+                message = str(error)
+                assert message.startswith("junk.txt:")
                 continue
         if parser is parse_map:
             assert all(np.isfinite(a).all() for a in (result.walls, result.lines, result.beacon_xy, result.virtwalls))

@@ -380,7 +380,7 @@ def test_parameter_out_of_range_is_a_clear_error(ros, name, value):
 
 
 def test_missing_map_file_names_the_parameter_and_path(ros, tmp_path):
-    with pytest.raises(InputError, match="'map_file'.*nope.map"):
+    with pytest.raises(InputError, match=r"'map_file'.*nope\.map"):
         make_world({"map_file": str(tmp_path / "nope.map")})
 
 

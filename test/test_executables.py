@@ -72,7 +72,7 @@ def test_unparsable_ros_arguments_exit_2_without_a_traceback():
 
 
 @pytest.mark.parametrize(
-    "name,args",
+    ("name", "args"),
     [
         ("create_world", []),
         ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),

@@ -271,7 +271,7 @@ def create_params(executor, make_node, tmp_path):
     ],
 )
 def test_ros2_param_set_refuses_bad_and_read_only_values_with_a_reason(create_params, name, value, reason):
-    world, params = create_params
+    _world, params = create_params
     before = params.get(name)
     result = params.set(name, value)
     assert not result.successful

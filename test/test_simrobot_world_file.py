@@ -201,7 +201,7 @@ def test_bad_robot_fields(tmp_path, robot, message):
 def test_too_many_robots_for_uint8_ids(tmp_path):
     robots = [{"name": f"r{i}", "position": [0.05 + 0.1 * (i % 14), 0.05 + 0.1 * (i // 14)]} for i in range(255)]
     spec = load_world(write_world(tmp_path, robots))
-    with pytest.raises(InputError, match="255 robots.*uint8.*at most 254"):
+    with pytest.raises(InputError, match=r"255 robots.*uint8.*at most 254"):
         SimrobotWorld(spec)
 
 

@@ -33,7 +33,7 @@ def warmed_up():
 
 
 @pytest.mark.parametrize(
-    "name,args,topic,msg_type",
+    ("name", "args", "topic", "msg_type"),
     [
         ("create_world", ["-r", "__ns:=/warm_create"], "/warm_create/scan", LaserScan),
         (
@@ -63,7 +63,7 @@ def test_after_the_warm_up_a_worlds_first_start_compiles_no_kernel(
         assert received.msgs, world.communicate()[1]
     finally:
         world.send_signal(signal.SIGINT)
-        out, err = world.communicate(timeout=60)
+        out, _err = world.communicate(timeout=60)
     assert "data loaded from" in out  # the kernels came from the cache...
     compiled = [line for line in out.splitlines() if "data saved to" in line]
     assert compiled == [], f"{name} compiled kernels the warm-up missed: {compiled}"  # ...none compiled
