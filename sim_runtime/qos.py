@@ -16,10 +16,14 @@ from rclpy.qos import (
 )
 from rclpy.qos_overriding_options import QoSOverridingOptions
 
-#: Sensor and state publishers: reliable, volatile, a short queue (REP-2003's system default).
+#: Sensor and state publishers: reliable and volatile (REP-2003's system default), keeping the
+#: last 100 samples rather than 10: a reliable reader that falls behind (a recorder on a busy
+#: machine while a world runs at real_time_factor 0, 20x real time) loses nothing until it is 100
+#: messages late, not 10. Measured by the soak: 1.4 % of a Create world's messages missing from
+#: its bag at depth 10, 0.03 % at 100; the depth is no part of QoS matching.
 SENSOR_PUBLISHER_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
-    depth=10,
+    depth=100,
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
