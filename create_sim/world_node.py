@@ -26,6 +26,7 @@ import numpy as np
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
+from rclpy.exceptions import ParameterException
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from std_msgs.msg import String
@@ -259,7 +260,12 @@ class CreateWorldNode(SimWorldNode):
             if qos is not SENSOR_PUBLISHER_QOS:
                 return self.create_publisher(msg_type, topic, qos)
             # a copy: rclpy writes the overrides into the profile it is given
-            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+            try:
+                return self.create_publisher(
+                    msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES
+                )
+            except (AssertionError, AttributeError, RuntimeError, TypeError, ValueError, ParameterException) as err:
+                raise InputError(f"parameter 'qos_overrides' of {self.resolve_topic_name(topic)}: {err}") from None
 
         self.pub_odom = pub(Odometry, "odom")
         self.pub_overhead = pub(PoseStamped, "overhead_pose")
