@@ -6,6 +6,11 @@ best-effort ones. Subscribers to sensors take :data:`SENSOR_SUBSCRIBER_QOS` (bes
 matches any publisher. Maps, robot descriptions and ``/tf_static`` are latched (transient local).
 """
 
+import copy
+
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -15,6 +20,8 @@ from rclpy.qos import (
     qos_profile_sensor_data,
 )
 from rclpy.qos_overriding_options import QoSOverridingOptions
+
+from sim_runtime.errors import InputError
 
 #: Sensor and state publishers: reliable and volatile (REP-2003's system default), keeping the
 #: last 100 samples rather than 10: a reliable reader that falls behind (a recorder on a busy
@@ -33,6 +40,19 @@ SENSOR_PUBLISHER_QOS = QoSProfile(
 SENSOR_QOS_OVERRIDES = QoSOverridingOptions(
     policy_kinds=(QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 )
+
+
+def create_sensor_publisher(node: Node, msg_type: type, topic: str) -> Publisher:
+    """A sensor or state publisher of ``node`` (:data:`SENSOR_PUBLISHER_QOS`) whose history, depth
+    and reliability users may override at start with ``qos_overrides.<topic>.publisher.*``; an
+    override rclpy cannot apply is an :class:`InputError` naming the topic."""
+    try:  # a copy: rclpy writes the overrides into the profile it is given
+        return node.create_publisher(
+            msg_type, topic, copy.copy(SENSOR_PUBLISHER_QOS), qos_overriding_options=SENSOR_QOS_OVERRIDES
+        )
+    except (AssertionError, AttributeError, RuntimeError, TypeError, ValueError, ParameterException) as err:
+        raise InputError(f"parameter 'qos_overrides' of {node.resolve_topic_name(topic)}: {err}") from None
+
 
 #: Subscribers to sensor streams: best effort, keep last 5 (SensorDataQoS); matches any publisher.
 SENSOR_SUBSCRIBER_QOS: QoSProfile = qos_profile_sensor_data

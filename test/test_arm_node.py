@@ -502,3 +502,12 @@ def test_without_tf2_msgs_the_arm_says_tf_is_off_once_and_keeps_working(executor
     assert spin_until(executor, lambda: states.msgs and description.msgs)
     err = capfd.readouterr().err
     assert err.count("TF is off") == 1 and "tf2_msgs is not installed" in err
+
+
+def test_the_arms_state_publishers_take_qos_overrides_at_start(executor):
+    from rclpy.qos import ReliabilityPolicy
+
+    world = make_arm_node(executor, **{"qos_overrides./joint_states.publisher.reliability": "best_effort"})
+    arm = world.arms[0]
+    assert arm.joint_pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert arm.pose_pub.qos_profile.reliability == ReliabilityPolicy.RELIABLE
