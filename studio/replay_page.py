@@ -205,19 +205,19 @@ class ReplayPage:
                 self.image = view_image(self.on_mouse, self.on_wheel, "studio-replay-view", "#fafafa")
                 self.dynamic = self.image.add_layer()
                 with ui.row().classes("items-center gap-1"):
-                    ui.button("⏹", on_click=self.stop).props("dense flat").classes("studio-replay-stop").tooltip(
-                        "Stop: back to the start"
-                    )
-                    ui.button("◀ ¼", on_click=lambda: self.play("rewind")).props("dense flat").classes(
-                        "studio-replay-rewind"
-                    ).tooltip("backwards at ¼ speed")
-                    ui.button("⏸", on_click=self.pause).props("dense flat").classes("studio-replay-pause")
-                    ui.button("¼ ▶", on_click=lambda: self.play("slow")).props("dense flat").classes(
-                        "studio-replay-slow"
-                    ).tooltip("forwards at ¼ speed")
-                    ui.button("▶", on_click=lambda: self.play("play")).props("dense flat").classes(
-                        "studio-replay-play"
-                    ).tooltip("play")
+                    for text, icon, action, css, tip in (
+                        ("", "stop", self.stop, "stop", "Stop: back to the start"),
+                        ("¼", "fast_rewind", lambda: self.play("rewind"), "rewind", "backwards at ¼ speed"),
+                        ("", "pause", self.pause, "pause", "Pause"),
+                        ("¼", "play_arrow", lambda: self.play("slow"), "slow", "forwards at ¼ speed"),
+                        ("", "play_arrow", lambda: self.play("play"), "play", "Play"),
+                    ):
+                        with (
+                            ui.button(text, icon=icon, on_click=action)
+                            .props("dense flat")
+                            .classes(f"studio-replay-{css}")
+                        ):
+                            ui.tooltip(tip).props("delay=600")
                     self.time_label = ui.label("no bag open").classes("font-mono studio-replay-time ml-2")
                 self.slider = (
                     ui.slider(min=0, max=1, step=0.001, value=0, on_change=self.on_slider)
