@@ -137,7 +137,9 @@ def summary(type_name: str, msg) -> str:
     if kind == "Illuminance":
         return f"{msg.illuminance:.1f} %"
     if kind == "JointState":
-        return ", ".join(f"{n} {p:.3f}" for n, p in zip(msg.name, msg.position, strict=False))
+        values, unit = (msg.position, "") if len(msg.position) else (msg.velocity, " rad/s")
+        names = list(msg.name) or [f"#{i}" for i in range(len(values))]
+        return ", ".join(f"{n} {v:.3f}{unit}" for n, v in zip(names, values, strict=False))
     if kind == "MarkerArray":
         return f"{len(msg.markers)} markers"
     if kind == "Bool":
@@ -247,8 +249,8 @@ class Replay:
                 effectors[arm] = (p.x, p.y, p.z)
         commands = []
         for topic in self.command_topics:
-            ti = index.by_topic[topic]
-            last = ti.at_or_before(t_ns)
+            ti = index.by_topic.get(topic)
+            last = -1 if ti is None else ti.at_or_before(t_ns)
             for i in range(last, max(last - COMMANDS_SHOWN, -1), -1):
                 m = index.message(topic, i)
                 commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, decode(m))))

@@ -22,7 +22,7 @@ from nicegui import run, ui
 from sim_runtime.errors import InputError
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, nav, view_image
-from studio.replay import Frame, Replay, RobotFrame
+from studio.replay import Frame, Replay, RobotFrame, planar
 from studio.workspace import Workspace
 
 FRAME_PERIOD_S = 0.04
@@ -41,6 +41,9 @@ LAYERS = {
 }
 KEY_STEPS = {"ArrowLeft": -1, "ArrowUp": -1, "ArrowRight": 1, "ArrowDown": 1}
 """The seed's keys: up and left step one frame back, down and right one forward."""
+TRACK_POINTS_DRAWN = 2000
+"""A long track is drawn through this many of its points (a 10-minute run has ~8,000): the frame
+sent to the browser stays ~25 kB however long the run."""
 OPENED_KEPT = 4
 _opened: dict[tuple[str, float], Replay] = {}  # (bag path, newest file time) → indexed bag, for every tab
 
@@ -94,11 +97,35 @@ def grid_image_svg(view: draw.View, grid) -> str:
     )
 
 
+def drawn_track(track: np.ndarray | None) -> np.ndarray | None:
+    """The track thinned to TRACK_POINTS_DRAWN points, its first and last kept."""
+    if track is None or len(track) <= TRACK_POINTS_DRAWN:
+        return track
+    return track[np.linspace(0, len(track) - 1, TRACK_POINTS_DRAWN).round().astype(int)]
+
+
+def markers_svg(view: draw.View, markers) -> str:
+    """Line and point markers (SIMROBOT's ``/robots`` outlines) in their colours, on the map."""
+    parts = []
+    for m in markers.markers:
+        if m.action != 0 or not m.points:
+            continue
+        x0, y0, yaw = planar(m.pose)
+        local = np.array([(p.x, p.y) for p in m.points], dtype=float)
+        c, s = math.cos(yaw), math.sin(yaw)
+        px, py = view.to_px(x0 + c * local[:, 0] - s * local[:, 1], y0 + s * local[:, 0] + c * local[:, 1])
+        pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px.tolist(), py.tolist(), strict=True))
+        colour = draw.rgb_hex((m.color.r, m.color.g, m.color.b))
+        parts.append(f'<polyline class="outline" points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
+    return "".join(parts)
+
+
 def small_robot_svg(view: draw.View, rf: RobotFrame, radius_m: float = 0.05) -> str:
     """A SIMROBOT (or any non-Create) robot: disc, heading, name, its track; red when crashed."""
     parts = []
-    if rf.track is not None and len(rf.track) > 1:
-        tx, ty = view.to_px(rf.track[:, 0], rf.track[:, 1])
+    track = drawn_track(rf.track)
+    if track is not None and len(track) > 1:
+        tx, ty = view.to_px(track[:, 0], track[:, 1])
         pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(tx.tolist(), ty.tolist(), strict=True))
         parts.append(f'<polyline points="{pts}" fill="none" stroke="#8e44ad" stroke-width="1.5"/>')
     if rf.pose is None:
@@ -109,10 +136,33 @@ def small_robot_svg(view: draw.View, rf: RobotFrame, radius_m: float = 0.05) -> 
     r = max(radius_m * view.scale, 4.0)
     fill = "#e74c3c" if rf.crashed else "#3498db"
     parts.append(
-        f'<circle cx="{px:.1f}" cy="{py:.1f}" r="{r:.1f}" fill="{fill}" fill-opacity="0.8" stroke="#000"/>'
+        f'<circle cx="{px:.1f}" cy="{py:.1f}" r="{r:.1f}" fill="{fill}" fill-opacity="0.5" stroke="#000"/>'
         f'<line x1="{px:.1f}" y1="{py:.1f}" x2="{hx:.1f}" y2="{hy:.1f}" stroke="#000" stroke-width="2"/>'
         f'<text x="{px:.1f}" y="{py - r - 3:.1f}" font-size="12" text-anchor="middle">{escape(rf.robot.label)}</text>'
     )
+    return "".join(parts)
+
+
+def joints_svg(frame: Frame) -> str:
+    """Each arm's joints as gauges in the view's corner: a bar from 0 to the angle on a ±π scale."""
+    parts = []
+    y = 24.0
+    half = 150.0  # px for π
+    for arm, joints in frame.joints.items():
+        parts.append(f'<text x="10" y="{y:.0f}" font-size="14" font-weight="bold">arm {escape(arm or "/")}</text>')
+        y += 10
+        for name, position in joints:
+            y += 22
+            x0 = 120 + half
+            end = x0 + half * max(-1.0, min(1.0, position / math.pi))
+            parts.append(
+                f'<text x="10" y="{y + 4:.0f}" font-size="12">{escape(name)}</text>'
+                f'<line x1="120" y1="{y:.0f}" x2="{120 + 2 * half:.0f}" y2="{y:.0f}" stroke="#ddd" stroke-width="8"/>'
+                f'<line class="joint" x1="{x0:.0f}" y1="{y:.0f}" x2="{end:.1f}" y2="{y:.0f}" stroke="#1565c0" '
+                f'stroke-width="8"/><text x="{130 + 2 * half:.0f}" y="{y + 4:.0f}" font-size="12" '
+                f'font-family="monospace">{position:+.3f} rad</text>'
+            )
+        y += 30
     return "".join(parts)
 
 
@@ -423,6 +473,8 @@ class ReplayPage:
             f'<g class="view" data-centre-x="{float(v.centre_x)!r}" data-centre-y="{float(v.centre_y)!r}" '
             f'data-scale="{float(v.scale)!r}" data-t="{frame.t_ns}"/>'
         ]
+        if frame.outlines is not None:
+            parts.append(markers_svg(v, frame.outlines))
         for i, rf in enumerate(frame.robots):
             if rf.robot.kind != "create":
                 parts.append(small_robot_svg(v, rf))
@@ -438,10 +490,12 @@ class ReplayPage:
                 bumps=rf.bumps,
                 cliffs=rf.cliffs,
                 sightings=rf.sightings,
-                track=rf.track if "track" in self.layers else None,
+                track=drawn_track(rf.track) if "track" in self.layers else None,
             )
             parts.append(draw.sensors_svg(v, readings, self.layers))
             parts.append(draw.robot_svg(v, rf.pose, selected=i == 0, label=rf.robot.ns))
+        if frame.joints:
+            parts.append(joints_svg(frame))
         return "".join(parts)
 
     def toggle_layer(self, key: str, on: bool) -> None:
