@@ -28,6 +28,7 @@ from studio.workspace import Workspace
 FRAME_PERIOD_S = 0.04
 """Playback redraws at most this often (25 frames/s)."""
 SPEEDS = {"rewind": -0.25, "slow": 0.25, "play": 1.0}
+SPEED_TEXT = {0.0: "paused", 1.0: "playing", 0.25: "playing at ¼ speed", -0.25: "backwards at ¼ speed"}
 LAYERS = {
     "lidar": "LIDAR",
     "sonar": "Sonar",
@@ -240,6 +241,17 @@ class ReplayPage:
         self.grid_cache: tuple[int, str] | None = None
         self.build()
 
+    @property
+    def speed(self) -> float:
+        """Bag seconds per second (0 = paused, negative = backwards)."""
+        return self._speed
+
+    @speed.setter
+    def speed(self, value: float) -> None:
+        self._speed = value
+        if hasattr(self, "speed_label"):
+            self.speed_label.set_text(SPEED_TEXT[value])
+
     # ---------------------------------------------------------------- layout
     def build(self) -> None:
         nav("/replay")
@@ -269,6 +281,7 @@ class ReplayPage:
                         ):
                             ui.tooltip(tip).props("delay=600")
                     self.time_label = ui.label("no bag open").classes("font-mono studio-replay-time ml-2")
+                    self.speed_label = ui.label("").classes("text-sm text-gray-600 studio-replay-speed")
                 self.slider = (
                     ui.slider(min=0, max=1, step=0.001, value=0, on_change=self.on_slider)
                     .props("label")

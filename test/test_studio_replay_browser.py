@@ -132,16 +132,23 @@ def test_a_bag_opens_at_its_first_instant_and_the_arrow_keys_step_through_it(bro
 
 def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_start(browser, poses):  # noqa: F811
     find(browser, ".studio-replay-slow").click()
+    wait(browser, lambda d: find(d, ".studio-replay-speed").text == "playing at ¼ speed")
     wait(browser, lambda d: shown(d)[0] > 0.3)
     find(browser, ".studio-replay-pause").click()
-    held = wait(browser, lambda d: (t := shown(d)[0]) == shown(d)[0] and t)  # two reads alike: paused
+    wait(browser, lambda d: find(d, ".studio-replay-speed").text == "paused")
+    held = shown(browser)[0]
     started = time.monotonic()
     wait(browser, lambda d: time.monotonic() - started > 0.3)
     assert shown(browser)[0] == held
-    # Whatever instant it stopped at, the pose shown is the bag's latest pose at or before it.
-    latest = max((p for p in poses if p[0] <= held + 1e-9), key=lambda p: p[0])
+    # Whatever instant it stopped at (exact in the drawing's data-t, ns), the pose shown is the bag's
+    # latest pose at or before it.
+    t_ns = int(browser.execute_script("return document.querySelector('.studio-replay-view g.view').dataset.t"))
+    exact = (t_ns - round(START_S * 1e9)) / 1e9
+    assert exact == pytest.approx(held, abs=5e-4)
+    latest = max((p for p in poses if p[0] <= exact), key=lambda p: p[0])
     assert shown(browser)[1] == pytest.approx(latest[1:], abs=5e-4)
     find(browser, ".studio-replay-rewind").click()
+    wait(browser, lambda d: find(d, ".studio-replay-speed").text == "backwards at ¼ speed")
     wait(browser, lambda d: shown(d)[0] < held - 0.05)
     find(browser, ".studio-replay-stop").click()
     assert_at(browser, poses[0])
