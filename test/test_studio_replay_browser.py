@@ -7,8 +7,6 @@ and draws its tracks. ``STUDIO_SCREENSHOTS=1`` also saves the page's picture int
 
 from __future__ import annotations
 
-import math
-import os
 import subprocess
 import sys
 import time
@@ -26,12 +24,13 @@ from sim_runtime.rerun_view.convert import default_output
 ROOT = Path(__file__).resolve().parent.parent
 BAG = "runs/demo_run"
 START_S = 100.0  # the bag's first message is at 100 s: the page shows time since the start
+DURATION_S = 10.0  # the robot meets a wall and turns after ~7.5 s
 
 
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     ws = tmp_path_factory.mktemp("replay_ws")
-    write_create_run(ws / BAG, 4.0, start_s=START_S)
+    write_create_run(ws / BAG, DURATION_S, start_s=START_S)
     return ws
 
 
@@ -142,8 +141,7 @@ def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_star
     assert shown(browser)[0] == held
     # Whatever instant it stopped at (exact in the drawing's data-t, ns), the pose shown is the bag's
     # latest pose at or before it.
-    t_ns = int(browser.execute_script("return document.querySelector('.studio-replay-view g.view').dataset.t"))
-    exact = (t_ns - round(START_S * 1e9)) / 1e9
+    exact = exact_time(browser)
     assert exact == pytest.approx(held, abs=5e-4)
     latest = max((p for p in poses if p[0] <= exact), key=lambda p: p[0])
     assert shown(browser)[1] == pytest.approx(latest[1:], abs=5e-4)
@@ -152,13 +150,28 @@ def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_star
     wait(browser, lambda d: shown(d)[0] < held - 0.05)
     find(browser, ".studio-replay-stop").click()
     assert_at(browser, poses[0])
-    if os.environ.get("STUDIO_SCREENSHOTS"):  # an instant with a stretch of track for the picture
-        find(browser, ".studio-replay-play").click()
-        wait(browser, lambda d: shown(d)[0] > 3.0, timeout=20.0)
-        find(browser, ".studio-replay-pause").click()
-        screenshot(browser, "replay")
-        find(browser, ".studio-replay-stop").click()
-    assert math.isfinite(shown(browser)[0])
+
+
+def exact_time(driver) -> float:
+    """The instant drawn, exactly (the view's data-t, ns), in seconds since the bag's start."""
+    t_ns = int(driver.execute_script("return document.querySelector('.studio-replay-view g.view').dataset.t"))
+    return (t_ns - round(START_S * 1e9)) / 1e9
+
+
+def test_a_click_on_the_timeline_seeks_there(browser, poses):  # noqa: F811
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    slider = find(browser, ".studio-replay-slider")
+    width = slider.size["width"]
+    # 95 % along the timeline (Selenium offsets are from the centre of the element)
+    ActionChains(browser).move_to_element_with_offset(slider, round(0.45 * width), 0).click().perform()
+    wait(browser, lambda d: shown(d)[0] > 0.8 * DURATION_S)
+    assert find(browser, ".studio-replay-speed").text == "paused"
+    exact = exact_time(browser)
+    latest = max((p for p in poses if p[0] <= exact), key=lambda p: p[0])
+    assert shown(browser)[1] == pytest.approx(latest[1:], abs=5e-4)
+    ActionChains(browser).move_to_element(find(browser, ".studio-replay-panel")).perform()  # no tooltip in the picture
+    screenshot(browser, "replay")
 
 
 def test_export_to_rerun_and_draw_tracks_write_their_files_beside_the_bag(browser, workspace):  # noqa: F811
