@@ -89,7 +89,7 @@ def main() -> int:
     assert index.message_count == count, (index.message_count, count)
     print(
         f"bag: {options.minutes:g} min, {count} messages, {len(index.by_topic)} topics, {size_mb:.1f} MB, "
-        f"{len(bag._infos[0].chunk_indexes)} chunks ({load()})"  # noqa: SLF001
+        f"{len(bag._infos[0].chunk_indexes)} chunks ({load()})"
     )
     print(
         f"open: index built in {build_s * 1e3:.0f} ms vs one full read of the bag {full_scan_s * 1e3:.0f} ms "

@@ -56,7 +56,7 @@ REPUBLISH_PERIOD = 0.5
 class _RobotIO:
     """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
 
-    __slots__ = ("pubs", "msgs", "odom_pub", "odom", "pose_pub", "pose", "crashed_pub", "subs", "services")
+    __slots__ = ("crashed_pub", "msgs", "odom", "odom_pub", "pose", "pose_pub", "pubs", "services", "subs")
 
 
 class SimrobotWorldNode(SimWorldNode):

@@ -1,4 +1,4 @@
-"""The Config maker page (the seed's ConfigMakerGUI): noise per sensor and com_delay; load, save, apply."""
+"""The Config maker page (the original's ConfigMakerGUI): noise per sensor and com_delay; load, save, apply."""
 
 from __future__ import annotations
 

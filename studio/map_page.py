@@ -1,4 +1,4 @@
-"""The Map maker page (the seed's MapMakerGUI): draw, select, move, edit, load, save, apply."""
+"""The Map maker page (the original's MapMakerGUI): draw, select, move, edit, load, save, apply."""
 
 from __future__ import annotations
 
@@ -322,7 +322,7 @@ class MapMakerPage(FilePage):
         except (InputError, UserWarning) as err:
             self.say(str(err), error=True)
             return
-        from studio.mapedit import elements_from_map  # noqa: PLC0415
+        from studio.mapedit import elements_from_map
 
         (new,) = elements_from_map(parsed)
         self.doc.replace(self.selected, new)

@@ -2,7 +2,7 @@
 
 :class:`Replay` opens a bag through :class:`~sim_runtime.bag.index.BagIndex` and answers
 :meth:`Replay.frame` for any time: every robot's pose, a Create's sensor readings as the live view
-draws them, SIMROBOT robots, an arm's joints, the commands sent so far (the seed's function-call
+draws them, SIMROBOT robots, an arm's joints, the commands sent so far (the original's function-call
 column) and a one-line summary of every topic's latest message. Robots are found by their topics:
 a Create by ``overhead_pose``, a SIMROBOT robot by ``pose`` (both PoseStamped), any other robot by
 ``odom``, an arm by ``joint_states``. Stepping goes from one message of the *frame topic* (the first
@@ -278,7 +278,7 @@ class Replay:
         )
 
     def _create_map(self, m: BagMessage, msg) -> CreateMap | None:
-        from studio.ros_client import map_from_markers  # noqa: PLC0415 - rclpy only when a bag has one
+        from studio.ros_client import map_from_markers
 
         key = f"{m.topic}@{m.log_time_ns}"
         if key not in self._maps and msg is not None:

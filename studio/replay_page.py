@@ -1,4 +1,4 @@
-"""The Replay page (the seed's ReplayGUI): a recorded bag drawn as the live view, played or stepped.
+"""The Replay page (the original's ReplayGUI): a recorded bag drawn as the live view, played or stepped.
 
 Play, pause, stop, ¼ speed forwards and backwards, a timeline, the arrow keys (left/up one frame back,
 right/down one forward; held, they repeat). The side panel shows the time, each robot's pose, the
@@ -41,7 +41,7 @@ LAYERS = {
     "grid": "Grid",
 }
 KEY_STEPS = {"ArrowLeft": -1, "ArrowUp": -1, "ArrowRight": 1, "ArrowDown": 1}
-"""The seed's keys: up and left step one frame back, down and right one forward."""
+"""The original's keys: up and left step one frame back, down and right one forward."""
 TRACK_POINTS_DRAWN = 2000
 """A long track is drawn through this many of its points (a 10-minute run has ~8,000): the frame
 sent to the browser stays ~25 kB however long the run."""
@@ -81,7 +81,7 @@ def open_replay(path: Path) -> tuple[Replay, list[str]]:
 
 def grid_image_svg(view: draw.View, grid) -> str:
     """A SIMROBOT OccupancyGrid as an embedded PNG placed in the view (walls black, unknown grey)."""
-    from PIL import Image  # noqa: PLC0415
+    from PIL import Image
 
     info = grid.info
     cells = np.asarray(grid.data, dtype=np.int8).reshape(info.height, info.width)
@@ -350,7 +350,7 @@ class ReplayPage:
         self.show()
 
     async def export_rerun(self) -> None:
-        from sim_runtime.rerun_view.convert import bag_to_rerun, default_output  # noqa: PLC0415
+        from sim_runtime.rerun_view.convert import bag_to_rerun, default_output
 
         if self.replay is None:
             self.output_label.set_text("open a bag first")
@@ -373,8 +373,8 @@ class ReplayPage:
         )
 
     async def draw_tracks(self) -> None:
-        from sim_runtime.rerun_view.tracks import tracks_from_bag  # noqa: PLC0415
-        from simrobot_sim.tracks import draw_tracks  # noqa: PLC0415
+        from sim_runtime.rerun_view.tracks import tracks_from_bag
+        from sim_runtime.track_plot import draw_tracks
 
         if self.replay is None:
             self.output_label.set_text("open a bag first")

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from rosgraph_msgs.msg import Clock
 
+from sim_runtime.cli import executable_command
 from sim_runtime.executables import EXECUTABLES
 from sim_runtime.testing import Collector, spin_until
 
@@ -21,9 +22,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def run_exe(name: str, *args: str, **popen) -> subprocess.Popen:
     """``robot_sims <name> args...`` from this checkout, in its own process."""
-    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
     return subprocess.Popen(
-        [sys.executable, "-c", code, *args],
+        executable_command(name, args),
         cwd=ROOT,
         text=True,
         env=dict(os.environ, PYTHONPATH=str(ROOT)),
@@ -72,7 +72,7 @@ def test_unparsable_ros_arguments_exit_2_without_a_traceback():
 
 
 @pytest.mark.parametrize(
-    "name,args",
+    ("name", "args"),
     [
         ("create_world", []),
         ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),

@@ -108,7 +108,7 @@ class BagIndex:
         self._cache: OrderedDict[int, bytes] = OrderedDict()
         self._streams: dict[int, object] = {}
         parts: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
-        for number, info in enumerate(bag._infos):  # noqa: SLF001 - same package
+        for number, info in enumerate(bag._infos):
             topics_by_channel = {cid: ch.topic for cid, ch in info.channels.items()}
             if info.intact and (info.chunk_indexes or not info.counts):
                 self._index_chunks(number, info, topics_by_channel, parts)
@@ -147,7 +147,7 @@ class BagIndex:
             if found is None:
                 try:
                     records = np.frombuffer(_chunk_records(stream, chunk_index), dtype=np.uint8)
-                except Exception as exc:  # noqa: BLE001 - CRC, decompression, short read
+                except Exception as exc:
                     warnings.warn(
                         f"{info.path}: skipping a corrupt chunk at byte {chunk_index.chunk_start_offset} ({exc})",
                         stacklevel=3,
@@ -188,7 +188,7 @@ class BagIndex:
         inline: list[tuple[int, int, int, bytes]] = []  # channel, log time, publish time, data
         self._chunk_table.append((-1, inline))
         per_topic: dict[str, list[tuple[int, int]]] = {}
-        for rec in self.bag._scan(info, quiet=True):  # noqa: SLF001 - same package
+        for rec in self.bag._scan(info, quiet=True):
             if isinstance(rec, Message) and rec.channel_id in info.channels:
                 per_topic.setdefault(info.channels[rec.channel_id].topic, []).append((rec.log_time, len(inline)))
                 inline.append((rec.channel_id, rec.log_time, rec.publish_time, rec.data))

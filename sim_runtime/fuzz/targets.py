@@ -8,6 +8,7 @@ state. Loading may also fail, but only with :class:`~sim_runtime.errors.InputErr
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import shutil
@@ -297,7 +298,7 @@ def _drive_arm(rng: random.Random, path: Path) -> None:
     motion.move_to(np.array([rng.uniform(lo, hi) for lo, hi in zip(arm.lower, arm.upper, strict=True)]))
     for _ in range(3):
         motion.step(0.05)
-        position, velocity, _ = motion.reference(0.05)
+        position, _velocity, _ = motion.reference(0.05)
         _finite(position, "joint motion")
     for element in arm.elements:
         _finite(element.triangles, "mesh triangles")
@@ -383,10 +384,8 @@ def _read_bag(path: Path) -> None:
 
     bag = open_bag(path)
     for m in bag.messages():
-        try:
+        with contextlib.suppress(UnknownMessageType):
             m.msg  # noqa: B018 - deserialising is the point
-        except UnknownMessageType:
-            pass
 
 
 def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
@@ -396,7 +395,7 @@ def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
 
 def _draw_tracks(path: Path, out: Path, draw: bool) -> None:
     from sim_runtime.rerun_view.tracks import tracks_from_bag
-    from simrobot_sim.tracks import draw_tracks
+    from sim_runtime.track_plot import draw_tracks
 
     data = tracks_from_bag(path)
     for track in data.tracks.values():
