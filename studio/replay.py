@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +31,7 @@ JOINTS = "sensor_msgs/msg/JointState"
 COMMAND_TOPICS = ("cmd_vel", "wheel_cmd", "joint_command", "joint_trajectory", "target_pose", "set_pose")
 """What a controller or a person sends: the replay's list of calls made."""
 COMMANDS_SHOWN = 12
+DECODED_KEPT = 1024
 TRACK_MIN_STEP_M = 0.02
 """A drawn track gets a point per this many metres travelled (a 10-minute run stays a few thousand)."""
 
@@ -190,6 +192,7 @@ class Replay:
         for robot in self.robots:
             self._load_track(robot)
         self._maps: dict[str, CreateMap] = {}
+        self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, object]] = OrderedDict()
 
     @classmethod
     def open(cls, path: str | Path) -> Replay:
@@ -235,8 +238,11 @@ class Replay:
     def frame(self, t_ns: int) -> Frame:
         """Everything the page shows at ``t_ns``."""
         index = self.index
-        state = index.state_at(t_ns)
-        decoded = {topic: decode(m) for topic, m in state.items()}
+        state, decoded = {}, {}
+        for topic, ti in index.by_topic.items():
+            position = ti.at_or_before(t_ns)
+            if position >= 0:
+                state[topic], decoded[topic] = self._message(topic, position)
         robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots]
         joints, effectors = {}, {}
         for arm in self.arms:
@@ -252,8 +258,8 @@ class Replay:
             ti = index.by_topic.get(topic)
             last = -1 if ti is None else ti.at_or_before(t_ns)
             for i in range(last, max(last - COMMANDS_SHOWN, -1), -1):
-                m = index.message(topic, i)
-                commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, decode(m))))
+                m, msg = self._message(topic, i)
+                commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, msg)))
         commands.sort(key=lambda c: -c[0])
         latest = [
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
@@ -276,6 +282,20 @@ class Replay:
             grid=decoded[grids[0]] if grids else None,
             outlines=decoded[outlines[0]] if outlines else None,
         )
+
+    def _message(self, topic: str, position: int) -> tuple[BagMessage, object]:
+        """A topic's message and its decoded form; the last DECODED_KEPT are kept, so a map, a robot
+        description or a sensor that did not publish again is not decoded at every frame."""
+        key = (topic, position)
+        found = self._decoded.get(key)
+        if found is None:
+            m = self.index.message(topic, position)
+            found = self._decoded[key] = (m, decode(m))
+            if len(self._decoded) > DECODED_KEPT:
+                self._decoded.popitem(last=False)
+        else:
+            self._decoded.move_to_end(key)
+        return found
 
     def _create_map(self, m: BagMessage, msg) -> CreateMap | None:
         from studio.ros_client import map_from_markers
