@@ -125,3 +125,22 @@ def test_a_recorded_demo_run_replays_with_its_controller_commands(tmp_path):
     frame = replay.frame(replay.end_ns)
     assert frame.robots[0].pose[0] > 0.1 and frame.world is not None
     assert frame.commands and all(topic == "/cmd_vel" for _t, topic, _text in frame.commands)
+
+
+def test_an_empty_bag_and_a_type_that_is_not_installed_replay_without_failing(tmp_path):
+    with BagWriter(tmp_path / "empty"):
+        pass
+    empty = Replay.open(tmp_path / "empty")
+    assert empty.robots == [] and empty.duration_s == 0.0
+    assert empty.frame(empty.start_ns).latest == [] and empty.step(0, 1) == 0
+    qos = qos_profiles_yaml([{}])
+    with BagWriter(tmp_path / "unknown") as bag:
+        thing = bag.add_topic("/thing", "no_such_pkg/msg/Thing", qos)
+        pose = bag.add_topic("/overhead_pose", "geometry_msgs/msg/PoseStamped", qos)
+        bag.write(thing, 0, b"\x00\x01\x00\x00abcd")
+        bag.write(pose, S, serialize_message(PoseStamped(pose=pose_msg(1.0, 2.0, 0.5))))
+    replay = Replay.open(tmp_path / "unknown")
+    with pytest.warns(UserWarning, match="no_such_pkg/msg/Thing"):
+        frame = replay.frame(replay.end_ns)
+    assert ("/thing", 1.0, "(no_such_pkg/msg/Thing, not decoded)") in frame.latest
+    assert frame.robots[0].pose == pytest.approx((1.0, 2.0, 0.5))
