@@ -21,6 +21,7 @@ import numpy as np
 
 from create_sim.mapfile import CreateMap
 from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
 from sim_runtime.msgs import yaw_from_quaternion
@@ -207,12 +208,15 @@ class Replay:
         ti = self.index.by_topic.get(robot.pose_topic)
         if ti is None:
             return
-        xy = []
-        for m in self.index.messages(robot.pose_topic):
-            msg = decode(m)
-            pose = None if msg is None else (msg.pose.pose if robot.kind == "mobile" else msg.pose)
-            xy.append((math.nan, math.nan) if pose is None else (pose.position.x, pose.position.y))
-        xy = np.array(xy, dtype=float).reshape(-1, 2)
+        messages = self.index.messages(robot.pose_topic)
+        xy = track_positions(ti.type, [m.data for m in messages])
+        if xy is None:
+            xy = np.full((len(messages), 2), np.nan)
+        for i in np.flatnonzero(np.isnan(xy[:, 0])):  # what the fast read could not: deserialise
+            msg = decode(messages[i])
+            if msg is not None:
+                position = (msg.pose.pose if robot.kind == "mobile" else msg.pose).position
+                xy[i] = position.x, position.y
         # One point per TRACK_MIN_STEP_M travelled: a parked robot's 50 Hz poses are one point.
         travelled = np.concatenate([[0.0], np.cumsum(np.nan_to_num(np.hypot(*np.diff(xy, axis=0).T)))])
         keep = np.flatnonzero(np.diff(np.floor(travelled / TRACK_MIN_STEP_M), prepend=-1.0) > 0)
