@@ -45,6 +45,8 @@ KEY_STEPS = {"ArrowLeft": -1, "ArrowUp": -1, "ArrowRight": 1, "ArrowDown": 1}
 TRACK_POINTS_DRAWN = 2000
 """A long track is drawn through this many of its points (a 10-minute run has ~8,000): the frame
 sent to the browser stays ~25 kB however long the run."""
+TOPICS_LISTED = 120
+"""The side panel lists at most this many topics (a 200-robot SIMROBOT bag has a thousand)."""
 OPENED_KEPT = 4
 _opened: dict[tuple[str, float], Replay] = {}  # (bag path, newest file time) → indexed bag, for every tab
 
@@ -205,8 +207,10 @@ def panel_html(frame: Frame) -> str:
     latest = "".join(
         f"<tr><td class='pr-2'>{escape(topic)}</td><td class='pr-2 font-mono text-gray-500'>-{age:.2f}</td>"
         f"<td class='font-mono'>{escape(text)}</td></tr>"
-        for topic, age, text in frame.latest
+        for topic, age, text in frame.latest[:TOPICS_LISTED]
     )
+    if len(frame.latest) > TOPICS_LISTED:
+        latest += f"<tr><td colspan='3'>… and {len(frame.latest) - TOPICS_LISTED} more topics</td></tr>"
     return (
         f"<table class='text-sm'>{''.join(rows)}</table>"
         "<div class='font-bold mt-2'>Commands sent (newest first)</div>"
@@ -238,7 +242,7 @@ class ReplayPage:
         self.mouse_down: tuple[float, float] | None = None
         self.view_at_press = (0.0, 0.0)
         self.moving_slider = False
-        self.grid_cache: tuple[int, str] | None = None
+        self.grid_cache: tuple[tuple, str] | None = None
         self.build()
 
     @property
@@ -317,7 +321,8 @@ class ReplayPage:
 
     # ---------------------------------------------------------------- bag
     def refresh(self) -> None:
-        self.bag_select.set_options(bag_names(self.studio.workspace), value=self.bag_select.value)
+        names = bag_names(self.studio.workspace)
+        self.bag_select.set_options(names, value=self.bag_select.value if self.bag_select.value in names else None)
 
     async def open_bag(self) -> None:
         name = self.bag_select.value
