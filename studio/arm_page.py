@@ -522,30 +522,33 @@ class ArmPage:
         from arm_sim.robot_config import transform_from_xyz_rpy  # noqa: PLC0415
 
         goal = transform_from_xyz_rpy(np.array(xyz), np.array(rpy))
+        asked = "x {:.3f} y {:.3f} z {:.3f} m, roll {:.1f}° pitch {:.1f}° yaw {:.1f}°".format(*values)
+        start = None if st.positions is None else st.positions.copy()
         moved = False
         while time.monotonic() - sent < TARGET_TIMEOUT_S:
             await asyncio.sleep(0.05)
             if st.unreachable_at > sent:
-                self.target_label.set_text(f"unreachable: {st.unreachable_text}")
+                self.target_label.set_text(f"unreachable: {asked} ({st.unreachable_text})")
                 self.target_label.classes(add="text-red-700")
                 return
-            moved = moved or st.moving()
+            # A short move can start and end between two looks: compare the joints with the start.
+            moved = moved or st.moving() or (start is not None and not np.array_equal(st.positions, start))
             if st.end_effector is not None and st.end_effector_quat is not None:
                 here = rotations(np.array([st.end_effector_quat]))[0]
                 position_error = float(np.linalg.norm(np.array(st.end_effector[:3]) - goal[:3, 3]))
                 angle_error = math.acos(max(-1.0, min(1.0, (np.trace(here.T @ goal[:3, :3]) - 1) / 2)))
                 if position_error < REACHED_M and angle_error < REACHED_RAD and not st.moving():
-                    self.target_label.set_text(f"reached (error {position_error * 1000:.1f} mm)")
+                    self.target_label.set_text(f"reached {asked} (error {position_error * 1000:.1f} mm)")
                     self.target_label.classes(add="text-green-700")
                     return
                 # The world warns at most every 2 s: a second unreachable target soon after shows
                 # only as an arm that never starts moving.
                 if not moved and time.monotonic() - sent > 1.0:
-                    self.target_label.set_text("unreachable: the arm did not move (no IK solution)")
+                    self.target_label.set_text(f"unreachable: {asked} (the arm did not move: no IK solution)")
                     self.target_label.classes(add="text-red-700")
                     return
             self.target_label.set_text("moving…" if moved else "solving IK…")
-        self.target_label.set_text("not reached in time")
+        self.target_label.set_text(f"not reached in time: {asked}")
 
     # ---------------------------------------------------------------- trajectories
     def play(self) -> None:
