@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import threading
 import time
 from dataclasses import dataclass
 from html import escape
@@ -58,8 +59,31 @@ def arm_ros(studio: Studio) -> ArmRos | None:
     return holder.get("ros")
 
 
+def prefetch(studio: Studio) -> None:
+    """Read and reduce every arm's meshes as soon as the arm is found (a daemon thread): the first
+    page then draws at once, even with a 756k-face file."""
+    failed: set[str] = set()
+    while True:
+        time.sleep(0.5)
+        ros = _holder(studio).get("ros")
+        if ros is None:
+            continue
+        looks = [s.look for s in ros.arms.values()] + [s.look for s in ros.scenes.values()]
+        for drawable in (d for look in looks for d in look):
+            if not drawable.mesh_uri or drawable.mesh_uri in failed:
+                continue
+            path = mesh_path(drawable.mesh_uri)
+            try:
+                if path is None:
+                    raise InputError(drawable.mesh_uri)
+                MESHES.prepare(path, DISPLAY_FACES)
+            except (InputError, OSError):
+                failed.add(drawable.mesh_uri)  # the page says why when it draws it
+
+
 def register(studio: Studio) -> None:
     app.on_startup(lambda: arm_ros(studio))  # discovery starts before anyone opens the page
+    app.on_startup(lambda: threading.Thread(target=prefetch, args=(studio,), name="studio-meshes", daemon=True).start())
 
     @app.get(MESH_ROUTE + "/{key}.stl")
     def display_mesh(key: str) -> Response:
