@@ -18,7 +18,7 @@ from html import escape
 
 import numpy as np
 from fastapi import HTTPException, Response
-from nicegui import app, ui
+from nicegui import app, background_tasks, ui
 
 from arm_sim.trajectory_file import load_trajectory
 from sim_runtime.errors import InputError
@@ -363,7 +363,7 @@ class ArmPage:
             shown = self.shown.get(key)
             if shown is None:
                 shown = self.shown[key] = Shown(None, drawable, owner, element_name(drawable))
-                asyncio.create_task(self.create(key, shown))
+                background_tasks.create(self.create(key, shown), name=f"arm mesh {key}")
             elif shown.drawable != drawable:  # e.g. the world's marker_alpha changed
                 shown.drawable = drawable
                 if shown.obj is not None:
@@ -391,13 +391,15 @@ class ArmPage:
                     raise InputError(f"{d.mesh_uri}: cannot resolve this mesh URI on this machine")
                 mesh = await asyncio.to_thread(MESHES.prepare, path, self.faces)
             except InputError as err:
-                ui.notify(f"{err}: drawing a box instead", type="warning")
+                if not self.scene.is_deleted:
+                    with self.mesh_label:  # the tab's context: this runs as a task of its own
+                        ui.notify(f"{err}: drawing a box instead", type="warning")
             else:
-                if self.shown.get(key) is not shown:
+                if self.shown.get(key) is not shown or self.scene.is_deleted:
                     return
                 obj = self.scene.stl(f"{MESH_ROUTE}/{mesh.key}.stl")
                 shown.name = f"{element_name(d)} ({mesh.faces_out:,} of {mesh.faces_in:,} faces)"
-        if self.shown.get(key) is not shown:
+        if self.shown.get(key) is not shown or self.scene.is_deleted:
             return
         if obj is None:
             obj = self.scene.box(1.0, 1.0, 1.0)

@@ -134,3 +134,34 @@ def test_the_joint_limits_come_from_the_arms_urdf():
     for name, (lower, upper) in zip(config.joint_names, config.position_limits, strict=True):
         assert (limits[name].lower, limits[name].upper) == (pytest.approx(lower), pytest.approx(upper))
         assert not limits[name].prismatic
+
+
+def test_element_poses_turn_into_the_same_rotations_as_the_messages_helpers():
+    from geometry_msgs.msg import Quaternion
+
+    from sim_runtime.msgs import matrix_from_quaternion
+    from studio.arm_page import rotations
+
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(20, 4))
+    expected = [matrix_from_quaternion(Quaternion(x=a, y=b, z=c, w=d)) for a, b, c, d in q]
+    assert np.allclose(rotations(q), expected, atol=1e-12)
+
+
+def test_a_world_file_typed_in_the_arm_page_stays_in_the_workspace_or_the_shipped_configs(tmp_path):
+    from studio.app import Studio
+    from studio.arm_page import arm_world_ros_args, resolve_config
+    from studio.workspace import Workspace
+
+    studio = Studio(workspace=Workspace(tmp_path), controllers={})
+    (tmp_path / "mine.yaml").write_text("name: x\n")
+    assert resolve_config(studio, "mine.yaml", "robot config") == str(tmp_path / "mine.yaml")
+    assert resolve_config(studio, "arm/irb120.yaml", "robot config") == str(config_path("arm/irb120.yaml"))
+    for name in ("../../etc/passwd", "/etc/passwd", "arm/../../setup.py", "nothing.yaml"):
+        with pytest.raises(InputError):
+            resolve_config(studio, name, "robot config")
+    args = arm_world_ros_args("/cell", "it's.yaml", "")
+    assert args == [
+        "--ros-args", "-p", "robot_config_file:='it''s.yaml'", "-p", "scene_file:=''",
+        "-r", "__ns:=/cell", "-r", "/clock:=/cell/clock",
+    ]  # fmt: skip
