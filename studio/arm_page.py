@@ -20,13 +20,15 @@ import numpy as np
 from fastapi import HTTPException, Response
 from nicegui import app, background_tasks, ui
 
+from arm_sim.robot_config import transform_from_xyz_rpy
 from arm_sim.trajectory_file import load_trajectory
+from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path, mesh_path
 from studio.app import Studio, nav
 from studio.arm_ros import ArmRos, ArmState, Drawable
 from studio.meshes import DISPLAY_FACES, MeshCache
-from studio.processes import Child, _yaml_string, executable_command
+from studio.processes import Child, _yaml_string
 
 MESHES = MeshCache()
 """Every page's meshes: a file is read and reduced once per studio."""
@@ -545,8 +547,6 @@ class ArmPage:
         self.target_label.set_text("solving IK…")
         self.target_label.classes(remove="text-red-700 text-green-700")
         self.ros().target_pose(self.selected, xyz, rpy)
-        from arm_sim.robot_config import transform_from_xyz_rpy  # noqa: PLC0415
-
         goal = transform_from_xyz_rpy(np.array(xyz), np.array(rpy))
         asked = "x {:.3f} y {:.3f} z {:.3f} m, roll {:.1f}° pitch {:.1f}° yaw {:.1f}°".format(*values)
         start = None if st.positions is None else st.positions.copy()

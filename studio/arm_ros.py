@@ -30,6 +30,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.robot_config import transform_from_xyz_rpy
+from arm_sim.urdf import rpy_from_matrix
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
 
@@ -94,8 +95,6 @@ def drawables(msg: MarkerArray) -> tuple[list[Drawable], np.ndarray]:
 
 def pose_xyz_rpy(msg_pose) -> tuple[float, float, float, float, float, float]:
     """x, y, z (m), roll, pitch, yaw (rad, fixed axes X Y Z) of a geometry_msgs Pose."""
-    from arm_sim.urdf import rpy_from_matrix  # noqa: PLC0415 - one definition of the angle convention
-
     p = msg_pose.position
     return (p.x, p.y, p.z, *rpy_from_matrix(matrix_from_quaternion(msg_pose.orientation)))
 

@@ -48,7 +48,7 @@ def weld(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     extent = float((corners.max(axis=0) - lo).max()) or 1.0
     cells = np.floor((corners - lo) * ((2**_WELD_BITS - 1) / extent)).astype(np.int64)
     keys = (cells[:, 0] << (2 * _WELD_BITS)) | (cells[:, 1] << _WELD_BITS) | cells[:, 2]
-    unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
     return corners[first], inverse.reshape(-1, 3)
 
 

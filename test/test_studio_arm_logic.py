@@ -84,9 +84,9 @@ def test_the_cache_reads_a_file_once_and_again_when_it_changes(tmp_path):
 def test_a_bad_mesh_file_is_an_input_error_naming_it(tmp_path):
     bad = tmp_path / "broken.stl"
     bad.write_bytes(b"\x00" * 100)
-    with pytest.raises(InputError, match="broken.stl"):
+    with pytest.raises(InputError, match=r"broken\.stl"):
         MeshCache().prepare(bad)
-    with pytest.raises(InputError, match="missing.stl"):
+    with pytest.raises(InputError, match=r"missing\.stl"):
         MeshCache().prepare(tmp_path / "missing.stl")
 
 
@@ -122,7 +122,7 @@ def test_a_trajectory_file_is_read_with_expressions_and_optional_names(tmp_path)
 def test_a_bad_trajectory_file_names_the_file_and_field(tmp_path, text, message):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
-    with pytest.raises(InputError, match="bad.yaml") as err:
+    with pytest.raises(InputError, match=r"bad\.yaml") as err:
         load_trajectory(path)
     assert message in str(err.value)
 
