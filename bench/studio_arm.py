@@ -235,7 +235,11 @@ def main() -> int:
     by = {(r[0], r[1]): r for r in rows}
     for name in worlds:
         budget, full = by[(name, DISPLAY_FACES)], by[(name, 0)]
-        for key, label, scale in (("drawn", "first draw (s)", 1000), ("maxGap", "longest frame gap (ms)", 1)):
+        for key, label, scale in (
+            ("drawn", "first draw (s)", 1000),
+            ("maxGap", "longest frame gap (ms)", 1),
+            ("longTasks", "long tasks total (ms)", 1),
+        ):
             b = statistics.median(r[key] for r in budget[3]) / scale
             f = statistics.median(r[key] for r in full[3]) / scale
             print(f"  {name:26s} {label:24s} budget {b:8.2f}  every face {f:8.2f}  ratio {f / max(b, 1e-9):5.1f}")
