@@ -47,6 +47,20 @@ TARGET_TIMEOUT_S = 30.0
 EE_AXES_M = 0.1
 WORLD_AXES_M = 0.2
 CAMERA = {"x": 0.95, "y": -0.95, "z": 0.8, "look_at_x": 0.15, "look_at_y": 0.0, "look_at_z": 0.3}
+"""Where the camera starts, before any arm is seen (the IRB120 at the origin fills the view)."""
+
+
+def camera_for(points: np.ndarray) -> dict[str, float]:
+    """A camera looking at the middle of ``points`` (m, 3) from the front right, above, far enough
+    back to see all of them (a perspective camera's 75° field of view)."""
+    if len(points) == 0:
+        return dict(CAMERA)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre = (lo + hi) / 2
+    radius = max(0.35, float(np.linalg.norm(hi - lo)) / 2 + 0.25)
+    offset = np.array([0.62, -0.62, 0.48]) * radius * 1.6
+    x, y, z = (centre + offset).tolist()
+    return {"x": x, "y": y, "z": z, "look_at_x": centre[0], "look_at_y": centre[1], "look_at_z": centre[2]}
 
 
 def _holder(studio: Studio) -> dict:
@@ -170,6 +184,7 @@ class ArmPage:
         self.drawn_seq: dict[str, int] = {}
         self.axes: dict[str, object] = {}  # arm prefix -> end-effector frame
         self.show_frames = True
+        self.fitted = False
         self.listed: tuple = ()
         self.joint_rows: dict[str, tuple] = {}
         self.built_joints: tuple = ()
@@ -336,7 +351,11 @@ class ArmPage:
             axes.visible(self.show_frames)
 
     def reset_view(self) -> None:
-        self.scene.move_camera(**CAMERA, up_z=1.0)
+        """Every arm and scene object in view."""
+        ros = self.ros()
+        poses = [] if ros is None else [s.poses[:, :3] for s in (*ros.arms.values(), *ros.scenes.values())]
+        points = np.concatenate(poses) if poses else np.zeros((0, 3))
+        self.scene.move_camera(**camera_for(points), up_x=0.0, up_y=0.0, up_z=1.0)
 
     # ---------------------------------------------------------------- drawing
     def tick(self) -> None:
@@ -355,6 +374,9 @@ class ArmPage:
                 self.draw_group(owner, look, poses, seq)
             for prefix, state in ros.arms.items():
                 self.draw_end_effector(prefix, state)
+        if not self.fitted and all(s.obj is not None for s in self.shown.values()) and self.shown:
+            self.fitted = True  # once: later the user's own orbit, pan and zoom are left alone
+            self.reset_view()
         self.update_controls()
 
     def draw_group(self, owner: str, look: tuple[Drawable, ...], poses: np.ndarray, seq: int) -> None:
