@@ -471,7 +471,8 @@ class ArmPage:
             slider, number, readout, prismatic = row
             shown = st.positions[k] if prismatic else math.degrees(st.positions[k])
             unit = "m" if prismatic else "°"
-            readout.set_text(f"{shown:8.{3 if prismatic else 1}f} {unit}")
+            digits = 3 if prismatic else 1
+            readout.set_text(f"{shown if round(shown, digits) else 0.0:8.{digits}f} {unit}")  # no "-0.0"
             if still and abs((slider.value or 0.0) - shown) > (5e-4 if prismatic else 0.05):
                 self.syncing = True
                 try:

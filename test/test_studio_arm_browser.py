@@ -224,8 +224,8 @@ def test_moving_joint_2_with_its_slider_moves_the_arm(browser, listener):
     wait(browser, lambda d: f"{wanted:.1f} °" in text_of(d, ".studio-joint-2 .studio-joint-readout"))
 
 
-def test_a_reachable_target_pose_moves_the_flange_there(browser, listener):
-    executor, _joints, pose = listener
+def test_a_reachable_target_pose_moves_the_flange_there_and_the_sliders_follow(browser, listener):
+    executor, joints, pose = listener
     click(browser, ".studio-target-current")
     wait(browser, lambda d: float(find(d, ".studio-target-x input").get_attribute("value")) != 0.0)
     x = float(find(browser, ".studio-target-x input").get_attribute("value"))
@@ -239,6 +239,13 @@ def test_a_reachable_target_pose_moves_the_flange_there(browser, listener):
         return abs(p.x - x) < 2e-3 and abs(p.z - (z - 0.1)) < 2e-3
 
     assert spin_until(executor, there, timeout=10.0), pose.last.pose.position
+
+    def slider_follows_the_arm(d) -> bool:  # once the arm is still, the sliders show where it is
+        number = float(find(d, ".studio-joint-2 .studio-joint-number input").get_attribute("value"))
+        return abs(number - math.degrees(joints.last.position[1])) < 0.1
+
+    spin_until(executor, lambda: False, timeout=0.2)
+    wait(browser, slider_follows_the_arm)
     screenshot(browser)
 
 
