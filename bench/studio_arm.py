@@ -157,6 +157,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3, help="warm page loads per case (default 3)")
     args = parser.parse_args()
+    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
+        print("bench/studio_arm.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
+        return 0
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
