@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from nicegui import app, ui
 
-    from studio import config_page, map_page, replay_page, sim_page
+    from studio import arm_page, config_page, map_page, replay_page, sim_page
     from studio.ros_client import StudioRos
 
     studio = Studio(workspace=workspace, controllers=controllers)
@@ -123,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     sim_page.register(studio)
     map_page.register(studio)
     config_page.register(studio)
+    arm_page.register(studio)
     replay_page.register(studio)
     print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
     ui.run(
@@ -157,7 +158,7 @@ def view_image(on_mouse, on_wheel, css_class: str, background: str):
 
 
 def nav(current: str) -> None:
-    """The links between the pages (the seed's three windows)."""
+    """The links between the pages (the originals' windows)."""
     from nicegui import ui
 
     with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
@@ -166,6 +167,7 @@ def nav(current: str) -> None:
             ("/", "Simulator"),
             ("/map", "Map maker"),
             ("/config", "Config maker"),
+            ("/arm", "Arm"),
             ("/replay", "Replay"),
         ):
             link = ui.link(text, target).classes("text-base")
