@@ -29,6 +29,7 @@ class Studio:
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
     selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
+    arm: dict = field(default_factory=dict)  # the arm page's shared client and mesh cache
     recording_to: str = ""
 
     def default_robot(self, names: list[str], current: str | None) -> str | None:

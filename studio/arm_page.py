@@ -28,7 +28,7 @@ from sim_runtime.paths import config_path, mesh_path
 from studio.app import Studio, nav
 from studio.arm_ros import ArmRos, ArmState, Drawable
 from studio.meshes import DISPLAY_FACES, MeshCache
-from studio.processes import Child, _yaml_string
+from studio.processes import Child, yaml_string
 
 MESHES = MeshCache()
 """Every page's meshes: a file is read and reduced once per studio."""
@@ -64,7 +64,7 @@ def camera_for(points: np.ndarray) -> dict[str, float]:
 
 
 def _holder(studio: Studio) -> dict:
-    return studio.__dict__.setdefault("_arm_page", {})
+    return studio.arm
 
 
 def arm_ros(studio: Studio) -> ArmRos | None:
@@ -154,8 +154,8 @@ def resolve_config(studio: Studio, name: str, what: str) -> str:
 
 def arm_world_ros_args(ns: str, robot_config: str, scene_file: str) -> list[str]:
     """``--ros-args`` of an arm world in namespace ``ns`` ('' = root): its clock goes to ``<ns>/clock``."""
-    args = ["--ros-args", "-p", f"robot_config_file:={_yaml_string(robot_config)}"]
-    args += ["-p", f"scene_file:={_yaml_string(scene_file)}"]
+    args = ["--ros-args", "-p", f"robot_config_file:={yaml_string(robot_config)}"]
+    args += ["-p", f"scene_file:={yaml_string(scene_file)}"]
     if ns:
         args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
     return args
