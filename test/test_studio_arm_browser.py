@@ -8,56 +8,42 @@ and ``chromium-driver``; ``STUDIO_SCREENSHOTS=1`` also saves the page into docs/
 
 from __future__ import annotations
 
-import inspect
 import math
-import os
-import shutil
-import socket
-import subprocess
-import sys
-import tempfile
-import time
 from pathlib import Path
 
 import pytest
+from studio_browser_support import NO_CHROMIUM
 
-CHROMIUM = Path("/usr/lib/chromium/chromium")
-CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-if not (CHROMIUM.exists() and Path(CHROMEDRIVER).exists()):
-    pytest.skip(
-        "browser tests skipped: no Chromium; enable them with `apt-get install -y chromium chromium-driver`",
-        allow_module_level=True,
-    )
+if NO_CHROMIUM:
+    pytest.skip(NO_CHROMIUM, allow_module_level=True)
 
-from geometry_msgs.msg import PoseStamped  # noqa: E402
-from selenium import webdriver  # noqa: E402
-from selenium.common.exceptions import ElementNotInteractableException, TimeoutException  # noqa: E402
-from selenium.webdriver.chrome.service import Service  # noqa: E402
-from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
-from selenium.webdriver.common.by import By  # noqa: E402
-from selenium.webdriver.common.keys import Keys  # noqa: E402
-from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
+from geometry_msgs.msg import PoseStamped
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.by import By
+from sensor_msgs.msg import JointState
+from studio_browser_support import (
+    click,
+    find,
+    listener_node,
+    new_browser,
+    running_studio,
+    screenshot,
+    studio_domain,
+    type_into,
+    wait,
+)
 
-from sim_runtime.qos import ANY_PUBLISHER_QOS  # noqa: E402
-from sim_runtime.testing import Collector, spin_until  # noqa: E402
+from sim_runtime.qos import ANY_PUBLISHER_QOS
+from sim_runtime.testing import Collector, spin_until
 
-ROOT = Path(__file__).resolve().parent.parent
 # A domain of its own (not the Create pages' test domain): nothing other tests leave behind shows up.
-STUDIO_DOMAIN = (int(os.environ.get("ROS_DOMAIN_ID", "0")) + 51) % 101
-STUDIO_LOG = Path(tempfile.mkdtemp(prefix="studio_arm_log_")) / "studio.log"
+STUDIO_DOMAIN = studio_domain(51)
 TRAJECTORY = """\
 joint_names: [joint_1, joint_2, joint_3]
 points:
   - {time: 0.5, positions: [20*deg, 10*deg, -10*deg]}
   - {time: 1.0, positions: [30*deg, 0, 0]}
 """
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture(scope="module")
@@ -67,113 +53,27 @@ def workspace(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def studio_url(workspace):
-    port = free_port()
-    with STUDIO_LOG.open("w") as out:  # a file: a pipe nobody reads would block the studio once full
-        process = subprocess.Popen(
-            [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            text=True,
-            cwd=ROOT,
-            # without PYTEST_CURRENT_TEST: NiceGUI would run in its test mode
-            env={
-                **{k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},
-                "ROS_DOMAIN_ID": str(STUDIO_DOMAIN),
-            },
-        )
-    deadline = time.monotonic() + 60.0
-    while True:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
-            break
-        except OSError:
-            assert process.poll() is None and time.monotonic() < deadline, STUDIO_LOG.read_text()
-            time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}"
-    process.terminate()  # the studio stops the arm world it started
-    process.wait(timeout=20)
-    print(STUDIO_LOG.read_text()[-5000:])
-    shutil.rmtree(STUDIO_LOG.parent, ignore_errors=True)
+    with running_studio(workspace, STUDIO_DOMAIN) as url:  # the studio stops the arm world it started
+        yield url
 
 
 @pytest.fixture(scope="module")
 def browser(studio_url):
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1400"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER  # never let Selenium Manager download a driver
-    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
-    driver.implicitly_wait(0)
-    yield driver
-    driver.quit()
+    with new_browser("1400,1400") as driver:
+        yield driver
 
 
 @pytest.fixture(scope="module")
 def listener():
     """The test's own ROS node in the studio's domain: the arm's joint states and flange pose."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
-
-    from sim_runtime.run import make_executor
-
-    context = Context()
-    rclpy.init(context=context, domain_id=STUDIO_DOMAIN)
-    executor = make_executor(context)
-    node = Node("studio_arm_test_listener", context=context)
-    executor.add_node(node)
-    joints = Collector(node, JointState, "/joint_states", ANY_PUBLISHER_QOS)
-    pose = Collector(node, PoseStamped, "/end_effector_pose", ANY_PUBLISHER_QOS)
-    yield executor, joints, pose
-    executor.remove_node(node)
-    node.destroy_node()
-    executor.shutdown()
-    rclpy.shutdown(context=context)
-
-
-def wait(driver, condition, timeout: float = 20.0):
-    try:
-        return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d))
-    except TimeoutException:
-        page = driver.find_element(By.TAG_NAME, "body").text[-2000:]
-        log = "\n".join(STUDIO_LOG.read_text().splitlines()[-40:]) if STUDIO_LOG.exists() else ""
-        pytest.fail(f"not true within {timeout:g} s: {inspect.getsource(condition).strip()}\n{page}\n{log}")
-
-
-def find(driver, css: str):
-    return wait(driver, lambda d: d.find_element(By.CSS_SELECTOR, css))
-
-
-def click(driver, css: str) -> None:
-    """Click an element once it takes clicks (the page may still be laying itself out)."""
-
-    def clicked(d) -> bool:
-        try:
-            find(d, css).click()
-        except ElementNotInteractableException:
-            return False
-        return True
-
-    wait(driver, clicked)
+    with listener_node(STUDIO_DOMAIN, "studio_arm_test_listener") as (executor, node):
+        joints = Collector(node, JointState, "/joint_states", ANY_PUBLISHER_QOS)
+        pose = Collector(node, PoseStamped, "/end_effector_pose", ANY_PUBLISHER_QOS)
+        yield executor, joints, pose
 
 
 def text_of(driver, css: str) -> str:
     return find(driver, css).text
-
-
-def type_into(driver, css: str, text: str) -> None:
-    def typed(d) -> bool:
-        field = find(d, f"{css} input")
-        try:
-            field.send_keys(Keys.CONTROL, "a")
-            field.send_keys(Keys.BACKSPACE)
-            field.send_keys(text)
-        except ElementNotInteractableException:
-            return False
-        return True
-
-    wait(driver, typed)
 
 
 def drawn_meshes(driver) -> int:
@@ -184,11 +84,6 @@ def drawn_meshes(driver) -> int:
         "let n = 0; scene.traverse(o => { if (o.isMesh && o.geometry && o.geometry.type === 'BufferGeometry'"
         " && o.parent && o.parent.name && o.parent.name.includes('/meshes/')) n++; }); return n;"
     )
-
-
-def screenshot(driver) -> None:
-    if os.environ.get("STUDIO_SCREENSHOTS"):
-        driver.save_screenshot(str(ROOT / "docs" / "studio_arm.png"))
 
 
 def test_the_arm_page_starts_an_irb120_world_and_draws_its_seven_meshes(browser, studio_url, listener):
@@ -246,7 +141,7 @@ def test_a_reachable_target_pose_moves_the_flange_there_and_the_sliders_follow(b
 
     spin_until(executor, lambda: False, timeout=0.2)
     wait(browser, slider_follows_the_arm)
-    screenshot(browser)
+    screenshot(browser, "arm")
 
 
 def test_an_unreachable_target_pose_says_so_and_leaves_the_arm_still(browser, listener):

@@ -7,14 +7,24 @@ and draws its tracks. ``STUDIO_SCREENSHOTS=1`` also saves the page's picture int
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-import test_studio_browser as live  # the live pages' browser, waits and studio environment
-from test_studio_browser import browser, find, free_port, open_page, screenshot, studio_env, wait  # noqa: F401
+from studio_browser_support import NO_CHROMIUM
+
+if NO_CHROMIUM:
+    pytest.skip(NO_CHROMIUM, allow_module_level=True)
+
+from studio_browser_support import (
+    find,
+    new_browser,
+    open_page,
+    running_studio,
+    screenshot,
+    studio_domain,
+    wait,
+)
 
 from create_sim.synthetic_run import write_create_run
 from sim_runtime.bag.reader import open_bag
@@ -36,30 +46,14 @@ def workspace(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def studio_url(workspace):
-    port = free_port()
-    log = live.STUDIO_LOG  # where the shared waits look for the studio's output on a failure
-    log.parent.mkdir(parents=True, exist_ok=True)
-    with log.open("w") as out:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            text=True,
-            cwd=ROOT,
-            env=studio_env(),
-        )
-    deadline = time.monotonic() + 60.0
-    while True:  # until the server accepts connections
-        try:
-            __import__("socket").create_connection(("127.0.0.1", port), timeout=1.0).close()
-            break
-        except OSError:
-            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
-            time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}"
-    process.terminate()
-    process.wait(timeout=20)
-    print(log.read_text()[-5000:])
+    with running_studio(workspace, studio_domain(52)) as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def browser(studio_url):
+    with new_browser() as driver:
+        yield driver
 
 
 @pytest.fixture(scope="module")
@@ -98,7 +92,7 @@ def assert_at(driver, sample) -> None:
     assert pose == (pytest.approx(x, abs=5e-4), pytest.approx(y, abs=5e-4), pytest.approx(theta, abs=5e-4))
 
 
-def test_a_bag_opens_at_its_first_instant_and_the_arrow_keys_step_through_it(browser, studio_url, poses):  # noqa: F811
+def test_a_bag_opens_at_its_first_instant_and_the_arrow_keys_step_through_it(browser, studio_url, poses):
     from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
@@ -129,7 +123,7 @@ def test_a_bag_opens_at_its_first_instant_and_the_arrow_keys_step_through_it(bro
     assert "/cmd_vel" in commands and "v 0.300 m/s" in commands  # the controller's first command
 
 
-def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_start(browser, poses):  # noqa: F811
+def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_start(browser, poses):
     find(browser, ".studio-replay-slow").click()
     wait(browser, lambda d: find(d, ".studio-replay-speed").text == "playing at ¼ speed")
     wait(browser, lambda d: shown(d)[0] > 0.3)
@@ -158,7 +152,7 @@ def exact_time(driver) -> float:
     return (t_ns - round(START_S * 1e9)) / 1e9
 
 
-def test_a_click_on_the_timeline_seeks_there(browser, poses):  # noqa: F811
+def test_a_click_on_the_timeline_seeks_there(browser, poses):
     from selenium.webdriver.common.action_chains import ActionChains
 
     slider = find(browser, ".studio-replay-slider")
@@ -174,7 +168,7 @@ def test_a_click_on_the_timeline_seeks_there(browser, poses):  # noqa: F811
     screenshot(browser, "replay")
 
 
-def test_export_to_rerun_and_draw_tracks_write_their_files_beside_the_bag(browser, workspace):  # noqa: F811
+def test_export_to_rerun_and_draw_tracks_write_their_files_beside_the_bag(browser, workspace):
     find(browser, ".studio-replay-rerun").click()
     wait(browser, lambda d: "wrote" in find(d, ".studio-replay-output").text, timeout=60.0)
     rrd = default_output(workspace / BAG)
