@@ -16,7 +16,6 @@ below has to keep true:
 
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from collections.abc import Callable
@@ -49,7 +48,7 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_sensor_publisher
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
@@ -258,8 +257,7 @@ class CreateWorldNode(SimWorldNode):
         def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
             if qos is not SENSOR_PUBLISHER_QOS:
                 return self.create_publisher(msg_type, topic, qos)
-            # a copy: rclpy writes the overrides into the profile it is given
-            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+            return create_sensor_publisher(self, msg_type, topic)
 
         self.pub_odom = pub(Odometry, "odom")
         self.pub_overhead = pub(PoseStamped, "overhead_pose")

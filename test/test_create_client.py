@@ -18,6 +18,7 @@ from test_create_node import Rig, make_world
 
 from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
+from sim_runtime.cli import executable_command
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.paths import config_path
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
@@ -227,21 +228,11 @@ def test_first_command_of_a_fresh_client_reaches_a_world_in_another_process(tmp_
     import os
     import signal
     import subprocess
-    import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
     world = subprocess.Popen(
-        [
-            sys.executable,
-            "-c",
-            "import sys; from create_sim.world_node import main; sys.exit(main())",
-            "--ros-args",
-            "-p",
-            "map_file:=''",
-            "-r",
-            "__ns:=/fresh",
-        ],
+        executable_command("create_world", ["--ros-args", "-p", "map_file:=''", "-r", "__ns:=/fresh"]),
         env=dict(os.environ, PYTHONPATH=str(root)),
         cwd=root,
         stderr=subprocess.PIPE,
@@ -309,16 +300,7 @@ def world_process():
     """A create_world in another process (namespace /ending, free space, real time) that holds the
     last command forever, as by default: a robot left driving keeps driving."""
     world = subprocess.Popen(
-        [
-            sys.executable,
-            "-c",
-            "import sys; from create_sim.world_node import main; sys.exit(main())",
-            "--ros-args",
-            "-p",
-            "map_file:=''",
-            "-r",
-            "__ns:=/ending",
-        ],
+        executable_command("create_world", ["--ros-args", "-p", "map_file:=''", "-r", "__ns:=/ending"]),
         env=dict(os.environ, PYTHONPATH=str(ROOT)),
         cwd=ROOT,
         stderr=subprocess.PIPE,

@@ -1139,7 +1139,7 @@ class RerunLogger:
         grew = False
         if is_map and static:
             before = (self._map_lo.copy(), self._map_hi.copy())
-            self._grow_map([*pts, p.x, p.y] if len(pts) else np.array([[p.x, p.y]]))
+            self._grow_map(pts + np.array([p.x, p.y]) if len(pts) else np.array([[p.x, p.y]]))
             grew = not (np.array_equal(before[0], self._map_lo) and np.array_equal(before[1], self._map_hi))
         if m.type == TEXT:
             shape = rr.Points2D([[0.0, 0.0]], radii=0.0, colors=[color], labels=[m.text], show_labels=True)
