@@ -23,7 +23,7 @@ $(STAMP): setup.py interfaces/build_tf2_msgs.py interfaces/tf2_msgs/pyproject.to
 	touch $@
 
 lint: venv
-	$(PY) -m ruff check . && $(PY) -m ruff format --check .
+	$(PY) -m ruff check . && $(PY) -m ruff format --check . && $(PY) -m mypy
 
 test: venv lint
 	$(PY) -m pytest -q

@@ -36,7 +36,7 @@ def private_ros(args: Sequence[str] | None = None) -> Iterator[tuple[Context, Ex
     demo, a notebook) whether or not rclpy's global context is up; on exit every node added
     to the executor is destroyed and the context shut down."""
     context = Context()
-    rclpy.init(args=args, context=context)
+    rclpy.init(args=None if args is None else list(args), context=context)
     executor = make_executor(context)
     try:
         yield context, executor
@@ -128,7 +128,7 @@ def init_ros(args: Sequence[str] | None = None) -> StopSignal:
     Arguments rcl cannot parse raise :class:`InputError`."""
     stop = StopSignal()
     try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(args=None if args is None else list(args), signal_handler_options=SignalHandlerOptions.NO)
     except _rclpy.RCLError as error:  # e.g. "-p name:=" with no value
         raise InputError(f"invalid ROS arguments {' '.join(args or sys.argv)!r}: {error}") from None
     return stop

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 
 from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 
 from sim_runtime.qos import LATCHED_QOS, TF_QOS
 
@@ -64,8 +65,8 @@ class TfBroadcaster:
         self._static: dict[str, TransformStamped] = {}
         if enabled and not tf_available():
             node.get_logger().warning(f"TF is off: {TF_OFF_REASON}")
-        self.publisher = None
-        self.publishers = []  # [the /tf publisher] when enabled: for "does anyone listen" checks
+        self.publisher: Publisher | None = None
+        self.publishers: list[Publisher] = []  # [the /tf publisher] when enabled: for "does anyone listen" checks
         if self.enabled:
             self.publisher = node.create_publisher(TFMessage, "/tf", TF_QOS)
             self.publishers = [self.publisher]
@@ -88,9 +89,9 @@ class TfBroadcaster:
 
     def send(self, transforms: list[TransformStamped]) -> None:
         """Publish moving transforms on /tf (stamps already set by the caller)."""
-        if self.enabled:
+        if self.enabled and self.publisher is not None:
             self.publisher.publish(TFMessage(transforms=transforms))
 
     def heard(self) -> bool:
         """Whether anyone subscribes to ``/tf`` (building the message can then be skipped)."""
-        return self.enabled and self.publisher.get_subscription_count() > 0
+        return self.enabled and self.publisher is not None and self.publisher.get_subscription_count() > 0

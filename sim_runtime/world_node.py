@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
+from rclpy.timer import Timer
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
@@ -98,7 +99,7 @@ class SimWorldNode(CheckedNode):
         self._scheduled: list[_Scheduled] = []
         self._last_warning: dict[str, float] = {}
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
-        self._pacer = None
+        self._pacer: Timer | None = None
         self._paced = False  # stepped by a wall timer (run_nodes), not only by calls to step()
 
     # -- for subclasses -------------------------------------------------------------------

@@ -11,6 +11,7 @@ import ast
 import math
 import operator
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -54,8 +55,13 @@ def load_yaml(path: str | os.PathLike[str], what: str) -> Any:
 # ---------------------------------------------------------------------------------------------
 
 _CONSTANTS = {"pi": math.pi, "deg": math.pi / 180.0}
-_BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
-_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+_BINARY: dict[type[ast.operator], Callable[[float, float], float]] = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+}
+_UNARY: dict[type[ast.unaryop], Callable[[float], float]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 _MAX_EXPRESSION_CHARS = 200  # "-pi/2", "165*deg": a formula a person writes, not a program
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 import zlib
+from collections.abc import Sequence
 from typing import IO
 
 import lz4.frame
@@ -143,8 +144,8 @@ class McapFile:
         )
         chunk_offset = self._pos
         index_offset = chunk_offset + len(chunk)
-        parts = []
-        offsets = {}
+        parts: list[bytes] = []
+        offsets: dict[int, int] = {}
         for channel_id, flat in self._index.items():
             offsets[channel_id] = index_offset + sum(len(p) for p in parts)
             # MessageIndex record: channel id, byte length of (log time, offset) pairs, pairs
@@ -207,7 +208,7 @@ class McapFile:
             message_end_time=self._end,
             channel_message_counts=dict(self._counts),
         )
-        groups = [
+        groups: list[tuple[Opcode, Sequence[McapRecord]]] = [
             (Opcode.SCHEMA, self._schemas),
             (Opcode.CHANNEL, self._channels),
             (Opcode.STATISTICS, [stats]),

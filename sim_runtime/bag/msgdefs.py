@@ -136,6 +136,7 @@ def full_definition(type_name: str) -> Definition:
             text = _text_from_python_class(match.group(1), match.group(2)) if match else None
             if text is None:
                 return ""
+        assert match is not None  # text is only found for a well-formed type name
         result = text
         for dep in _dependencies(text, match.group(1)):
             if dep not in seen:

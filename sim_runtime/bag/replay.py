@@ -131,7 +131,7 @@ class Player(Node):
         self.loop = loop
         self._begin = bag.start_ns + int(start_offset * 1e9)
         endless = duration is None or math.isinf(duration * 1e9)
-        self._end = None if endless else self._begin + int(duration * 1e9)
+        self._end = None if duration is None or endless else self._begin + int(duration * 1e9)
         remap = remap or {}
         try:
             excluded = re.compile(exclude) if exclude else None
@@ -298,7 +298,7 @@ class Player(Node):
             msg = Clock()
             msg.clock.sec, msg.clock.nanosec = divmod(bag_ns, 1_000_000_000)
             self._clock_pub.publish(msg)
-            self._last_clock = bag_ns
+            self._last_clock: int = bag_ns  # bag time of the last /clock sent (-1: none yet)
 
     def _run(self) -> None:
         try:

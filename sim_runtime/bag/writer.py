@@ -187,7 +187,9 @@ class BagWriter:
         stats = self._files[-1]
         if stats.message_count and (
             (self._max_size and self._bytes_in_file >= self._max_size)
-            or (self._max_duration and log_time_ns - stats.start_ns >= self._max_duration)
+            or (
+                self._max_duration and stats.start_ns is not None and log_time_ns - stats.start_ns >= self._max_duration
+            )
         ):
             self._guard(self._next_split)
             stats = self._files[-1]
@@ -202,7 +204,7 @@ class BagWriter:
             self._fail(exc)
         self._bytes_in_file += len(data) + 47  # message record + index entry
         self._topics[topic_id].message_count += 1
-        if stats.message_count == 0:
+        if stats.start_ns is None or stats.end_ns is None:  # the split's first message
             stats.start_ns = stats.end_ns = log_time_ns
         elif log_time_ns < stats.start_ns:
             stats.start_ns = log_time_ns

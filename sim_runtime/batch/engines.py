@@ -8,6 +8,7 @@ orders them.
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 import os
 from collections.abc import Callable, Sequence
@@ -72,14 +73,14 @@ def run_ray(episodes: Sequence[Episode], address: str | None, workers: int | Non
         # Workers import robot_sims (and the sweep's own modules) from their node's Python: install
         # it on every node, with the sweep's folder on a path every node sees.
         if address:
-            ray.init(address=address, log_to_driver=False, logging_level="WARNING")
+            ray.init(address=address, log_to_driver=False, logging_level=logging.WARNING)
         else:
             ray.init(
                 num_cpus=workers or os.cpu_count(),
                 object_store_memory=RAY_OBJECT_STORE_BYTES,
                 include_dashboard=False,
                 log_to_driver=False,
-                logging_level="WARNING",
+                logging_level=logging.WARNING,
             )
     try:
         remote = ray.remote(max_calls=0, num_cpus=1)(_run)  # max_calls=0: a worker runs any number of tasks

@@ -297,7 +297,7 @@ def random_create_poses(map_file: str, count: int, seed: int, margin_m: float) -
 def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
     if value is None:
         return ()
-    out = []
+    out: list[str | dict[str, Any]] = []
     for k, entry in enumerate(r.listing(value, "metrics")):
         if isinstance(entry, str):
             out.append(entry)

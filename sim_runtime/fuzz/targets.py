@@ -184,7 +184,7 @@ class Case:
     """One input: its files in ``folder`` and how to run it."""
 
     folder: Path
-    run: Callable[[], None]
+    run: Callable[[], object]  # what it returns is ignored; only how it ends counts
     note: str = ""
 
 

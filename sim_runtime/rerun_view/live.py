@@ -9,6 +9,7 @@ message to the same :class:`~sim_runtime.rerun_view.logger.RerunLogger` that ``b
 from __future__ import annotations
 
 import copy
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,7 +43,7 @@ class LiveView:
             return
         self.logger.add_topics({topic: type_name(msg_type)})
         self.subscriptions[topic] = self.node.create_subscription(
-            msg_type, topic, lambda msg, t=topic: self._on_message(t, msg), qos
+            msg_type, topic, functools.partial(self._on_message, topic), qos
         )
         self.update_layout()
 
@@ -111,7 +112,8 @@ def attach_live_view(
             # stepped in bulk (node.step(n), real_time_factor 0).
             qos = copy.copy(pub.qos_profile)
             qos.depth = max(qos.depth, SUBSCRIPTION_DEPTH)
-            view.subscribe(pub.topic_name, pub.msg_type, qos)
+            # rclpy annotates Publisher.msg_type as a message instance; it holds the message class.
+            view.subscribe(pub.topic_name, pub.msg_type, qos)  # type: ignore[arg-type]
     view.update_layout()
     if discover:
         view._timer = node.create_timer(DISCOVERY_PERIOD, view.discover)

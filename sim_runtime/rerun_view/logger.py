@@ -417,6 +417,7 @@ class RerunLogger:
         """
         white = rrb.Background(kind="SolidColor", color=[255, 255, 255])
         robots = sorted(set(self._topic_robots) | set(self._robots))
+        tabs: list[rrb.View]
         if self.planar:
             tabs = [
                 rrb.Spatial2DView(
@@ -446,7 +447,7 @@ class RerunLogger:
                 text_log_columns=[rrb.encodings.TextLogColumn("LogLevel"), rrb.encodings.TextLogColumn("Body")],
             )
             side.append(rrb.TextLogView(origin="/events", name="Events", columns=columns))
-        main = rrb.Tabs(*tabs, active_tab=0)
+        main: rrb.Container = rrb.Tabs(*tabs, active_tab=0)
         if side:
             column = rrb.Vertical(*side, row_shares=[3, 2]) if len(side) == 2 else side[0]
             main = rrb.Horizontal(main, column, column_shares=[3, 2])
@@ -751,7 +752,7 @@ class RerunLogger:
             s.times.clear()
             s.values.clear()
 
-    def _event(self, robot: str, text: str, level: str) -> None:
+    def _event(self, robot: str, text: str, level: rr.TextLogLevel) -> None:
         if not self.has_events:
             self.has_events = True
             self.layout_version += 1
@@ -897,7 +898,7 @@ class RerunLogger:
         hit = np.isfinite(ranges) & (ranges > 0.0)
         r, a = ranges[hit], angles[hit]
         pts = np.column_stack([r * np.cos(a), r * np.sin(a)]).astype(np.float32)
-        colors = [LIDAR_COLOR]
+        colors: list[tuple[int, int, int]] | np.ndarray = [LIDAR_COLOR]
         if len(msg.intensities) == ranges.size:
             # SIMROBOT: intensity = obstacle number, 1 wall, 2–255 a robot
             obstacle = np.asarray(msg.intensities)[hit]
@@ -982,10 +983,14 @@ class RerunLogger:
         if active:
             reach = float(msg.max_range) if msg is not None and math.isfinite(msg.max_range) else 0.0
             color = CONTACT_COLOR if contact else DETECTOR_COLOR
-            shapes = [rr.Points2D([[0.0, 0.0]], radii=rr.Radius.ui_points(6.0), colors=[color], draw_order=45)]
+            shapes: list[rr.AsComponents] = [
+                rr.Points2D([[0.0, 0.0]], radii=rr.Radius.ui_points(6.0), colors=[color], draw_order=45)
+            ]
             if reach > 0:  # the IR wall sensor sees along a line
                 shapes.append(
-                    rr.LineStrips2D([[[0, 0], [reach, 0]]], radii=rr.Radius.ui_points(3), colors=[color], draw_order=45)
+                    rr.LineStrips2D(
+                        [[[0.0, 0.0], [reach, 0.0]]], radii=rr.Radius.ui_points(3), colors=[color], draw_order=45
+                    )
                 )
             self.rec.log(lit, *shapes)
             if robot is not None and (contact or crash):
@@ -1130,13 +1135,15 @@ class RerunLogger:
         color = _rgba(m.color)
         alpha = FADED_MARKERS.get(m.ns)
         if alpha is not None:  # blended towards the white background: 2-D lines are opaque
-            color = (*tuple(int(round(255 - alpha * (255 - c))) for c in color[:3]), 255)
+            r, g, b = (int(round(255 - alpha * (255 - c))) for c in color[:3])
+            color = (r, g, b, 255)
         pts = _points(m.points)[:, :2]
         colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
         width = rr.Radius.ui_points(1.5) if alpha is not None else max(m.scale.x, 1e-3) / 2
         p = m.pose.position
         transform = _yaw_transform(p.x, p.y, yaw_from_quaternion(m.pose.orientation))
         grew = False
+        shape: rr.AsComponents
         if is_map and static:
             before = (self._map_lo.copy(), self._map_hi.copy())
             self._grow_map(pts + np.array([p.x, p.y]) if len(pts) else np.array([[p.x, p.y]]))
@@ -1176,6 +1183,7 @@ class RerunLogger:
             self._mesh(entity, m, color)
             return
         transform = _pose_transform(m.pose)
+        shape: rr.AsComponents
         if m.type in (SPHERE, TEXT):
             label = [m.text] if m.text and m.type == TEXT else None
             radius = m.scale.x / 2 if m.type == SPHERE else 0.01

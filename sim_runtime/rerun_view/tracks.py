@@ -17,7 +17,7 @@ import numpy as np
 
 from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
-from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, outline_at, robot_color, robot_outlines
+from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, Outline, outline_at, robot_color, robot_outlines
 from sim_runtime.track_plot import draw_tracks
 
 RASTER_RESOLUTION = 0.01
@@ -63,7 +63,7 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     outline_topics = {
         t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "robots" and kind.endswith("/MarkerArray")
     }
-    outlines = []
+    outlines: list[Outline] = []
 
     points: dict[str, list[tuple[float, float]]] = {}
     grid = None
@@ -87,7 +87,7 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     names = sorted(points)
     data = TrackData(
         tracks={n: np.array(points[n], dtype=float) for n in names},
-        colors={n: tuple(c / 255 for c in _color(n, names, points[n][0], outlines)) for n in names},
+        colors={n: _color(n, names, points[n][0], outlines) for n in names},
     )
     if grid is not None:
         info = grid.info
@@ -99,10 +99,13 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
     return data
 
 
-def _color(name: str, names: list[str], start: tuple[float, float], outlines: list) -> tuple[int, int, int]:
-    """The world's colour for the robot (its outline at its start), else the views' palette."""
+def _color(
+    name: str, names: list[str], start: tuple[float, float], outlines: list[Outline]
+) -> tuple[float, float, float]:
+    """The world's colour for the robot (its outline at its start), else the views' palette; rgb 0–1."""
     outline = outline_at(outlines, *start)
-    return outline.color if outline is not None else robot_color(name, names)
+    r, g, b = outline.color if outline is not None else robot_color(name, names)
+    return r / 255, g / 255, b / 255
 
 
 def _marker_segments(marker) -> np.ndarray:
