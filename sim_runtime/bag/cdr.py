@@ -36,10 +36,10 @@ def _positions(data: np.ndarray, starts: np.ndarray, ends: np.ndarray, strings_b
             if origin + pos + 4 > end:
                 fits = False
                 break
-            length = 0
+            length = np.int64(0)
             for k in range(4):
                 length |= np.int64(data[origin + pos + k]) << (8 * k)
-            pos += 4 + length
+            pos += 4 + int(length)
         pos = (pos + 7) & ~7
         if not fits or origin + pos + 16 > end:
             continue

@@ -26,6 +26,7 @@ from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, BinaryIO
 
 import numba
 import numpy as np
@@ -75,7 +76,7 @@ def _message_records(records: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     n = 0
     pos = 0
     while pos + 9 <= size:
-        length = 0
+        length = np.int64(0)
         for k in range(8):
             length |= np.int64(records[pos + 1 + k]) << (8 * k)
         body = pos + 9
@@ -89,7 +90,7 @@ def _message_records(records: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
             n += 1
         if length < 0 or body + length > size:
             break
-        pos = body + length
+        pos = body + int(length)
     return channels[:n], times[:n], offsets[:n]
 
 
@@ -104,9 +105,9 @@ class BagIndex:
         self.end_ns = bag.end_ns
         # The chunk table: (file number, ChunkIndex) of a file's chunk, or (-1, list of inline
         # messages' bytes) for a file read by scanning.
-        self._chunk_table: list[tuple[int, object]] = []
+        self._chunk_table: list[tuple[int, Any]] = []  # (file number, its ChunkIndex) or (-1, messages)
         self._cache: OrderedDict[int, bytes] = OrderedDict()
-        self._streams: dict[int, object] = {}
+        self._streams: dict[int, BinaryIO] = {}
         parts: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
         for number, info in enumerate(bag._infos):
             topics_by_channel = {cid: ch.topic for cid, ch in info.channels.items()}
@@ -197,7 +198,7 @@ class BagIndex:
             parts.setdefault(topic, []).append((arr[:, 0], np.full(len(arr), row, np.int32), arr[:, 1]))
 
     # ------------------------------------------------------------------ reading
-    def _stream(self, number: int):
+    def _stream(self, number: int) -> BinaryIO:
         stream = self._streams.get(number)
         if stream is None:
             stream = self._streams[number] = self.bag.files[number].open("rb")
