@@ -56,7 +56,7 @@ REPUBLISH_PERIOD = 0.5
 class _RobotIO:
     """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
 
-    __slots__ = ("pubs", "msgs", "odom_pub", "odom", "pose_pub", "pose", "crashed_pub", "subs", "services")
+    __slots__ = ("pubs", "msgs", "odom_pub", "odom", "pose_pub", "pose", "crashed_pub", "power_pub", "subs", "services")
 
 
 class SimrobotWorldNode(SimWorldNode):
@@ -100,6 +100,7 @@ class SimrobotWorldNode(SimWorldNode):
         self._markers = self._marker_msgs()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
+            self._io[i].power_pub.publish(Bool(data=bool(self.model.power[i])))
         self.tf = TfBroadcaster(self)
         # /tf messages reused every step: rclpy serialises on publish
         self._odom_tf = [
@@ -156,6 +157,7 @@ class SimrobotWorldNode(SimWorldNode):
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
         io.crashed_pub = self.create_publisher(Bool, f"{name}/crashed", LATCHED_QOS)
+        io.power_pub = self.create_publisher(Bool, f"{name}/power", LATCHED_QOS)
         io.subs = [
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
@@ -274,6 +276,7 @@ class SimrobotWorldNode(SimWorldNode):
 
     def _on_set_power(self, i: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.model.set_power(i, request.data)
+        self._io[i].power_pub.publish(Bool(data=bool(request.data)))
         response.success = True
         response.message = f"{self.model.names[i]} power {'on' if request.data else 'off'}"
         return response

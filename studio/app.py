@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from nicegui import app, ui  # noqa: PLC0415 - the web stack loads only when the studio runs
 
-    from studio import config_page, map_page, sim_page  # noqa: PLC0415
+    from studio import config_page, map_page, sim_page, simrobot_editor_page, simrobot_page  # noqa: PLC0415
     from studio.ros_client import StudioRos  # noqa: PLC0415
 
     studio = Studio(workspace=workspace, controllers=controllers)
@@ -123,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     sim_page.register(studio)
     map_page.register(studio)
     config_page.register(studio)
+    simrobot_page.register(studio)
+    simrobot_editor_page.register(studio)
     print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
     ui.run(
         host=options.host,
@@ -161,7 +163,13 @@ def nav(current: str) -> None:
 
     with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
         ui.label("robot_sims studio").classes("text-lg font-bold")
-        for target, text in (("/", "Simulator"), ("/map", "Map maker"), ("/config", "Config maker")):
+        for target, text in (
+            ("/", "Simulator"),
+            ("/map", "Map maker"),
+            ("/config", "Config maker"),
+            ("/simrobot", "SIMROBOT"),
+            ("/simrobot/editor", "SIMROBOT editor"),
+        ):
             link = ui.link(text, target).classes("text-base")
             if target == current:
                 link.classes("font-bold no-underline")
