@@ -193,7 +193,9 @@ class EditorPage:
                 map_svg(self.view, self.map_url, self.doc.walls.shape, self.doc.resolution, self.doc.origin)
             )
         v = self.view  # the transform, for tests that click at a point in metres
-        parts = [f'<g class="view" data-centre-x="{v.centre_x!r}" data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>']
+        parts = [
+            f'<g class="view" data-centre-x="{v.centre_x!r}" data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
+        ]
         for i, robot in enumerate(self.doc.robots):
             pose = (*robot.position, robot.heading)
             for sensor in robot.sensors:

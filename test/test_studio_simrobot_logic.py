@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from sim_runtime.errors import InputError
-from simrobot_sim.world_file import DEFAULT_SHAPE, SensorSpec, load_map, load_world
+from simrobot_sim.world_file import load_map, load_world
 from studio.simrobot_doc import WorldDraft, blank_walls, map_image, new_sensor, paint_disc, parse_vertices
 
 
