@@ -170,15 +170,23 @@ class SimrobotRos(StudioRos):
     def __init__(self) -> None:
         self._worlds: dict[str, _World] = {}
         self.worlds: dict[str, WorldState] = {}
+        self._forget: set[str] = set()
         super().__init__()
+
+    def forget(self, ns: str) -> None:
+        """Drop what is known of the world in ``ns`` (restarted with another file): the next
+        discovery round follows it afresh, reading its file again."""
+        self._forget.add(ns)
 
     def _discover(self) -> None:
         """Follow every namespace with a SIMROBOT world (a ``robots`` MarkerArray topic); forget a
         world whose publisher has gone."""
         now = time.monotonic()
+        forget, self._forget = self._forget, set()
         for ns, world in list(self._worlds.items()):
             world.ask_world_file()
-            if self.node.count_publishers(world.state.topic("robots")) == 0 and now - world.state.last_heard > 2.0:
+            gone = self.node.count_publishers(world.state.topic("robots")) == 0 and now - world.state.last_heard > 2.0
+            if gone or ns in forget:
                 print(f"studio: the SIMROBOT world in {ns or '/'} has gone", flush=True)
                 world.destroy()
                 del self._worlds[ns]

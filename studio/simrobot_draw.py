@@ -21,7 +21,15 @@ from studio.simrobot_doc import png_bytes
 BEAM_COLOUR = "#16a34a"
 HIT_COLOUR = "#dc2626"
 MAX_DRAWN_RAYS = 60
+MAX_TRACK_POINTS = 200
+"""A longer track is thinned to this many points for drawing (whole pixels)."""
 """A sensor with more rays is drawn with this many (its fan's shape is the same)."""
+
+
+def _int_points(px: np.ndarray, py: np.ndarray) -> str:
+    """``x,y,x,y,…`` rounded to whole pixels: one str() per number, fast for long lines."""
+    xy = np.rint(np.column_stack([px, py])).astype(np.int64)
+    return ",".join(map(str, xy.ravel().tolist()))
 
 
 def map_data_url(walls: np.ndarray) -> str:
@@ -100,12 +108,13 @@ def beams_svg(
     ranges: np.ndarray | None = None,
     nearest: float | None = None,
     sensor_model: str = "exact",
+    rays_drawn: bool = False,
 ) -> str:
     """One sensor's rays from its mount on the robot at ``pose``.
 
     Without readings (the editor's preview) every ray is drawn to the sensor's range. A laser's
-    ``ranges`` end each ray at its hit (a red dot); an ultrasonic's ``nearest`` draws the fan to
-    its range and a red arc where the nearest ray hit."""
+    ``ranges`` end each ray at its hit (a red dot); an ultrasonic is drawn as its cone (every ray
+    with ``rays_drawn``), its ``nearest`` as a red arc where the nearest ray hit."""
     sx, sy, axis = sensor_mount(robot, sensor)
     c, s = math.cos(pose[2]), math.sin(pose[2])
     ox, oy = pose[0] + c * sx - s * sy, pose[1] + s * sx + c * sy
@@ -121,15 +130,30 @@ def beams_svg(
         lengths = np.full(len(offsets), sensor.range)
         hit = np.zeros(len(offsets), dtype=bool)
     angles = pose[2] + axis + offsets
-    ex, ey = ox + lengths * np.cos(angles), oy + lengths * np.sin(angles)
     opx, opy = (float(v) for v in view.to_px(ox, oy))
-    epx, epy = view.to_px(ex, ey)
-    d = "".join(f"M{opx:.1f} {opy:.1f}L{a:.1f} {b:.1f}" for a, b in zip(epx.tolist(), epy.tolist(), strict=True))
-    parts = [
-        f'<path class="beam {kind}" data-sensor="{robot.name}/{sensor.name}" d="{d}" stroke="{BEAM_COLOUR}" '
-        'stroke-width="0.8" stroke-opacity="0.6" fill="none"/>'
-    ]
+    if kind == "ultrasonic" and not rays_drawn:
+        # a sonar's cone: one wedge (two edges and the arc at its range), not every ray
+        lo, hi = float(angles.min()), float(angles.max())
+        r_px = sensor.range * view.scale
+        ax, ay = opx + r_px * math.cos(lo), opy - r_px * math.sin(lo)
+        bx, by = opx + r_px * math.cos(hi), opy - r_px * math.sin(hi)
+        large = 1 if hi - lo > math.pi else 0
+        d = f"M{opx:.0f} {opy:.0f}L{ax:.0f} {ay:.0f}A{r_px:.0f} {r_px:.0f} 0 {large} 0 {bx:.0f} {by:.0f}Z"
+        parts = [
+            f'<path class="beam {kind}" data-sensor="{robot.name}/{sensor.name}" d="{d}" stroke="{BEAM_COLOUR}" '
+            'stroke-width="0.8" stroke-opacity="0.6" fill="#16a34a" fill-opacity="0.08"/>'
+        ]
+    else:
+        ex, ey = ox + lengths * np.cos(angles), oy + lengths * np.sin(angles)
+        epx, epy = view.to_px(ex, ey)
+        ends = np.rint(np.column_stack([epx, epy])).astype(np.int64).tolist()
+        d = "".join(f"M{opx:.0f} {opy:.0f}L{a} {b}" for a, b in ends)
+        parts = [
+            f'<path class="beam {kind}" data-sensor="{robot.name}/{sensor.name}" d="{d}" stroke="{BEAM_COLOUR}" '
+            'stroke-width="0.8" stroke-opacity="0.6" fill="none"/>'
+        ]
     if hit.any():
+        epx, epy = view.to_px(ox + lengths * np.cos(angles), oy + lengths * np.sin(angles))
         dots = "".join(f"M{a:.1f} {b:.1f}h0.1" for a, b in zip(epx[hit].tolist(), epy[hit].tolist(), strict=True))
         parts.append(
             f'<path class="hit" d="{dots}" stroke="{HIT_COLOUR}" stroke-width="4" stroke-linecap="round" fill="none"/>'
@@ -146,9 +170,117 @@ def beams_svg(
 def track_svg(view: View, points: np.ndarray, colour: Sequence[float]) -> str:
     if len(points) < 2:
         return ""
-    px, py = view.to_px(points[:, 0], points[:, 1])
-    coords = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px.tolist(), py.tolist(), strict=True))
+    if len(points) > MAX_TRACK_POINTS:  # the newest points all, older ones thinned
+        step = math.ceil(len(points) / MAX_TRACK_POINTS)
+        points = np.vstack([points[:-1:step], points[-1:]])
+    coords = _int_points(*view.to_px(points[:, 0], points[:, 1]))
     return (
         f'<polyline class="track" points="{coords}" stroke="{rgb_hex(colour)}" stroke-width="1.5" '
         'stroke-opacity="0.8" fill="none"/>'
     )
+
+
+class RobotSymbols:
+    """Each kind of robot drawn once, in ``<defs>``: its outline, heading line and sonar cones in
+    robot-local pixels. Every robot is then one ``<use>`` in a rotated, translated group (a few
+    dozen bytes each instead of its polygon's and cones' coordinates), so hundreds of robots stay
+    cheap to build here and to lay out in the browser. Rebuilt when the zoom changes."""
+
+    def __init__(self, robots: Sequence[RobotSpec], scale: float, sensor_model: str) -> None:
+        self.scale = scale
+        kinds: dict[tuple, str] = {}
+        defs = []
+        self.ids: list[str] = []
+        self.reach_px: list[float] = []
+        for robot in robots:
+            sonars = tuple(s for s in robot.sensors if s.kind == "ultrasonic")
+            key = (robot.shape, robot.scale, sonars)
+            reach = max(float(np.hypot(*(np.asarray(robot.shape) * robot.scale).T).max()) * scale, 4.0)
+            self.reach_px.append(reach)
+            if key not in kinds:
+                kinds[key] = f"robot-kind-{len(kinds)}"
+                defs.append(self._symbol(kinds[key], robot, sonars, reach, sensor_model))
+            self.ids.append(kinds[key])
+        self.defs = "<defs>" + "".join(defs) + "</defs>"
+
+    def _symbol(self, ident: str, robot: RobotSpec, sonars, reach: float, sensor_model: str) -> str:
+        k = self.scale
+        v = np.asarray(robot.shape, dtype=float) * robot.scale * k
+        points = " ".join(f"{x:.1f},{-y:.1f}" for x, y in v.tolist())
+        parts = [f'<g id="{ident}">']
+        for sensor in sonars:
+            sx, sy, axis = sensor_mount(robot, sensor)
+            offsets = ray_offsets(sensor.beamwidth, sensor.rays, sensor_model)
+            lo, hi = axis + float(offsets.min()), axis + float(offsets.max())
+            r = sensor.range * k
+            ox, oy = sx * k, -sy * k
+            ax, ay = ox + r * math.cos(lo), oy - r * math.sin(lo)
+            bx, by = ox + r * math.cos(hi), oy - r * math.sin(hi)
+            large = 1 if hi - lo > math.pi else 0
+            parts.append(
+                f'<path class="beam ultrasonic" d="M{ox:.1f} {oy:.1f}L{ax:.1f} {ay:.1f}A{r:.1f} {r:.1f} 0 {large} 0 '
+                f'{bx:.1f} {by:.1f}Z" stroke="{BEAM_COLOUR}" stroke-width="0.8" stroke-opacity="0.6" '
+                'fill="#16a34a" fill-opacity="0.08"/>'
+            )
+        parts.append(f'<polygon points="{points}" stroke="#111" stroke-width="1"/>')
+        parts.append(f'<line x1="0" y1="0" x2="{reach:.1f}" y2="0" stroke="#111" stroke-width="1.5"/>')
+        parts.append("</g>")
+        return "".join(parts)
+
+
+def robots_svg(
+    view: View,
+    robots: Sequence[RobotSpec],
+    symbols: RobotSymbols,
+    poses: np.ndarray,
+    crashed: np.ndarray,
+    *,
+    sonar_hits: Sequence[tuple[int, SensorSpec, float]] = (),
+    selected: int | None = None,
+    names: bool = True,
+    sensor_model: str = "exact",
+) -> str:
+    """Every robot at its pose (x, y, heading rows), crash crosses, the sonars' nearest-hit arcs
+    (robot index, sensor, distance in m), the selected robot ringed, names."""
+    px, py = view.to_px(poses[:, 0], poses[:, 1])
+    degrees = -np.degrees(poses[:, 2])
+    parts = []
+    hits: dict[int, list[str]] = {}
+    k = view.scale
+    for i, sensor, dist in sonar_hits:
+        if not math.isfinite(dist):
+            continue
+        sx, sy, axis = sensor_mount(robots[i], sensor)
+        offsets = ray_offsets(sensor.beamwidth, sensor.rays, sensor_model)
+        lo, hi = axis + float(offsets.min()), axis + float(offsets.max())
+        r = dist * k
+        ox, oy = sx * k, -sy * k
+        hits.setdefault(i, []).append(
+            f'<path class="hit" d="M{ox + r * math.cos(lo):.1f} {oy - r * math.sin(lo):.1f}A{r:.1f} {r:.1f} 0 0 0 '
+            f'{ox + r * math.cos(hi):.1f} {oy - r * math.sin(hi):.1f}" stroke="{HIT_COLOUR}" stroke-width="2.5" '
+            'fill="none"/>'
+        )
+    for i, (x, y, a) in enumerate(zip(px.tolist(), py.tolist(), degrees.tolist(), strict=True)):
+        robot = robots[i]
+        parts.append(
+            f'<g class="robot" data-name="{robot.name}" '
+            f'data-x="{float(poses[i, 0])!r}" data-y="{float(poses[i, 1])!r}" '
+            f'transform="translate({x:.1f} {y:.1f}) rotate({a:.1f})"><use href="#{symbols.ids[i]}" '
+            f'fill="{rgb_hex(robot.color)}"/>{"".join(hits.get(i, ()))}</g>'
+        )
+        reach = symbols.reach_px[i]
+        if crashed[i]:
+            r = reach * 0.8
+            parts.append(
+                f'<path class="crash" d="M{x - r:.1f} {y - r:.1f}L{x + r:.1f} {y + r:.1f}M{x - r:.1f} {y + r:.1f}'
+                f'L{x + r:.1f} {y - r:.1f}" stroke="{HIT_COLOUR}" stroke-width="3"/>'
+            )
+        if i == selected:
+            parts.append(
+                f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{reach + 4:.1f}" fill="none" stroke="#1d4ed8" stroke-width="2"/>'
+            )
+        if names:
+            parts.append(
+                f'<text x="{x + reach + 2:.1f}" y="{y - reach:.1f}" font-size="11" fill="#334155">{robot.name}</text>'
+            )
+    return symbols.defs + "".join(parts)

@@ -199,7 +199,7 @@ class EditorPage:
         for i, robot in enumerate(self.doc.robots):
             pose = (*robot.position, robot.heading)
             for sensor in robot.sensors:
-                parts.append(beams_svg(self.view, robot, sensor, pose))
+                parts.append(beams_svg(self.view, robot, sensor, pose, rays_drawn=True))
             parts.append(robot_svg(self.view, robot, pose, selected=i == self.selected, label=robot.name))
         self.layer.set_content("".join(parts))
 
@@ -581,6 +581,9 @@ class EditorPage:
         running = simrobot.worlds.get(ns)
         if running is not None and running.running:
             running.stop()  # "Run it" again runs the edited world
+        old = simrobot.ros.worlds.get(ns) if simrobot.ros is not None else None
+        if simrobot.ros is not None:
+            simrobot.ros.forget(ns)
         path = ws.path(self.world_name.value or "")
         args = ["--ros-args", "-p", f"world_file:={_yaml_string(str(path))}"]
         if ns:
@@ -595,7 +598,8 @@ class EditorPage:
                 self.say(f"{child.label}: {child.error_line()}", error=True)
                 return
             ros = simrobot.ros
-            if ros is not None and ns in ros.worlds and ros.worlds[ns].spec is not None:
+            st = ros.worlds.get(ns) if ros is not None else None
+            if st is not None and st is not old and st.spec is not None:
                 break
         else:
             self.say(f"{child.label} started but was not seen on ROS yet", error=True)

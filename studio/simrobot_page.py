@@ -9,6 +9,7 @@ the page writes into the drawing) and shows frames/s under the view: what the be
 from __future__ import annotations
 
 import math
+import time
 from html import escape
 
 import numpy as np
@@ -18,9 +19,10 @@ from simrobot_sim.tracks import draw_tracks
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, nav, view_image
 from studio.simrobot_client import WorldState, side
-from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
+from studio.simrobot_draw import RobotSymbols, beams_svg, map_data_url, map_svg, robots_svg, track_svg
 
 FRAME_PERIOD_S = 0.05
+TRACKS_PERIOD_S = 1.0
 RTF_OPTIONS = {0.25: "0.25×", 0.5: "0.5×", 1.0: "1× (real time)", 2.0: "2×", 4.0: "4×", 0.0: "as fast as possible"}
 LAYERS = {"beams": "Beams and hits", "tracks": "Tracks", "names": "Names"}
 FPS_JS = """
@@ -90,6 +92,9 @@ class SimrobotPage:
         self.frames = 0
         self.map_url = ""
         self.mouse_down = None
+        self.tracks_drawn = 0.0
+        self.symbols: RobotSymbols | None = None
+        self.symbols_for = None
         self.build()
         ui.timer(FRAME_PERIOD_S, self.tick)
         ui.timer(0.5, self.slow_tick)
@@ -100,6 +105,7 @@ class SimrobotPage:
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
                 self.image = view_image(self.on_mouse, self.on_wheel, "simrobot-view", "#fff")
+                self.track_layer = self.image.add_layer()  # redrawn once a second: history changes slowly
                 self.dynamic = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
                     ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
@@ -192,6 +198,9 @@ class SimrobotPage:
             self.map_url = map_data_url(spec.walls)
             self.drawn_map = (spec,)
             self.fit()
+        if self.view_dirty or time.monotonic() - self.tracks_drawn >= TRACKS_PERIOD_S:
+            self.tracks_drawn = time.monotonic()
+            self.track_layer.set_content(self.tracks_svg(st) if "tracks" in self.layers else "")
         if self.view_dirty or st.seq != self.drawn_seq:
             self.drawn_seq = st.seq
             self.view_dirty = False
@@ -211,33 +220,37 @@ class SimrobotPage:
             f'<g class="frame" data-n="{self.frames}" data-sim-time="{st.sim_time!r}" data-centre-x="{v.centre_x!r}" '
             f'data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
         ]
-        robots, poses = st.spec.robots, st.poses
-        if "tracks" in self.layers:
-            for i, track in enumerate(st.tracks):
-                parts.append(track_svg(v, np.array(list(track)).reshape(-1, 2), robots[i].color))
-        if "beams" in self.layers:
-            model = st.spec.sensor_model
+        robots, poses, model = st.spec.robots, st.poses, st.spec.sensor_model
+        if self.symbols is None or self.symbols.scale != v.scale or self.symbols_for is not st.spec:
+            self.symbols, self.symbols_for = RobotSymbols(robots, v.scale, model), st.spec
+        beams = "beams" in self.layers
+        if beams:
             for k, (i, sensor) in enumerate(st.sensors):
-                pose = poses[i]
                 if sensor.kind == "laser":
-                    parts.append(beams_svg(v, robots[i], sensor, pose, ranges=st.scans.get(k), sensor_model=model))
-                else:
-                    parts.append(
-                        beams_svg(v, robots[i], sensor, pose, nearest=float(st.nearest[k]), sensor_model=model)
-                    )
-        names = "names" in self.layers
-        for i, robot in enumerate(robots):
-            parts.append(
-                robot_svg(
-                    v,
-                    robot,
-                    poses[i],
-                    selected=i == self.robot,
-                    crashed=bool(st.crashed[i]),
-                    label=robot.name if names else "",
-                )
+                    parts.append(beams_svg(v, robots[i], sensor, poses[i], ranges=st.scans.get(k), sensor_model=model))
+        nearest = st.nearest.tolist()
+        sonar_hits = [(i, s, nearest[k]) for k, (i, s) in enumerate(st.sensors) if s.kind != "laser"] if beams else []
+        parts.append(
+            robots_svg(
+                v,
+                robots,
+                self.symbols,
+                poses,
+                st.crashed,
+                sonar_hits=sonar_hits,
+                selected=self.robot,
+                names="names" in self.layers,
+                sensor_model=model,
             )
+        )
         return "".join(parts)
+
+    def tracks_svg(self, st: WorldState) -> str:
+        robots = st.spec.robots
+        return "".join(
+            track_svg(self.view, np.array(list(track)).reshape(-1, 2), robots[i].color)  # list(): one atomic copy
+            for i, track in enumerate(st.tracks)
+        )
 
     def toggle(self, key: str, on: bool) -> None:
         (self.layers.add if on else self.layers.discard)(key)

@@ -178,6 +178,16 @@ def test_crash_is_published_and_services_clear_it_and_cut_power(executor, make_n
     assert world.model.poses()[1, 0] == pytest.approx(x_crash - 0.01)
 
 
+def test_the_power_flag_is_latched_and_follows_set_power(executor, make_node):
+    world = two_robot_world(executor)
+    node = make_node("power_watcher")
+    power = Collector(node, Bool, "/b/power", LATCHED_QOS)  # joins after the world started: latched
+    assert spin_until(executor, lambda: power.last is not None and power.last.data is True)
+    assert call(executor, node, SetBool, "/b/set_power", SetBool.Request(data=False)).success
+    assert spin_until(executor, lambda: power.last.data is False)
+    assert not world.model.power[1]
+
+
 def crowded_spec(steps: int = 1000) -> WorldSpec:
     rng = np.random.default_rng(7)
     walls = box_walls(70, 70, None)

@@ -135,7 +135,7 @@ def choose(driver, css: str, option: str) -> None:
 
 def robots_drawn(driver, css: str) -> dict[str, tuple[float, float]]:
     found = driver.execute_script(
-        f"return Array.from(document.querySelectorAll('{css} polygon.robot'))"
+        f"return Array.from(document.querySelectorAll('{css} .robot'))"
         ".map(p => [p.dataset.name, p.dataset.x, p.dataset.y]);"
     )
     return {name: (float(x), float(y)) for name, x, y in found or []}
@@ -143,7 +143,8 @@ def robots_drawn(driver, css: str) -> dict[str, tuple[float, float]]:
 
 def text(driver, css: str) -> str:
     """An element's text, read in one script (the page may replace the element meanwhile)."""
-    return driver.execute_script(f"const e = document.querySelector('{css}'); return e ? e.textContent : '';")
+    found = driver.execute_script(f"const e = document.querySelector('{css}'); return e ? e.innerText : '';")
+    return " ".join(found.split())
 
 
 def message(driver) -> str:
@@ -171,6 +172,7 @@ def test_a_two_robot_world_with_a_laser_is_built_in_the_editor_and_saved(browser
     choose(browser, ".simrobot-sensor-type", "laser")
     type_into(browser, ".simrobot-range", "0.8")
     wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, ".simrobot-editor-view path.beam.laser"))
+    browser.execute_script("window.scrollTo(0, 0)")
     screenshot(browser, "simrobot_editor")
     click_text(browser, "Save world")
     wait(browser, lambda d: "saved two.yaml" in message(d))
@@ -215,7 +217,6 @@ def test_run_it_shows_both_robots_moving_and_the_laser_beams(browser, ros):
     assert rays.count("M") == 30  # every ray of the laser
     assert wait(browser, lambda d: d.execute_script("return document.querySelector('.simrobot-view path.hit')"))
     wait(browser, lambda d: d.execute_script("return document.querySelector('.simrobot-view polyline.track')"))
-    screenshot(browser, "simrobot")
     for pub in pubs:
         ros.destroy_publisher(pub)
 
@@ -226,6 +227,7 @@ def test_a_clicked_robot_shows_its_info_and_can_be_powered_off(browser):
     wait(browser, lambda d: "r2" in text(d, ".simrobot-info"))
     click_text(browser, "Power off")
     wait(browser, lambda d: "power off" in text(d, ".simrobot-info"))
+    screenshot(browser, "simrobot")
 
 
 def test_pause_holds_the_world_and_step_advances_it_one_step(browser):
