@@ -282,7 +282,16 @@ class EditorPage:
                 self.set_robot(replace(r, position=(round(x - self.drag[0], 4), round(y - self.drag[1], 4))))
 
     def paint(self, x: float, y: float) -> None:
-        if self.doc.paint(x, y, self.brush_m, obstacle=self.tool == "paint"):
+        """A brush stroke from the last painted point to here (mouse events come sparse when the
+        mouse moves fast: the discs between them fill the gap)."""
+        x0, y0 = self.drag if self.drag is not None else (x, y)
+        steps = max(1, math.ceil(math.hypot(x - x0, y - y0) / (0.5 * self.brush_m)))
+        changed = False
+        for k in range(1, steps + 1):
+            t = k / steps
+            changed |= self.doc.paint(x0 + t * (x - x0), y0 + t * (y - y0), self.brush_m, obstacle=self.tool == "paint")
+        self.drag = (x, y)
+        if changed:
             self.map_dirty = self.map_unsaved = True
             self.redraw()
 
