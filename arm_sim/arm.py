@@ -1,14 +1,19 @@
 """Serial arm model: DH kinematics, inverse kinematics and dynamics, meshes (no rclpy).
 
-In the spirit of Robotics Toolbox's ``DHRobot``::
+In the spirit of Robotics Toolbox's ``DHRobot``:
 
-    from arm_sim.arm import Arm
-    arm = Arm.from_file("config/arm/irb120.yaml")
-    T = arm.fkine([0, 0.3, 0, 0, 0.5, 0])     # 4x4 world pose of the flange
-    J = arm.jacob0(q)                          # 6 x n geometric Jacobian, world frame
-    sol = arm.ikine(T, q0=None)                # IKResult(q, success, residual, searches)
-    tau = arm.rne(q, qd, qdd)                  # inverse dynamics (Newton–Euler)
-    g = arm.gravload(q)                        # gravity torques
+>>> from sim_runtime.paths import config_path
+>>> arm = Arm.from_file(config_path("arm/irb120.yaml"))
+>>> q = np.array([0.0, 0.3, 0.0, 0.0, 0.5, 0.0])
+>>> T = arm.fkine(q)                         # 4x4 world pose of the flange
+>>> arm.jacob0(q).shape                      # geometric Jacobian, world frame (v then omega)
+(6, 6)
+>>> sol = arm.ikine(T)                       # IKResult(q, success, residual, searches)
+>>> bool(sol.success) and bool(np.allclose(arm.fkine(sol.q), T, atol=1e-8))
+True
+>>> tau = arm.rne(q, 0 * q, 0 * q)           # inverse dynamics (Newton-Euler): here gravity only
+>>> bool(np.allclose(tau, arm.gravload(q)))
+True
 
 Batched variants take (m, n) arrays: ``fkine_batch``, ``jacob0_batch``, ``ikine_batch``,
 ``rne_batch``. Every kernel is a numba function in :mod:`arm_sim.kinematics`.

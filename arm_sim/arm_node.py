@@ -36,7 +36,7 @@ from arm_sim.urdf import arm_tree, arm_urdf, fixed_transforms, joint_transforms
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
 from sim_runtime.paths import mesh_uri, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, create_sensor_publisher
 from sim_runtime.rotations import quaternions_xyzw
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
@@ -152,9 +152,9 @@ class ArmInstance:
         )
         self.index = {name: i for i, name in enumerate(arm.joint_names)}
         frame = node.frame_id
-        self.joint_pub = node.create_publisher(JointState, prefix + "joint_states", SENSOR_PUBLISHER_QOS)
-        self.marker_pub = node.create_publisher(MarkerArray, prefix + "robot_markers", SENSOR_PUBLISHER_QOS)
-        self.pose_pub = node.create_publisher(PoseStamped, prefix + "end_effector_pose", SENSOR_PUBLISHER_QOS)
+        self.joint_pub = create_sensor_publisher(node, JointState, prefix + "joint_states")
+        self.marker_pub = create_sensor_publisher(node, MarkerArray, prefix + "robot_markers")
+        self.pose_pub = create_sensor_publisher(node, PoseStamped, prefix + "end_effector_pose")
         self.description_pub = node.create_publisher(String, prefix + "robot_description", LATCHED_QOS)
         node.create_subscription(
             JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_SUBSCRIBER_QOS

@@ -96,7 +96,7 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
 
 
 def draw_arm(arm, q: np.ndarray, path: Path) -> Path:
-    """Render the arm's meshes at q with matplotlib (the seed's view limits and camera)."""
+    """Render the arm's meshes at q with matplotlib (the original's view limits and camera)."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -239,7 +239,7 @@ def _link_xml(tree: ArmTree, k: int, uri: Callable[[Path], str]) -> list[str]:
     if k > 0 and config.dynamics.mass[k - 1] > 0.0:
         dyn = config.dynamics
         inertial = offset @ _translation(*dyn.cog[k - 1])
-        I = dyn.inertia[k - 1]  # noqa: E741 (the inertia tensor's usual name)
+        I = dyn.inertia[k - 1]
         lines += [
             "    <inertial>",
             f"      {_origin(inertial)}",

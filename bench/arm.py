@@ -3,7 +3,7 @@ Robotics Toolbox for Python (if installed), STL loading, and the arm node's CPU 
 
     .venv/bin/python bench/arm.py [--ik-targets 500] [--trimesh-ascii]
 
-Goals (issue 4): FK and Jacobian >= 5x rtb's C ``ETS.eval``/``ETS.jacob0`` per call from Python;
+Goals: FK and Jacobian >= 5x rtb's C ``ETS.eval``/``ETS.jacob0`` per call from Python;
 IK >= 99 % success at >= 2x rtb's C++ ``ik_LM``; a 756k-face STL in <= 0.05 s binary and
 <= 3 s ASCII; the arm node publishing at 100 Hz with 7 links x several elements <= 10 % of a core.
 """
@@ -21,13 +21,13 @@ from pathlib import Path
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from arm_sim.arm import Arm  # noqa: E402
-from arm_sim.stl import load_stl, write_stl  # noqa: E402
-from sim_runtime.paths import config_path  # noqa: E402
+from arm_sim.arm import Arm
+from arm_sim.stl import load_stl, write_stl
+from sim_runtime.paths import config_path
 
-STL_FACES = 756_290  # the seed's largest table row
+STL_FACES = 756_290  # the original's largest table row
 
 
 def per_call(fn, args_list, repeat: int = 3) -> float:

@@ -47,8 +47,19 @@ def run(label: str, sweep: Path, episodes: int, out: Path, *extra: str) -> dict:
     before = load()
     start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-m", "sim_runtime.batch.cli", str(sweep), "--limit", str(episodes)]
-        + ["--out", str(folder), "--quiet", "--no-plots", *extra],
+        [
+            sys.executable,
+            "-m",
+            "sim_runtime.batch.cli",
+            str(sweep),
+            "--limit",
+            str(episodes),
+            "--out",
+            str(folder),
+            "--quiet",
+            "--no-plots",
+            *extra,
+        ],
         env=env,
         text=True,
         capture_output=True,

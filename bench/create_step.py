@@ -15,11 +15,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from create_world import free_poses, random_map  # noqa: E402
+from create_world import free_poses, random_map
 
-from create_sim.configfile import load_config  # noqa: E402
-from create_sim.model import CreateModel  # noqa: E402
-from sim_runtime.paths import config_path  # noqa: E402
+from create_sim.configfile import load_config
+from create_sim.model import CreateModel
+from sim_runtime.paths import config_path
 
 
 def main() -> None:

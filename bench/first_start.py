@@ -27,6 +27,7 @@ os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "f
 import rclpy  # noqa: E402
 from sensor_msgs.msg import LaserScan  # noqa: E402
 
+from sim_runtime.cli import executable_command  # noqa: E402
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS  # noqa: E402
 from sim_runtime.run import make_executor  # noqa: E402
 
@@ -51,10 +52,9 @@ def time_to_first_scan(executor, node) -> tuple[float, int]:
     scans: list[LaserScan] = []
     subscription = node.create_subscription(LaserScan, f"{NAMESPACE}/scan", scans.append, SENSOR_SUBSCRIBER_QOS)
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_DEBUG_CACHE="1")
-    code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
     start = time.monotonic()
     world = subprocess.Popen(
-        [sys.executable, "-c", code, "--ros-args", "-r", f"__ns:={NAMESPACE}"],
+        executable_command("create_world", ["--ros-args", "-r", f"__ns:={NAMESPACE}"]),
         env=env,
         cwd=ROOT,
         stdout=subprocess.PIPE,

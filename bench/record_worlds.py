@@ -12,6 +12,7 @@ is a dropped message) between the first and last message recorded. Goal: zero dr
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import signal
 import subprocess
@@ -26,6 +27,8 @@ sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 
+from sim_runtime.cli import executable_command  # noqa: E402
+
 WORLDS = {
     "create_world": ["-p", "config_file:=" + str(ROOT / "config/create/example_config.txt")],
     # 1 s steps: run 10x faster so a few seconds hold enough steps to check.
@@ -37,10 +40,9 @@ WORLDS = {
 def exe(name: str, *args: str) -> subprocess.Popen:
     """``robot_sims name args`` in its own process; its log goes to a temporary file (a pipe
     nobody reads until the end can fill up and block the process)."""
-    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
-    log = tempfile.TemporaryFile(mode="w+")
+    log = tempfile.TemporaryFile(mode="w+")  # noqa: SIM115 - read after the process ends, then closed
     process = subprocess.Popen(
-        [sys.executable, "-c", code, *args],
+        executable_command(name, args),
         cwd=ROOT,
         env=dict(os.environ, PYTHONPATH=str(ROOT)),
         stdout=subprocess.DEVNULL,
@@ -80,7 +82,7 @@ def drops(bag: Path) -> tuple[int, int, dict[str, int]]:
     for topic, times in stamps.items():
         if len(times) < 3 or len(set(times)) == 1:
             continue  # latched or one-off messages: nothing periodic to check
-        steps = sorted({round(b - a, 6) for a, b in zip(times, times[1:], strict=False) if b > a})
+        steps = sorted({round(b - a, 6) for a, b in itertools.pairwise(times) if b > a})
         period = steps[0]
         checked += 1
         expected = round((times[-1] - times[0]) / period) + 1

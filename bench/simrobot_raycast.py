@@ -1,6 +1,6 @@
 """Ray-casting speed on the issue's reference scene, single thread.
 
-Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the seed's shape at scale 3,
+Scene: 1000 x 1000 cells, border + 60 random rectangles, 20 robots (the original's shape at scale 3,
 24 cm long, or at the scale given as the first argument) each with a 683-ray, 240 degree laser of
 range 560 cells (13,660 rays per frame). Casters:
 
@@ -26,9 +26,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from simrobot_sim import raycast  # noqa: E402
-from simrobot_sim.model import SimrobotWorld  # noqa: E402
-from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec  # noqa: E402
+from simrobot_sim import raycast
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 
 N_CELLS = 1000
 N_RECTS = 60

@@ -25,10 +25,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.simrobot_scale import drive, scene  # noqa: E402
-from sim_runtime.paths import config_path  # noqa: E402
-from simrobot_sim.model import SimrobotWorld  # noqa: E402
-from simrobot_sim.world_file import load_world  # noqa: E402
+from bench.simrobot_scale import drive, scene
+from sim_runtime.paths import config_path
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import load_world
 
 
 def observe(world: SimrobotWorld) -> list[np.ndarray]:

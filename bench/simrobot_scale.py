@@ -1,6 +1,6 @@
 """How many robots a SIMROBOT world holds, on one thread and on all cores.
 
-Every robot: the seed's shape, 2 ultrasonic sensors (30 rays, 60 degrees, 0.5 m: front and rear)
+Every robot: the original's shape, 2 ultrasonic sensors (30 rays, 60 degrees, 0.5 m: front and rear)
 and one laser (181 rays, 180 degrees, 2 m), driving with random wheel speeds on a 10 m x 10 m map
 at 1 cm (1000 x 1000 cells, border + 60 rectangles).
 
@@ -10,7 +10,7 @@ at 1 cm (1000 x 1000 cells, border + 60 rectangles).
    threads up), with the ratio: the parallel model's speed-up on this machine now.
 2. World node at 10 Hz (dt = 0.1 s): one ``step()`` = physics + sensing + every topic published
    (3 sensor topics + 2 obstacle + odom + pose per robot, /robots, /clock). CPU ms per step for
-   growing N; "holds 10 Hz" = under 100 ms per step. The node keeps the seed's uint8 ids
+   growing N; "holds 10 Hz" = under 100 ms per step. The node keeps the original's uint8 ids
    (<= 254 robots).
 3. History memory over 100k steps (10 robots): flat, capped at ``history_steps``.
 
@@ -31,8 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from simrobot_sim.model import SimrobotWorld  # noqa: E402
-from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec  # noqa: E402
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 
 SENSORS = (
     SensorSpec("sonar_front", "ultrasonic", position=(0.05, 0.0), beamwidth=math.radians(60), range=0.5, rays=30),

@@ -189,7 +189,7 @@ def main() -> None:
     print(f"{os.cpu_count()} CPUs, {load()}; sim time per world {opts.sim_seconds:g} s")
     watcher = Watcher()
     demo = ROOT / "config/simrobot/demo.yaml"
-    endless = tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False)
+    endless = tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False)  # noqa: SIM115 - a world reads it
     endless.write(
         demo.read_text()
         .replace("map: demo_map.png", f"map: {demo.parent / 'demo_map.png'}")

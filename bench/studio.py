@@ -31,6 +31,8 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 os.environ.setdefault("ROS_DOMAIN_ID", str(50 + os.getpid() % 50))
 
+from sim_runtime.cli import executable_command  # noqa: E402
+
 GOAL_FPS = 10.0
 GOAL_DELAY_MS = 100.0
 GOAL_CPU = 25.0
@@ -82,8 +84,7 @@ def main() -> int:
 
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    run = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
-    world = subprocess.Popen([sys.executable, "-c", run, "create_world"], env=env, stdout=subprocess.DEVNULL)
+    world = subprocess.Popen(executable_command("create_world"), env=env, stdout=subprocess.DEVNULL)
     port = free_port()
     studio = subprocess.Popen(
         [sys.executable, "-m", "studio", "--port", str(port), "--workspace", str(ROOT)],

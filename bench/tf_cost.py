@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from create_world import bench_node, free_poses, random_map, write_map  # noqa: E402
+from create_world import bench_node, free_poses, random_map, write_map
 
 
 def main() -> None:

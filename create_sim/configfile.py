@@ -6,7 +6,7 @@ case-insensitive. Unlisted sensors are noise-free. ``imu`` rows are accepted and
 warning (the original accepted them but had no IMU). Unknown rows warn and are skipped; bad values
 raise :class:`InputError` naming file, line and value.
 
-What mean/std mean per sensor (from the seed's user manual): wall – offset of the IR range (m);
+What mean/std mean per sensor (from the original's user manual): wall – offset of the IR range (m);
 cliff – added to the signal (%); odometry and camera – proportional (0.02 = 2 %); sonar, lidar –
 added to the distance (m).
 """

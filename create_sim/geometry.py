@@ -112,9 +112,7 @@ def _segment_touches_box(x1, y1, x2, y2, bx0, by0, bx1, by1, eps) -> bool:
     f11 = (bx1 - x1) * nx + (by1 - y1) * ny
     if f00 > scale and f01 > scale and f10 > scale and f11 > scale:
         return False
-    if f00 < -scale and f01 < -scale and f10 < -scale and f11 < -scale:
-        return False
-    return True
+    return not (f00 < -scale and f01 < -scale and f10 < -scale and f11 < -scale)
 
 
 MAX_GRID_CELLS = 1_000_000

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class CreateModel:
     IR_MOUNT_ANGLE = mounts.IR_MOUNT_ANGLE_RAD  # on the perimeter, looking straight right
     VWALL_HALO = 0.45
     # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
-    VWALL_FIELDS = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
+    VWALL_FIELDS: ClassVar[dict[int, tuple[float, float]]] = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
     BUMP_FRONT_HALF = mounts.BUMP_FRONT_HALF_RAD
     CLIFF_FLOOR = 21.5
     CLIFF_LINE = 1.5
@@ -78,29 +79,29 @@ class CreateModel:
 
     def __init__(
         self,
-        world: CreateMap,
+        create_map: CreateMap,
         noise: NoiseConfig | None = None,
         rng: np.random.Generator | None = None,
         pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         for name in ("walls", "lines", "beacon_xy", "virtwalls"):
-            if not np.isfinite(getattr(world, name)).all():
+            if not np.isfinite(getattr(create_map, name)).all():
                 raise InputError(f"map {name} contain non-finite values")
         for name in ("walls", "lines", "beacon_xy"):
-            if np.abs(getattr(world, name)).max(initial=0.0) > MAX_COORDINATE_M:
+            if np.abs(getattr(create_map, name)).max(initial=0.0) > MAX_COORDINATE_M:
                 raise InputError(f"map {name} have coordinates beyond ±{MAX_COORDINATE_M:g} m")
-        if np.abs(world.virtwalls[:, :2]).max(initial=0.0) > MAX_COORDINATE_M:
+        if np.abs(create_map.virtwalls[:, :2]).max(initial=0.0) > MAX_COORDINATE_M:
             raise InputError(f"map virtwalls have coordinates beyond ±{MAX_COORDINATE_M:g} m")
-        self.world = world
+        self.map = create_map
         self.noise = noise if noise is not None else NoiseConfig()
         self.rng = rng if rng is not None else np.random.default_rng(0)
-        self.grid = SegmentGrid.build(world.walls)
-        self._lines = np.ascontiguousarray(world.lines, dtype=np.float64).reshape(-1, 4)
-        self._virtwalls = np.ascontiguousarray(world.virtwalls, dtype=np.float64).reshape(-1, 4)
+        self.grid = SegmentGrid.build(create_map.walls)
+        self._lines = np.ascontiguousarray(create_map.lines, dtype=np.float64).reshape(-1, 4)
+        self._virtwalls = np.ascontiguousarray(create_map.virtwalls, dtype=np.float64).reshape(-1, 4)
         self._vwall_ranges = np.array([self.VWALL_FIELDS[s][0] for s in (1, 2, 3)])
         self._vwall_angles = np.array([self.VWALL_FIELDS[s][1] for s in (1, 2, 3)])
-        self._beacon_xy = np.ascontiguousarray(world.beacon_xy, dtype=np.float64).reshape(-1, 2)
-        self._beacon_rgb = [tuple(float(c) for c in rgb) for rgb in world.beacon_rgb]
+        self._beacon_xy = np.ascontiguousarray(create_map.beacon_xy, dtype=np.float64).reshape(-1, 2)
+        self._beacon_rgb = [tuple(float(c) for c in rgb) for rgb in create_map.beacon_rgb]
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
@@ -197,7 +198,7 @@ class CreateModel:
 
     # ----------------------------------------------------------------------------- odometry
     def _integrate_odometry(self, dist: float, turn: float) -> None:
-        mean, std = self.noise.noise["odometry"]
+        _mean, std = self.noise.noise["odometry"]
         if dist != 0.0:
             dist += self._noise("odometry") * abs(dist)
         if turn != 0.0:
@@ -277,7 +278,7 @@ class CreateModel:
 
     def virtual_wall(self) -> bool:
         """Whether the front receiver is in any emitter's halo or field, with no wall between."""
-        if self.world.virtwalls.shape[0] == 0:
+        if self.map.virtwalls.shape[0] == 0:
             return False
         x, y, th = self._pose
         return virtual_wall_seen(
@@ -346,7 +347,7 @@ class CreateModel:
             # Camera noise is proportional ("percent"), separate draws for distance and angle.
             sightings.append(
                 BeaconSighting(
-                    self.world.beacon_ids[i],
+                    self.map.beacon_ids[i],
                     self._beacon_rgb[i],
                     d * (1.0 + self._noise("camera")),
                     a * (1.0 + self._noise("camera")),

@@ -16,7 +16,6 @@ below has to keep true:
 
 from __future__ import annotations
 
-import copy
 import math
 from collections import deque
 from collections.abc import Callable
@@ -49,7 +48,7 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, SENSOR_QOS_OVERRIDES
+from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_sensor_publisher
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
@@ -171,7 +170,7 @@ class CreateWorldNode(SimWorldNode):
         self.prefix = prefix or namespace_prefix(self.get_namespace())
         self.map_file = self._resolve(map_file, "map_file")
         self.config_file = self._resolve(config_file, "config_file")
-        self.world = self._load_world(self.map_file)
+        self.map = self._load_map(self.map_file)
         self.noise = self._load_noise(self.config_file)
         self.initial_pose = tuple(float(v) for v in pose)
 
@@ -181,12 +180,12 @@ class CreateWorldNode(SimWorldNode):
 
     def _make_model(self) -> CreateModel:
         try:
-            return CreateModel(self.world, self.noise, rng=self.rng, pose=self.initial_pose)
+            return CreateModel(self.map, self.noise, rng=self.rng, pose=self.initial_pose)
         except InputError as err:  # the pose overlaps a wall
             raise InputError(f"parameter 'initial_pose' = {list(self.initial_pose)}: {err}") from err
 
     @staticmethod
-    def _load_world(path: str) -> CreateMap:
+    def _load_map(path: str) -> CreateMap:
         if not path:
             return CreateMap()
         try:
@@ -204,7 +203,7 @@ class CreateWorldNode(SimWorldNode):
             raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
 
     def _summary(self) -> str:
-        w = self.world
+        w = self.map
         counts = (
             f"{len(w.walls)} walls, {len(w.lines)} lines, {len(w.beacon_ids)} beacons, {len(w.virtwalls)} virtual walls"
         )
@@ -216,20 +215,20 @@ class CreateWorldNode(SimWorldNode):
     def _change_map(self, value: str) -> None:
         """Live ``map_file``: the robot stays where it is, stopped; refused if that is inside a wall."""
         path = self._resolve(value, "map_file")
-        world = self._load_world(path)
+        new_map = self._load_map(path)
         x, y, theta = self.model.pose.tolist()
         try:
-            model = CreateModel(world, self.noise, rng=self.rng, pose=(x, y, theta))
+            model = CreateModel(new_map, self.noise, rng=self.rng, pose=(x, y, theta))
         except InputError as err:
             raise InputError(f"the robot at ({x:.3f}, {y:.3f}) would be inside a wall of {path}: {err}") from err
         try:
-            model.initial_pose = CreateModel(world, pose=self.initial_pose).initial_pose
+            model.initial_pose = CreateModel(new_map, pose=self.initial_pose).initial_pose
         except InputError:
             self.get_logger().warning(
                 f"initial_pose {list(self.initial_pose)} is inside a wall of {path}: reset now returns to "
                 f"({x:.3f}, {y:.3f}, {theta:.3f})"
             )
-        self.world, self.map_file, self.model = world, path, model
+        self.map, self.map_file, self.model = new_map, path, model
         self._delayed_cmds.clear()
         self._publish_map_markers()
         self.get_logger().info(f"map_file: loaded {path or 'an empty map'}")
@@ -258,8 +257,7 @@ class CreateWorldNode(SimWorldNode):
         def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
             if qos is not SENSOR_PUBLISHER_QOS:
                 return self.create_publisher(msg_type, topic, qos)
-            # a copy: rclpy writes the overrides into the profile it is given
-            return self.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=SENSOR_QOS_OVERRIDES)
+            return create_sensor_publisher(self, msg_type, topic)
 
         self.pub_odom = pub(Odometry, "odom")
         self.pub_overhead = pub(PoseStamped, "overhead_pose")
@@ -657,7 +655,7 @@ class CreateWorldNode(SimWorldNode):
 
     # ---------------------------------------------------------------- map markers
     def _publish_map_markers(self) -> None:
-        self.pub_map_markers.publish(map_markers(self.world, self.stamp()))
+        self.pub_map_markers.publish(map_markers(self.map, self.stamp()))
 
 
 def _duration(seconds: float) -> Duration:
@@ -688,7 +686,7 @@ def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.n
     return np.array([(x, y), *corners])
 
 
-def map_markers(world: CreateMap, stamp) -> MarkerArray:
+def map_markers(create_map: CreateMap, stamp) -> MarkerArray:
     """RViz markers of a map: walls, floor lines, beacons with their ids, virtual-wall halos and fields.
 
     Namespaces: ``walls`` and ``lines`` (one LINE_LIST each), ``beacons`` (a SPHERE per beacon) and
@@ -696,10 +694,10 @@ def map_markers(world: CreateMap, stamp) -> MarkerArray:
     ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids are the row index.
     """
     markers = [
-        _line_list("walls", world.walls, (0.1, 0.1, 0.1), 0.03, stamp),
-        _line_list("lines", world.lines, (0.2, 0.2, 0.9), 0.02, stamp),
+        _line_list("walls", create_map.walls, (0.1, 0.1, 0.1), 0.03, stamp),
+        _line_list("lines", create_map.lines, (0.2, 0.2, 0.9), 0.02, stamp),
     ]
-    beacons = zip(world.beacon_xy, world.beacon_rgb, world.beacon_ids, strict=True)
+    beacons = zip(create_map.beacon_xy, create_map.beacon_rgb, create_map.beacon_ids, strict=True)
     for i, ((bx, by), rgb, beacon_id) in enumerate(beacons):
         ball = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=beacon_id)
         ball.pose = pose_msg(float(bx), float(by), 0.0)
@@ -711,7 +709,7 @@ def map_markers(world: CreateMap, stamp) -> MarkerArray:
         label.color = color_msg(0.0, 0.0, 0.0)
         markers += [ball, label]
     circle = np.linspace(0.0, 2 * math.pi, 33)
-    for i, (vx, vy, vtheta, setting) in enumerate(world.virtwalls):
+    for i, (vx, vy, vtheta, setting) in enumerate(create_map.virtwalls):
         r = CreateModel.VWALL_HALO
         halo = np.column_stack([vx + r * np.cos(circle), vy + r * np.sin(circle)])
         field = virtual_wall_field(vx, vy, vtheta, setting)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+from collections.abc import Sequence
 
 from sim_runtime.executables import EXECUTABLES
 
@@ -39,6 +40,15 @@ def run(name: str, argv: list[str]) -> int:
     sys.argv = [name, *argv]
     result = main()
     return int(result or 0)
+
+
+RUN_EXECUTABLE = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
+
+
+def executable_command(name: str, args: Sequence[str] = ()) -> list[str]:
+    """argv running ``robot_sims <name> <args>`` with this interpreter, whether or not the
+    ``robot_sims`` script is on the PATH (a subprocess of a test, the studio, a benchmark)."""
+    return [sys.executable, "-c", RUN_EXECUTABLE, name, *args]
 
 
 def main() -> int:

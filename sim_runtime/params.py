@@ -21,6 +21,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -71,7 +72,10 @@ class CheckedNode(Node):
     """A node whose parameters are declared with :meth:`declare_checked`."""
 
     def __init__(self, node_name: str, **node_kwargs: Any) -> None:
-        super().__init__(node_name, **node_kwargs)
+        try:
+            super().__init__(node_name, **node_kwargs)
+        except ParameterException as err:  # rclpy's own parameters, e.g. use_sim_time:=abc
+            raise InputError(f"parameter of node {node_name!r}: {err}") from None
         self._checked: dict[str, _Spec] = {}
         self.add_pre_set_parameters_callback(self._widen_whole_numbers)
         self.add_on_set_parameters_callback(self._check_and_apply)

@@ -113,10 +113,13 @@ def resolve_input_file(value: str, parameter: str) -> Path:
     anywhere). Not found: :class:`InputError` naming the parameter and every place looked at."""
     from sim_runtime.errors import InputError
 
-    given = Path(value).expanduser()
-    places = [given] if given.is_absolute() else [Path.cwd() / given, config_dir() / given]
-    for place in places:
-        if place.is_file():
-            return place
+    try:
+        given = Path(value).expanduser()
+        places = [given] if given.is_absolute() else [Path.cwd() / given, config_dir() / given]
+        for place in places:
+            if place.is_file():
+                return place
+    except (OSError, RuntimeError) as err:  # a name too long for the file system, ~nobody
+        raise InputError(f"parameter '{parameter}' = {value!r}: not a usable file name ({err})") from None
     looked = " or ".join(str(p) for p in places)
     raise InputError(f"parameter '{parameter}' = {value!r}: no such file ({looked})")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 
@@ -48,14 +49,27 @@ def private_ros(args: Sequence[str] | None = None) -> Iterator[tuple[Context, Ex
 
 
 def drain(executor, timeout_sec: float = 1.0) -> bool:
-    """Run every callback already queued on ``executor``; True unless the timeout hit.
+    """Run every callback already queued on ``executor``, and what those callbacks queue in turn
+    (a controller's answer to the sensor readings of this step), until a round finds nothing
+    else queued; True unless the timeout hit.
 
-    The events executor handles work in arrival order, so a no-op task queued now
-    completes only after everything queued before it.
+    The events executor handles work in arrival order, so a no-op task queued now completes only
+    after everything queued before it. It is awaited with ``spin_once`` turns, not
+    ``spin_until_future_complete``: on the events executor that call keeps ~32 bytes per call,
+    which a world stepping at real_time_factor 0 made 10 MB per sim hour.
     """
-    marker = executor.create_task(lambda: None)
-    executor.spin_until_future_complete(marker, timeout_sec=timeout_sec)
-    return marker.done()
+    deadline = time.monotonic() + timeout_sec
+    while True:
+        marker = executor.create_task(lambda: None)
+        turns = 0
+        while not marker.done():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return False
+            executor.spin_once(timeout_sec=remaining)
+            turns += 1
+        if turns == 1:  # the marker was all there was
+            return True
 
 
 def spin_steps(executor, world: SimWorldNode, steps: int, idle_timeout: float = 0.01) -> int:

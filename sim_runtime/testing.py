@@ -54,7 +54,8 @@ class TfBuffer:
     """A small stand-in for tf2_ros's buffer in tests (tf2_ros is not on PyPI): keeps the latest
     transform of every frame from ``/tf`` and ``/tf_static`` and chains them.
 
-    >>> # buffer = TfBuffer(node); spin...; buffer.transform_points("map", "laser", xy)
+    Use: ``buffer = TfBuffer(node)``, spin the node's executor, then
+    ``buffer.transform_points("map", "laser", xy)``.
     """
 
     def __init__(self, node: Node) -> None:

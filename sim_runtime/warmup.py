@@ -38,7 +38,7 @@ def warm_simrobot() -> None:
     from simrobot_sim.model import SimrobotWorld
     from simrobot_sim.world_file import load_world
 
-    sensor = "{{name: {0}, type: {1}, position: [0.05, 0], axis: 0, beamwidth: 60, range: 0.5, resolution: 30}}"
+    sensor = "{{name: {0}, type: {1}, position: [0.05, 0], axis: 0, beamwidth: 60, range: 0.5, rays: 30}}"
     robot = "  - name: r{0}\n    position: [{1}, 1.55]\n    sensors:\n      - {2}\n      - {3}\n"
     robots = "".join(
         robot.format(i, x, sensor.format("us", "ultrasonic"), sensor.format("lz", "laser"))

@@ -34,7 +34,7 @@ def namespace_prefix(namespace: str) -> str:
 class _Scheduled:
     """A callback run whenever sim time crosses a multiple of its period."""
 
-    __slots__ = ("callback", "ticks_per_step", "done")
+    __slots__ = ("callback", "done", "ticks_per_step")
 
     def __init__(self, callback: Callable[[], None], ticks_per_step: float) -> None:
         self.callback = callback

@@ -53,8 +53,8 @@ def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any],
     recorder, a viewer) to the demo's executor."""
 
     from sim_runtime.run import private_ros, spin_steps
+    from sim_runtime.track_plot import draw_tracks
     from simrobot_sim.avoid import AvoidNode
-    from simrobot_sim.tracks import draw_tracks
     from simrobot_sim.world_file import load_world
     from simrobot_sim.world_node import SimrobotWorldNode
 

@@ -3,7 +3,7 @@
 Units: the public API speaks metres, radians and rad/s in the world frame (the map's lower-left
 corner is at ``origin``); internally everything is in map cells so the kernels index the matrix
 directly. The matrix ``grid[x, y]`` holds 0 free, 1 wall and the robot ids (2, 3, ... in file
-order), repainted as robots move so sensors see each other, exactly as the seed's Table 1.
+order), repainted as robots move so sensors see each other, exactly as the original's Table 1.
 
 Where it departs from the original SIMROBOT (filled robot bodies, the lateral velocity, collisions,
 the exact sensor model and the ``sensor_model: original`` option), and why: docs/differences.md.
@@ -142,7 +142,7 @@ def _cell_box(vx, vy, out):
 
 @numba.njit(cache=True, inline="always")
 def _drive(robots, r, dt):
-    # The robot's pose after one step of its wheel speeds (the seed's mmodel with the lateral
+    # The robot's pose after one step of its wheel speeds (the original's mmodel with the lateral
     # velocity rotated into the world), from the heading before the step.
     robots.wheel_speed[r, 0] += robots.wheel_accel[r, 0] * dt
     robots.wheel_speed[r, 1] += robots.wheel_accel[r, 1] * dt
@@ -232,9 +232,9 @@ def _plan_moves_parallel(shape, robots, dt, plan, chunks):
 @numba.njit(cache=True)
 def _commit_moves(grid, robots, plan, hit_by):
     """Carry out the planned moves in id order (later robots see earlier ones' new positions, as
-    the seed's sequential update): a robot whose new cells are free moves and is repainted there,
+    the original's sequential update): a robot whose new cells are free moves and is repainted there,
     else it crashes where it was. ``hit_by[r]`` > 0 marks a robot crashed into by another this
-    step (applied by the caller after the loop, as the seed)."""
+    step (applied by the caller after the loop, as the original)."""
     gflat = grid.reshape(-1)
     for r in range(robots.pose.shape[0]):
         if not plan.moving[r]:
@@ -363,9 +363,7 @@ def _robot_in_sector(qx, qy, rj, max_range, sector):
         return False  # beyond the range
     if sector.kind == _HALF_PLANE and qx * sector.mid_x + qy * sector.mid_y < -rj:
         return False  # behind a 180 degree fan
-    if sector.kind == _CONE and not _disc_meets_cone(qx, qy, d2, rj, sector.e1x, sector.e1y, sector.e2x, sector.e2y):
-        return False
-    return True
+    return sector.kind != _CONE or _disc_meets_cone(qx, qy, d2, rj, sector.e1x, sector.e1y, sector.e2x, sector.e2y)
 
 
 @numba.njit(cache=True, inline="always")
@@ -567,7 +565,7 @@ class PoseHistory:
         """All kept rows, oldest first: shape (steps, n_robots, 3)."""
         if not self._chunks:
             return np.empty((0, self.n_robots, 3), dtype=np.float32)
-        parts = self._chunks[:-1] + [self._chunks[-1][: self._fill]]
+        parts = [*self._chunks[:-1], self._chunks[-1][: self._fill]]
         return np.concatenate(parts, axis=0)
 
     def nbytes(self) -> int:
@@ -584,14 +582,14 @@ class SimrobotWorld:
 
     def __init__(self, spec: WorldSpec, *, wide_ids: bool = False, threads: int | None = None) -> None:
         """Place every robot of ``spec``. More than 254 robots need ``wide_ids=True`` (a uint16
-        matrix; the ROS node keeps the seed's uint8 ids so obstacle numbers fit ``UInt8``).
+        matrix; the ROS node keeps the original's uint8 ids so obstacle numbers fit ``UInt8``).
         ``threads``: how many threads sense and move the robots (default: the world file's
         ``threads``; 0 = every core numba may use, ``NUMBA_NUM_THREADS`` caps it). Results are
         bit for bit the same whatever the number; small worlds stay on one thread."""
         n = len(spec.robots)
         if n > MAX_ROBOTS_UINT8 and not wide_ids:
             raise InputError(
-                f"{spec.source}: robots: {n} robots, but ids are uint8 as the seed's matrix "
+                f"{spec.source}: robots: {n} robots, but ids are uint8 as the original's matrix "
                 f"(2-255): at most {MAX_ROBOTS_UINT8} robots"
             )
         if n > 65533:
@@ -671,10 +669,7 @@ class SimrobotWorld:
         for i, robot in enumerate(robots):
             for s in robot.sensors:
                 off = ray_offsets(s.beamwidth, s.rays, self.sensor_model)
-                if s.rays == 1:
-                    step = 0.0
-                else:
-                    step = s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
+                step = 0.0 if s.rays == 1 else s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
                 infos.append(
                     SensorInfo(
                         i,
@@ -806,7 +801,7 @@ class SimrobotWorld:
         else:
             _plan_moves(self.grid.shape, self._robots, self.dt, plan)
         _commit_moves(self.grid, self._robots, plan, hit_by)
-        # robot-on-robot crashes both (applied after everyone moved, as the seed)
+        # robot-on-robot crashes both (applied after everyone moved, as the original)
         self.crashed |= hit_by > 0
         self.step_count += 1
         self.history.append(self.poses())
@@ -853,7 +848,7 @@ class SimrobotWorld:
         return float(self._nearest.distance[k] * self.resolution), int(self._nearest.value[k])
 
     def read(self, robot: str, sensor: str) -> tuple[float, int] | tuple[np.ndarray, np.ndarray]:
-        """Read a sensor by names, as the seed's ``readusonic``/``readlaser``."""
+        """Read a sensor by names, as the original's ``readusonic``/``readlaser``."""
         try:
             k = self.sensor_index[(robot, sensor)]
         except KeyError:

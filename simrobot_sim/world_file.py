@@ -23,7 +23,7 @@ OBSTACLE_THRESHOLD = 128
 #: The seed's default robot outline (cells at 1 cm, heading east, pivot at 0,0), in metres.
 DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, -0.03))
 
-#: Highest robot count whose ids fit the seed's uint8 matrix (ids 2-255).
+#: Highest robot count whose ids fit the original's uint8 matrix (ids 2-255).
 MAX_ROBOTS_UINT8 = 254
 
 #: Most rays one sensor may cast per reading.
@@ -91,10 +91,10 @@ class WorldSpec:
 def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarray:
     """Read a black-and-white map image into ``walls[x, y]`` (bool, True = obstacle).
 
-    1-bit images (the seed's BMP): black is an obstacle. Greyscale (8/16-bit, palette with grey
+    1-bit images (the original's BMP): black is an obstacle. Greyscale (8/16-bit, palette with grey
     entries, or RGB whose three channels are equal): a pixel darker than ``threshold`` (of 255) is
     an obstacle. Colour images are refused (say which colour means wall by converting first).
-    The image's top row is the map's highest y, its left column x = 0 (the seed's orientation).
+    The image's top row is the map's highest y, its left column x = 0 (the original's orientation).
     """
     path = Path(path)
     if not path.is_file():
@@ -130,7 +130,7 @@ def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarra
     return np.ascontiguousarray((grey < threshold)[::-1].T)
 
 
-_SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "resolution"}
+_SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "rays", "resolution"}
 _ROBOT_KEYS = {
     "name",
     "color",
@@ -184,10 +184,14 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
     kind = entry.get("type", "ultrasonic")
     if kind not in SENSOR_TYPES:
         raise InputError(f"{where}.type: unknown sensor type {kind!r}; expected one of {', '.join(SENSOR_TYPES)}")
-    rays = entry.get("resolution", 30)
+    # ``rays``; ``resolution`` is the original's name for it (a top-level resolution is m per cell)
+    if "rays" in entry and "resolution" in entry:
+        raise InputError(f"{where}: 'rays' and 'resolution' are the same field: give one")
+    rays_key = "resolution" if "resolution" in entry else "rays"
+    rays = entry.get(rays_key, 30)
     if isinstance(rays, bool) or not isinstance(rays, int) or not 0 < rays <= MAX_RAYS:
         raise InputError(
-            f"{where}.resolution: number of rays must be a positive integer (at most {MAX_RAYS}), got {rays!r}"
+            f"{where}.{rays_key}: number of rays must be a positive integer (at most {MAX_RAYS}), got {rays!r}"
         )
     beamwidth = _number(entry.get("beamwidth", 60.0), f"{where}.beamwidth", nonneg=True)
     if beamwidth > 360.0:
@@ -342,9 +346,9 @@ def load_world(path: str | Path) -> WorldSpec:
         map: demo_map.png        # required; 1-bit or greyscale PNG/BMP, relative to this file.
                                  # Black = obstacle; greyscale pixels darker than 128/255 are
                                  # obstacles; colour images are refused. Image top row = max y.
-        resolution: 0.01         # metres per map cell (default 0.01: 1 cell = 1 cm, the seed)
+        resolution: 0.01         # metres per map cell (default 0.01: 1 cell = 1 cm, the original)
         origin: [0.0, 0.0]       # world position (m) of the map's lower-left corner
-        dt: 1.0                  # seconds per simulation step (default 1.0, the seed)
+        dt: 1.0                  # seconds per simulation step (default 1.0, the original)
         steps_limit: 300         # > 0, decimals rounded, or .inf (default); the world stops there
         lockstep: false          # true: step k+1 waits for a command from every powered,
                                  # non-crashed robot (or lockstep_timeout)
@@ -354,13 +358,13 @@ def load_world(path: str | Path) -> WorldSpec:
                                  # rules (cell-centre distances, 2-cell-wide Bresenham rays, its fan)
         threads: 0               # threads sensing and moving robots; 0 (default) = all cores.
                                  # Results are the same whatever the number.
-        robots:                  # ids are 2, 3, ... in this order (the seed's matrix values)
+        robots:                  # ids are 2, 3, ... in this order (the original's matrix values)
           - name: r1             # required, unique, a ROS name: topics live under /r1/
             position: [0.5, 0.5] # required, pivot position (m)
             heading: 0           # degrees, 0 = +x (east), counter-clockwise
-            color: [1, 1, 0]     # RGB 0-1 (seed default yellow)
+            color: [1, 1, 0]     # RGB 0-1 (the original's default: yellow)
             shape: [[-0.02, 0.03], [0, 0.04], [0.04, 0], [0, -0.04], [-0.02, -0.03]]
-                                 # polygon (m) around the pivot at 0,0; default = the seed's
+                                 # polygon (m) around the pivot at 0,0; default = the original's
             scale: 1.0           # multiplies shape and sensor positions (not ranges)
             power: true          # false: the robot does not move until set_power
             wheel_radius: 0.01   # wheel radius (m); or R, the original's name
@@ -374,7 +378,7 @@ def load_world(path: str | Path) -> WorldSpec:
                 axis: 0          # degrees from the robot's heading
                 beamwidth: 60    # degrees; rays spread evenly from -bw/2 to +bw/2
                 range: 0.30      # metres, > 0
-                resolution: 30   # number of rays, > 0
+                rays: 30         # number of rays, > 0 (or resolution, the original's name)
 
     Every error names the file, the robot (index and name) and the field.
     """

@@ -24,6 +24,7 @@ import time
 import numpy as np
 from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, LaserScan, Range
 from std_msgs.msg import Bool, UInt8
@@ -56,7 +57,7 @@ REPUBLISH_PERIOD = 0.5
 class _RobotIO:
     """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
 
-    __slots__ = ("pubs", "msgs", "odom_pub", "odom", "pose_pub", "pose", "crashed_pub", "power_pub", "subs", "services")
+    __slots__ = ("crashed_pub", "msgs", "odom", "odom_pub", "pose", "pose_pub", "power_pub", "pubs", "services", "subs")
 
 
 class SimrobotWorldNode(SimWorldNode):
@@ -375,9 +376,15 @@ class SimrobotWorldNode(SimWorldNode):
 
 
 def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:
-    probe = Node(node_name, **node_kwargs)
+    try:
+        probe = Node(node_name, **node_kwargs)
+    except ParameterException as err:  # rclpy's own parameters, e.g. use_sim_time:=abc
+        raise InputError(f"parameter of node {node_name!r}: {err}") from None
     try:
         path = probe.declare_parameter("world_file", "").value
+    except ParameterException:  # given, but not as a string
+        given = probe._parameter_overrides["world_file"].value
+        raise InputError(f"parameter 'world_file' = {given!r} is invalid: a file name is expected") from None
     finally:
         probe.destroy_node()
     if not path:

@@ -103,10 +103,10 @@ def main(argv: list[str] | None = None) -> int:
     if warning:
         print(warning, file=sys.stderr)
 
-    from nicegui import app, ui  # noqa: PLC0415 - the web stack loads only when the studio runs
+    from nicegui import app, ui
 
-    from studio import config_page, map_page, sim_page, simrobot_editor_page, simrobot_page  # noqa: PLC0415
-    from studio.ros_client import StudioRos  # noqa: PLC0415
+    from studio import config_page, map_page, sim_page, simrobot_editor_page, simrobot_page
+    from studio.ros_client import StudioRos
 
     studio = Studio(workspace=workspace, controllers=controllers)
 
@@ -144,7 +144,7 @@ VIEW_SIZE = (800, 600)
 
 def view_image(on_mouse, on_wheel, css_class: str, background: str):
     """The pan/zoom SVG drawing area both the simulator and the map maker draw on."""
-    from nicegui import ui  # noqa: PLC0415
+    from nicegui import ui
 
     image = (
         ui.interactive_image(
@@ -159,7 +159,7 @@ def view_image(on_mouse, on_wheel, css_class: str, background: str):
 
 def nav(current: str) -> None:
     """The links between the pages (the seed's three windows)."""
-    from nicegui import ui  # noqa: PLC0415
+    from nicegui import ui
 
     with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
         ui.label("robot_sims studio").classes("text-lg font-bold")

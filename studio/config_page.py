@@ -1,4 +1,4 @@
-"""The Config maker page (the seed's ConfigMakerGUI): noise per sensor and com_delay; load, save, apply."""
+"""The Config maker page (the original's ConfigMakerGUI): noise per sensor and com_delay; load, save, apply."""
 
 from __future__ import annotations
 
@@ -51,19 +51,14 @@ class ConfigMakerPage(FilePage):
                 self.delay = ui.number(value=0.0, format="%g", step=0.01, min=0.0).classes("w-28 studio-com-delay")
                 ui.label("")
                 ui.label("seconds, commands and readings").classes("text-sm text-gray-600")
-            self.file_name = ui.input("config file (in the workspace)", value="my.cfg").classes(
-                "w-96 studio-config-file"
+            self.file_controls(
+                "config file",
+                "my.cfg",
+                "config",
+                "w-96",
+                lambda: ui.button("Reset to zero", on_click=lambda: self.show(NoiseConfig())).props("dense outline"),
             )
-            with ui.row().classes("items-center gap-2"):
-                ui.button("Load", on_click=self.load).props("dense").classes("studio-config-load")
-                ui.button("Save", on_click=self.save).props("dense").classes("studio-config-save")
-                self.overwrite = ui.checkbox("overwrite")
-                ui.button("Reset to zero", on_click=lambda: self.show(NoiseConfig())).props("dense outline")
-            with ui.row().classes("items-center gap-2"):
-                self.world_select = ui.select([], label="running world").classes("w-40")
-                ui.button("Apply to the running world", on_click=self.apply_to_world).props("dense outline")
-            self.message = ui.label("").classes("text-sm break-all studio-config-message")
-        ui.timer(1.0, self.refresh_worlds)
+            self.apply_controls("config")
 
     def config(self) -> NoiseConfig:
         """The form as a NoiseConfig; InputError naming the field for a bad value."""

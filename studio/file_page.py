@@ -3,19 +3,45 @@ running worlds a saved file can be applied to."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from sim_runtime.errors import InputError
 from studio.app import Studio
 
 
 class FilePage:
-    """Base of a page that edits one workspace file. Subclasses build ``file_name``, ``overwrite``,
-    ``world_select`` and ``message`` widgets and set ``message_class``."""
+    """Base of a page that edits one workspace file: subclasses set ``message_class``, define
+    ``load``, ``save`` and ``apply_to_world``, and build their file widgets with
+    :meth:`file_controls` and :meth:`apply_controls`."""
 
     message_class = ""
 
     def __init__(self, studio: Studio) -> None:
         self.studio = studio
         self.own_file = ""  # the workspace file this page last loaded or saved: the one that may be applied
+
+    def file_controls(self, what: str, default: str, prefix: str, width: str, extra: Callable[[], None]) -> None:
+        """The file name, Load, Save and overwrite (``extra()`` adds widgets to that row); the
+        elements' classes ``studio-<prefix>-file``, ``-load``, ``-save``."""
+        from nicegui import ui
+
+        self.file_name = ui.input(f"{what} (in the workspace)", value=default).classes(f"{width} studio-{prefix}-file")
+        with ui.row().classes("items-center gap-2"):
+            ui.button("Load", on_click=self.load).props("dense").classes(f"studio-{prefix}-load")
+            ui.button("Save", on_click=self.save).props("dense").classes(f"studio-{prefix}-save")
+            self.overwrite = ui.checkbox("overwrite")
+            extra()
+
+    def apply_controls(self, prefix: str) -> None:
+        """The running-world selector, "Apply to the running world" and the message line
+        (``studio-<prefix>-message``), refreshed every second."""
+        from nicegui import ui
+
+        with ui.row().classes("items-center gap-2"):
+            self.world_select = ui.select([], label="running world").classes("w-40")
+            ui.button("Apply to the running world", on_click=self.apply_to_world).props("dense outline")
+        self.message = ui.label("").classes(f"text-sm break-all studio-{prefix}-message")
+        ui.timer(1.0, self.refresh_worlds)
 
     def say(self, text: str, error: bool = False) -> None:
         self.message.set_text(text)

@@ -1,4 +1,4 @@
-"""The Map maker page (the seed's MapMakerGUI): draw, select, move, edit, load, save, apply."""
+"""The Map maker page (the original's MapMakerGUI): draw, select, move, edit, load, save, apply."""
 
 from __future__ import annotations
 
@@ -97,25 +97,15 @@ class MapMakerPage(FilePage):
                     ui.button("Apply edit", on_click=self.apply_edit).props("dense")
                 with ui.card().classes("w-full"):
                     ui.label("File").classes("font-bold")
-                    self.file_name = ui.input("map file (in the workspace)", value="my.map").classes(
-                        "w-full studio-map-file"
-                    )
-                    with ui.row().classes("items-center gap-2"):
-                        ui.button("Load", on_click=self.load).props("dense").classes("studio-map-load")
-                        ui.button("Save", on_click=self.save).props("dense").classes("studio-map-save")
-                        self.overwrite = ui.checkbox("overwrite")
+                    self.file_controls("map file", "my.map", "map", "w-full", lambda: None)
                     ui.upload(
                         label="or upload a map file",
                         auto_upload=True,
                         max_file_size=MAX_UPLOAD_BYTES,
                         on_upload=self.upload,
                     ).props("dense flat").classes("w-full")
-                    with ui.row().classes("items-center gap-2"):
-                        self.world_select = ui.select([], label="running world").classes("w-40")
-                        ui.button("Apply to the running world", on_click=self.apply_to_world).props("dense outline")
-                    self.message = ui.label("").classes("text-sm break-all studio-map-message")
+                    self.apply_controls("map")
                 self.count_label = ui.label("").classes("text-sm")
-        ui.timer(1.0, self.refresh_worlds)
 
     # ---------------------------------------------------------------- drawing
     def redraw(self) -> None:
@@ -322,7 +312,7 @@ class MapMakerPage(FilePage):
         except (InputError, UserWarning) as err:
             self.say(str(err), error=True)
             return
-        from studio.mapedit import elements_from_map  # noqa: PLC0415
+        from studio.mapedit import elements_from_map
 
         (new,) = elements_from_map(parsed)
         self.doc.replace(self.selected, new)

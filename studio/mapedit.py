@@ -6,6 +6,7 @@ and pushes the old one on the undo stack, so undo/redo are exact.
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import NamedTuple
 
@@ -62,7 +63,7 @@ def rectangle(x1: float, y1: float, x2: float, y2: float) -> list[Segment]:
 
 def polyline(points: list[tuple[float, float]], kind: str = "wall") -> list[Segment]:
     """Segments from each point to the next (the multi-segment wall tool)."""
-    return [Segment(kind, *a, *b) for a, b in zip(points, points[1:], strict=False) if a != b]
+    return [Segment(kind, *a, *b) for a, b in itertools.pairwise(points) if a != b]
 
 
 def _point_segment_distance(px: float, py: float, s: Segment) -> float:
@@ -117,7 +118,7 @@ class MapDocument:
         self._edit([e for i, e in enumerate(self.elements) if i != index])
 
     def clear(self) -> None:
-        """Delete everything (undoable, unlike the seed's Clear)."""
+        """Delete everything (undoable, unlike the original's Clear)."""
         if self.elements:
             self._edit([])
 
@@ -152,7 +153,7 @@ class MapDocument:
         return best
 
     def next_beacon_id(self) -> str:
-        """``b1``, ``b2``, …: the first id of that form not yet used (the seed's default ids)."""
+        """``b1``, ``b2``, …: the first id of that form not yet used (the original's default ids)."""
         used = {e.id for e in self.elements if isinstance(e, Beacon)}
         n = 1
         while f"b{n}" in used:

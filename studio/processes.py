@@ -19,18 +19,16 @@ import sys
 import threading
 from pathlib import Path
 
+from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 
-RUN_EXECUTABLE = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
 RUN_FUNCTION = (
     "import importlib, sys; module, function = sys.argv[1].split(':'); sys.argv = sys.argv[1:]; "
     "sys.exit(getattr(importlib.import_module(module), function)() or 0)"
 )
 
 
-def executable_command(name: str, args: list[str]) -> list[str]:
-    """argv running ``robot_sims <name> <args>`` with this interpreter."""
-    return [sys.executable, "-c", RUN_EXECUTABLE, name, *args]
+__all__ = ["Child", "controller_command", "executable_command", "parse_controller", "world_ros_args"]
 
 
 def controller_command(target: str, ros_args: list[str]) -> list[str]:

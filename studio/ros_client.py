@@ -230,7 +230,7 @@ class StudioRos:
         try:
             while self.context.ok():
                 self.executor.spin_once(timeout_sec=0.1)
-        except Exception:  # noqa: BLE001 - shutdown races end the thread quietly
+        except Exception:
             if self.context.ok():
                 raise
 

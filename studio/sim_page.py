@@ -1,4 +1,4 @@
-"""The Simulator page (the seed's SimulatorGUI): live view, status, driving, worlds, controllers, recording."""
+"""The Simulator page (the original's SimulatorGUI): live view, status, driving, worlds, controllers, recording."""
 
 from __future__ import annotations
 

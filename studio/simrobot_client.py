@@ -259,7 +259,7 @@ def side(studio) -> SimrobotSide:
     existing = getattr(studio, "simrobot", None)
     if existing is not None:
         return existing
-    from nicegui import app  # noqa: PLC0415
+    from nicegui import app
 
     made = SimrobotSide()
     studio.simrobot = made

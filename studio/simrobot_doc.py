@@ -182,7 +182,7 @@ class WorldDraft:
         """The world as ``simrobot_world`` would load and place it; InputError with its message.
 
         ``source`` names the world file in the messages (as the command line does)."""
-        from simrobot_sim.model import SimrobotWorld  # noqa: PLC0415 - numba kernels load on first check
+        from simrobot_sim.model import SimrobotWorld
 
         with tempfile.TemporaryDirectory(prefix="simrobot_check_") as tmp:
             map_path = Path(tmp) / "map.png"

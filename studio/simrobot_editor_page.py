@@ -569,9 +569,9 @@ class EditorPage:
         ws = self.studio.workspace
         name = (self.world_name.value or "").strip()
         try:
-            if self.map_unsaved or not ws.path(self.map_name.value or "").exists():
-                if not self.save_map():
-                    return False
+            map_missing = not ws.path(self.map_name.value or "").exists()
+            if (self.map_unsaved or map_missing) and not self.save_map():
+                return False
             text = self.doc.world_yaml(self.map_ref())
             ws.write_text(name, text, overwrite=self.overwrite.value)
         except (InputError, OSError) as err:

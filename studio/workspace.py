@@ -75,7 +75,7 @@ class Workspace:
         return found
 
     def new_folder_name(self, stem: str) -> str:
-        """``stem_1``, ``stem_2``, … : the first name not taken (the seed's SimulatorOutputData_* rule)."""
+        """``stem_1``, ``stem_2``, … : the first name not taken (the original's SimulatorOutputData_* rule)."""
         n = 1
         while self.path(f"{stem}_{n}").exists():
             n += 1

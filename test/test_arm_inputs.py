@@ -51,7 +51,7 @@ def test_expressions_and_degrees_are_evaluated():
 
 
 @pytest.mark.parametrize(
-    "edit, field",
+    ("edit", "field"),
     [
         (lambda r: r["dh"].update(d=[0.29, 0, 0, 0.30, 0]), "dh.d"),
         (lambda r: r.update(joint_types="rrxrrr"), "joint_types[2]"),
@@ -178,7 +178,7 @@ def test_bad_number_in_ascii_stl_names_the_line(tmp_path):
 
 def test_missing_or_broken_mesh_fails_the_arm_unless_skipped(tmp_path):
     path = write_irb120(tmp_path, lambda r: r["links"][2]["elements"][0].update(mesh="nowhere.stl"))
-    with pytest.raises(InputError, match="nowhere.stl"):
+    with pytest.raises(InputError, match=r"nowhere\.stl"):
         Arm.from_file(path)
     arm = Arm.from_file(path, skip_missing_meshes=True)
     placeholders = [e for e in arm.elements if e.placeholder]

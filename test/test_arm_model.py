@@ -242,7 +242,7 @@ def test_ik_round_trips_on_random_reachable_targets(shipped):
     rng = np.random.default_rng(4)
     Q = random_q(shipped, rng, 300)
     targets = np.array([oracle_frames(shipped.config, q)[-1] for q in Q])
-    Qs, ok, residual = shipped.ikine_batch(targets)
+    Qs, ok, _residual = shipped.ikine_batch(targets)
     assert ok.mean() >= 0.99
     for q, target in zip(Qs[ok], targets[ok], strict=True):
         reached = oracle_frames(shipped.config, q)[-1]

@@ -6,7 +6,6 @@ import io
 import math
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.arm import Arm
 from arm_sim.arm_node import ArmNode
+from sim_runtime.cli import executable_command
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.paths import config_path, mesh_uri
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS, TF_QOS
@@ -229,7 +229,7 @@ def test_markers_carry_meshes_colours_alpha_and_fk_poses(executor, make_node):
         assert marker.mesh_resource == mesh_uri(element.element.mesh)  # file:// in a checkout
         assert Path(marker.mesh_resource[len("file://") :]).is_file()
         assert marker.header.frame_id == "world"
-        r, g, b, a = element.element.color
+        r, g, b, _a = element.element.color
         assert (marker.color.r, marker.color.g, marker.color.b) == pytest.approx((r, g, b))
         assert marker.color.a == pytest.approx(0.5)
         T = frames[element.link]
@@ -276,7 +276,7 @@ def test_broken_mesh_fails_unless_skipped(tmp_path, executor):
     (tmp_path / "IRB120_link3.stl").write_bytes((folder / "IRB120_link3.stl").read_bytes()[:500])
     from sim_runtime.errors import InputError
 
-    with pytest.raises(InputError, match="IRB120_link3.stl"):
+    with pytest.raises(InputError, match=r"IRB120_link3\.stl"):
         make_arm_node(executor, robot_config_file=str(config))
     world = make_arm_node(executor, robot_config_file=str(config), skip_missing_meshes=True)
     markers = world.arm("").markers.markers
@@ -406,7 +406,7 @@ def set_one(executor, client, name, value):
 
 
 @pytest.mark.parametrize(
-    "name,value,why",
+    ("name", "value", "why"),
     [
         ("robot_config_file", "arm/csa7.yaml", "read-only"),
         ("scene_file", "arm/workcell.yaml", "read-only"),
@@ -477,9 +477,8 @@ def test_the_node_takes_its_name_and_node_arguments(executor):
 def test_old_parameter_names_on_the_command_line_warn_and_still_name_a_bad_file(tmp_path):
     root = Path(__file__).resolve().parent.parent
     missing = tmp_path / "no_such_arm.yaml"
-    code = "import sys; from sim_runtime.cli import run; sys.exit(run('arm', sys.argv[1:]))"
     done = subprocess.run(
-        [sys.executable, "-c", code, "--ros-args", "-p", f"robot_config:={missing}", "-p", "alpha:=0.5"],
+        executable_command("arm", ["--ros-args", "-p", f"robot_config:={missing}", "-p", "alpha:=0.5"]),
         env=dict(os.environ, PYTHONPATH=str(root)),
         capture_output=True,
         text=True,
@@ -503,3 +502,12 @@ def test_without_tf2_msgs_the_arm_says_tf_is_off_once_and_keeps_working(executor
     assert spin_until(executor, lambda: states.msgs and description.msgs)
     err = capfd.readouterr().err
     assert err.count("TF is off") == 1 and "tf2_msgs is not installed" in err
+
+
+def test_the_arms_state_publishers_take_qos_overrides_at_start(executor):
+    from rclpy.qos import ReliabilityPolicy
+
+    world = make_arm_node(executor, **{"qos_overrides./joint_states.publisher.reliability": "best_effort"})
+    arm = world.arms[0]
+    assert arm.joint_pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert arm.pose_pub.qos_profile.reliability == ReliabilityPolicy.RELIABLE

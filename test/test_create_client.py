@@ -18,6 +18,7 @@ from test_create_node import Rig, make_world
 
 from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
+from sim_runtime.cli import executable_command
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.paths import config_path
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
@@ -77,7 +78,7 @@ def robot(rig):
 def test_travel_dist_drives_the_distance_and_stops(rig, robot):
     travelled = robot.travel_dist(0.2, 0.5)
     assert travelled == pytest.approx(0.5, abs=0.01)
-    x, y, theta = robot.overhead_localization()
+    x, y, _theta = robot.overhead_localization()
     assert x == pytest.approx(0.5, abs=0.015) and y == pytest.approx(0.0, abs=1e-9)
     robot.pause(0.1)  # the stop command is on its way to the world
     assert rig.world.model.command == (0.0, 0.0)
@@ -87,7 +88,7 @@ def test_travel_dist_drives_the_distance_and_stops(rig, robot):
 
 
 def test_travel_dist_speed_limits(rig, robot):
-    robot.travel_dist(5.0, 0.1)  # capped at 0.5 m/s (the seed's limit), still stops at 0.1 m
+    robot.travel_dist(5.0, 0.1)  # capped at 0.5 m/s (the original's limit), still stops at 0.1 m
     assert rig.world.model.pose[0] == pytest.approx(0.1, abs=0.015)
     robot.pause(0.1)
     start = rig.world.sim_time
@@ -227,21 +228,11 @@ def test_first_command_of_a_fresh_client_reaches_a_world_in_another_process(tmp_
     import os
     import signal
     import subprocess
-    import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parent.parent
     world = subprocess.Popen(
-        [
-            sys.executable,
-            "-c",
-            "import sys; from create_sim.world_node import main; sys.exit(main())",
-            "--ros-args",
-            "-p",
-            "map_file:=''",
-            "-r",
-            "__ns:=/fresh",
-        ],
+        executable_command("create_world", ["--ros-args", "-p", "map_file:=''", "-r", "__ns:=/fresh"]),
         env=dict(os.environ, PYTHONPATH=str(root)),
         cwd=root,
         stderr=subprocess.PIPE,
@@ -309,16 +300,7 @@ def world_process():
     """A create_world in another process (namespace /ending, free space, real time) that holds the
     last command forever, as by default: a robot left driving keeps driving."""
     world = subprocess.Popen(
-        [
-            sys.executable,
-            "-c",
-            "import sys; from create_sim.world_node import main; sys.exit(main())",
-            "--ros-args",
-            "-p",
-            "map_file:=''",
-            "-r",
-            "__ns:=/ending",
-        ],
+        executable_command("create_world", ["--ros-args", "-p", "map_file:=''", "-r", "__ns:=/ending"]),
         env=dict(os.environ, PYTHONPATH=str(ROOT)),
         cwd=ROOT,
         stderr=subprocess.PIPE,

@@ -1,4 +1,4 @@
-"""Create map and config file parsers: the seed's formats, warnings for unknown rows, errors for bad values."""
+"""Create map and config file parsers: the original's formats, warnings for unknown rows, errors for bad values."""
 
 from __future__ import annotations
 
@@ -292,7 +292,8 @@ def test_garbage_never_raises_anything_but_input_error(rows):
             try:
                 result = parser(text, "junk.txt")
             except InputError as error:
-                assert str(error).startswith("junk.txt:")
+                message = str(error)
+                assert message.startswith("junk.txt:")
                 continue
         if parser is parse_map:
             assert all(np.isfinite(a).all() for a in (result.walls, result.lines, result.beacon_xy, result.virtwalls))

@@ -6,7 +6,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -20,6 +19,7 @@ from visualization_msgs.msg import MarkerArray
 
 from create_sim.bump_turn import BumpTurnNode, demo
 from create_sim.world_node import CreateWorldNode
+from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import pose_msg, time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
@@ -380,7 +380,7 @@ def test_parameter_out_of_range_is_a_clear_error(ros, name, value):
 
 
 def test_missing_map_file_names_the_parameter_and_path(ros, tmp_path):
-    with pytest.raises(InputError, match="'map_file'.*nope.map"):
+    with pytest.raises(InputError, match=r"'map_file'.*nope\.map"):
         make_world({"map_file": str(tmp_path / "nope.map")})
 
 
@@ -541,16 +541,7 @@ def test_create_world_process_serves_another_process(executor, make_node, rtf):
     """The README's two-terminal use: `robot_sims create_world` and the user's own node."""
     root = Path(__file__).resolve().parent.parent
     world = subprocess.Popen(
-        [
-            sys.executable,
-            "-c",
-            "import sys; from create_sim.world_node import main; sys.exit(main())",
-            "--ros-args",
-            "-p",
-            f"real_time_factor:={rtf}",
-            "-r",
-            "__ns:=/e2e",
-        ],
+        executable_command("create_world", ["--ros-args", "-p", f"real_time_factor:={rtf}", "-r", "__ns:=/e2e"]),
         env=dict(os.environ, PYTHONPATH=str(root)),
         cwd=root,
         stderr=subprocess.PIPE,

@@ -24,6 +24,24 @@ def python_blocks(path: Path) -> list[str]:
     return blocks
 
 
+PACKAGES = ("create_sim", "simrobot_sim", "arm_sim", "sim_runtime", "studio")
+EXAMPLE_MODULES = sorted(
+    ".".join(path.relative_to(ROOT).with_suffix("").parts)
+    for package in PACKAGES
+    for path in (ROOT / package).rglob("*.py")
+    if ">>> " in path.read_text()
+)
+
+
+@pytest.mark.parametrize("module", EXAMPLE_MODULES)
+def test_the_docstring_examples_of_each_module_run(module):
+    import doctest
+    import importlib
+
+    failed, attempted = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert attempted > 0 and failed == 0
+
+
 def test_the_readmes_python_examples_run():
     blocks = python_blocks(ROOT / "README.md")
     assert blocks

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 from rosgraph_msgs.msg import Clock
 
+from sim_runtime.cli import executable_command
 from sim_runtime.executables import EXECUTABLES
 from sim_runtime.testing import Collector, spin_until
 
@@ -21,9 +22,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def run_exe(name: str, *args: str, **popen) -> subprocess.Popen:
     """``robot_sims <name> args...`` from this checkout, in its own process."""
-    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
     return subprocess.Popen(
-        [sys.executable, "-c", code, *args],
+        executable_command(name, args),
         cwd=ROOT,
         text=True,
         env=dict(os.environ, PYTHONPATH=str(ROOT)),
@@ -65,6 +65,20 @@ def test_bad_input_exits_2_naming_the_file(name, garbage, tmp_path):
     assert named in err and "Traceback" not in err, err
 
 
+@pytest.mark.parametrize(
+    ("name", "parameter", "named"),
+    [
+        ("simrobot_world", "world_file:=0", "'world_file' = 0"),  # a number where a file name goes
+        ("create_world", "use_sim_time:=abc", "use_sim_time"),  # one of rclpy's own parameters
+        ("create_world", "qos_overrides./scan.publisher.history:=abc", "/scan"),
+    ],
+)
+def test_a_parameter_of_the_wrong_kind_exits_2_naming_it(name, parameter, named):
+    process = run_exe(name, "--ros-args", "-p", parameter)
+    _out, err = process.communicate(timeout=120)
+    assert process.returncode == 2 and named in err and "Traceback" not in err, err
+
+
 def test_unparsable_ros_arguments_exit_2_without_a_traceback():
     process = run_exe("create_world", "--ros-args", "-p", "map_file:=")  # a parameter rule with no value
     _out, err = process.communicate(timeout=120)
@@ -72,7 +86,7 @@ def test_unparsable_ros_arguments_exit_2_without_a_traceback():
 
 
 @pytest.mark.parametrize(
-    "name,args",
+    ("name", "args"),
     [
         ("create_world", []),
         ("simrobot_world", ["-p", "world_file:=" + str(ROOT / "config/simrobot/demo.yaml")]),

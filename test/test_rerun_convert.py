@@ -245,7 +245,7 @@ def test_sensor_mounts_come_from_the_bags_tf_without_tf2_msgs(tmp_path):
 
 
 def test_unknown_type_is_skipped_with_a_warning(tmp_path):
-    msgs = create_messages(steps=5) + [("/chatter", String(data="hi"), 0.05)]
+    msgs = [*create_messages(steps=5), ("/chatter", String(data="hi"), 0.05)]
     bag = write_bag(tmp_path / "unknown.mcap", sorted(msgs, key=lambda m: m[2]))
     with pytest.warns(UserWarning, match=r"/chatter of type std_msgs/msg/String is not drawn"):
         out = bag_to_rerun(bag, tmp_path / "unknown.rrd", progress=False)
@@ -319,7 +319,8 @@ def test_odometry_is_aligned_with_truth_even_when_it_comes_first(tmp_path):
 
 
 def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
-    msgs = simrobot_messages() + [
+    msgs = [
+        *simrobot_messages(),
         ("/r1/crashed", Bool(data=False), 0.0),
         ("/r1/crashed", Bool(data=True), 3.0),
         ("/r1/crashed", Bool(data=False), 4.5),

@@ -92,7 +92,7 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     assert verify.returncode == 0, verify.stderr
     ents = load_entities(out)
     walls = column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")[0]
-    assert len(walls) == len(world.world.walls)
+    assert len(walls) == len(world.map.walls)
     assert column(ents["/top/map/map_markers/beacon_ids/0"], "Points2D:labels") == [["Red1"]]
     poses = column(ents["/top/map/robots/robot"], "Transform3D:translation")
     assert len(poses) >= 90  # 50 Hz for 2 s, a few may be in flight when recording starts

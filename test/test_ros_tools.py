@@ -165,7 +165,7 @@ def test_every_lidar_return_of_the_create_lands_on_a_wall_through_tf(executor, m
     points, _ = _scan_points(scan)
     assert len(points) > 500
     in_map = (tf.lookup("map", scan.header.frame_id) @ points.T).T[:, :2]
-    assert _segment_distance(in_map, world.world.walls).max() < 0.01
+    assert _segment_distance(in_map, world.map.walls).max() < 0.01
 
 
 def world_vector(x: float = 0.0, y: float = 0.0, z: float = 0.0):
@@ -271,7 +271,7 @@ def create_params(executor, make_node, tmp_path):
     ],
 )
 def test_ros2_param_set_refuses_bad_and_read_only_values_with_a_reason(create_params, name, value, reason):
-    world, params = create_params
+    _world, params = create_params
     before = params.get(name)
     result = params.set(name, value)
     assert not result.successful

@@ -19,7 +19,7 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.run import drain
-from sim_runtime.testing import Collector, wait_for_match
+from sim_runtime.testing import Collector, spin_until, wait_for_match
 from sim_runtime.world_node import SimWorldNode
 
 
@@ -63,9 +63,17 @@ def test_clock_and_stamped_messages_carry_sim_time(executor, make_node):
     assert wait_for_match(executor, clocks.subscription)
     assert wait_for_match(executor, values.subscription)
     world.step(10)
-    drain(executor)
+    assert spin_until(executor, lambda: len(clocks.msgs) == 10 and len(values.msgs) == 5)
     assert [time_from_msg(m.clock) for m in clocks.msgs] == pytest.approx([0.01 * k for k in range(1, 11)])
     assert [m.data for m in values.msgs] == pytest.approx([0.02, 0.04, 0.06, 0.08, 0.1])
+
+
+def test_drain_runs_every_callback_queued_before_it(executor):
+    ran: list[int] = []
+    for k in range(5):
+        executor.create_task(lambda k=k: ran.append(k))
+    assert drain(executor)
+    assert ran == [0, 1, 2, 3, 4]
 
 
 def test_parameters_are_checked_with_a_clear_error(ros):

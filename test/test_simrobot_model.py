@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from sim_runtime.track_plot import draw_tracks
 from simrobot_sim import raycast
 from simrobot_sim.model import PoseHistory, SimrobotWorld
-from simrobot_sim.tracks import draw_tracks
 from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 
 CELL = 0.01
@@ -42,7 +42,7 @@ def painted(w: SimrobotWorld, i: int) -> set[int]:
     return set(np.flatnonzero(w.grid.ravel() == w.ids[i]).tolist())
 
 
-# -- kinematics (seed-facts: [0.5 0.5] = 0.5 cell/step, [0 0.5] = 0.25 cell + 4.77 deg, [1 1] = 1 cell)
+# -- kinematics (the original's figures: [0.5 0.5] = 0.5 cell/step, [0 0.5] = 0.25 cell + 4.77 deg, [1 1] = 1 cell)
 @pytest.mark.parametrize(
     ("wheels", "dx_cells", "dtheta_deg"),
     [((0.5, 0.5), 0.5, 0.0), ((1.0, 1.0), 1.0, 0.0), ((0.0, 0.5), 0.25, 4.7746), ((0.5, 0.0), 0.25, -4.7746)],
@@ -53,7 +53,7 @@ def test_seed_kinematics_examples(wheels, dx_cells, dtheta_deg):
     w.step()
     x, y, h = w.poses()[0]
     assert x == pytest.approx(0.5 + dx_cells * CELL, abs=1e-12)
-    assert y == pytest.approx(0.5, abs=1e-12)  # the step uses the heading before it, as the seed
+    assert y == pytest.approx(0.5, abs=1e-12)  # the step uses the heading before it, as the original
     assert math.degrees(h) == pytest.approx(dtheta_deg, abs=1e-3)
 
 
@@ -73,7 +73,7 @@ def test_lateral_offset_lb_is_rotated_into_the_world_frame():
     w.step()
     x, y, h = w.poses()[0]
     omega = 0.01 * 0.5 / 0.06
-    assert x == pytest.approx(0.5 - 0.01 * omega, abs=1e-12)  # the seed added this along the heading
+    assert x == pytest.approx(0.5 - 0.01 * omega, abs=1e-12)  # the original added this along the heading
     assert y == pytest.approx(0.5 + 0.0025, abs=1e-12)
     assert h == pytest.approx(math.pi / 2 + omega)
 

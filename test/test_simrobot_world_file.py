@@ -141,6 +141,12 @@ def test_duplicate_robot_names(tmp_path):
         load_world(write_world(tmp_path, [{"name": "a", "position": [0.5, 0.5]}, {"name": "a", "position": [1, 0.5]}]))
 
 
+def test_a_sensors_ray_count_is_rays_or_the_originals_resolution(tmp_path):
+    for key in ("rays", "resolution"):
+        robot = {"name": "a", "position": [0.5, 0.5], "sensors": [{"name": "s", key: 12}]}
+        assert load_world(write_world(tmp_path, [robot])).robots[0].sensors[0].rays == 12
+
+
 @pytest.mark.parametrize(
     ("sensor", "message"),
     [
@@ -150,6 +156,8 @@ def test_duplicate_robot_names(tmp_path):
         ({"name": "s", "resolution": 0}, r"sensors\[0\]\.resolution: .*positive integer"),
         ({"name": "s", "resolution": -5}, r"sensors\[0\]\.resolution: .*positive integer"),
         ({"name": "s", "resolution": 2.5}, r"sensors\[0\]\.resolution"),
+        ({"name": "s", "rays": 0}, r"sensors\[0\]\.rays: .*positive integer"),
+        ({"name": "s", "rays": 8, "resolution": 8}, r"sensors\[0\]: 'rays' and 'resolution' are the same field"),
         ({"name": "s", "range": float("nan")}, r"sensors\[0\]\.range: must be finite"),
         ({"name": "s", "beam": 3}, r"unknown field\(s\) 'beam'"),
     ],
@@ -193,7 +201,7 @@ def test_bad_robot_fields(tmp_path, robot, message):
 def test_too_many_robots_for_uint8_ids(tmp_path):
     robots = [{"name": f"r{i}", "position": [0.05 + 0.1 * (i % 14), 0.05 + 0.1 * (i // 14)]} for i in range(255)]
     spec = load_world(write_world(tmp_path, robots))
-    with pytest.raises(InputError, match="255 robots.*uint8.*at most 254"):
+    with pytest.raises(InputError, match=r"255 robots.*uint8.*at most 254"):
         SimrobotWorld(spec)
 
 

@@ -48,6 +48,7 @@ from visualization_msgs.msg import MarkerArray  # noqa: E402
 
 from create_sim.configfile import load_config  # noqa: E402
 from create_sim.mapfile import load_map  # noqa: E402
+from sim_runtime.cli import executable_command  # noqa: E402
 from sim_runtime.msgs import yaw_from_quaternion  # noqa: E402
 from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS  # noqa: E402
 from sim_runtime.testing import Collector, spin_until  # noqa: E402
@@ -443,9 +444,9 @@ def test_pause_holds_the_world_and_step_advances_it_one_physics_step(browser, st
 def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and_goes_when_it_stops(
     browser, studio_url
 ):
-    code = "import sys; from sim_runtime.cli import run; sys.exit(run('create_world', sys.argv[1:]))"
     args = ["--ros-args", "-r", "__ns:=/other", "-r", "/clock:=/other/clock", "-p", "initial_pose:=[3.0, 0.0, 0.0]"]
-    other = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT, stdout=subprocess.DEVNULL, env=studio_env())
+    env = studio_env()
+    other = subprocess.Popen(executable_command("create_world", args), cwd=ROOT, stdout=subprocess.DEVNULL, env=env)
     try:
         open_page(browser, studio_url + "/")
         drawn = "return [...document.querySelectorAll('.studio-view text')].map(t => t.textContent)"

@@ -13,6 +13,7 @@ import pytest
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState, LaserScan
 
+from sim_runtime.cli import executable_command
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until
 
@@ -33,7 +34,7 @@ def warmed_up():
 
 
 @pytest.mark.parametrize(
-    "name,args,topic,msg_type",
+    ("name", "args", "topic", "msg_type"),
     [
         ("create_world", ["-r", "__ns:=/warm_create"], "/warm_create/scan", LaserScan),
         (
@@ -49,9 +50,8 @@ def test_after_the_warm_up_a_worlds_first_start_compiles_no_kernel(
     name, args, topic, msg_type, warmed_up, executor, make_node
 ):
     received = Collector(make_node("warm_probe"), msg_type, topic, SENSOR_SUBSCRIBER_QOS)
-    code = f"import sys; from sim_runtime.cli import run; sys.exit(run({name!r}, sys.argv[1:]))"
     world = subprocess.Popen(
-        [sys.executable, "-c", code, "--ros-args", *args],
+        executable_command(name, ["--ros-args", *args]),
         cwd=ROOT,
         env=dict(ENV, NUMBA_DEBUG_CACHE="1"),  # numba reports each kernel it loads or compiles+saves
         stdout=subprocess.PIPE,
@@ -63,7 +63,7 @@ def test_after_the_warm_up_a_worlds_first_start_compiles_no_kernel(
         assert received.msgs, world.communicate()[1]
     finally:
         world.send_signal(signal.SIGINT)
-        out, err = world.communicate(timeout=60)
+        out, _err = world.communicate(timeout=60)
     assert "data loaded from" in out  # the kernels came from the cache...
     compiled = [line for line in out.splitlines() if "data saved to" in line]
     assert compiled == [], f"{name} compiled kernels the warm-up missed: {compiled}"  # ...none compiled

@@ -120,7 +120,7 @@ class BagMessage:
             cls = message_class(self.type, self.topic)
             try:
                 self._msg = deserialize_message(self.data, cls)
-            except Exception as exc:  # noqa: BLE001 - rmw raises its own error types
+            except Exception as exc:
                 raise CorruptMessage(
                     f"topic {self.topic} at log time {self.log_time_ns} ns: cannot deserialise "
                     f"{len(self.data)} bytes as {self.type} ({exc})"
@@ -189,7 +189,7 @@ class Bag:
         try:
             with path.open("rb") as stream:
                 summary = SeekingReader(stream).get_summary()
-        except Exception as exc:  # noqa: BLE001 - any unreadable summary: scan instead
+        except Exception as exc:
             summary = None
             reason = str(exc) or type(exc).__name__
         else:
@@ -230,7 +230,7 @@ class Bag:
                     record = next(records)
                 except StopIteration:
                     return
-                except Exception as exc:  # noqa: BLE001 - any parse failure means "cut here"
+                except Exception as exc:
                     if not quiet:
                         _warn(
                             f"{info.path}: data ends or is corrupt at byte {stream.tell()} "
@@ -240,7 +240,7 @@ class Bag:
                 if isinstance(record, Chunk):
                     try:
                         inner = breakup_chunk(record, validate_crc=True)
-                    except Exception as exc:  # noqa: BLE001 - bad CRC / compression
+                    except Exception as exc:
                         if not quiet:
                             _warn(f"{info.path}: skipping a corrupt chunk ({exc})")
                         continue
@@ -316,7 +316,7 @@ class Bag:
                     yield heapq.heappop(pending)[2]
                 try:
                     records = _chunk_records(stream, chunk_index)
-                except Exception as exc:  # noqa: BLE001 - CRC, decompression, short read
+                except Exception as exc:
                     _warn(f"{info.path}: skipping a corrupt chunk at byte {chunk_index.chunk_start_offset} ({exc})")
                     continue
                 for cid, log_time, publish_time, data in _messages_in(records):

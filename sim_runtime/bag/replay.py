@@ -247,7 +247,7 @@ class Player(Node):
                         batch = []
                 put(batch)
                 put(None)
-            except BaseException as exc:  # noqa: BLE001 - handed to the playing thread
+            except BaseException as exc:
                 put(exc)
 
         threading.Thread(target=read, name="bag-reader", daemon=True).start()
@@ -330,7 +330,7 @@ class Player(Node):
                         self.stats.lateness_ns.append(time.perf_counter_ns() - self._wall(m.log_time_ns))
                 if not self.loop:
                     return
-        except Exception as exc:  # noqa: BLE001 - report, then let the caller see it finished
+        except Exception as exc:
             self.get_logger().error(f"replay failed: {exc!r}")
             if not self.finished.done():
                 self.finished.set_exception(exc)

@@ -20,6 +20,7 @@ so a killed recorder loses at most that much. A write that fails (disk full) rai
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -315,10 +316,8 @@ class BagWriter:
         else:
             stream, self._writer, self._stream = self._stream, None, None
             if stream is not None:
-                try:
+                with contextlib.suppress(OSError):
                     stream.close()
-                except OSError:
-                    pass
         if self.error is None:
             (self.folder / "metadata.yaml").write_text(self._metadata_yaml())
         else:
@@ -400,7 +399,7 @@ def _recover_split(path: Path, bag: Any, info: Any) -> None:
         writer.start(profile="ros2", library=_LIBRARY)
         schema_ids: dict[int, int] = {}
         channel_ids: dict[int, int] = {}
-        for rec in bag._scan(info, quiet=True):  # noqa: SLF001 - same package
+        for rec in bag._scan(info, quiet=True):
             if not isinstance(rec, Message) or rec.channel_id not in info.channels:
                 continue
             if rec.channel_id not in channel_ids:
@@ -434,7 +433,7 @@ def reindex(folder: str | Path) -> Path:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", BagWarning)
         bag = open_bag(folder)
-        for info in bag._infos:  # noqa: SLF001 - same package
+        for info in bag._infos:
             if not info.intact:
                 _recover_split(info.path, bag, info)
         return write_metadata_from_files(folder)
@@ -468,7 +467,7 @@ def write_metadata_from_files(folder: str | Path) -> Path:
                 )
             )
         files = []
-        for info in bag._infos:  # noqa: SLF001 - same package
+        for info in bag._infos:
             files.append(
                 (
                     info.path.name,

@@ -89,7 +89,7 @@ def run_episode(ep: Episode) -> dict[str, Any]:
         timing["collect_s"] = time.perf_counter() - collect_start
         row.update(status="ok", error="", sim_time_s=round(sim_time, 9))
         row.update(metrics)
-    except Exception as exc:  # noqa: BLE001 - an episode's failure is data, not the end of the sweep
+    except Exception as exc:
         message = f"{type(exc).__name__}: {exc}".strip().replace("\n", " ")
         if not isinstance(exc, InputError | ImportError):
             where = traceback.extract_tb(exc.__traceback__)[-1]
@@ -149,7 +149,7 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
 
         transport = controller["transport"]
         if transport == "auto":
-            transport = "direct" if controller["kind"] == "ours" or user_main is None and not nodes[1:] else "ros"
+            transport = "direct" if controller["kind"] == "ours" or (user_main is None and not nodes[1:]) else "ros"
         if recorder is not None or not direct_eligible(nodes):
             transport = "ros"
         bus = DirectBus(nodes)
@@ -435,7 +435,7 @@ class _MainController:
         def run() -> None:
             try:
                 self.main()
-            except BaseException as exc:  # noqa: BLE001 - reported by start()
+            except BaseException as exc:
                 self.error = exc
             finally:
                 self.ready.set()

@@ -230,7 +230,7 @@ def _importable(r: _Reader, target: str, where: str) -> None:
 
     try:
         load_callable(target, str(r.source.resolve().parent))
-    except Exception as exc:  # noqa: BLE001 - any failure to import is the user's to fix
+    except Exception as exc:
         raise r.fail(where, f"cannot import {target!r}: {type(exc).__name__}: {exc}") from None
 
 

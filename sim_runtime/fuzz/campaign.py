@@ -116,7 +116,7 @@ def _worker(
                     outcome = "ok"
                 except InputError:
                     outcome = "input_error"
-                except BaseException as exc:  # noqa: BLE001 - anything else is what we look for
+                except BaseException as exc:
                     if isinstance(exc, KeyboardInterrupt):
                         raise
                     outcome = "defect"

@@ -8,6 +8,7 @@ state. Loading may also fail, but only with :class:`~sim_runtime.errors.InputErr
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import shutil
@@ -297,7 +298,7 @@ def _drive_arm(rng: random.Random, path: Path) -> None:
     motion.move_to(np.array([rng.uniform(lo, hi) for lo, hi in zip(arm.lower, arm.upper, strict=True)]))
     for _ in range(3):
         motion.step(0.05)
-        position, velocity, _ = motion.reference(0.05)
+        position, _velocity, _ = motion.reference(0.05)
         _finite(position, "joint motion")
     for element in arm.elements:
         _finite(element.triangles, "mesh triangles")
@@ -383,10 +384,8 @@ def _read_bag(path: Path) -> None:
 
     bag = open_bag(path)
     for m in bag.messages():
-        try:
+        with contextlib.suppress(UnknownMessageType):
             m.msg  # noqa: B018 - deserialising is the point
-        except UnknownMessageType:
-            pass
 
 
 def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
@@ -396,7 +395,7 @@ def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
 
 def _draw_tracks(path: Path, out: Path, draw: bool) -> None:
     from sim_runtime.rerun_view.tracks import tracks_from_bag
-    from simrobot_sim.tracks import draw_tracks
+    from sim_runtime.track_plot import draw_tracks
 
     data = tracks_from_bag(path)
     for track in data.tracks.values():
@@ -471,6 +470,89 @@ def _replay(argv: list[str]) -> None:
         player.destroy_node()
 
 
+#: Executable → its world node class, as ``module:Class`` (what ``robot_sims <exe>`` builds).
+_WORLD_NODES = {
+    "create_world": "create_sim.world_node:CreateWorldNode",
+    "simrobot_world": "simrobot_sim.world_node:SimrobotWorldNode",
+    "arm": "arm_sim.arm_node:ArmNode",
+}
+_PARAMETER_VALUES = (
+    *("0", "-1", "1", "0.5", "1e300", "-1e300", ".nan", ".inf", "-.inf", "1e-300", "9" * 400, "-" + "9" * 30),
+    *("true", "false", "''", "abc", "[]", "[1.0, 2.0]", "[.nan, 0.0, 0.0]", "[1e300, 0.0, 0.0]", "[0.0, 0.0, 0.0]"),
+    *("[a, b]", "{a: 1}", "'/no/such/file'", "'~'", "'.'", "'config/simrobot/demo_map.png'", "[1, 2, 3]"),
+)
+_parameter_names: dict[str, list[str]] = {}
+#: What a world cannot start without (the fuzzed ``-p`` values come after, so may replace it).
+_REQUIRED_ARGS = {"simrobot_world": ["-p", f"world_file:={config_path('simrobot/demo.yaml')}"]}
+
+
+def node_parameters_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
+    """``robot_sims <world> --ros-args -p name:=value ...``: one to three of the world's own
+    parameters set to type-confused, huge, non-finite or missing-file values, parsed by rcl as on
+    the command line; the world must build and step with finite state or refuse with InputError."""
+    exe = rng.choice(sorted(_WORLD_NODES))
+    names = _declared_parameters(exe)
+    args = ["--ros-args", *_REQUIRED_ARGS.get(exe, [])]
+    for name in rng.sample(names, k=min(len(names), rng.randint(1, 3))):
+        args += ["-p", f"{name}:={rng.choice(_PARAMETER_VALUES)}"]
+    (folder / "argv.txt").write_text("\n".join([exe, *args]) + "\n", encoding="utf-8")
+    return Case(folder, lambda: _run_world_node(exe, args, steps=3))
+
+
+def _declared_parameters(exe: str) -> list[str]:
+    """The parameters a default world of ``exe`` declares (ROS's own use_sim_time excluded)."""
+    if exe not in _parameter_names:
+        node = _build_world_node(exe, ["--ros-args", *_REQUIRED_ARGS.get(exe, [])])
+        try:
+            _parameter_names[exe] = sorted(n for n in node._parameters if n != "use_sim_time")
+        finally:
+            _destroy_world_node(node)
+    return _parameter_names[exe]
+
+
+def _build_world_node(exe: str, args: list[str]):
+    import importlib
+
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+    from sim_runtime.errors import InputError
+
+    context = Context()
+    try:  # as init_ros does for the executables: arguments rcl cannot parse are an InputError
+        rclpy.init(args=[exe, *args], context=context)
+    except _rclpy.RCLError as error:
+        raise InputError(f"invalid ROS arguments {args!r}: {error}") from None
+    module, cls = _WORLD_NODES[exe].split(":")
+    try:
+        return getattr(importlib.import_module(module), cls)(context=context)
+    except BaseException:
+        rclpy.shutdown(context=context)
+        raise
+
+
+def _destroy_world_node(node) -> None:
+    import rclpy
+
+    context = node.context
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def _run_world_node(exe: str, args: list[str], steps: int) -> None:
+    node = _build_world_node(exe, args)
+    try:
+        node.step(steps)
+        _finite(node.sim_time, f"{exe} sim time")
+        model = getattr(node, "model", None)
+        pose = getattr(model, "pose", None)
+        if pose is not None:
+            _finite(pose, f"{exe} pose")
+    finally:
+        _destroy_world_node(node)
+
+
 _ROS_READY = False
 
 
@@ -496,6 +578,7 @@ TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case]]] =
     "draw_tracks": (8, draw_tracks_case),
     "bag_to_rerun": (6, bag_to_rerun_case),
     "replay": (4, replay_case),
+    "node_parameters": (4, node_parameters_case),
 }
 """Target name → (relative weight, case maker)."""
 

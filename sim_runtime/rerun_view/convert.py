@@ -118,7 +118,7 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
                 wanted.remove(m.topic)
                 skipped[m.topic] = m.type
                 continue
-            except Exception as err:  # noqa: BLE001 - one undecodable message must not end the run
+            except Exception as err:
                 warnings.warn(
                     f"{bag.path}: topic {m.topic} at log time {m.log_time_ns} ns: cannot "
                     f"deserialise {m.type} ({err}); message skipped",

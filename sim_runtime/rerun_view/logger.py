@@ -72,7 +72,7 @@ TRACK_SEGMENT_POINTS = 256
 """Tracks are logged as growing strips of at most this many points, then a new strip starts, so a
 long run costs O(n) instead of re-logging the whole track every pose."""
 CLIFF_THRESHOLD = 5.4
-"""Cliff signal (percent) at or below which the seed's GUI marks a cliff/line."""
+"""Cliff signal (percent) at or below which the original's GUI marks a cliff/line."""
 EPOCH_NS = 10**17
 """Times above this (1973) are wall-clock epochs, below it sim time since the world started."""
 CONSTANT_SPAN = 1e-9
@@ -1130,7 +1130,7 @@ class RerunLogger:
         color = _rgba(m.color)
         alpha = FADED_MARKERS.get(m.ns)
         if alpha is not None:  # blended towards the white background: 2-D lines are opaque
-            color = tuple(int(round(255 - alpha * (255 - c))) for c in color[:3]) + (255,)
+            color = (*tuple(int(round(255 - alpha * (255 - c))) for c in color[:3]), 255)
         pts = _points(m.points)[:, :2]
         colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
         width = rr.Radius.ui_points(1.5) if alpha is not None else max(m.scale.x, 1e-3) / 2
@@ -1139,7 +1139,7 @@ class RerunLogger:
         grew = False
         if is_map and static:
             before = (self._map_lo.copy(), self._map_hi.copy())
-            self._grow_map(pts + [p.x, p.y] if len(pts) else np.array([[p.x, p.y]]))
+            self._grow_map(pts + np.array([p.x, p.y]) if len(pts) else np.array([[p.x, p.y]]))
             grew = not (np.array_equal(before[0], self._map_lo) and np.array_equal(before[1], self._map_hi))
         if m.type == TEXT:
             shape = rr.Points2D([[0.0, 0.0]], radii=0.0, colors=[color], labels=[m.text], show_labels=True)

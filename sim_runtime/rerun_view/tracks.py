@@ -2,7 +2,7 @@
 
 The map is the bag's last ``/map`` (OccupancyGrid, SIMROBOT) or the walls of its ``map_markers``
 (Create) rasterised; tracks are the ground-truth poses (``overhead_pose``/``pose``), or ``odom``
-for a robot without them. Drawn by :func:`simrobot_sim.tracks.draw_tracks` (the seed's "draw tracks").
+for a robot without them. Drawn by :func:`sim_runtime.track_plot.draw_tracks` (the original's "draw tracks").
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, outline_at, robot_color, robot_outlines
-from simrobot_sim.tracks import draw_tracks
+from sim_runtime.track_plot import draw_tracks
 
 RASTER_RESOLUTION = 0.01
 """m per pixel when walls (line segments) are rasterised into an occupancy image."""
@@ -27,7 +27,7 @@ MARGIN = 0.2
 
 @dataclass
 class TrackData:
-    """What a bag holds for a tracks picture, as :func:`simrobot_sim.tracks.draw_tracks` takes it:
+    """What a bag holds for a tracks picture, as :func:`sim_runtime.track_plot.draw_tracks` takes it:
     occupancy laid out as OccupancyGrid data (row 0 = lowest y; >= 50 or True = obstacle) or None,
     its resolution (m/cell) and origin (x, y of the lower-left corner), tracks (name → (N, 2) xy in
     ``map``) and colours (name → rgb 0–1)."""
