@@ -175,7 +175,7 @@ def test_a_two_robot_world_with_a_laser_is_built_in_the_editor_and_saved(browser
     browser.execute_script("window.scrollTo(0, 0)")
     screenshot(browser, "simrobot_editor")
     click_text(browser, "Save world")
-    wait(browser, lambda d: "saved two.yaml" in message(d))
+    wait(browser, lambda d: "saved two.yaml" in message(d), timeout=60)
     spec = load_world(workspace / "two.yaml")
     assert [r.name for r in spec.robots] == ["r1", "r2"]
     assert [(s.name, s.kind, s.range) for s in spec.robots[0].sensors] == [("front", "laser", 0.8)]
@@ -187,11 +187,15 @@ def test_the_editor_refuses_overlapping_robots_with_the_command_lines_words(brow
     type_into(browser, ".simrobot-x", "0.42")
     type_into(browser, ".simrobot-y", "1.0")
     click_text(browser, "Validate")
-    wait(browser, lambda d: "robots[1] ('r2').position [0.42, 1.0]: the robot overlaps robot 'r1'" in message(d))
+    wait(
+        browser,
+        lambda d: "robots[1] ('r2').position [0.42, 1.0]: the robot overlaps robot 'r1'" in message(d),
+        timeout=60,
+    )
     type_into(browser, ".simrobot-x", "2.0")
     type_into(browser, ".simrobot-y", "0.6")
     click_text(browser, "Save world")
-    wait(browser, lambda d: "saved two.yaml" in message(d))
+    wait(browser, lambda d: "saved two.yaml" in message(d), timeout=60)
 
 
 def test_run_it_shows_both_robots_moving_and_the_laser_beams(browser, ros):
