@@ -12,7 +12,8 @@ with the same run with 2 robots (the baseline):
 - world steps/s: how fast the world's sim time advanced meanwhile (the page's drawn sim time): on a
   busy machine the world itself falls below 10 steps/s, and the page cannot draw steps that were
   not made, so "frames per world step" (goal 1: every step drawn) is printed too;
-- studio CPU (% of one core, /proc utime+stime).
+- studio CPU (% of one core, /proc utime+stime), with the page open and, before, with no page
+  open (the studio's ROS side alone: following the world's topics).
 """
 
 from __future__ import annotations
@@ -68,8 +69,9 @@ def write_world(folder: Path, robots: int) -> Path:
     return path
 
 
-def run(robots: int, seconds: float) -> tuple[float, float, float]:
-    """(frames/s shown by the browser, sim steps/s, studio CPU %) for a world of ``robots``."""
+def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
+    """(frames/s shown by the browser, sim steps/s, studio CPU %, studio CPU % with no page open)
+    for a world of ``robots``."""
     import rclpy
     from geometry_msgs.msg import Twist
     from rclpy.node import Node
@@ -126,6 +128,14 @@ def run(robots: int, seconds: float) -> tuple[float, float, float]:
         time.sleep(1.0)
         for pub in pubs:
             pub.publish(turn)
+        driver.get("about:blank")  # the studio with no page open: its ROS side alone
+        c0, t0 = cpu_seconds(studio.pid), time.monotonic()
+        time.sleep(seconds / 2)
+        ros_cpu = 100.0 * (cpu_seconds(studio.pid) - c0) / (time.monotonic() - t0)
+        driver.get(f"http://127.0.0.1:{port}/simrobot")
+        while driver.execute_script(count) != robots:
+            assert time.monotonic() < deadline + 60, "the world was not drawn again"
+            time.sleep(0.2)
         sim_time = "return +document.querySelector('.simrobot-view g.frame').dataset.simTime"
         f0, s0 = driver.execute_script("return window.simrobotFrames"), driver.execute_script(sim_time)
         c0, t0 = cpu_seconds(studio.pid), time.monotonic()
@@ -141,7 +151,7 @@ def run(robots: int, seconds: float) -> tuple[float, float, float]:
             child.wait(timeout=20)
         node.destroy_node()
         rclpy.shutdown(context=context)
-    return (f1 - f0) / elapsed, (s1 - s0) / 0.1 / elapsed, cpu
+    return (f1 - f0) / elapsed, (s1 - s0) / 0.1 / elapsed, cpu, ros_cpu
 
 
 def main() -> int:
@@ -157,11 +167,11 @@ def main() -> int:
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(f"studio SIMROBOT page, {args.seconds:.0f} s each, {os.cpu_count()} CPUs, load average {load}")
     print(f"{'measure':28s} {'2 robots':>9s} {f'{args.robots} robots':>11s} {'ratio':>7s} {'goal':>6s}")
-    names = ("frames/s shown", "world steps/s", "studio CPU (% core)")
+    names = ("frames/s shown", "world steps/s", "studio CPU (% core)", "  of which ROS (no page)")
     for name, b, m in zip(names, base, many, strict=True):
         goal = f"{GOAL_FPS:6.0f}" if name == "frames/s shown" else ""
         print(f"{name:28s} {b:9.1f} {m:11.1f} {m / max(b, 1e-9):7.2f} {goal}")
-    per_step = [fps / max(steps, 1e-9) for fps, steps, _ in (base, many)]
+    per_step = [fps / max(steps, 1e-9) for fps, steps, *_ in (base, many)]
     print(
         f"{'frames per world step':28s} {per_step[0]:9.2f} {per_step[1]:11.2f} {per_step[1] / per_step[0]:7.2f}   1.00"
     )

@@ -1,17 +1,17 @@
 """The studio's SIMROBOT side: following ``simrobot_world`` nodes on the ROS domain, and the worlds
 the studio starts.
 
-A world is found by its ``robots`` MarkerArray topic (any namespace). Its robots' names, shapes and
+A world is found by its ``robot_states`` topic (any namespace). Its robots' names, shapes and
 sensors come from its own world file (the node's ``world_file`` parameter, read with the same
-loader); every step's poses come from that one ``robots`` message (one message for all robots,
-however many), crash and power flags from each robot's latched ``crashed`` / ``power`` topics, and
-readings from each sensor's topic. Callbacks only store arrays on a :class:`WorldState`; the page
-reads them from NiceGUI's loop.
+loader); every step's poses, crash and power flags and each sensor's nearest hit come in that one
+flat ``robot_states`` message, decoded with one numpy call however many robots (the ``robots``
+MarkerArray of 200 robots takes ~50 ms to deserialise in Python, more than the step lasts); a
+laser's rays come from its own topic. Callbacks only store arrays on a :class:`WorldState`; the
+page reads them from NiceGUI's loop.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -20,19 +20,18 @@ from pathlib import Path
 import numpy as np
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import GetParameters, SetParameters
-from sensor_msgs.msg import LaserScan, Range
-from std_msgs.msg import Bool
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
-from visualization_msgs.msg import MarkerArray
 
 from sim_runtime.errors import InputError
-from sim_runtime.msgs import time_from_msg
-from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
+from simrobot_sim.world_node import ROBOT_STATE_FIELDS
 from studio.processes import Child
 from studio.ros_client import UNKNOWN_NODE_NAME, StudioRos, parameter
 
-ROBOTS_TYPE = "visualization_msgs/msg/MarkerArray"
+STATES_TYPE = "std_msgs/msg/Float64MultiArray"
 TRACK_POINTS = 1000
 TRACK_MIN_STEP_M = 0.005
 
@@ -65,11 +64,6 @@ class WorldState:
             track.clear()
 
 
-def yaws(qz: np.ndarray, qw: np.ndarray) -> np.ndarray:
-    """Yaw of planar quaternions (rotation about z only)."""
-    return 2.0 * np.arctan2(qz, qw)
-
-
 class _World:
     """A WorldState plus the ROS entities feeding and commanding it."""
 
@@ -77,7 +71,9 @@ class _World:
         self.node = node
         self.state = WorldState(ns=ns, node_name=node_name, last_heard=time.monotonic())
         s = self.state
-        self.subs = [node.create_subscription(MarkerArray, s.topic("robots"), self._on_robots, ANY_PUBLISHER_QOS)]
+        self.subs = [
+            node.create_subscription(Float64MultiArray, s.topic("robot_states"), self._on_states, ANY_PUBLISHER_QOS)
+        ]
         self.step = node.create_client(Trigger, s.topic("step"))
         self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")
         self.get_params = node.create_client(GetParameters, f"{node_name}/get_parameters")
@@ -111,49 +107,36 @@ class _World:
         s.nearest = np.full(len(s.sensors), np.inf)
         s.tracks = [deque(maxlen=TRACK_POINTS) for _ in range(n)]
         sub = self.node.create_subscription
-        for i, name in enumerate(s.names):
-            self.subs.append(
-                sub(Bool, s.topic(f"{name}/crashed"), lambda m, i=i: self._flag(s.crashed, i, m), LATCHED_QOS)
-            )
-            self.subs.append(sub(Bool, s.topic(f"{name}/power"), lambda m, i=i: self._flag(s.power, i, m), LATCHED_QOS))
+        for name in s.names:
             self.power_clients.append(self.node.create_client(SetBool, s.topic(f"{name}/set_power")))
             self.clear_clients.append(self.node.create_client(Trigger, s.topic(f"{name}/clear_crash")))
         for k, (i, sensor) in enumerate(s.sensors):
             topic = s.topic(f"{s.names[i]}/{sensor.name}")
             if sensor.kind == "laser":
                 self.subs.append(sub(LaserScan, topic, lambda m, k=k: self._on_scan(k, m), ANY_PUBLISHER_QOS))
-            else:
-                self.subs.append(sub(Range, topic, lambda m, k=k: self._on_range(k, m), ANY_PUBLISHER_QOS))
         s.spec = spec  # last: the page draws once everything above is in place
-
-    @staticmethod
-    def _flag(flags: np.ndarray, i: int, msg: Bool) -> None:
-        flags[i] = msg.data
-
-    def _on_range(self, k: int, msg: Range) -> None:
-        self.state.nearest[k] = msg.range
 
     def _on_scan(self, k: int, msg: LaserScan) -> None:
         ranges = np.asarray(msg.ranges, dtype=np.float64)
         self.state.scans[k] = ranges
-        finite = ranges[np.isfinite(ranges)]
-        self.state.nearest[k] = float(finite.min()) if len(finite) else math.inf
 
-    def _on_robots(self, msg: MarkerArray) -> None:
+    def _on_states(self, msg: Float64MultiArray) -> None:
         s = self.state
-        markers = msg.markers
-        if not markers:
-            return
-        raw = np.array(
-            [(m.pose.position.x, m.pose.position.y, m.pose.orientation.z, m.pose.orientation.w) for m in markers]
-        )
-        poses = np.column_stack([raw[:, 0], raw[:, 1], yaws(raw[:, 2], raw[:, 3])])
-        if len(s.tracks) == len(poses):
-            for track, (x, y, _) in zip(s.tracks, poses.tolist(), strict=True):
+        data = np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else np.zeros(3)
+        n, k = int(data[1]), int(data[2])
+        if len(data) != 3 + ROBOT_STATE_FIELDS * n + k:
+            return  # not the layout this studio knows
+        robots = data[3 : 3 + ROBOT_STATE_FIELDS * n].reshape(n, ROBOT_STATE_FIELDS)
+        poses = robots[:, :3].copy()
+        if len(s.tracks) == n:
+            for track, (x, y) in zip(s.tracks, poses[:, :2].tolist(), strict=True):
                 if not track or abs(x - track[-1][0]) + abs(y - track[-1][1]) >= TRACK_MIN_STEP_M:
                     track.append((x, y))
+        s.crashed = robots[:, 3] != 0
+        s.power = robots[:, 4] != 0
+        s.nearest = data[3 + ROBOT_STATE_FIELDS * n :].copy()
         s.poses = poses
-        s.sim_time = time_from_msg(markers[0].header.stamp)
+        s.sim_time = float(data[0])
         s.last_heard = time.monotonic()
         s.seq += 1
 
@@ -179,22 +162,25 @@ class SimrobotRos(StudioRos):
         self._forget.add(ns)
 
     def _discover(self) -> None:
-        """Follow every namespace with a SIMROBOT world (a ``robots`` MarkerArray topic); forget a
+        """Follow every namespace with a SIMROBOT world (a ``robot_states`` topic); forget a
         world whose publisher has gone."""
         now = time.monotonic()
         forget, self._forget = self._forget, set()
         for ns, world in list(self._worlds.items()):
             world.ask_world_file()
-            gone = self.node.count_publishers(world.state.topic("robots")) == 0 and now - world.state.last_heard > 2.0
+            gone = (
+                self.node.count_publishers(world.state.topic("robot_states")) == 0
+                and now - world.state.last_heard > 2.0
+            )
             if gone or ns in forget:
                 print(f"studio: the SIMROBOT world in {ns or '/'} has gone", flush=True)
                 world.destroy()
                 del self._worlds[ns]
                 self.worlds = {k: v for k, v in self.worlds.items() if k != ns}
         for topic, types in self.node.get_topic_names_and_types():
-            if not topic.endswith("/robots") or ROBOTS_TYPE not in types:
+            if not topic.endswith("/robot_states") or STATES_TYPE not in types:
                 continue
-            ns = topic[: -len("/robots")]
+            ns = topic[: -len("/robot_states")]
             if ns in self._worlds:
                 continue
             publishers = self.node.get_publishers_info_by_topic(topic)
