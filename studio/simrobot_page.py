@@ -19,7 +19,7 @@ from simrobot_sim.tracks import draw_tracks
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, nav, view_image
 from studio.simrobot_client import WorldState, side
-from studio.simrobot_draw import RobotSymbols, beams_svg, map_data_url, map_svg, robots_svg, track_svg
+from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
 
 FRAME_PERIOD_S = 0.05
 TRACKS_PERIOD_S = 1.0
@@ -93,8 +93,6 @@ class SimrobotPage:
         self.map_url = ""
         self.mouse_down = None
         self.tracks_drawn = 0.0
-        self.symbols: RobotSymbols | None = None
-        self.symbols_for = None
         self.build()
         ui.timer(FRAME_PERIOD_S, self.tick)
         ui.timer(0.5, self.slow_tick)
@@ -221,28 +219,18 @@ class SimrobotPage:
             f'data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
         ]
         robots, poses, model = st.spec.robots, st.poses, st.spec.sensor_model
-        if self.symbols is None or self.symbols.scale != v.scale or self.symbols_for is not st.spec:
-            self.symbols, self.symbols_for = RobotSymbols(robots, v.scale, model), st.spec
-        beams = "beams" in self.layers
-        if beams:
+        if "beams" in self.layers:
+            nearest = st.nearest.tolist()
             for k, (i, sensor) in enumerate(st.sensors):
-                if sensor.kind == "laser":
+                if sensor.kind == "laser":  # every ray to its hit
                     parts.append(beams_svg(v, robots[i], sensor, poses[i], ranges=st.scans.get(k), sensor_model=model))
-        nearest = st.nearest.tolist()
-        sonar_hits = [(i, s, nearest[k]) for k, (i, s) in enumerate(st.sensors) if s.kind != "laser"] if beams else []
-        parts.append(
-            robots_svg(
-                v,
-                robots,
-                self.symbols,
-                poses,
-                st.crashed,
-                sonar_hits=sonar_hits,
-                selected=self.robot,
-                names="names" in self.layers,
-                sensor_model=model,
-            )
-        )
+                else:  # the cone and its nearest hit
+                    parts.append(beams_svg(v, robots[i], sensor, poses[i], nearest=nearest[k], sensor_model=model))
+        names = "names" in self.layers
+        crashed = st.crashed.tolist()
+        for i, robot in enumerate(robots):
+            label = robot.name if names else ""
+            parts.append(robot_svg(v, robot, poses[i], selected=i == self.robot, crashed=crashed[i], label=label))
         return "".join(parts)
 
     def tracks_svg(self, st: WorldState) -> str:
