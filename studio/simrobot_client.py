@@ -154,6 +154,7 @@ class SimrobotRos(StudioRos):
         self._worlds: dict[str, _World] = {}
         self.worlds: dict[str, WorldState] = {}
         self._forget: set[str] = set()
+        self._rounds = 0
         super().__init__()
 
     def forget(self, ns: str) -> None:
@@ -164,6 +165,13 @@ class SimrobotRos(StudioRos):
     def _discover(self) -> None:
         """Follow every namespace with a SIMROBOT world (a ``robot_states`` topic); forget a
         world whose publisher has gone."""
+        # Listing the graph costs with hundreds of robots (~10 topics each): while following
+        # worlds, look for new ones every 4th round (2 s) only.
+        self._rounds += 1
+        if self._worlds and not self._forget and self._rounds % 4:
+            for world in self._worlds.values():
+                world.ask_world_file()
+            return
         now = time.monotonic()
         forget, self._forget = self._forget, set()
         for ns, world in list(self._worlds.items()):

@@ -22,6 +22,8 @@ from studio.simrobot_client import WorldState, side
 from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
 
 FRAME_PERIOD_S = 0.05
+"""How often the page looks for a new step (it redraws only when one came). Looking every 25 ms
+drew no more frames on a busy machine: the browser then skips some."""
 TRACKS_PERIOD_S = 1.0
 RTF_OPTIONS = {0.25: "0.25×", 0.5: "0.5×", 1.0: "1× (real time)", 2.0: "2×", 4.0: "4×", 0.0: "as fast as possible"}
 LAYERS = {"beams": "Beams and hits", "tracks": "Tracks", "names": "Names"}
