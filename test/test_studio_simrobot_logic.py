@@ -74,3 +74,11 @@ def test_shape_vertices_are_read_from_lines_and_bad_lines_are_named():
         parse_vertices("0, 0\nx, 1\n1, 1")
     with pytest.raises(InputError, match="at least 3"):
         parse_vertices("0, 0\n1, 1")
+
+
+def test_importing_a_colour_bitmap_gives_simrobot_worlds_error(tmp_path):
+    from PIL import Image
+
+    Image.new("RGB", (10, 10), (255, 0, 0)).save(tmp_path / "red.png")
+    with pytest.raises(InputError, match="red.png.*colour image"):
+        WorldDraft.from_image(tmp_path / "red.png")
