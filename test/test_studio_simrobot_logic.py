@@ -80,5 +80,5 @@ def test_importing_a_colour_bitmap_gives_simrobot_worlds_error(tmp_path):
     from PIL import Image
 
     Image.new("RGB", (10, 10), (255, 0, 0)).save(tmp_path / "red.png")
-    with pytest.raises(InputError, match="red.png.*colour image"):
+    with pytest.raises(InputError, match=r"red\.png.*colour image"):
         WorldDraft.from_image(tmp_path / "red.png")
