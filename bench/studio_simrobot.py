@@ -78,15 +78,15 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
+    from sim_runtime.cli import executable_command
     from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 
     folder = Path(tempfile.mkdtemp(prefix="studio_simrobot_bench_"))
     world_file = write_world(folder, robots)
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    code = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
     world = subprocess.Popen(
-        [sys.executable, "-c", code, "simrobot_world", "--ros-args", "-p", f"world_file:={world_file}"],
+        executable_command("simrobot_world", ["--ros-args", "-p", f"world_file:={world_file}"]),
         env=env,
         stdout=subprocess.DEVNULL,
     )

@@ -29,6 +29,7 @@ class Studio:
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
     selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
+    arm: dict = field(default_factory=dict)  # the arm page's shared client and mesh cache
     recording_to: str = ""
 
     def default_robot(self, names: list[str], current: str | None) -> str | None:
@@ -105,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from nicegui import app, ui
 
-    from studio import config_page, map_page, sim_page, simrobot_editor_page, simrobot_page
+    from studio import arm_page, config_page, map_page, replay_page, sim_page, simrobot_editor_page, simrobot_page
     from studio.ros_client import StudioRos
 
     studio = Studio(workspace=workspace, controllers=controllers)
@@ -123,6 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     sim_page.register(studio)
     map_page.register(studio)
     config_page.register(studio)
+    arm_page.register(studio)
+    replay_page.register(studio)
     simrobot_page.register(studio)
     simrobot_editor_page.register(studio)
     print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
@@ -158,7 +161,7 @@ def view_image(on_mouse, on_wheel, css_class: str, background: str):
 
 
 def nav(current: str) -> None:
-    """The links between the pages (the seed's three windows)."""
+    """The links between the pages (the originals' windows)."""
     from nicegui import ui
 
     with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
@@ -167,6 +170,8 @@ def nav(current: str) -> None:
             ("/", "Simulator"),
             ("/map", "Map maker"),
             ("/config", "Config maker"),
+            ("/arm", "Arm"),
+            ("/replay", "Replay"),
             ("/simrobot", "SIMROBOT"),
             ("/simrobot/editor", "SIMROBOT editor"),
         ):

@@ -28,7 +28,7 @@ RUN_FUNCTION = (
 )
 
 
-__all__ = ["Child", "controller_command", "executable_command", "parse_controller", "world_ros_args"]
+__all__ = ["Child", "controller_command", "executable_command", "parse_controller", "world_ros_args", "yaml_string"]
 
 
 def controller_command(target: str, ros_args: list[str]) -> list[str]:
@@ -49,7 +49,7 @@ def parse_controller(spec: str) -> tuple[str, str]:
     return name.strip(), target.strip()
 
 
-def _yaml_string(value: str) -> str:
+def yaml_string(value: str) -> str:
     """A parameter value rcl reads back as exactly this string (YAML single quotes; '' = empty)."""
     return "'" + value.replace("'", "''") + "'"
 
@@ -60,8 +60,8 @@ def world_ros_args(ns: str, map_file: str, config_file: str, pose: tuple[float, 
     A namespaced world publishes its clock as ``<ns>/clock`` so several worlds share a domain."""
     args = [
         "--ros-args",
-        "-p", f"map_file:={_yaml_string(map_file)}",
-        "-p", f"config_file:={_yaml_string(config_file)}",
+        "-p", f"map_file:={yaml_string(map_file)}",
+        "-p", f"config_file:={yaml_string(config_file)}",
         "-p", f"initial_pose:=[{pose[0]!r}, {pose[1]!r}, {pose[2]!r}]",
     ]  # fmt: skip
     if ns:

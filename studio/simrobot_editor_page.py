@@ -19,7 +19,7 @@ from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, nav, view_image
-from studio.processes import Child, _yaml_string, executable_command
+from studio.processes import Child, executable_command, yaml_string
 from studio.simrobot_client import side
 from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
 from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg
@@ -594,7 +594,7 @@ class EditorPage:
         if simrobot.ros is not None:
             simrobot.ros.forget(ns)
         path = ws.path(self.world_name.value or "")
-        args = ["--ros-args", "-p", f"world_file:={_yaml_string(str(path))}"]
+        args = ["--ros-args", "-p", f"world_file:={yaml_string(str(path))}"]
         if ns:
             args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
         child = Child(f"simrobot_world {ns or '/'}", executable_command("simrobot_world", args), cwd=ws.root)

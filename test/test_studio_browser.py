@@ -8,71 +8,51 @@ map, start a world on it, drive, set the pose, edit a config, record). Without D
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
-import shutil
-import socket
 import subprocess
-import sys
-import tempfile
-import time
 from pathlib import Path
 
 import pytest
+from studio_browser_support import NO_CHROMIUM
 
-CHROMIUM = Path("/usr/lib/chromium/chromium")
-CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-if not (CHROMIUM.exists() and Path(CHROMEDRIVER).exists()):
-    pytest.skip(
-        "browser tests skipped: no Chromium; enable them with `apt-get install -y chromium chromium-driver`",
-        allow_module_level=True,
-    )
+if NO_CHROMIUM:
+    pytest.skip(NO_CHROMIUM, allow_module_level=True)
 
-from geometry_msgs.msg import PoseStamped  # noqa: E402
-from nav_msgs.msg import Odometry  # noqa: E402
-from rcl_interfaces.srv import GetParameters  # noqa: E402
-from selenium import webdriver  # noqa: E402
-from selenium.common.exceptions import (  # noqa: E402
-    ElementNotInteractableException,
-    TimeoutException,
-    WebDriverException,
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.srv import GetParameters
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
+from studio_browser_support import (
+    ROOT,
+    click_text,
+    find,
+    listener_node,
+    new_browser,
+    open_page,
+    running_studio,
+    screenshot,
+    studio_domain,
+    studio_env,
+    type_into,
+    wait,
+    what_happened,
 )
-from selenium.webdriver.chrome.service import Service  # noqa: E402
-from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
-from selenium.webdriver.common.actions.wheel_input import ScrollOrigin  # noqa: E402
-from selenium.webdriver.common.by import By  # noqa: E402
-from selenium.webdriver.common.keys import Keys  # noqa: E402
-from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
-from visualization_msgs.msg import MarkerArray  # noqa: E402
+from visualization_msgs.msg import MarkerArray
 
-from create_sim.configfile import load_config  # noqa: E402
-from create_sim.mapfile import load_map  # noqa: E402
-from sim_runtime.cli import executable_command  # noqa: E402
-from sim_runtime.msgs import yaw_from_quaternion  # noqa: E402
-from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS  # noqa: E402
-from sim_runtime.testing import Collector, spin_until  # noqa: E402
+from create_sim.configfile import load_config
+from create_sim.mapfile import load_map
+from sim_runtime.cli import executable_command
+from sim_runtime.msgs import yaw_from_quaternion
+from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS
+from sim_runtime.testing import Collector, spin_until
 
-ROOT = Path(__file__).resolve().parent.parent
 SCALE = 60.0  # the pages' initial px per metre, view centred on (0, 0)
 NS = "/box"
-# The studio, its worlds and the listener get a domain of their own: worlds or graph entries other
-# tests leave behind in the suite's domain must not show up in the studio's world list.
-STUDIO_DOMAIN = (int(os.environ.get("ROS_DOMAIN_ID", "0")) + 50) % 101
-STUDIO_LOG = Path(tempfile.mkdtemp(prefix="studio_log_")) / "studio.log"  # the studio's output, for failures
-
-
-def studio_env() -> dict[str, str]:
-    """The environment of the studio and of worlds started beside it: the studio's own domain, and
-    no PYTEST_CURRENT_TEST (NiceGUI would run in its test mode)."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
-    return {**env, "ROS_DOMAIN_ID": str(STUDIO_DOMAIN)}
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+STUDIO_DOMAIN = studio_domain(50)
 
 
 @pytest.fixture(scope="module")
@@ -81,105 +61,20 @@ def workspace(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def studio_url(workspace, tmp_path_factory):
-    port = free_port()
-    # The studio's output goes to a file: a pipe nobody reads would block the studio once full.
-    log = STUDIO_LOG
-    with log.open("w") as out:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            text=True,
-            cwd=ROOT,
-            # without PYTEST_CURRENT_TEST: NiceGUI would run in its test mode
-            env={
-                **{k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"},
-                "ROS_DOMAIN_ID": str(STUDIO_DOMAIN),
-            },
-        )
-    deadline = time.monotonic() + 60.0
-    while True:  # until the server accepts connections
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
-            break
-        except OSError:
-            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
-            time.sleep(0.05)
-    assert f"http://127.0.0.1:{port}/" in log.read_text().splitlines()[0]  # printed before the server starts
-    yield f"http://127.0.0.1:{port}"
-    process.terminate()  # the studio stops the worlds, controllers and recorder it started
-    process.wait(timeout=20)
-    print(log.read_text()[-5000:])  # shown with a failing test's report
-    shutil.rmtree(log.parent, ignore_errors=True)
+def studio_url(workspace):
+    with running_studio(workspace, STUDIO_DOMAIN) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
 def browser(studio_url):
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER  # never let Selenium Manager download a driver
-    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
-    driver.implicitly_wait(0)
-    yield driver
-    driver.quit()
-
-
-def wait(driver, condition, timeout: float = 15.0):
-    """``condition(driver)`` once truthy; on timeout a failure showing the page and the studio's log."""
-    try:
-        return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d))
-    except TimeoutException:
-        pytest.fail(f"not true within {timeout:g} s: {inspect.getsource(condition).strip()}\n{what_happened(driver)}")
-
-
-def what_happened(driver) -> str:
-    """The page's text and the studio's latest output (its worlds' lines included), for a failure."""
-    try:
-        page = driver.find_element(By.TAG_NAME, "body").text
-    except WebDriverException as err:
-        page = f"(unreadable: {err.msg})"
-    log = STUDIO_LOG.read_text().splitlines()[-60:] if STUDIO_LOG.exists() else ["(no studio log)"]
-    return "the page says:\n" + page[-2000:] + "\nthe studio's output ends:\n" + "\n".join(log)
-
-
-def find(driver, css: str):
-    return wait(driver, lambda d: d.find_element(By.CSS_SELECTOR, css))
-
-
-def click_text(driver, text: str, within: str = "body") -> None:
-    xpath = f"//*[contains(@class,'q-btn') and .//*[normalize-space(text())='{text}']]"
-    scope = find(driver, within)
-    wait(driver, lambda d: scope.find_element(By.XPATH, "." + xpath)).click()
-
-
-def open_page(driver, url: str) -> None:
-    driver.get(url)
-    wait(driver, lambda d: d.execute_script("return document.readyState") == "complete")
-    find(driver, ".nicegui-content")
+    with new_browser() as driver:
+        yield driver
 
 
 def click_at(driver, image, x_m: float, y_m: float) -> None:
     """Click the view at world point (x, y) (the page's initial view: centre 0,0)."""
     ActionChains(driver).move_to_element_with_offset(image, round(x_m * SCALE), round(-y_m * SCALE)).click().perform()
-
-
-def type_into(driver, css: str, text: str) -> None:
-    """Replace a text field's contents, once it takes input (an expansion may still be opening)."""
-
-    def typed(d) -> bool:
-        field = find(d, f"{css} input")
-        try:
-            field.send_keys(Keys.CONTROL, "a")
-            field.send_keys(Keys.BACKSPACE)
-            field.send_keys(text)
-        except ElementNotInteractableException:
-            return False
-        return True
-
-    wait(driver, typed)
 
 
 def view_transform(driver) -> tuple[float, float, float]:
@@ -194,32 +89,13 @@ def view_transform(driver) -> tuple[float, float, float]:
     return tuple(float(v) for v in values)
 
 
-def screenshot(driver, name: str) -> None:
-    if os.environ.get("STUDIO_SCREENSHOTS"):
-        driver.save_screenshot(str(ROOT / "docs" / f"studio_{name}.png"))
-
-
 @pytest.fixture(scope="module")
 def listener():
     """The test's own ROS node, in the studio's domain: what the world publishes, read as any client would."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
-
-    from sim_runtime.run import make_executor
-
-    context = Context()
-    rclpy.init(context=context, domain_id=STUDIO_DOMAIN)
-    executor = make_executor(context)
-    node = Node("studio_test_listener", context=context)
-    executor.add_node(node)
-    odom = Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
-    pose = Collector(node, PoseStamped, f"{NS}/overhead_pose", ANY_PUBLISHER_QOS)
-    yield executor, odom, pose
-    executor.remove_node(node)
-    node.destroy_node()
-    executor.shutdown()
-    rclpy.shutdown(context=context)
+    with listener_node(STUDIO_DOMAIN, "studio_test_listener") as (executor, node):
+        odom = Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
+        pose = Collector(node, PoseStamped, f"{NS}/overhead_pose", ANY_PUBLISHER_QOS)
+        yield executor, odom, pose
 
 
 def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, workspace):
@@ -445,7 +321,7 @@ def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and
     browser, studio_url
 ):
     args = ["--ros-args", "-r", "__ns:=/other", "-r", "/clock:=/other/clock", "-p", "initial_pose:=[3.0, 0.0, 0.0]"]
-    env = studio_env()
+    env = studio_env(STUDIO_DOMAIN)
     other = subprocess.Popen(executable_command("create_world", args), cwd=ROOT, stdout=subprocess.DEVNULL, env=env)
     try:
         open_page(browser, studio_url + "/")

@@ -8,30 +8,33 @@ robot for its info and power, draw the tracks. ``STUDIO_SCREENSHOTS=1`` saves th
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import socket
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import pytest
-import test_studio_browser as tsb  # the module's helpers (skips without Chromium, as it does)
+from studio_browser_support import NO_CHROMIUM
+
+if NO_CHROMIUM:
+    pytest.skip(NO_CHROMIUM, allow_module_level=True)
+
 from geometry_msgs.msg import Twist
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
-from test_studio_browser import CHROMEDRIVER, CHROMIUM, find, free_port, open_page, type_into, wait
+from studio_browser_support import (
+    find,
+    listener_node,
+    new_browser,
+    open_page,
+    running_studio,
+    screenshot,
+    studio_domain,
+    type_into,
+    wait,
+)
 
 from simrobot_sim.world_file import load_world
 
-ROOT = Path(__file__).resolve().parent.parent
-# Its own domain: the Create browser tests' studio uses ROS_DOMAIN_ID + 50.
-DOMAIN = (int(os.environ.get("ROS_DOMAIN_ID", "0")) + 37) % 101
-LOG = Path(tempfile.mkdtemp(prefix="studio_simrobot_log_")) / "studio.log"
+DOMAIN = studio_domain(53)  # the other studio modules use 50-52
 
 
 @pytest.fixture(scope="module")
@@ -41,64 +44,21 @@ def workspace(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def studio_url(workspace):
-    port = free_port()
-    tsb.STUDIO_LOG = LOG  # failures show this studio's output
-    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
-    env["ROS_DOMAIN_ID"] = str(DOMAIN)
-    with LOG.open("w") as out:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "studio", "--workspace", str(workspace), "--port", str(port)],
-            stdout=out,
-            stderr=subprocess.STDOUT,
-            cwd=ROOT,
-            env=env,
-        )
-    deadline = time.monotonic() + 60.0
-    while True:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
-            break
-        except OSError:
-            assert process.poll() is None and time.monotonic() < deadline, LOG.read_text()
-            time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}"
-    process.terminate()
-    process.wait(timeout=20)
-    print(LOG.read_text()[-5000:])
-    shutil.rmtree(LOG.parent, ignore_errors=True)
+    with running_studio(workspace, DOMAIN) as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
 def browser(studio_url):
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1400"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
-    driver.implicitly_wait(0)
-    yield driver
-    driver.quit()
+    with new_browser("1400,1400") as driver:
+        yield driver
 
 
 @pytest.fixture(scope="module")
 def ros():
     """A node on the studio's domain: the students' controllers driving the robots."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
-
-    context = Context()
-    rclpy.init(context=context, domain_id=DOMAIN)
-    node = Node("simrobot_browser_test", context=context)
-    yield node
-    node.destroy_node()
-    rclpy.shutdown(context=context)
-
-
-def screenshot(driver, name: str) -> None:
-    if os.environ.get("STUDIO_SCREENSHOTS"):
-        driver.save_screenshot(str(ROOT / "docs" / f"studio_{name}.png"))
+    with listener_node(DOMAIN, "simrobot_browser_test") as (_executor, node):
+        yield node
 
 
 def click_at(driver, css: str, x_m: float, y_m: float) -> None:

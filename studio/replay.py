@@ -1,0 +1,347 @@
+"""What the replay page shows at an instant of a bag (no GUI here): robots, readings, commands.
+
+:class:`Replay` opens a bag through :class:`~sim_runtime.bag.index.BagIndex` and answers
+:meth:`Replay.frame` for any time: every robot's pose, a Create's sensor readings as the live view
+draws them, SIMROBOT robots, an arm's joints, the commands sent so far (the original's function-call
+column) and a one-line summary of every topic's latest message. Robots are found by their topics:
+a Create by ``overhead_pose``, a SIMROBOT robot by ``pose`` (both PoseStamped), any other robot by
+``odom``, an arm by ``joint_states``. Stepping goes from one message of the *frame topic* (the first
+robot's pose, else the joints, else any topic) to the next.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from create_sim.mapfile import CreateMap
+from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from sim_runtime.bag.cdr import track_positions
+from sim_runtime.bag.index import BagIndex
+from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
+from sim_runtime.msgs import yaw_from_quaternion
+
+POSE = "geometry_msgs/msg/PoseStamped"
+ODOM = "nav_msgs/msg/Odometry"
+JOINTS = "sensor_msgs/msg/JointState"
+COMMAND_TOPICS = ("cmd_vel", "wheel_cmd", "joint_command", "joint_trajectory", "target_pose", "set_pose")
+"""What a controller or a person sends: the replay's list of calls made."""
+COMMANDS_SHOWN = 12
+DECODED_KEPT = 1024
+TRACK_MIN_STEP_M = 0.02
+"""A drawn track gets a point per this many metres travelled (a 10-minute run stays a few thousand)."""
+
+
+def namespace(topic: str) -> str:
+    """``/robot2/overhead_pose`` → ``/robot2``; a root topic → ``''``."""
+    ns = topic.rstrip("/").rpartition("/")[0]
+    return ns
+
+
+def basename(topic: str) -> str:
+    return topic.rstrip("/").rpartition("/")[2]
+
+
+@dataclass
+class Robot:
+    """A robot found in the bag: its kind ('create', 'simrobot', 'mobile'), pose topic and track."""
+
+    ns: str
+    kind: str
+    pose_topic: str
+    track_times: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    track: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+    @property
+    def label(self) -> str:
+        return self.ns or "/"
+
+    def topic(self, name: str) -> str:
+        return f"{self.ns}/{name}"
+
+
+@dataclass
+class RobotFrame:
+    """One robot at an instant: pose and, for a Create, what the live view draws."""
+
+    robot: Robot
+    pose: tuple[float, float, float] | None = None
+    odom: tuple[float, float, float] | None = None
+    velocity: tuple[float, float] | None = None
+    scan: tuple[float, float, np.ndarray] | None = None
+    scan_stamp: float = 0.0
+    sonar: dict[str, float] = field(default_factory=dict)
+    wall: bool | None = None
+    bumps: tuple[bool, bool] | None = None
+    cliffs: dict[str, float] = field(default_factory=dict)
+    sightings: list[tuple[float, float, str]] = field(default_factory=list)
+    track: np.ndarray | None = None
+    crashed: bool = False
+
+
+@dataclass
+class Frame:
+    """The bag at time ``t_ns`` (``elapsed_s`` since its first message)."""
+
+    t_ns: int
+    elapsed_s: float
+    robots: list[RobotFrame]
+    joints: dict[str, list[tuple[str, float]]]  # arm namespace → (joint, position rad)
+    end_effectors: dict[str, tuple[float, float, float]]
+    commands: list[tuple[float, str, str]]  # (elapsed s, topic, summary), newest first
+    latest: list[tuple[str, float, str]]  # (topic, age s, summary) of every topic
+    world: CreateMap | None = None
+    grid: object | None = None  # nav_msgs/OccupancyGrid (SIMROBOT's map)
+    outlines: object | None = None  # /robots MarkerArray
+
+
+def decode(m: BagMessage):
+    """The message, or None if its type is not installed or its bytes are bad (warned once per topic)."""
+    try:
+        return m.msg
+    except (UnknownMessageType, CorruptMessage) as err:
+        warnings.warn(str(err), stacklevel=2)
+        return None
+
+
+def planar(pose) -> tuple[float, float, float]:
+    return (pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation))
+
+
+def summary(type_name: str, msg) -> str:
+    """One line saying what a message holds (the side panel's messages at this instant)."""
+    if msg is None:
+        return f"({type_name}, not decoded)"
+    kind = type_name.rpartition("/")[2]
+    if kind in ("Twist", "TwistStamped"):
+        t = msg.twist if kind == "TwistStamped" else msg
+        return f"v {t.linear.x:.3f} m/s, ω {t.angular.z:.3f} rad/s"
+    if kind == "PoseStamped":
+        x, y, th = planar(msg.pose)
+        return f"x {x:.3f}, y {y:.3f}, θ {th:.3f}"
+    if kind == "Odometry":
+        x, y, th = planar(msg.pose.pose)
+        return f"x {x:.3f}, y {y:.3f}, θ {th:.3f}; v {msg.twist.twist.linear.x:.3f}, ω {msg.twist.twist.angular.z:.3f}"
+    if kind == "Range":
+        r = msg.range
+        if msg.min_range == msg.max_range:  # a fixed-distance detector
+            return "detected" if r == -math.inf else "clear"
+        return f"{r:.3f} m" if math.isfinite(r) else ("no return" if r > 0 else "too close")
+    if kind == "LaserScan":
+        ranges = np.asarray(msg.ranges, dtype=np.float32)
+        finite = ranges[np.isfinite(ranges)]
+        nearest = f"{float(finite.min()):.3f} m" if len(finite) else "none"
+        return f"{len(ranges)} beams, nearest {nearest}"
+    if kind == "Illuminance":
+        return f"{msg.illuminance:.1f} %"
+    if kind == "JointState":
+        values, unit = (msg.position, "") if len(msg.position) else (msg.velocity, " rad/s")
+        names = list(msg.name) or [f"#{i}" for i in range(len(values))]
+        return ", ".join(f"{n} {v:.3f}{unit}" for n, v in zip(names, values, strict=False))
+    if kind == "MarkerArray":
+        return f"{len(msg.markers)} markers"
+    if kind == "Bool":
+        return str(msg.data).lower()
+    if kind == "Joy":
+        return f"buttons {list(msg.buttons)}"
+    if kind == "Clock":
+        return f"{msg.clock.sec + 1e-9 * msg.clock.nanosec:.3f} s"
+    if kind == "BatteryState":
+        return f"{msg.voltage:.1f} V"
+    if kind == "JointTrajectory":
+        return f"{len(msg.points)} points for {', '.join(msg.joint_names)}"
+    return kind
+
+
+class Replay:
+    """A bag opened for replay: robots, frame times, and :meth:`frame` at any instant."""
+
+    def __init__(self, index: BagIndex) -> None:
+        self.index = index
+        self.path = Path(index.path)
+        self.start_ns = index.start_ns
+        self.end_ns = index.end_ns
+        topics = index.topics
+        self.robots: list[Robot] = []
+        poses = sorted(t for t, kind in topics.items() if kind == POSE and basename(t) in ("overhead_pose", "pose"))
+        for topic in poses:
+            kind = "create" if basename(topic) == "overhead_pose" else "simrobot"
+            self.robots.append(Robot(namespace(topic), kind, topic))
+        with_pose = {r.ns for r in self.robots}
+        for topic in sorted(t for t, kind in topics.items() if kind == ODOM and basename(t) == "odom"):
+            if namespace(topic) not in with_pose:
+                self.robots.append(Robot(namespace(topic), "mobile", topic))
+        self.arms = sorted(
+            namespace(t) for t, kind in topics.items() if kind == JOINTS and basename(t) == "joint_states"
+        )
+        self.command_topics = sorted(t for t in topics if basename(t) in COMMAND_TOPICS)
+        if self.robots:
+            self.frame_topic: str | None = self.robots[0].pose_topic
+        elif self.arms:
+            self.frame_topic = f"{self.arms[0]}/joint_states"
+        else:
+            self.frame_topic = None
+        if self.frame_topic is not None and self.frame_topic in index.by_topic:
+            self.frames = index.by_topic[self.frame_topic].times
+        else:
+            self.frames = np.unique(np.concatenate([ti.times for ti in index.by_topic.values()] or [np.zeros(0, int)]))
+        for robot in self.robots:
+            self._load_track(robot)
+        self._maps: dict[str, CreateMap] = {}
+        self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, object]] = OrderedDict()
+
+    @classmethod
+    def open(cls, path: str | Path) -> Replay:
+        return cls(BagIndex.open(path))
+
+    @property
+    def duration_s(self) -> float:
+        return (self.end_ns - self.start_ns) / 1e9
+
+    def _load_track(self, robot: Robot) -> None:
+        """Every pose of the robot, read once: the track drawn up to any instant."""
+        ti = self.index.by_topic.get(robot.pose_topic)
+        if ti is None:
+            return
+        messages = self.index.messages(robot.pose_topic)
+        xy = track_positions(ti.type, [m.data for m in messages])
+        if xy is None:
+            xy = np.full((len(messages), 2), np.nan)
+        for i in np.flatnonzero(np.isnan(xy[:, 0])):  # what the fast read could not: deserialise
+            msg = decode(messages[i])
+            if msg is not None:
+                position = (msg.pose.pose if robot.kind == "mobile" else msg.pose).position
+                xy[i] = position.x, position.y
+        # One point per TRACK_MIN_STEP_M travelled: a parked robot's 50 Hz poses are one point.
+        travelled = np.concatenate([[0.0], np.cumsum(np.nan_to_num(np.hypot(*np.diff(xy, axis=0).T)))])
+        keep = np.flatnonzero(np.diff(np.floor(travelled / TRACK_MIN_STEP_M), prepend=-1.0) > 0)
+        robot.track_times = ti.times[keep]
+        robot.track = xy[keep]
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, t_ns: int, frames: int) -> int:
+        """The time ``frames`` frames after (negative: before) the frame at or before ``t_ns``."""
+        if not len(self.frames):
+            return t_ns
+        i = int(np.searchsorted(self.frames, t_ns, side="right")) - 1
+        if frames > 0 or i < 0 or self.frames[i] == t_ns or frames == 0:
+            i += frames
+        else:  # between two frames: one step back is the frame just before
+            i += frames + 1
+        return int(self.frames[min(max(i, 0), len(self.frames) - 1)])
+
+    def clamp(self, t_ns: int) -> int:
+        return min(max(int(t_ns), self.start_ns), self.end_ns)
+
+    # ------------------------------------------------------------------ the frame
+    def frame(self, t_ns: int) -> Frame:
+        """Everything the page shows at ``t_ns``."""
+        index = self.index
+        state, decoded = {}, {}
+        for topic, ti in index.by_topic.items():
+            position = ti.at_or_before(t_ns)
+            if position >= 0:
+                state[topic], decoded[topic] = self._message(topic, position)
+        robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots]
+        joints, effectors = {}, {}
+        for arm in self.arms:
+            msg = decoded.get(f"{arm}/joint_states")
+            if msg is not None:
+                joints[arm] = list(zip(msg.name, msg.position, strict=False))
+            pose = decoded.get(f"{arm}/end_effector_pose")
+            if pose is not None:
+                p = pose.pose.position
+                effectors[arm] = (p.x, p.y, p.z)
+        commands = []
+        for topic in self.command_topics:
+            ti = index.by_topic.get(topic)
+            last = -1 if ti is None else ti.at_or_before(t_ns)
+            for i in range(last, max(last - COMMANDS_SHOWN, -1), -1):
+                m, msg = self._message(topic, i)
+                commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, msg)))
+        commands.sort(key=lambda c: -c[0])
+        latest = [
+            (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
+        ]
+        world = None
+        markers = [t for t in state if basename(t) == "map_markers"]
+        if markers:
+            world = self._create_map(state[markers[0]], decoded[markers[0]])
+        grids = [t for t, kind in index.topics.items() if kind == "nav_msgs/msg/OccupancyGrid" and t in decoded]
+        outlines = [t for t in decoded if basename(t) == "robots" and index.topics[t].endswith("/MarkerArray")]
+        return Frame(
+            t_ns=t_ns,
+            elapsed_s=(t_ns - self.start_ns) / 1e9,
+            robots=robots,
+            joints=joints,
+            end_effectors=effectors,
+            commands=commands[:COMMANDS_SHOWN],
+            latest=latest,
+            world=world,
+            grid=decoded[grids[0]] if grids else None,
+            outlines=decoded[outlines[0]] if outlines else None,
+        )
+
+    def _message(self, topic: str, position: int) -> tuple[BagMessage, object]:
+        """A topic's message and its decoded form; the last DECODED_KEPT are kept, so a map, a robot
+        description or a sensor that did not publish again is not decoded at every frame."""
+        key = (topic, position)
+        found = self._decoded.get(key)
+        if found is None:
+            m = self.index.message(topic, position)
+            found = self._decoded[key] = (m, decode(m))
+            if len(self._decoded) > DECODED_KEPT:
+                self._decoded.popitem(last=False)
+        else:
+            self._decoded.move_to_end(key)
+        return found
+
+    def _create_map(self, m: BagMessage, msg) -> CreateMap | None:
+        from studio.ros_client import map_from_markers
+
+        key = f"{m.topic}@{m.log_time_ns}"
+        if key not in self._maps and msg is not None:
+            self._maps[key] = map_from_markers(msg)
+        return self._maps.get(key)
+
+    def _robot_frame(self, robot: Robot, state: dict, decoded: dict, t_ns: int) -> RobotFrame:
+        rf = RobotFrame(robot)
+        msg = decoded.get(robot.pose_topic)
+        if msg is not None:
+            rf.pose = planar(msg.pose.pose if robot.kind == "mobile" else msg.pose)
+        odom = decoded.get(robot.topic("odom"))
+        if odom is not None:
+            rf.odom = planar(odom.pose.pose)
+            rf.velocity = (odom.twist.twist.linear.x, odom.twist.twist.angular.z)
+        n = int(np.searchsorted(robot.track_times, t_ns, side="right"))
+        rf.track = robot.track[:n]
+        crashed = decoded.get(robot.topic("crashed"))
+        rf.crashed = bool(crashed is not None and getattr(crashed, "data", False))
+        if robot.kind != "create":
+            return rf
+        scan = decoded.get(robot.topic("scan"))
+        if scan is not None:
+            rf.scan = (scan.angle_min, scan.angle_increment, np.asarray(scan.ranges, dtype=np.float32))
+            rf.scan_stamp = scan.header.stamp.sec + 1e-9 * scan.header.stamp.nanosec
+        for name in SONAR_NAMES:
+            sonar = decoded.get(robot.topic(f"sonar/{name}"))
+            if sonar is not None:
+                rf.sonar[name] = sonar.range
+        for name in CLIFF_NAMES:
+            cliff = decoded.get(robot.topic(f"cliff/{name}"))
+            if cliff is not None:
+                rf.cliffs[name] = cliff.illuminance
+        wall = decoded.get(robot.topic("wall"))
+        rf.wall = None if wall is None else wall.range == -math.inf
+        left, right = decoded.get(robot.topic("bump/left")), decoded.get(robot.topic("bump/right"))
+        if left is not None and right is not None:
+            rf.bumps = (left.range == -math.inf, right.range == -math.inf)
+        camera = decoded.get(robot.topic("camera/beacons"))
+        if camera is not None:
+            rf.sightings = [(mk.pose.position.x, mk.pose.position.y, mk.text) for mk in camera.markers]
+        return rf

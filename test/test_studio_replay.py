@@ -1,0 +1,146 @@
+"""What the replay page shows at an instant (studio.replay, no browser): the bag's own values."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.msg import OccupancyGrid
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool
+
+from create_sim.synthetic_run import write_create_run
+from sim_runtime.bag.reader import open_bag
+from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
+from sim_runtime.msgs import pose_msg, yaw_from_quaternion
+from studio import draw
+from studio.replay import Replay
+from studio.replay_page import bag_names, grid_image_svg, panel_html
+from studio.workspace import Workspace
+
+S = 1_000_000_000
+
+
+@pytest.fixture(scope="module")
+def create_bag(tmp_path_factory) -> Path:
+    return write_create_run(tmp_path_factory.mktemp("replay") / "run", 3.0, start_s=50.0)
+
+
+def latest(bag_path: Path, topic: str, t_ns: int):
+    """The last message of ``topic`` at or before ``t_ns``, found by reading the bag from its start."""
+    found = None
+    for m in open_bag(bag_path).messages(topics=[topic], end=t_ns):
+        found = m
+    return found
+
+
+def test_a_frame_shows_the_pose_scan_and_commands_the_bag_holds_at_that_instant(create_bag):
+    replay = Replay.open(create_bag)
+    assert [(r.ns, r.kind) for r in replay.robots] == [("", "create")]
+    t = replay.start_ns + 1_234_567_890
+    frame = replay.frame(t)
+    assert frame.elapsed_s == pytest.approx(1.23456789)
+    pose = latest(create_bag, "/overhead_pose", t).msg.pose
+    rf = frame.robots[0]
+    assert rf.pose == (pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation))
+    scan = latest(create_bag, "/scan", t).msg
+    np.testing.assert_array_equal(rf.scan[2], np.asarray(scan.ranges, dtype=np.float32))
+    assert rf.sonar["front"] == latest(create_bag, "/sonar/front", t).msg.range
+    assert np.allclose(rf.track[-1], (pose.position.x, pose.position.y), atol=0.02)  # drawn up to the robot
+    assert frame.commands[0][1:] == ("/cmd_vel", "v 0.300 m/s, ω 0.000 rad/s")
+    assert {topic for topic, _age, _text in frame.latest} == set(open_bag(create_bag).topics)
+    assert len(frame.world.walls) == 5
+    html = panel_html(frame)
+    assert f"{pose.position.x:.3f} {pose.position.y:.3f}" in html
+
+
+def test_steps_go_from_one_pose_to_the_next_and_stop_at_the_ends(create_bag):
+    replay = Replay.open(create_bag)
+    frames = replay.frames
+    assert len(frames) == 151 and frames[0] == replay.start_ns  # 3 s of 50 Hz poses
+    assert replay.step(frames[0], 1) == frames[1]
+    assert replay.step(frames[5] + 1, 1) == frames[6]  # between two poses
+    assert replay.step(frames[5] + 1, -1) == frames[5]
+    assert replay.step(frames[5], -1) == frames[4]
+    assert replay.step(frames[0], -1) == frames[0]
+    assert replay.step(frames[-1], 3) == frames[-1]
+
+
+def test_simrobot_robots_and_arm_joints_are_found_and_read(tmp_path):
+    qos = qos_profiles_yaml([{}])
+    grid = OccupancyGrid()
+    grid.info.width, grid.info.height, grid.info.resolution = 4, 2, 0.5
+    grid.data = [0, 0, 0, 100, 0, 0, -1, 0]
+    with BagWriter(tmp_path / "mixed") as bag:
+        ids = {
+            name: bag.add_topic(name, kind, qos)
+            for name, kind in [
+                ("/map", "nav_msgs/msg/OccupancyGrid"),
+                ("/r1/pose", "geometry_msgs/msg/PoseStamped"),
+                ("/r1/crashed", "std_msgs/msg/Bool"),
+                ("/r1/cmd_vel", "geometry_msgs/msg/Twist"),
+                ("/arm/joint_states", "sensor_msgs/msg/JointState"),
+            ]
+        }
+        bag.write(ids["/map"], 0, serialize_message(grid))
+        for k in range(5):
+            bag.write(ids["/r1/pose"], k * S, serialize_message(PoseStamped(pose=pose_msg(0.1 * k, 0.0, 0.2))))
+            bag.write(ids["/arm/joint_states"], k * S, serialize_message(JointState(name=["j1"], position=[k * 0.5])))
+        bag.write(ids["/r1/cmd_vel"], 2 * S, serialize_message(Twist()))
+        bag.write(ids["/r1/crashed"], 3 * S, serialize_message(Bool(data=True)))
+    replay = Replay.open(tmp_path / "mixed")
+    assert [(r.ns, r.kind) for r in replay.robots] == [("/r1", "simrobot")]
+    assert replay.arms == ["/arm"] and replay.frame_topic == "/r1/pose"
+    before, after = replay.frame(2 * S + 1), replay.frame(3 * S)
+    assert before.robots[0].pose == pytest.approx((0.2, 0.0, 0.2)) and not before.robots[0].crashed
+    assert after.robots[0].crashed and after.joints["/arm"] == [("j1", 1.5)]
+    assert [c[1] for c in before.commands] == ["/r1/cmd_vel"]
+    svg = grid_image_svg(draw.View(800, 600, scale=100.0), after.grid)
+    assert 'x="400.0" y="200.0" width="200.0" height="100.0"' in svg  # 2 m × 1 m from (0, 0), y up
+
+
+def test_the_bag_list_names_bag_folders_and_lone_mcap_files(create_bag, tmp_path):
+    (tmp_path / "run").symlink_to(create_bag, target_is_directory=True)
+    (tmp_path / "other.mcap").write_bytes((next(create_bag.glob("*.mcap"))).read_bytes())
+    assert bag_names(Workspace(tmp_path)) == ["other.mcap"]  # a symlink out of the workspace is not followed
+    write_create_run(tmp_path / "runs" / "b", 0.1)
+    assert bag_names(Workspace(tmp_path)) == ["other.mcap", "runs/b"]
+    assert math.isfinite(Replay.open(tmp_path / "other.mcap").duration_s)
+
+
+def test_a_recorded_demo_run_replays_with_its_controller_commands(tmp_path):
+    """A real recording (world, controller and recorder in one process), not a written one."""
+    from create_sim.bump_turn import demo
+    from sim_runtime.demo import _Recording
+
+    recording = _Recording(tmp_path / "demo")
+    demo(1.0, extra_nodes=recording)
+    recording.close()
+    replay = Replay.open(tmp_path / "demo")
+    assert [r.kind for r in replay.robots] == ["create"] and len(replay.frames) >= 40
+    frame = replay.frame(replay.end_ns)
+    assert frame.robots[0].pose[0] > 0.1 and frame.world is not None
+    assert frame.commands and all(topic == "/cmd_vel" for _t, topic, _text in frame.commands)
+
+
+def test_an_empty_bag_and_a_type_that_is_not_installed_replay_without_failing(tmp_path):
+    with BagWriter(tmp_path / "empty"):
+        pass
+    empty = Replay.open(tmp_path / "empty")
+    assert empty.robots == [] and empty.duration_s == 0.0
+    assert empty.frame(empty.start_ns).latest == [] and empty.step(0, 1) == 0
+    qos = qos_profiles_yaml([{}])
+    with BagWriter(tmp_path / "unknown") as bag:
+        thing = bag.add_topic("/thing", "no_such_pkg/msg/Thing", qos)
+        pose = bag.add_topic("/overhead_pose", "geometry_msgs/msg/PoseStamped", qos)
+        bag.write(thing, 0, b"\x00\x01\x00\x00abcd")
+        bag.write(pose, S, serialize_message(PoseStamped(pose=pose_msg(1.0, 2.0, 0.5))))
+    replay = Replay.open(tmp_path / "unknown")
+    with pytest.warns(UserWarning, match="no_such_pkg/msg/Thing"):
+        frame = replay.frame(replay.end_ns)
+    assert ("/thing", 1.0, "(no_such_pkg/msg/Thing, not decoded)") in frame.latest
+    assert frame.robots[0].pose == pytest.approx((1.0, 2.0, 0.5))
