@@ -241,7 +241,16 @@ def _robot(entry: Any, where: str) -> RobotSpec:
     sensors = tuple(_sensor(s, f"{where}.sensors[{i}]") for i, s in enumerate(sensors_in))
     seen: set[str] = set()
     for i, s in enumerate(sensors):
-        if s.name in seen or s.name in ("cmd_vel", "wheel_cmd", "odom", "pose", "crashed", "set_power", "clear_crash"):
+        if s.name in seen or s.name in (
+            "cmd_vel",
+            "wheel_cmd",
+            "odom",
+            "pose",
+            "crashed",
+            "set_power",
+            "clear_crash",
+            "power",
+        ):
             raise InputError(f"{where}.sensors[{i}].name: {s.name!r} is used twice or clashes with a robot topic")
         seen.add(s.name)
     controller = entry.get("controller")

@@ -27,7 +27,7 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState, LaserScan, Range
-from std_msgs.msg import Bool, UInt8
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension, UInt8
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -52,12 +52,14 @@ from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
 
 #: Wall seconds between re-publications of a step's data while lockstep waits.
 REPUBLISH_PERIOD = 0.5
+#: Numbers per robot in ``robot_states``: x, y, heading, crashed, power.
+ROBOT_STATE_FIELDS = 5
 
 
 class _RobotIO:
     """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
 
-    __slots__ = ("crashed_pub", "msgs", "odom", "odom_pub", "pose", "pose_pub", "pubs", "services", "subs")
+    __slots__ = ("crashed_pub", "msgs", "odom", "odom_pub", "pose", "pose_pub", "power_pub", "pubs", "services", "subs")
 
 
 class SimrobotWorldNode(SimWorldNode):
@@ -99,8 +101,11 @@ class SimrobotWorldNode(SimWorldNode):
         self._map_pub.publish(self._map_msg())
         self._robots_pub = self.create_publisher(MarkerArray, "robots", SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
+        self._states_pub = self.create_publisher(Float64MultiArray, "robot_states", SENSOR_PUBLISHER_QOS)
+        self._states = self._states_msg()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
+            self._io[i].power_pub.publish(Bool(data=bool(self.model.power[i])))
         self.tf = TfBroadcaster(self)
         # /tf messages reused every step: rclpy serialises on publish
         self._odom_tf = [
@@ -157,6 +162,7 @@ class SimrobotWorldNode(SimWorldNode):
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
         io.crashed_pub = self.create_publisher(Bool, f"{name}/crashed", LATCHED_QOS)
+        io.power_pub = self.create_publisher(Bool, f"{name}/power", LATCHED_QOS)
         io.subs = [
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
@@ -223,6 +229,21 @@ class SimrobotWorldNode(SimWorldNode):
             out.markers.append(m)
         return out
 
+    def _states_msg(self) -> Float64MultiArray:
+        """``robot_states``: the whole world in one flat message a viewer decodes with one numpy
+        call, however many robots: [sim time, robots n, sensors k, then per robot x, y, heading,
+        crashed, power (n x 5), then per sensor its nearest hit in metres (k, inf = none)]."""
+        n, k = len(self.model.names), len(self.model.sensors)
+        msg = Float64MultiArray()
+        msg.layout.dim = [
+            MultiArrayDimension(label="header", size=3, stride=3),
+            MultiArrayDimension(label="robots", size=n, stride=ROBOT_STATE_FIELDS),
+            MultiArrayDimension(label="sensors", size=k, stride=1),
+        ]
+        self._states_data = np.zeros(3 + ROBOT_STATE_FIELDS * n + k)
+        self._states_data[1:3] = n, k
+        return msg
+
     # -- commands ---------------------------------------------------------------------------
     def _counts_for_step(self, stamp) -> bool:
         if stamp.sec == 0 and stamp.nanosec == 0:
@@ -275,6 +296,7 @@ class SimrobotWorldNode(SimWorldNode):
 
     def _on_set_power(self, i: int, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         self.model.set_power(i, request.data)
+        self._io[i].power_pub.publish(Bool(data=bool(request.data)))
         response.success = True
         response.message = f"{self.model.names[i]} power {'on' if request.data else 'off'}"
         return response
@@ -330,16 +352,21 @@ class SimrobotWorldNode(SimWorldNode):
         stamp = self.stamp()
         poses = model.poses()
         odom_poses = model.odometry()
+        n = len(self._io)
+        states = self._states_data
+        nearest = states[3 + ROBOT_STATE_FIELDS * n :]
         for i, io in enumerate(self._io):
             for (k, kind, pub, obst_pub), (msg, obst) in zip(io.pubs, io.msgs, strict=True):
                 msg.header.stamp = stamp
                 if kind == "laser":
                     ranges, values = model.ranges(k)
+                    nearest[k] = ranges.min() if len(ranges) else np.inf
                     msg.ranges = float32_array(ranges)
                     msg.intensities = float32_array(values)
                     pub.publish(msg)
                 else:
                     dist, value = model.nearest(k)
+                    nearest[k] = dist
                     msg.range = dist
                     pub.publish(msg)
                     obst.data = value
@@ -364,6 +391,13 @@ class SimrobotWorldNode(SimWorldNode):
             m.pose.position.y = float(poses[i, 1])
             m.pose.orientation = quaternion_from_yaw(poses[i, 2])
         self._robots_pub.publish(self._markers)
+        states[0] = self.sim_time
+        per_robot = states[3 : 3 + ROBOT_STATE_FIELDS * n].reshape(n, ROBOT_STATE_FIELDS)
+        per_robot[:, :3] = poses
+        per_robot[:, 3] = model.crashed
+        per_robot[:, 4] = model.power
+        self._states.data = array.array("d", states.tobytes())
+        self._states_pub.publish(self._states)
         if self.tf.heard():
             for t, (ox, oy, oh) in zip(self._odom_tf, odom_poses.tolist(), strict=True):
                 t.header.stamp = stamp

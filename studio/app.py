@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from nicegui import app, ui
 
-    from studio import arm_page, config_page, map_page, replay_page, sim_page
+    from studio import arm_page, config_page, map_page, replay_page, sim_page, simrobot_editor_page, simrobot_page
     from studio.ros_client import StudioRos
 
     studio = Studio(workspace=workspace, controllers=controllers)
@@ -126,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     config_page.register(studio)
     arm_page.register(studio)
     replay_page.register(studio)
+    simrobot_page.register(studio)
+    simrobot_editor_page.register(studio)
     print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
     ui.run(
         host=options.host,
@@ -170,6 +172,8 @@ def nav(current: str) -> None:
             ("/config", "Config maker"),
             ("/arm", "Arm"),
             ("/replay", "Replay"),
+            ("/simrobot", "SIMROBOT"),
+            ("/simrobot/editor", "SIMROBOT editor"),
         ):
             link = ui.link(text, target).classes("text-base")
             if target == current:

@@ -14,7 +14,7 @@ from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState, LaserScan, Range
-from std_msgs.msg import Bool, UInt8
+from std_msgs.msg import Bool, Float64MultiArray, UInt8
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
@@ -176,6 +176,35 @@ def test_crash_is_published_and_services_clear_it_and_cut_power(executor, make_n
     call(executor, node, SetBool, "/b/set_power", SetBool.Request(data=True))
     world.step()
     assert world.model.poses()[1, 0] == pytest.approx(x_crash - 0.01)
+
+
+def test_the_power_flag_is_latched_and_follows_set_power(executor, make_node):
+    world = two_robot_world(executor)
+    node = make_node("power_watcher")
+    power = Collector(node, Bool, "/b/power", LATCHED_QOS)  # joins after the world started: latched
+    assert spin_until(executor, lambda: power.last is not None and power.last.data is True)
+    assert call(executor, node, SetBool, "/b/set_power", SetBool.Request(data=False)).success
+    assert spin_until(executor, lambda: power.last.data is False)
+    assert not world.model.power[1]
+
+
+def test_robot_states_hold_every_pose_flag_and_nearest_hit_in_one_message(executor, make_node):
+    world = two_robot_world(executor)
+    node = make_node("states_watcher")
+    states = Collector(node, Float64MultiArray, "/robot_states", SENSOR_SUBSCRIBER_QOS)
+    assert wait_for_match(executor, states.subscription)
+    world.model.set_wheel_speeds(1, 2.0, 2.0)  # b drives into the wall at x = 1.5 and crashes
+    world.model.set_power(0, False)
+    world.step(12)
+    assert spin_until(executor, lambda: states.last is not None and states.last.data[0] == world.sim_time)
+    data = np.asarray(states.last.data)
+    assert [d.label for d in states.last.layout.dim] == ["header", "robots", "sensors"]
+    assert data[1:3].tolist() == [2, 2]
+    robots = data[3:13].reshape(2, 5)
+    assert np.allclose(robots[:, :3], world.model.poses())
+    assert robots[:, 3].tolist() == [0.0, 1.0] and robots[:, 4].tolist() == [0.0, 1.0]  # b crashed, a off
+    assert data[13] == world.model.nearest(0)[0]  # the sonar's nearest hit
+    assert data[14] == np.min(world.model.ranges(1)[0])  # the laser's nearest ray
 
 
 def crowded_spec(steps: int = 1000) -> WorldSpec:

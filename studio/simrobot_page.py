@@ -1,0 +1,374 @@
+"""The SIMROBOT simulator page (the seed's Simulator window): watch a running world, run/pause/step,
+real-time factor, a robot's info with power and clear crash, draw tracks to PNG.
+
+The view redraws at most every FRAME_PERIOD_S and only when a new ``robots`` message came in. The
+browser counts the frames it actually shows (a requestAnimationFrame loop watching the frame number
+the page writes into the drawing) and shows frames/s under the view: what the benchmark reads.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from html import escape
+
+import numpy as np
+from nicegui import ui
+
+from simrobot_sim.tracks import draw_tracks
+from studio import draw
+from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.simrobot_client import WorldState, side
+from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
+
+FRAME_PERIOD_S = 0.05
+"""How often the page looks for a new step (it redraws only when one came). Looking every 25 ms
+drew no more frames on a busy machine: the browser then skips some."""
+TRACKS_PERIOD_S = 1.0
+RTF_OPTIONS = {0.25: "0.25×", 0.5: "0.5×", 1.0: "1× (real time)", 2.0: "2×", 4.0: "4×", 0.0: "as fast as possible"}
+LAYERS = {"beams": "Beams and hits", "tracks": "Tracks", "names": "Names"}
+FPS_JS = """
+<script>
+(() => {
+  let last = null, shown = 0, t0 = performance.now();
+  window.simrobotFrames = 0;
+  function count() {
+    const g = document.querySelector('.simrobot-view g.frame');
+    const n = g && g.dataset.n;
+    if (n && n !== last) { last = n; window.simrobotFrames++; shown++; }
+    const now = performance.now();
+    if (now - t0 >= 1000) {
+      const label = document.querySelector('.simrobot-fps');
+      if (label) label.textContent = (shown * 1000 / (now - t0)).toFixed(1) + ' frames/s';
+      shown = 0; t0 = now;
+    }
+    requestAnimationFrame(count);
+  }
+  requestAnimationFrame(count);
+})();
+</script>
+"""
+
+
+def register(studio: Studio) -> None:
+    side(studio)
+
+    @ui.page("/simrobot")
+    def simrobot_page() -> None:
+        SimrobotPage(studio)
+
+
+def info_html(st: WorldState, i: int) -> str:
+    """The clicked robot's info: pose, power, crashed, every sensor's reading."""
+    x, y, h = st.poses[i] if i < len(st.poses) else (math.nan,) * 3
+    rows = [
+        ("robot", escape(st.names[i])),
+        ("x, y (m)", f"{x:.3f}, {y:.3f}"),
+        ("heading (°)", f"{math.degrees(h):.1f}"),
+        ("power", "on" if st.power[i] else "off"),
+        ("crashed", "yes" if st.crashed[i] else "no"),
+    ]
+    for k, (robot, sensor) in enumerate(st.sensors):
+        if robot == i:
+            d = st.nearest[k]
+            rows.append(
+                (f"{escape(sensor.name)} ({sensor.kind}) nearest", f"{d:.3f} m" if math.isfinite(d) else "none")
+            )
+    body = "".join(f"<tr><td class='pr-3 text-gray-600'>{k}</td><td class='font-mono'>{v}</td></tr>" for k, v in rows)
+    return f"<table class='simrobot-info text-sm'>{body}</table>"
+
+
+class SimrobotPage:
+    """One tab's view of one SIMROBOT world."""
+
+    def __init__(self, studio: Studio) -> None:
+        self.studio = studio
+        self.side = side(studio)
+        self.view = draw.View(*VIEW_SIZE, scale=200.0)
+        self.ns: str | None = None
+        self.layers = set(LAYERS)
+        self.robot: int | None = None
+        self.drawn_seq = -1
+        self.drawn_map: tuple | None = None
+        self.view_dirty = True
+        self.frames = 0
+        self.map_url = ""
+        self.mouse_down = None
+        self.tracks_drawn = 0.0
+        self.build()
+        ui.timer(FRAME_PERIOD_S, self.tick)
+        ui.timer(0.5, self.slow_tick)
+
+    def build(self) -> None:
+        nav("/simrobot")
+        ui.add_body_html(FPS_JS)
+        with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
+            with ui.column().classes("gap-1"):
+                self.image = view_image(self.on_mouse, self.on_wheel, "simrobot-view", "#fff")
+                self.track_layer = self.image.add_layer()  # redrawn once a second: history changes slowly
+                self.dynamic = self.image.add_layer()
+                with ui.row().classes("items-center gap-2"):
+                    ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
+                    ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
+                    ui.button("Fit map", on_click=self.fit).props("dense flat")
+                    for key, text in LAYERS.items():
+                        ui.checkbox(text, value=True, on_change=lambda e, k=key: self.toggle(k, e.value))
+                    ui.label("").classes("simrobot-fps font-mono text-sm text-gray-600")
+                self.status = ui.label("").classes("simrobot-status font-mono text-sm")
+            with ui.column().classes("gap-2 w-[420px]"):
+                with ui.row().classes("items-center gap-2 w-full"):
+                    self.world_select = ui.select({}, label="World (namespace)", on_change=self.on_world).classes(
+                        "w-48 simrobot-world"
+                    )
+                    self.no_world = ui.label("no SIMROBOT world found yet").classes("text-orange-700 text-sm")
+                ui.link("Build one in the editor", "/simrobot/editor").classes("text-sm")
+                with ui.card().classes("w-full"):
+                    ui.label("Run").classes("font-bold")
+                    with ui.row().classes("items-center gap-2"):
+                        self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("simrobot-pause")
+                        ui.button("Step", on_click=self.step).props("dense outline").classes("simrobot-step")
+                        self.rtf_select = ui.select(
+                            RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
+                        ).classes("w-48")
+                    with ui.row().classes("items-center gap-2"):
+                        ui.button("Stop world", on_click=self.stop_world).props("dense outline color=red")
+                        self.world_label = ui.label("").classes("text-sm break-all")
+                with ui.card().classes("w-full"):
+                    ui.label("Robot (click it in the view)").classes("font-bold")
+                    self.info = ui.html("", sanitize=False)
+                    with ui.row().classes("items-center gap-2"):
+                        ui.button("Power on", on_click=lambda: self.power(True)).props("dense outline")
+                        ui.button("Power off", on_click=lambda: self.power(False)).props("dense outline")
+                        ui.button("Clear crash", on_click=self.clear_crash).props("dense outline")
+                with ui.card().classes("w-full"):
+                    ui.label("Tracks").classes("font-bold")
+                    with ui.row().classes("items-center gap-2"):
+                        self.tracks_name = ui.input("PNG file", value="simrobot_tracks.png").classes(
+                            "w-48 simrobot-tracks-name"
+                        )
+                        ui.button("Draw tracks", on_click=self.draw_tracks).props("dense outline")
+                        ui.button("Clear", on_click=self.clear_tracks).props("dense flat")
+                    self.tracks_label = ui.label("").classes("text-sm break-all simrobot-tracks-message")
+                    self.tracks_image = ui.image().classes("w-full")
+                    self.tracks_image.set_visibility(False)
+
+    # ---------------------------------------------------------------- state
+    def world(self) -> WorldState | None:
+        ros = self.side.ros
+        if ros is None or self.ns is None:
+            return None
+        st = ros.worlds.get(self.ns)
+        return st if st is not None and st.spec is not None else None
+
+    def slow_tick(self) -> None:
+        ros = self.side.ros
+        if ros is None:
+            return
+        names = ros.namespaces()
+        if names != list(self.world_select.options):
+            current = self.ns if self.ns in names else self.side.selected if self.side.selected in names else None
+            value = current if current is not None else (names[0] if names else None)
+            self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)
+            self.ns = value
+            self.view_dirty = True
+        self.no_world.set_visibility(not names)
+        st = self.world()
+        if st is not None and self.robot is not None and self.robot < len(st.names):
+            self.info.set_content(info_html(st, self.robot))
+        child = self.side.worlds.get(self.ns or "")
+        if child is not None and not child.running:
+            self.world_label.set_text(f"{child.label}: {child.error_line()}")
+        elif st is not None and st.problem:
+            self.world_label.set_text(st.problem)
+
+    def on_world(self, e) -> None:
+        self.ns = e.value
+        self.side.selected = e.value
+        self.robot = None
+        self.drawn_map = None
+        self.view_dirty = True
+
+    # ---------------------------------------------------------------- drawing
+    def tick(self) -> None:
+        st = self.world()
+        if st is None or len(st.poses) != len(st.names):
+            return
+        spec = st.spec
+        if self.drawn_map is None or self.drawn_map[0] is not spec:
+            self.map_url = map_data_url(spec.walls)
+            self.drawn_map = (spec,)
+            self.fit()
+        if self.view_dirty or time.monotonic() - self.tracks_drawn >= TRACKS_PERIOD_S:
+            self.tracks_drawn = time.monotonic()
+            self.track_layer.set_content(self.tracks_svg(st) if "tracks" in self.layers else "")
+        if self.view_dirty or st.seq != self.drawn_seq:
+            self.drawn_seq = st.seq
+            self.view_dirty = False
+            self.frames += 1
+            self.dynamic.set_content(self.dynamic_svg(st))
+
+    def draw_map(self) -> None:
+        st = self.world()
+        if st is not None and self.map_url:
+            self.image.set_content(
+                map_svg(self.view, self.map_url, st.spec.walls.shape, st.spec.resolution, st.spec.origin)
+            )
+
+    def dynamic_svg(self, st: WorldState) -> str:
+        v = self.view
+        parts = [
+            f'<g class="frame" data-n="{self.frames}" data-sim-time="{st.sim_time!r}" data-centre-x="{v.centre_x!r}" '
+            f'data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
+        ]
+        robots, poses, model = st.spec.robots, st.poses, st.spec.sensor_model
+        if "beams" in self.layers:
+            nearest = st.nearest.tolist()
+            for k, (i, sensor) in enumerate(st.sensors):
+                if sensor.kind == "laser":  # every ray to its hit
+                    parts.append(beams_svg(v, robots[i], sensor, poses[i], ranges=st.scans.get(k), sensor_model=model))
+                else:  # the cone and its nearest hit
+                    parts.append(beams_svg(v, robots[i], sensor, poses[i], nearest=nearest[k], sensor_model=model))
+        names = "names" in self.layers
+        crashed = st.crashed.tolist()
+        for i, robot in enumerate(robots):
+            label = robot.name if names else ""
+            parts.append(robot_svg(v, robot, poses[i], selected=i == self.robot, crashed=crashed[i], label=label))
+        return "".join(parts)
+
+    def tracks_svg(self, st: WorldState) -> str:
+        robots = st.spec.robots
+        return "".join(
+            track_svg(self.view, np.array(list(track)).reshape(-1, 2), robots[i].color)  # list(): one atomic copy
+            for i, track in enumerate(st.tracks)
+        )
+
+    def toggle(self, key: str, on: bool) -> None:
+        (self.layers.add if on else self.layers.discard)(key)
+        self.view_dirty = True
+
+    def fit(self) -> None:
+        st = self.world()
+        if st is None:
+            return
+        nx, ny = st.spec.walls.shape
+        ox, oy = st.spec.origin
+        w, h = nx * st.spec.resolution, ny * st.spec.resolution
+        self.view.fit(np.array([ox, ox + w]), np.array([oy, oy + h]), margin_m=0.03 * max(w, h))
+        self.draw_map()
+        self.view_dirty = True
+
+    def zoom(self, factor: float) -> None:
+        self.view.zoom(factor)
+        self.draw_map()
+        self.view_dirty = True
+
+    def on_wheel(self, e) -> None:
+        a = e.args
+        if a.get("w") and a.get("h"):
+            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
+            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+            self.draw_map()
+            self.view_dirty = True
+
+    # ---------------------------------------------------------------- mouse: click a robot, drag to pan
+    def on_mouse(self, e) -> None:
+        if e.type == "mousedown":
+            self.mouse_down = (e.image_x, e.image_y, self.view.centre_x, self.view.centre_y)
+            return
+        if self.mouse_down is None:
+            return
+        px, py, cx, cy = self.mouse_down
+        moved = math.hypot(e.image_x - px, e.image_y - py) >= 4
+        if moved:
+            self.view.centre_x = cx - (e.image_x - px) / self.view.scale
+            self.view.centre_y = cy + (e.image_y - py) / self.view.scale
+            self.draw_map()
+            self.view_dirty = True
+        if e.type == "mouseup":
+            self.mouse_down = None
+            if not moved:
+                self.pick(*self.view.to_world(e.image_x, e.image_y))
+
+    def pick(self, x: float, y: float) -> None:
+        st = self.world()
+        if st is None or not len(st.poses):
+            return
+        d = np.hypot(st.poses[:, 0] - x, st.poses[:, 1] - y)
+        i = int(np.argmin(d))
+        reach = max(math.hypot(*p) for p in st.spec.robots[i].shape) * st.spec.robots[i].scale
+        if d[i] > reach + 10.0 / self.view.scale:
+            return
+        self.robot = i
+        self.info.set_content(info_html(st, i))
+        self.view_dirty = True
+
+    # ---------------------------------------------------------------- commands
+    async def ask(self, call) -> None:
+        try:
+            result = await call
+        except (TimeoutError, KeyError, IndexError) as err:
+            ui.notify(str(err), type="negative")
+            return
+        if isinstance(result, list):
+            for reason in result:
+                ui.notify(reason, type="negative")
+        elif isinstance(result, tuple):
+            ui.notify(result[1], type="positive" if result[0] else "negative")
+        else:
+            ui.notify(result)
+
+    async def on_pause(self, e) -> None:
+        if self.world() is not None:
+            await self.ask(self.side.ros.set_world_parameters(self.ns, {"paused": bool(e.value)}))
+
+    async def step(self) -> None:
+        if self.world() is not None:
+            await self.ask(self.side.ros.step_world(self.ns))
+
+    async def on_rtf(self, e) -> None:
+        if self.world() is not None and e.value is not None:
+            await self.ask(self.side.ros.set_world_parameters(self.ns, {"real_time_factor": float(e.value)}))
+
+    async def power(self, on: bool) -> None:
+        if self.world() is not None and self.robot is not None:
+            await self.ask(self.side.ros.set_power(self.ns, self.robot, on))
+
+    async def clear_crash(self) -> None:
+        if self.world() is not None and self.robot is not None:
+            await self.ask(self.side.ros.clear_crash(self.ns, self.robot))
+
+    def stop_world(self) -> None:
+        child = self.side.worlds.pop(self.ns or "", None)
+        if child is None:
+            ui.notify("this world was not started by the studio (stop it where it runs)", type="warning")
+            return
+        child.stop()
+        ui.notify(f"{child.label} stopped")
+
+    def clear_tracks(self) -> None:
+        st = self.world()
+        if st is not None:
+            st.clear_tracks()
+            self.view_dirty = True
+
+    def draw_tracks(self) -> None:
+        st = self.world()
+        if st is None:
+            return
+        ws = self.studio.workspace
+        name = (self.tracks_name.value or "").strip()
+        try:
+            path = ws.path(name)
+            if path.suffix.lower() != ".png":
+                raise ValueError(f"{name!r}: name the file .png")
+            tracks = {st.names[i]: np.array(list(t)).reshape(-1, 2) for i, t in enumerate(st.tracks)}
+            colors = {r.name: r.color for r in st.spec.robots}
+            # draw_tracks takes OccupancyGrid layout: rows along y, row 0 the lowest
+            draw_tracks(st.spec.walls.T, st.spec.resolution, st.spec.origin, tracks, colors, path, title=st.ns or "/")
+        except (ValueError, OSError) as err:
+            self.tracks_label.set_text(f"error: {err}")
+            return
+        self.tracks_label.set_text(f"saved {ws.relative(path)}")
+        self.tracks_image.set_source(path)
+        self.tracks_image.force_reload()
+        self.tracks_image.set_visibility(True)
