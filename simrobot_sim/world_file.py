@@ -88,7 +88,7 @@ class WorldSpec:
     map_path: str = ""
 
 
-def load_map(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarray:
+def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.ndarray:
     """Read a black-and-white map image into ``walls[x, y]`` (bool, True = obstacle).
 
     1-bit images (the original's BMP): black is an obstacle. Greyscale (8/16-bit, palette with grey
@@ -284,7 +284,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     map_path = Path(data["map"])
     if not map_path.is_absolute():
         map_path = base_dir / map_path
-    walls = load_map(map_path)
+    walls = load_bitmap(map_path)
     steps = data.get("steps_limit", math.inf)
     if isinstance(steps, str) and steps.strip().lower() in ("inf", ".inf", "infinity"):
         steps = math.inf

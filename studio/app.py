@@ -170,10 +170,10 @@ def nav(current: str) -> None:
             ("/", "Simulator"),
             ("/map", "Map maker"),
             ("/config", "Config maker"),
-            ("/arm", "Arm"),
-            ("/replay", "Replay"),
             ("/simrobot", "SIMROBOT"),
             ("/simrobot/editor", "SIMROBOT editor"),
+            ("/arm", "Arm"),
+            ("/replay", "Replay"),
         ):
             link = ui.link(text, target).classes("text-base")
             if target == current:

@@ -95,7 +95,7 @@ class Frame:
     end_effectors: dict[str, tuple[float, float, float]]
     commands: list[tuple[float, str, str]]  # (elapsed s, topic, summary), newest first
     latest: list[tuple[str, float, str]]  # (topic, age s, summary) of every topic
-    world: CreateMap | None = None
+    map: CreateMap | None = None
     grid: object | None = None  # nav_msgs/OccupancyGrid (SIMROBOT's map)
     outlines: object | None = None  # /robots MarkerArray
 
@@ -268,10 +268,10 @@ class Replay:
         latest = [
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
         ]
-        world = None
+        create_map = None
         markers = [t for t in state if basename(t) == "map_markers"]
         if markers:
-            world = self._create_map(state[markers[0]], decoded[markers[0]])
+            create_map = self._create_map(state[markers[0]], decoded[markers[0]])
         grids = [t for t, kind in index.topics.items() if kind == "nav_msgs/msg/OccupancyGrid" and t in decoded]
         outlines = [t for t in decoded if basename(t) == "robots" and index.topics[t].endswith("/MarkerArray")]
         return Frame(
@@ -282,7 +282,7 @@ class Replay:
             end_effectors=effectors,
             commands=commands[:COMMANDS_SHOWN],
             latest=latest,
-            world=world,
+            map=create_map,
             grid=decoded[grids[0]] if grids else None,
             outlines=decoded[outlines[0]] if outlines else None,
         )

@@ -464,8 +464,8 @@ class ReplayPage:
         if self.base_dirty:
             self.base_dirty = False
             base = draw.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
-            if frame.world is not None:
-                base += draw.map_svg(self.view, frame.world, fields="fields" in self.layers)
+            if frame.map is not None:
+                base += draw.map_svg(self.view, frame.map, fields="fields" in self.layers)
             if frame.grid is not None:
                 base = self.grid_svg(frame.grid) + base
             self.image.set_content(base)
@@ -553,8 +553,8 @@ class ReplayPage:
             return
         frame = replay.frame(replay.end_ns)
         xs, ys = [], []
-        if frame.world is not None:
-            w = frame.world
+        if frame.map is not None:
+            w = frame.map
             xs += [w.walls[:, 0], w.walls[:, 2], w.lines[:, 0], w.lines[:, 2], w.beacon_xy[:, 0]]
             ys += [w.walls[:, 1], w.walls[:, 3], w.lines[:, 1], w.lines[:, 3], w.beacon_xy[:, 1]]
         if frame.grid is not None:

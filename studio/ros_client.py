@@ -53,7 +53,7 @@ class RobotState:
     node_name: str = ""  # the world node's full name, for its parameter services
     seq: int = 0  # bumped by every drawn reading: the view redraws when it changes
     map_seq: int = 0
-    world: CreateMap = field(default_factory=CreateMap)
+    map: CreateMap = field(default_factory=CreateMap)
     pose: tuple[float, float, float] | None = None
     odom: tuple[float, float, float] | None = None
     velocity: tuple[float, float] = (0.0, 0.0)
@@ -204,7 +204,7 @@ class _Robot:
         self.state.sightings = [(m.pose.position.x, m.pose.position.y, m.text) for m in msg.markers]
 
     def _on_map(self, msg: MarkerArray) -> None:
-        self.state.world = map_from_markers(msg)
+        self.state.map = map_from_markers(msg)
         self.state.map_seq += 1
         self.state.seq += 1
 

@@ -287,7 +287,7 @@ class SimulatorPage:
         if self.view_dirty or self.drawn_map != (self.selected, st.map_seq):
             self.drawn_map = (self.selected, st.map_seq)
             base = draw.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
-            self.image.set_content(base + draw.map_svg(self.view, st.world, fields="fields" in self.layers))
+            self.image.set_content(base + draw.map_svg(self.view, st.map, fields="fields" in self.layers))
         if self.view_dirty or st.seq != self.drawn_seq:
             self.drawn_seq = st.seq
             self.view_dirty = False
@@ -337,7 +337,7 @@ class SimulatorPage:
         st = self.robot()
         if st is None:
             return
-        w = st.world
+        w = st.map
         xs = np.concatenate(
             [w.walls[:, 0], w.walls[:, 2], w.lines[:, 0], w.lines[:, 2], w.beacon_xy[:, 0], w.virtwalls[:, 0]]
         )

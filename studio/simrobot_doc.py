@@ -27,7 +27,7 @@ from simrobot_sim.world_file import (
     RobotSpec,
     SensorSpec,
     WorldSpec,
-    load_map,
+    load_bitmap,
     parse_world,
 )
 
@@ -50,7 +50,7 @@ def blank_walls(width_m: float, height_m: float, resolution: float) -> np.ndarra
 
 
 def map_image(walls: np.ndarray) -> Image.Image:
-    """The 1-bit image ``load_map`` reads back as ``walls`` (black = obstacle, top row = highest y)."""
+    """The 1-bit image ``load_bitmap`` reads back as ``walls`` (black = obstacle, top row = highest y)."""
     pixels = np.where(walls[:, ::-1].T, 0, 255).astype(np.uint8)
     return Image.fromarray(pixels, mode="L").convert("1", dither=Image.Dither.NONE)
 
@@ -207,7 +207,7 @@ class WorldDraft:
     @classmethod
     def from_image(cls, path: Path, resolution: float = BLANK_RESOLUTION) -> WorldDraft:
         """A draft on the bitmap at ``path``, read by ``simrobot_world``'s loader (same errors)."""
-        return cls(walls=load_map(path), resolution=resolution)
+        return cls(walls=load_bitmap(path), resolution=resolution)
 
 
 def default_shape() -> tuple[tuple[float, float], ...]:

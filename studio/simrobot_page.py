@@ -15,7 +15,7 @@ from html import escape
 import numpy as np
 from nicegui import ui
 
-from simrobot_sim.tracks import draw_tracks
+from sim_runtime.track_plot import draw_tracks
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, nav, view_image
 from studio.simrobot_client import WorldState, side

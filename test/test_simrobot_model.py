@@ -241,13 +241,13 @@ def test_crashed_robot_backs_out_after_clear_crash():
 
 # -- map orientation
 def test_image_top_row_is_max_y(tmp_path):
-    from simrobot_sim.world_file import load_map
+    from simrobot_sim.world_file import load_bitmap
 
     img = np.full((40, 60), 255, dtype=np.uint8)  # 40 rows (y), 60 columns (x)
     img[0, :] = 0  # top row black
     img[:, 0] = 0  # left column black
     Image.fromarray(img).convert("1").save(tmp_path / "m.png")
-    walls = load_map(tmp_path / "m.png")
+    walls = load_bitmap(tmp_path / "m.png")
     assert walls.shape == (60, 40)
     assert walls[:, 39].all() and not walls[1:, 38].any()
     assert walls[0, :].all()

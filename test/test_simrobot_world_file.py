@@ -13,7 +13,7 @@ from PIL import Image
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
 from simrobot_sim.model import SimrobotWorld
-from simrobot_sim.world_file import load_map, load_world
+from simrobot_sim.world_file import load_bitmap, load_world
 
 
 def write_map(path: Path, width: int = 200, height: int = 100, mode: str = "1") -> Path:
@@ -77,11 +77,11 @@ def test_steps_limit_must_be_positive(tmp_path, value):
 def test_greyscale_map_uses_the_documented_threshold(tmp_path):
     img = np.array([[127, 128, 0, 255]], dtype=np.uint8)
     Image.fromarray(img, mode="L").save(tmp_path / "g.png")
-    assert load_map(tmp_path / "g.png")[:, 0].tolist() == [True, False, True, False]
+    assert load_bitmap(tmp_path / "g.png")[:, 0].tolist() == [True, False, True, False]
 
 
 def test_one_bit_bmp_like_the_seed(tmp_path):
-    walls = load_map(write_map(tmp_path / "m.bmp"))
+    walls = load_bitmap(write_map(tmp_path / "m.bmp"))
     assert walls.shape == (200, 100) and walls[150:, :].all() and not walls[1:150, 1:99].any()
 
 
@@ -104,14 +104,14 @@ def test_colour_map_image_is_refused(tmp_path):
     img[..., 0] = 255
     Image.fromarray(img, mode="RGB").save(tmp_path / "c.png")
     with pytest.raises(InputError, match="colour image"):
-        load_map(tmp_path / "c.png")
+        load_bitmap(tmp_path / "c.png")
 
 
 def test_grey_rgb_image_is_accepted(tmp_path):
     img = np.zeros((10, 10, 3), dtype=np.uint8)
     img[:, 5:] = 255
     Image.fromarray(img, mode="RGB").save(tmp_path / "g.png")
-    assert load_map(tmp_path / "g.png")[:5].all() and not load_map(tmp_path / "g.png")[5:].any()
+    assert load_bitmap(tmp_path / "g.png")[:5].all() and not load_bitmap(tmp_path / "g.png")[5:].any()
 
 
 def test_robot_on_an_obstacle_names_it(tmp_path):

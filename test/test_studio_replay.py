@@ -53,7 +53,7 @@ def test_a_frame_shows_the_pose_scan_and_commands_the_bag_holds_at_that_instant(
     assert np.allclose(rf.track[-1], (pose.position.x, pose.position.y), atol=0.02)  # drawn up to the robot
     assert frame.commands[0][1:] == ("/cmd_vel", "v 0.300 m/s, ω 0.000 rad/s")
     assert {topic for topic, _age, _text in frame.latest} == set(open_bag(create_bag).topics)
-    assert len(frame.world.walls) == 5
+    assert len(frame.map.walls) == 5
     html = panel_html(frame)
     assert f"{pose.position.x:.3f} {pose.position.y:.3f}" in html
 
@@ -123,7 +123,7 @@ def test_a_recorded_demo_run_replays_with_its_controller_commands(tmp_path):
     replay = Replay.open(tmp_path / "demo")
     assert [r.kind for r in replay.robots] == ["create"] and len(replay.frames) >= 40
     frame = replay.frame(replay.end_ns)
-    assert frame.robots[0].pose[0] > 0.1 and frame.world is not None
+    assert frame.robots[0].pose[0] > 0.1 and frame.map is not None
     assert frame.commands and all(topic == "/cmd_vel" for _t, topic, _text in frame.commands)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from sim_runtime.errors import InputError
-from simrobot_sim.world_file import load_map, load_world
+from simrobot_sim.world_file import load_bitmap, load_world
 from studio.simrobot_doc import WorldDraft, blank_walls, map_image, new_sensor, paint_disc, parse_vertices
 
 
@@ -18,7 +18,7 @@ def test_a_saved_bitmap_loads_back_as_the_same_obstacles(tmp_path):
     walls = blank_walls(0.5, 0.3, 0.01)
     walls[10:20, 5:8] = True
     map_image(walls).save(tmp_path / "m.png")
-    assert np.array_equal(load_map(tmp_path / "m.png"), walls)
+    assert np.array_equal(load_bitmap(tmp_path / "m.png"), walls)
 
 
 def test_the_brush_paints_and_erases_a_disc_of_cells():
