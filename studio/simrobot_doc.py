@@ -117,6 +117,10 @@ def new_sensor(name: str, kind: str = "ultrasonic") -> SensorSpec:
     return SensorSpec(name=name, kind=kind)
 
 
+#: World file keys the editor shows no field for but writes back as the opened file had them.
+KEPT_WORLD_KEYS = ("steps_limit", "lockstep_timeout", "history_steps", "sensor_model", "threads")
+
+
 @dataclass
 class WorldDraft:
     """What the editor holds: the bitmap, its geometry and the robots (file order = ids)."""
@@ -127,6 +131,8 @@ class WorldDraft:
     dt: float = 0.1
     lockstep: bool = False
     robots: list[RobotSpec] = field(default_factory=list)
+    # world keys the editor has no fields for (steps_limit, threads, ...), kept from the file opened
+    kept: dict[str, Any] = field(default_factory=dict)
 
     # -- geometry ---------------------------------------------------------------------------
     def size_m(self) -> tuple[float, float]:
@@ -172,6 +178,7 @@ class WorldDraft:
             "origin": [float(self.origin[0]), float(self.origin[1])],
             "dt": float(self.dt),
             "lockstep": bool(self.lockstep),
+            **self.kept,
             "robots": [robot_entry(r) for r in self.robots],
         }
 
@@ -202,6 +209,11 @@ class WorldDraft:
             dt=float(spec.dt),
             lockstep=bool(spec.lockstep),
             robots=list(spec.robots),
+            kept={
+                key: getattr(spec, key)
+                for key in KEPT_WORLD_KEYS
+                if getattr(spec, key) != getattr(WorldSpec, key)  # only what the file changed
+            },
         )
 
     @classmethod

@@ -51,6 +51,19 @@ def test_a_world_saved_by_the_editor_loads_in_simrobot_world_as_edited(tmp_path)
     assert doc.check("w.yaml").robots == spec.robots
 
 
+def test_a_world_opened_and_saved_again_keeps_the_keys_the_editor_has_no_field_for(tmp_path):
+    doc = WorldDraft(walls=blank_walls(1.0, 0.6, 0.01), dt=0.1)
+    doc.add_robot(0.3, 0.3)
+    map_image(doc.walls).save(tmp_path / "map.png")
+    text = doc.world_yaml("map.png") + "steps_limit: 50\nsensor_model: original\nthreads: 1\n"
+    (tmp_path / "w.yaml").write_text(text)
+    opened = WorldDraft.from_spec(load_world(tmp_path / "w.yaml"))
+    (tmp_path / "again.yaml").write_text(opened.world_yaml("map.png"))
+    again = load_world(tmp_path / "again.yaml")
+    assert (again.steps_limit, again.sensor_model, again.threads) == (50, "original", 1)
+    assert again.history_steps == 10000  # untouched keys stay out of the file
+
+
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
