@@ -3,7 +3,7 @@
 ``python -m sim_runtime.warmup`` (run by ``make venv``) drives each simulator's pure model the way its
 node does, on small inputs: the Create's step and every sensor, a SIMROBOT world with both sensor
 types, an arm's forward/inverse kinematics and dynamics, the STL readers (binary and ASCII) and the
-rotation kernel. Without it the first start of a world spends ~30 s compiling. Each kernel is
+rotation kernel, the bag index. Without it the first start of a world spends ~30 s compiling. Each kernel is
 cached per argument types, so the calls below pass what the nodes pass.
 """
 
@@ -77,7 +77,20 @@ def warm_arm() -> None:
     parse_stl(b"solid t\n" + triangle + b"endsolid t\n")  # the ASCII reader
 
 
-WARMERS = {"create": warm_create, "simrobot": warm_simrobot, "arm": warm_arm}
+def warm_replay() -> None:
+    """The bag index and the fast pose reader the studio's Replay page opens a bag with."""
+    from create_sim.synthetic_run import write_create_run
+    from sim_runtime.bag.index import _message_records
+    from studio.replay import Replay
+
+    with tempfile.TemporaryDirectory() as tmp:
+        replay = Replay.open(write_create_run(Path(tmp) / "run", 1.0))
+        replay.frame(replay.start_ns)
+        replay.index.close()
+    _message_records(np.frombuffer(bytes(9), dtype=np.uint8))  # chunks without message indexes
+
+
+WARMERS = {"create": warm_create, "simrobot": warm_simrobot, "arm": warm_arm, "replay": warm_replay}
 
 
 def main() -> int:
