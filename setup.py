@@ -103,7 +103,7 @@ setup(
             "pytest",
             "hypothesis",
             "ruff",
-            "mypy",  # `make lint` type-checks sim_runtime (settings in pyproject.toml)
+            "mypy",  # `make lint` type-checks sim_runtime and the simulators (settings in pyproject.toml)
             "rosbags",
             "mcap-ros2-support",
             "yourdfpy",

@@ -480,8 +480,9 @@ class ArmNode(SimWorldNode):
     def publish(self) -> None:
         """Publish every arm's state and markers, and every moving joint's transform on /tf."""
         joints = [arm.publish() for arm in self.arms]
-        if self.tf.heard():
-            self.tf.publisher.publish(self.tf_bytes.fill(poses_from_frames(np.concatenate(joints)), self.stamp()))
+        tf_pub, tf_bytes = self.tf.publisher, self.tf_bytes  # both set when tf is enabled
+        if tf_pub is not None and tf_bytes is not None and self.tf.heard():
+            tf_pub.publish(tf_bytes.fill(poses_from_frames(np.concatenate(joints)), self.stamp()))
 
     def arm(self, prefix: str = "") -> ArmInstance:
         """The arm whose topics live under ``prefix`` ('' for robot_config_file's, else '<name>/')."""

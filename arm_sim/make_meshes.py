@@ -10,6 +10,7 @@ Needs trimesh (a development tool, not needed at run time).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -35,8 +36,10 @@ def _ball(center, radius: float) -> trimesh.Trimesh:
     return ball
 
 
-def _merge(meshes: list[trimesh.Trimesh | None]) -> trimesh.Trimesh:
-    return trimesh.util.concatenate([m for m in meshes if m is not None])
+def _merge(meshes: Sequence[trimesh.Trimesh | None]) -> trimesh.Trimesh:
+    merged = trimesh.util.concatenate([m for m in meshes if m is not None])
+    assert isinstance(merged, trimesh.Trimesh)  # concatenating meshes gives a mesh
+    return merged
 
 
 def _box(center, extents, rotation=None) -> trimesh.Trimesh:
@@ -101,7 +104,7 @@ def make_csa7(folder: Path) -> list[Path]:
     frames = arm.fkine_all(np.zeros(arm.n))
     # module radius shrinks towards the wrist, as Schunk's modules do
     module_r = [0.065, 0.06, 0.055, 0.05, 0.045, 0.04, 0.035]
-    files: dict[str, tuple[int, trimesh.Trimesh]] = {
+    files: dict[str, tuple[int, trimesh.Trimesh | None]] = {
         "csa_base_plate.stl": (0, _cylinder([0, 0, 0], [0, 0, 0.02], 0.14)),
         "csa_base_column.stl": (0, _cylinder([0, 0, 0.02], [0, 0, 0.12], 0.07)),
     }
@@ -119,6 +122,7 @@ def make_csa7(folder: Path) -> list[Path]:
         files[name] = (arm.n, _box(o + R @ [side * 0.03, 0, 0.08], [0.015, 0.03, 0.06], R))
     written = []
     for name, (k, mesh) in files.items():
+        assert mesh is not None, f"{name}: a cylinder of zero length"
         path = folder / name
         write_stl(path, _to_link(mesh, frames[k]), name=name[:-4])
         written.append(path)

@@ -152,7 +152,8 @@ def read_color(reader: FieldReader, value: Any, where: str) -> tuple[float, floa
         raise reader.error(where, f"colour components must be in 0..1, got {value!r}")
     if len(rgba) == 3:
         rgba = np.append(rgba, 1.0)
-    return tuple(float(c) for c in rgba)
+    r, g, b, a = (float(c) for c in rgba)
+    return r, g, b, a
 
 
 def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:

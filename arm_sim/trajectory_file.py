@@ -55,7 +55,9 @@ def load_trajectory(path: str | os.PathLike[str]) -> JointTrajectoryFile:
     if len(points) > MAX_POINTS:
         raise r.error("points", f"at most {MAX_POINTS} points, got {len(points)}")
     width = len(names) or None
-    times, positions, velocities = [], [], []
+    times: list[float] = []
+    positions: list[np.ndarray] = []
+    velocities: list[np.ndarray] = []
     for i, point in enumerate(points):
         where = f"points[{i}]"
         point = r.mapping(point, where, {"time", "positions", "velocities"})

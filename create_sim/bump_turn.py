@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 
 import numpy as np
 from geometry_msgs.msg import Twist
@@ -39,9 +40,7 @@ class BumpTurnNode(CheckedNode):
         self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         self.pressed = {"left": False, "right": False}
         for side in self.pressed:
-            self.create_subscription(
-                Range, f"bump/{side}", lambda msg, s=side: self.on_bump(s, msg), SENSOR_SUBSCRIBER_QOS
-            )
+            self.create_subscription(Range, f"bump/{side}", partial(self.on_bump, side), SENSOR_SUBSCRIBER_QOS)
         self.state = "forward"
         self.state_end = 0.0  # sim time at which "back" or "turn" ends
         self.hit: set[str] = set()  # bumpers pressed since the last bump began
@@ -102,7 +101,7 @@ def demo(
     with private_ros() as (context, executor):
         world = CreateWorldNode(parameter_overrides=overrides, context=context)
         controller = BumpTurnNode(parameter_overrides=[Parameter("seed", value=seed)], context=context)
-        nodes = [world, controller]
+        nodes: list[Node] = [world, controller]
         if extra_nodes is not None:
             nodes += extra_nodes(context)
         for node in nodes:

@@ -39,7 +39,8 @@ import time
 import warnings
 import weakref
 from collections.abc import Callable
-from typing import NamedTuple
+from functools import partial
+from typing import Any, NamedTuple
 
 import numpy as np
 import rclpy
@@ -153,7 +154,7 @@ class CreateRobot:
     ) -> None:
         self.timeout = timeout
         self._cond = threading.Condition()
-        self._latest: dict[str, object] = {}
+        self._latest: dict[str, Any] = {}  # topic -> newest message
         self._updates = 0  # messages received, to tell progress from a dead robot
         self._sim_time = 0.0
         self._odom_prev: tuple[float, float, float, float] | None = None  # t, x, y, yaw
@@ -161,8 +162,8 @@ class CreateRobot:
         self._turned = 0.0  # odometry heading change since start, never reset
         self._distance_mark = 0.0  # _travelled at the last distance_sensor() call
         self._angle_mark = 0.0
-        self._thread = None
-        self._executor = None
+        self._thread: threading.Thread | None = None
+        self._executor: SingleThreadedExecutor | None = None
         self._closed = False
         self._odom_count = 0  # odometry messages received
         self._heard = False  # the robot has shown a command of ours in its odometry
@@ -209,9 +210,7 @@ class CreateRobot:
             (BatteryState, "battery_state"),
         ]
         for msg_type, topic in topics:
-            self.node.create_subscription(
-                msg_type, topic, lambda msg, t=topic: self._store(t, msg), SENSOR_SUBSCRIBER_QOS
-            )
+            self.node.create_subscription(msg_type, topic, partial(self._store, topic), SENSOR_SUBSCRIBER_QOS)
         self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
 
     # ------------------------------------------------------------ plumbing
@@ -294,7 +293,8 @@ class CreateRobot:
         finally:
             if self._executor is not None:
                 self._executor.shutdown(timeout_sec=2.0)
-                self._thread.join(timeout=2.0)
+                if self._thread is not None:  # always, with an executor
+                    self._thread.join(timeout=2.0)
             if self._owned_node:
                 self.node.destroy_node()
             if self._owns_rclpy and rclpy.ok():
@@ -317,8 +317,12 @@ class CreateRobot:
             self._publish(0.0, 0.0)
             with self._cond:
                 sent_after = self._odom_count
-            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(0.0, 0.0), timeout=0.1):
+            if self._await(partial(self._odom_shows, sent_after, 0.0, 0.0), timeout=0.1):
                 return
+
+    def _odom_shows(self, sent_after: int, v: float, w: float) -> bool:
+        """Odometry came after the first ``sent_after`` messages and reports velocity (v, w)."""
+        return self._odom_count > sent_after and self._odom_is(v, w)
 
     def _odom_is(self, v: float, w: float) -> bool:
         """The newest odometry reports velocity (v, w)."""
@@ -407,7 +411,7 @@ class CreateRobot:
         while time.monotonic() < deadline:
             with self._cond:
                 sent_after = self._odom_count
-            if self._await(lambda n=sent_after: self._odom_count > n and self._odom_is(v, w), timeout=0.1):
+            if self._await(partial(self._odom_shows, sent_after, v, w), timeout=0.1):
                 break
             self._publish(v, w)
         self._heard = True  # once only, also for a robot that publishes no odometry

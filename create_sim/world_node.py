@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -162,7 +163,7 @@ class CreateWorldNode(SimWorldNode):
                 None,
                 f"{name} publication rate in Hz (0 = never, at most the physics rate {PHYSICS_RATE:g})",
                 live=True,
-                on_change=lambda v, name=name: self._change_rate(name, v),
+                on_change=partial(self._change_rate, name),
                 bounds=(0.0, PHYSICS_RATE),
             )
             for name, default in DEFAULT_RATES.items()
@@ -172,7 +173,8 @@ class CreateWorldNode(SimWorldNode):
         self.config_file = self._resolve(config_file, "config_file")
         self.map = self._load_map(self.map_file)
         self.noise = self._load_noise(self.config_file)
-        self.initial_pose = tuple(float(v) for v in pose)
+        # three finite numbers: checked above
+        self.initial_pose = (float(pose[0]), float(pose[1]), float(pose[2]))
 
     @staticmethod
     def _resolve(value: str, parameter: str) -> str:
@@ -319,22 +321,21 @@ class CreateWorldNode(SimWorldNode):
 
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
-            self.create_subscription(
-                TwistStamped,
-                "cmd_vel",
-                lambda m: self.command(m.twist.linear.x, m.twist.angular.z),
-                COMMAND_SUBSCRIBER_QOS,
-            )
+            self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, COMMAND_SUBSCRIBER_QOS)
         else:
-            self.create_subscription(
-                Twist, "cmd_vel", lambda m: self.command(m.linear.x, m.angular.z), COMMAND_SUBSCRIBER_QOS
-            )
+            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_SUBSCRIBER_QOS)
         self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_SUBSCRIBER_QOS)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
         self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))
 
     # ---------------------------------------------------------------- commands
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self.command(msg.linear.x, msg.angular.z)
+
+    def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
+        self.command(msg.twist.linear.x, msg.twist.angular.z)
+
     def command(self, v: float, w: float) -> bool:
         """Queue a velocity command (m/s, rad/s); it takes effect after ``com_delay``.
 
@@ -591,8 +592,9 @@ class CreateWorldNode(SimWorldNode):
             msg.twist.twist.angular.z = float(w)
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
             self._send(self.pub_odom, msg)
-        if self.tf.heard():
-            msg = self._message(self.tf.publisher)
+        tf_pub = self.tf.publisher
+        if tf_pub is not None and self.tf.heard():
+            msg = self._message(tf_pub)
             odom_to_base = msg.transforms[0]
             odom_to_base.header.stamp = stamp
             set_planar(odom_to_base, x, y, theta)
@@ -600,7 +602,7 @@ class CreateWorldNode(SimWorldNode):
                 map_to_odom = msg.transforms[1]
                 map_to_odom.header.stamp = stamp
                 set_planar(map_to_odom, *self._map_to_odom(x, y, theta))
-            self._send(self.tf.publisher, msg)
+            self._send(tf_pub, msg)
 
     def _odometry_covariances(self, v: float, w: float) -> tuple[np.ndarray, np.ndarray]:
         """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the noisy odometry.

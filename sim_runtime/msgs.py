@@ -12,6 +12,7 @@ import math
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Pose, Quaternion
+from numpy.typing import ArrayLike
 from std_msgs.msg import ColorRGBA
 
 
@@ -59,12 +60,12 @@ def matrix_from_quaternion(q: Quaternion) -> np.ndarray:
     )
 
 
-def float32_array(values: np.ndarray) -> array.array:
+def float32_array(values: ArrayLike) -> array.array:
     """Fast fill for ``float32[]`` fields: ``msg.ranges = float32_array(ranges)``."""
     return array.array("f", np.ascontiguousarray(values, dtype=np.float32).tobytes())
 
 
-def float64_array(values: np.ndarray) -> array.array:
+def float64_array(values: ArrayLike) -> array.array:
     """Fast fill for ``float64[]`` fields (JointState positions, …)."""
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 

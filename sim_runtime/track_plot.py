@@ -12,7 +12,7 @@ import numpy as np
 def draw_tracks(
     occupancy: np.ndarray | None,
     resolution: float,
-    origin: Sequence[float],
+    origin: Sequence[float] | np.ndarray,
     tracks: Mapping[str, np.ndarray],
     colors: Mapping[str, Sequence[float]],
     out_path: str | Path,

@@ -13,6 +13,7 @@ Parameters: ``sensor`` (ultrasonic topic name under the namespace, default ``sen
 from __future__ import annotations
 
 import math
+from functools import partial
 
 from sensor_msgs.msg import JointState, Range
 
@@ -29,6 +30,10 @@ STRAIGHT = (0.5, 0.5)
 
 class AvoidNode(CheckedNode):
     """Drives one robot with alg2: the robot of its namespace, or ``robot`` (topics ``<robot>/…``)."""
+
+    #: Wheel speeds [left, right] (rad/s) near an obstacle and when clear (parameters of the same names).
+    turn: tuple[float, float]
+    straight: tuple[float, float]
 
     def __init__(
         self, robot: str | None = None, sensor: str = "sens1", node_name: str | None = None, **node_kwargs
@@ -53,14 +58,17 @@ class AvoidNode(CheckedNode):
                 lambda v: len(v) == 2 and all(math.isfinite(x) for x in v),
                 f"wheel speeds [left, right] (rad/s) when {'an obstacle is near' if name == 'turn' else 'clear'}",
                 live=True,
-                on_change=lambda v, name=name: setattr(self, name, tuple(v)),
+                on_change=partial(self._set_speeds, name),
             )
-            setattr(self, name, tuple(value))
+            self._set_speeds(name, value)
         self._cmd = JointState()
         self._cmd.name = ["left_wheel", "right_wheel"]
         prefix = f"{robot}/" if robot else ""
         self.publisher = self.create_publisher(JointState, prefix + "wheel_cmd", COMMAND_PUBLISHER_QOS)
         self.subscription = self.create_subscription(Range, prefix + self.sensor, self._on_range, SENSOR_SUBSCRIBER_QOS)
+
+    def _set_speeds(self, name: str, value: list[float]) -> None:
+        setattr(self, name, tuple(value))
 
     def _on_range(self, msg: Range) -> None:
         speeds = self.turn if msg.range < self.threshold else self.straight

@@ -10,12 +10,15 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PIL import Image
 
 from sim_runtime.paths import config_path
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
 
 DEMO_WORLD = "simrobot/demo.yaml"
 
@@ -61,7 +64,7 @@ def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any],
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     spec = load_world(config_path(DEMO_WORLD))
-    nodes = []
+    nodes: list[Node] = []
     with private_ros() as (context, executor):
         world = SimrobotWorldNode(spec, context=context)
         nodes.append(world)

@@ -604,7 +604,9 @@ class SimrobotWorld:
         if isinstance(wanted, bool) or not isinstance(wanted, int) or wanted < 0:
             raise InputError(f"{spec.source}: threads: expected an integer >= 0 (0 = all cores), got {wanted!r}")
         #: Threads used for sensing and motion (1: serial).
-        self.threads = min(wanted or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
+        # numba.config sets its settings through globals() at import: mypy cannot see them
+        most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+        self.threads = min(wanted or most, most)
         self.names = [r.name for r in spec.robots]
         self.index = {name: i for i, name in enumerate(self.names)}
         self.ids = np.arange(2, n + 2, dtype=np.int64)

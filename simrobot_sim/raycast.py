@@ -33,7 +33,7 @@ The fast caster takes its inputs grouped: the map (:class:`Occupancy`), one sens
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Literal, NamedTuple, TypedDict
 
 import numba
 import numpy as np
@@ -43,11 +43,21 @@ JUMP_MIN = 3
 #: Value of a wall cell in the clearance table.
 WALL = 255
 _FAR = 1.0e9
+
+
+class _JitOptions(TypedDict):
+    """Keyword options of ``numba.njit`` used here (typed, so ``njit(**options)`` type-checks)."""
+
+    cache: bool
+    error_model: Literal["python", "numpy"]
+    fastmath: set[str]
+
+
 #: Compile options of the fast caster's kernels: reciprocals, fused multiply-adds and
 #: reassociation (results move by ulps, far inside the one-cell tolerance; measured ~14% faster
 #: on the walls pass), but infinities and NaN keep IEEE semantics (no-hit is ``inf``). The
 #: reference traversal keeps strict IEEE arithmetic.
-_FAST = {"cache": True, "error_model": "numpy", "fastmath": {"arcp", "contract", "afn", "nsz", "reassoc"}}
+_FAST: _JitOptions = {"cache": True, "error_model": "numpy", "fastmath": {"arcp", "contract", "afn", "nsz", "reassoc"}}
 
 
 class Occupancy(NamedTuple):

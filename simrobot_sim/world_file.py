@@ -100,6 +100,7 @@ def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.nda
     if not path.is_file():
         raise InputError.at(path, None, "map image not found")
     try:
+        img: Image.Image  # a file as opened, then maybe a converted copy
         with Image.open(path) as img:
             img.load()
             mode = img.mode

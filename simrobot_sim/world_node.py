@@ -20,12 +20,16 @@ from __future__ import annotations
 
 import array
 import time
+from functools import partial
 
 import numpy as np
 from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.service import Service
+from rclpy.subscription import Subscription
 from sensor_msgs.msg import JointState, LaserScan, Range
 from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension, UInt8
 from std_srvs.srv import SetBool, Trigger
@@ -60,6 +64,20 @@ class _RobotIO:
     """Pre-built messages and endpoints of one robot (reused every step: no per-step allocation)."""
 
     __slots__ = ("crashed_pub", "msgs", "odom", "odom_pub", "pose", "pose_pub", "power_pub", "pubs", "services", "subs")
+
+    #: Per sensor: (sensor index, "laser" or "ultrasonic", its publisher, the obstacle-value
+    #: publisher of an ultrasonic sensor or None) ...
+    pubs: list[tuple[int, str, Publisher, Publisher | None]]
+    #: ... and its message with the obstacle-value message (None for a laser).
+    msgs: list[tuple[LaserScan | Range, UInt8 | None]]
+    odom_pub: Publisher
+    odom: Odometry
+    pose_pub: Publisher
+    pose: PoseStamped
+    crashed_pub: Publisher
+    power_pub: Publisher
+    subs: list[Subscription]
+    services: list[Service]
 
 
 class SimrobotWorldNode(SimWorldNode):
@@ -167,16 +185,16 @@ class SimrobotWorldNode(SimWorldNode):
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
                 f"{name}/cmd_vel",
-                lambda m, i=i: self._on_cmd_vel(i, m),
+                partial(self._on_cmd_vel, i),
                 COMMAND_SUBSCRIBER_QOS,
             ),
             self.create_subscription(
-                JointState, f"{name}/wheel_cmd", lambda m, i=i: self._on_wheel_cmd(i, m), COMMAND_SUBSCRIBER_QOS
+                JointState, f"{name}/wheel_cmd", partial(self._on_wheel_cmd, i), COMMAND_SUBSCRIBER_QOS
             ),
         ]
         io.services = [
-            self.create_service(SetBool, f"{name}/set_power", lambda rq, rs, i=i: self._on_set_power(i, rq, rs)),
-            self.create_service(Trigger, f"{name}/clear_crash", lambda rq, rs, i=i: self._on_clear_crash(i, rq, rs)),
+            self.create_service(SetBool, f"{name}/set_power", partial(self._on_set_power, i)),
+            self.create_service(Trigger, f"{name}/clear_crash", partial(self._on_clear_crash, i)),
         ]
         return io
 
@@ -365,6 +383,7 @@ class SimrobotWorldNode(SimWorldNode):
                     msg.intensities = float32_array(values)
                     pub.publish(msg)
                 else:
+                    assert obst_pub is not None and obst is not None  # every ultrasonic sensor has both
                     dist, value = model.nearest(k)
                     nearest[k] = dist
                     msg.range = dist
