@@ -141,6 +141,19 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def stop_started_world(worlds: dict, key: str) -> None:
+    """Stop the world the studio started under ``key`` in ``worlds``, or say it cannot (a world
+    started in another terminal is stopped there)."""
+    from nicegui import ui
+
+    child = worlds.pop(key, None)
+    if child is None:
+        ui.notify("this world was not started by the studio (stop it where it runs)", type="warning")
+        return
+    child.stop()
+    ui.notify(f"{child.label} stopped")
+
+
 VIEW_SIZE = (800, 600)
 """Pixels of the simulator's and the map maker's drawing area."""
 
@@ -158,6 +171,16 @@ def view_image(on_mouse, on_wheel, css_class: str, background: str):
     )
     image.on("wheel.prevent", on_wheel, js_handler=WHEEL_JS, throttle=0.05)
     return image
+
+
+def wheel_zoom(view, args: dict) -> bool:
+    """Zoom ``view`` about the pixel under the mouse for a wheel event from :func:`view_image`
+    (its ``args``: the pointer and the image's drawn size); False when the event had no size."""
+    if not (args.get("w") and args.get("h")):
+        return False
+    px, py = args["x"] * VIEW_SIZE[0] / args["w"], args["y"] * VIEW_SIZE[1] / args["h"]
+    view.zoom_at(px, py, 1 / 1.2 if args["dy"] > 0 else 1.2)
+    return True
 
 
 def nav(current: str) -> None:

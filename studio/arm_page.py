@@ -25,7 +25,7 @@ from arm_sim.trajectory_file import load_trajectory
 from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path, mesh_path
-from studio.app import Studio, nav
+from studio.app import Studio, nav, stop_started_world
 from studio.arm_ros import ArmRos, ArmState, Drawable
 from studio.meshes import DISPLAY_FACES, MeshCache
 from studio.processes import Child, yaml_string
@@ -683,9 +683,4 @@ class ArmPage:
         if ros is not None and ns in ros.arms:
             # The world node's namespace: a scene arm (/csa) belongs to the world in /.
             ns = ros.arms[ns].world_ns
-        child = self.studio.worlds.pop(f"arm:{ns}", None)
-        if child is None:
-            ui.notify("the selected arm's world was not started by the studio (stop it where it runs)", type="warning")
-            return
-        child.stop()
-        ui.notify(f"{child.label} stopped")
+        stop_started_world(self.studio.worlds, f"arm:{ns}")

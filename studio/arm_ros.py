@@ -33,9 +33,9 @@ from arm_sim.robot_config import transform_from_xyz_rpy
 from arm_sim.urdf import rpy_from_matrix
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
+from studio.ros_client import new_worlds, node_full_name
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
-UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"
 UNREACHABLE = "target_pose unreachable"
 """What the arm node logs (prefixed by the arm's topic prefix) when IK finds no solution."""
 ROSOUT_QOS = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
@@ -226,18 +226,9 @@ class ArmRos:
                 arm.destroy(node)
                 del self._arms[prefix]
                 self.arms = {k: v for k, v in self.arms.items() if k != prefix}
-        for topic, types in node.get_topic_names_and_types():
-            if not topic.endswith("/end_effector_pose") or POSE_TYPE not in types:
-                continue
-            prefix = topic[: -len("/end_effector_pose")]
-            if prefix in self._arms:
-                continue
-            publishers = node.get_publishers_info_by_topic(topic)
-            if not publishers or publishers[0].node_name == UNKNOWN_NODE_NAME:
-                continue  # next round, once DDS knows the node's name
-            info = publishers[0]
+        for prefix, info in new_worlds(node, "end_effector_pose", POSE_TYPE, self._arms):
             world_ns = info.node_namespace.rstrip("/")
-            node_name = world_ns + "/" + info.node_name
+            node_name = node_full_name(info)
             relative = prefix[len(world_ns) :].strip("/") if prefix.startswith(world_ns) else prefix.strip("/")
             state = ArmState(
                 prefix=prefix,

@@ -11,7 +11,7 @@ from nicegui import ui
 from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
 from studio.file_page import FilePage
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
 from studio.workspace import MAX_UPLOAD_BYTES
@@ -155,10 +155,7 @@ class MapMakerPage(FilePage):
         self.redraw()
 
     def on_wheel(self, e) -> None:
-        a = e.args
-        if a.get("w") and a.get("h"):
-            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
-            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+        if wheel_zoom(self.view, e.args):
             self.redraw()
 
     def fit(self) -> None:

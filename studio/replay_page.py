@@ -21,7 +21,7 @@ from nicegui import run, ui
 
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
 from studio.replay import Frame, Replay, RobotFrame, planar
 from studio.workspace import Workspace
 
@@ -525,10 +525,7 @@ class ReplayPage:
         self.base_dirty = True
 
     def on_wheel(self, e) -> None:
-        a = e.args
-        if a.get("w") and a.get("h"):
-            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
-            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+        if wheel_zoom(self.view, e.args):
             self.base_dirty = True
 
     def on_mouse(self, e) -> None:

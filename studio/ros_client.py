@@ -16,6 +16,7 @@ import os
 import threading
 import time
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,6 +28,7 @@ from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.topic_endpoint_info import TopicEndpointInfo
 from sensor_msgs.msg import Illuminance, LaserScan, Range
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
@@ -133,6 +135,27 @@ def _settle(done: asyncio.Future, future) -> None:
     """Hand a service response to the awaiting page, unless it has stopped waiting."""
     if not done.done():
         done.set_result(future.result())
+
+
+def new_worlds(node: Node, suffix: str, type_name: str, known) -> Iterator[tuple[str, TopicEndpointInfo]]:
+    """``(prefix, publisher)`` of every topic ``<prefix>/<suffix>`` of ``type_name`` whose prefix is
+    not in ``known``, once DDS knows the name of the node publishing it: a topic can be seen before
+    its node's name, and parameter clients made for ``_NODE_NAME_UNKNOWN_`` never reach the world."""
+    tail = "/" + suffix
+    for topic, types in node.get_topic_names_and_types():
+        if not topic.endswith(tail) or type_name not in types:
+            continue
+        prefix = topic[: -len(tail)]
+        if prefix in known:
+            continue
+        publishers = node.get_publishers_info_by_topic(topic)
+        if publishers and publishers[0].node_name != UNKNOWN_NODE_NAME:
+            yield prefix, publishers[0]
+
+
+def node_full_name(info: TopicEndpointInfo) -> str:
+    """``/ns/name`` of a topic's publishing node (its parameter services live under it)."""
+    return info.node_namespace.rstrip("/") + "/" + info.node_name
 
 
 class _Robot:
@@ -247,19 +270,8 @@ class StudioRos:
                 robot.destroy(self.node)
                 del self._robots[ns]
                 self.robots = {k: v for k, v in self.robots.items() if k != ns}
-        for topic, types in self.node.get_topic_names_and_types():
-            if not topic.endswith("/overhead_pose") or POSE_TYPE not in types:
-                continue
-            ns = topic[: -len("/overhead_pose")]
-            if ns in self._robots:
-                continue
-            publishers = self.node.get_publishers_info_by_topic(topic)
-            if not publishers:
-                continue
-            info = publishers[0]
-            if info.node_name == UNKNOWN_NODE_NAME:  # the topic was discovered before its node's name
-                continue  # next round: the parameter services need the real name
-            node_name = info.node_namespace.rstrip("/") + "/" + info.node_name
+        for ns, info in new_worlds(self.node, "overhead_pose", POSE_TYPE, self._robots):
+            node_name = node_full_name(info)
             robot = _Robot(self.node, ns, node_name)
             print(f"studio: following the world in {ns or '/'} (node {node_name})", flush=True)
             self._robots[ns] = robot

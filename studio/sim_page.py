@@ -13,7 +13,7 @@ from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.app import VIEW_SIZE, Studio, nav, stop_started_world, view_image, wheel_zoom
 from studio.processes import Child, controller_command, executable_command, world_ros_args
 
 FRAME_PERIOD_S = 0.04
@@ -327,10 +327,7 @@ class SimulatorPage:
         self.view_dirty = True
 
     def on_wheel(self, e) -> None:
-        a = e.args
-        if a.get("w") and a.get("h"):
-            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
-            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+        if wheel_zoom(self.view, e.args):
             self.view_dirty = True
 
     def fit(self) -> None:
@@ -551,12 +548,7 @@ class SimulatorPage:
         ui.notify(f"world started in {ns or '/'}")
 
     def stop_world(self) -> None:
-        child = self.studio.worlds.pop(self.selected or "", None)
-        if child is None:
-            ui.notify("the selected world was not started by the studio (stop it where it runs)", type="warning")
-            return
-        child.stop()
-        ui.notify(f"{child.label} stopped")
+        stop_started_world(self.studio.worlds, self.selected or "")
 
     def start_controller(self) -> None:
         ns = self.selected

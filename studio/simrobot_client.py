@@ -29,7 +29,7 @@ from sim_runtime.qos import ANY_PUBLISHER_QOS
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
 from simrobot_sim.world_node import ROBOT_STATE_FIELDS
 from studio.processes import Child
-from studio.ros_client import UNKNOWN_NODE_NAME, StudioRos, parameter
+from studio.ros_client import StudioRos, new_worlds, node_full_name, parameter
 
 STATES_TYPE = "std_msgs/msg/Float64MultiArray"
 TRACK_POINTS = 1000
@@ -185,17 +185,8 @@ class SimrobotRos(StudioRos):
                 world.destroy()
                 del self._worlds[ns]
                 self.worlds = {k: v for k, v in self.worlds.items() if k != ns}
-        for topic, types in self.node.get_topic_names_and_types():
-            if not topic.endswith("/robot_states") or STATES_TYPE not in types:
-                continue
-            ns = topic[: -len("/robot_states")]
-            if ns in self._worlds:
-                continue
-            publishers = self.node.get_publishers_info_by_topic(topic)
-            if not publishers or publishers[0].node_name == UNKNOWN_NODE_NAME:
-                continue  # next round: the parameter services need the node's real name
-            info = publishers[0]
-            node_name = info.node_namespace.rstrip("/") + "/" + info.node_name
+        for ns, info in new_worlds(self.node, "robot_states", STATES_TYPE, self._worlds):
+            node_name = node_full_name(info)
             world = _World(self.node, ns, node_name)
             print(f"studio: following the SIMROBOT world in {ns or '/'} (node {node_name})", flush=True)
             self._worlds[ns] = world

@@ -18,7 +18,7 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
 from studio.processes import Child, executable_command, yaml_string
 from studio.simrobot_client import side
 from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
@@ -214,10 +214,7 @@ class EditorPage:
         self.redraw(map_too=True)
 
     def on_wheel(self, e) -> None:
-        a = e.args
-        if a.get("w") and a.get("h"):
-            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
-            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+        if wheel_zoom(self.view, e.args):
             self.redraw(map_too=True)
 
     # ---------------------------------------------------------------- mouse

@@ -17,7 +17,7 @@ from nicegui import ui
 
 from sim_runtime.track_plot import draw_tracks
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image
+from studio.app import VIEW_SIZE, Studio, nav, stop_started_world, view_image, wheel_zoom
 from studio.simrobot_client import WorldState, side
 from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
 
@@ -263,10 +263,7 @@ class SimrobotPage:
         self.view_dirty = True
 
     def on_wheel(self, e) -> None:
-        a = e.args
-        if a.get("w") and a.get("h"):
-            px, py = a["x"] * VIEW_SIZE[0] / a["w"], a["y"] * VIEW_SIZE[1] / a["h"]
-            self.view.zoom_at(px, py, 1 / 1.2 if a["dy"] > 0 else 1.2)
+        if wheel_zoom(self.view, e.args):
             self.draw_map()
             self.view_dirty = True
 
@@ -338,12 +335,7 @@ class SimrobotPage:
             await self.ask(self.side.ros.clear_crash(self.ns, self.robot))
 
     def stop_world(self) -> None:
-        child = self.side.worlds.pop(self.ns or "", None)
-        if child is None:
-            ui.notify("this world was not started by the studio (stop it where it runs)", type="warning")
-            return
-        child.stop()
-        ui.notify(f"{child.label} stopped")
+        stop_started_world(self.side.worlds, self.ns or "")
 
     def clear_tracks(self) -> None:
         st = self.world()

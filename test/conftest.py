@@ -77,3 +77,22 @@ def tf2_msgs():
     import tf2_msgs
 
     return tf2_msgs
+
+
+@pytest.fixture(scope="module")
+def studio_url(request, workspace):
+    """``robot_sims studio`` on the module's ``workspace`` fixture, in the module's ``STUDIO_DOMAIN``
+    (each studio browser-test module has a domain of its own); yields its URL."""
+    from studio_browser_support import running_studio
+
+    with running_studio(workspace, request.module.STUDIO_DOMAIN) as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def browser(request, studio_url):
+    """Debian's Chromium (headless, the module's ``WINDOW_SIZE`` if it has one) for ``studio_url``."""
+    from studio_browser_support import new_browser
+
+    with new_browser(getattr(request.module, "WINDOW_SIZE", "1400,1600")) as driver:
+        yield driver

@@ -25,8 +25,6 @@ from studio_browser_support import (
     click,
     find,
     listener_node,
-    new_browser,
-    running_studio,
     screenshot,
     studio_domain,
     type_into,
@@ -37,6 +35,7 @@ from sim_runtime.qos import ANY_PUBLISHER_QOS
 from sim_runtime.testing import Collector, spin_until
 
 # A domain of its own (not the Create pages' test domain): nothing other tests leave behind shows up.
+WINDOW_SIZE = "1400,1400"
 STUDIO_DOMAIN = studio_domain(51)
 TRAJECTORY = """\
 joint_names: [joint_1, joint_2, joint_3]
@@ -49,18 +48,6 @@ points:
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("studio_arm_ws")
-
-
-@pytest.fixture(scope="module")
-def studio_url(workspace):
-    with running_studio(workspace, STUDIO_DOMAIN) as url:  # the studio stops the arm world it started
-        yield url
-
-
-@pytest.fixture(scope="module")
-def browser(studio_url):
-    with new_browser("1400,1400") as driver:
-        yield driver
 
 
 @pytest.fixture(scope="module")

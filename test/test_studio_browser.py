@@ -31,9 +31,7 @@ from studio_browser_support import (
     click_text,
     find,
     listener_node,
-    new_browser,
     open_page,
-    running_studio,
     screenshot,
     studio_domain,
     studio_env,
@@ -58,18 +56,6 @@ STUDIO_DOMAIN = studio_domain(50)
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("studio_ws")
-
-
-@pytest.fixture(scope="module")
-def studio_url(workspace):
-    with running_studio(workspace, STUDIO_DOMAIN) as url:
-        yield url
-
-
-@pytest.fixture(scope="module")
-def browser(studio_url):
-    with new_browser() as driver:
-        yield driver
 
 
 def click_at(driver, image, x_m: float, y_m: float) -> None:

@@ -18,9 +18,7 @@ if NO_CHROMIUM:
 
 from studio_browser_support import (
     find,
-    new_browser,
     open_page,
-    running_studio,
     screenshot,
     studio_domain,
     wait,
@@ -32,6 +30,7 @@ from sim_runtime.msgs import yaw_from_quaternion
 from sim_runtime.rerun_view.convert import default_output
 
 ROOT = Path(__file__).resolve().parent.parent
+STUDIO_DOMAIN = studio_domain(52)
 BAG = "runs/demo_run"
 START_S = 100.0  # the bag's first message is at 100 s: the page shows time since the start
 DURATION_S = 10.0  # the robot meets a wall and turns after ~7.5 s
@@ -42,18 +41,6 @@ def workspace(tmp_path_factory) -> Path:
     ws = tmp_path_factory.mktemp("replay_ws")
     write_create_run(ws / BAG, DURATION_S, start_s=START_S)
     return ws
-
-
-@pytest.fixture(scope="module")
-def studio_url(workspace):
-    with running_studio(workspace, studio_domain(52)) as url:
-        yield url
-
-
-@pytest.fixture(scope="module")
-def browser(studio_url):
-    with new_browser() as driver:
-        yield driver
 
 
 @pytest.fixture(scope="module")

@@ -23,9 +23,7 @@ from selenium.webdriver.common.by import By
 from studio_browser_support import (
     find,
     listener_node,
-    new_browser,
     open_page,
-    running_studio,
     screenshot,
     studio_domain,
     type_into,
@@ -34,7 +32,8 @@ from studio_browser_support import (
 
 from simrobot_sim.world_file import load_world
 
-DOMAIN = studio_domain(53)  # the other studio modules use 50-52
+WINDOW_SIZE = "1400,1400"
+STUDIO_DOMAIN = studio_domain(53)  # the other studio modules use 50-52
 
 
 @pytest.fixture(scope="module")
@@ -43,21 +42,9 @@ def workspace(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def studio_url(workspace):
-    with running_studio(workspace, DOMAIN) as url:
-        yield url
-
-
-@pytest.fixture(scope="module")
-def browser(studio_url):
-    with new_browser("1400,1400") as driver:
-        yield driver
-
-
-@pytest.fixture(scope="module")
 def ros():
     """A node on the studio's domain: the students' controllers driving the robots."""
-    with listener_node(DOMAIN, "simrobot_browser_test") as (_executor, node):
+    with listener_node(STUDIO_DOMAIN, "simrobot_browser_test") as (_executor, node):
         yield node
 
 

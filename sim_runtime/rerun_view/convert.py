@@ -25,6 +25,10 @@ from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, decode_tf_message
 APPLICATION_ID = "robot_sims"
 ROS_INTERNAL_TOPICS = frozenset({"/parameter_events", "/rosout"})
 """Skipped without a warning: every node publishes them, nothing to draw."""
+QUIET_TOPIC_NAMES = frozenset({"robot_description", "robot_states"})
+"""Last name segments skipped without a warning: a world's URDF (the views draw its links from the
+world's markers and transforms) and SIMROBOT's compact per-step summary of what its other topics
+carry."""
 
 
 class Progress:
@@ -85,7 +89,7 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
         raise InputError(f"output {out_path}: folder {out_path.parent} does not exist")
     skipped = {t: kind for t, kind in bag.topics.items() if kind not in SUPPORTED_TYPES}
     for topic, kind in sorted(skipped.items()):
-        if topic in ROS_INTERNAL_TOPICS:
+        if topic in ROS_INTERNAL_TOPICS or topic.rsplit("/", 1)[-1] in QUIET_TOPIC_NAMES:
             continue
         warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped", stacklevel=2)
     wanted = [t for t in bag.topics if t not in skipped]
