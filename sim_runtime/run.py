@@ -48,10 +48,11 @@ def private_ros(args: Sequence[str] | None = None) -> Iterator[tuple[Context, Ex
         rclpy.shutdown(context=context)
 
 
-def drain(executor, timeout_sec: float = 1.0) -> bool:
+def drain(executor, timeout_sec: float = 1.0, max_rounds: int = 4) -> bool:
     """Run every callback already queued on ``executor``, and what those callbacks queue in turn
     (a controller's answer to the sensor readings of this step), until a round finds nothing
-    else queued; True unless the timeout hit.
+    else queued or ``max_rounds`` rounds ran (a steady stream from another process, such as a
+    flood of commands, never leaves the queue empty); True unless the timeout hit.
 
     The events executor handles work in arrival order, so a no-op task queued now completes only
     after everything queued before it. It is awaited with ``spin_once`` turns, not
@@ -59,7 +60,7 @@ def drain(executor, timeout_sec: float = 1.0) -> bool:
     which a world stepping at real_time_factor 0 made 10 MB per sim hour.
     """
     deadline = time.monotonic() + timeout_sec
-    while True:
+    for _ in range(max_rounds):
         marker = executor.create_task(lambda: None)
         turns = 0
         while not marker.done():
@@ -69,7 +70,8 @@ def drain(executor, timeout_sec: float = 1.0) -> bool:
             executor.spin_once(timeout_sec=remaining)
             turns += 1
         if turns == 1:  # the marker was all there was
-            return True
+            break
+    return True
 
 
 def spin_steps(executor, world: SimWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
