@@ -511,33 +511,25 @@ def _declared_parameters(exe: str) -> list[str]:
 
 
 def _build_world_node(exe: str, args: list[str]):
+    """The world node of ``exe`` with ``args`` as its own command-line arguments (rcl parses the
+    ``-p`` rules as on the command line), in the worker's one ROS context: a context per input made
+    and shut down a DDS participant each time."""
     import importlib
 
-    import rclpy
-    from rclpy.context import Context
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
     from sim_runtime.errors import InputError
 
-    context = Context()
-    try:  # as init_ros does for the executables: arguments rcl cannot parse are an InputError
-        rclpy.init(args=[exe, *args], context=context)
-    except _rclpy.RCLError as error:
-        raise InputError(f"invalid ROS arguments {args!r}: {error}") from None
+    _ensure_ros()
     module, cls = _WORLD_NODES[exe].split(":")
     try:
-        return getattr(importlib.import_module(module), cls)(context=context)
-    except BaseException:
-        rclpy.shutdown(context=context)
-        raise
+        return getattr(importlib.import_module(module), cls)(cli_args=list(args))
+    except _rclpy.RCLError as error:  # as init_ros does for the executables
+        raise InputError(f"invalid ROS arguments {args!r}: {error}") from None
 
 
 def _destroy_world_node(node) -> None:
-    import rclpy
-
-    context = node.context
     node.destroy_node()
-    rclpy.shutdown(context=context)
 
 
 def _run_world_node(exe: str, args: list[str], steps: int) -> None:
