@@ -33,6 +33,7 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from arm_sim.arm_node import ArmNode
+    from sim_runtime.bag.record import wait_for_recorders
     from sim_runtime.msgs import quaternion_from_matrix
     from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
     from sim_runtime.run import private_ros
@@ -54,6 +55,7 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         pose_pub = commander.create_publisher(PoseStamped, "target_pose", COMMAND_PUBLISHER_QOS)
         for endpoint in (states.subscription, poses.subscription, traj_pub, pose_pub):
             wait_for_match(executor, endpoint)
+        wait_for_recorders(executor, nodes, world)
 
         def run(seconds: float) -> None:
             for _ in range(int(round(seconds / world.physics_dt))):

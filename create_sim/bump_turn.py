@@ -87,6 +87,7 @@ def demo(
     from rclpy.parameter import Parameter
 
     from create_sim.world_node import CreateWorldNode
+    from sim_runtime.bag.record import wait_for_recorders
     from sim_runtime.run import drain, private_ros
     from sim_runtime.testing import wait_for_match
 
@@ -109,6 +110,7 @@ def demo(
         wait_for_match(executor, controller.cmd_pub)
         for subscription in controller.subscriptions:
             wait_for_match(executor, subscription)
+        wait_for_recorders(executor, nodes, world)
         start_wall = time.perf_counter()
         previous, distance = world.model.pose.copy(), 0.0
         for _ in range(round(duration * world.physics_rate)):

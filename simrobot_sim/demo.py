@@ -55,6 +55,7 @@ def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any],
     travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a
     recorder, a viewer) to the demo's executor."""
 
+    from sim_runtime.bag.record import wait_for_recorders
     from sim_runtime.run import private_ros, spin_steps
     from sim_runtime.track_plot import draw_tracks
     from simrobot_sim.avoid import AvoidNode
@@ -75,6 +76,7 @@ def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any],
             nodes += extra_nodes(context)
         for node in nodes:
             executor.add_node(node)
+        wait_for_recorders(executor, nodes, world)
         done = spin_steps(executor, world, steps)
         model = world.model
         tracks = model.tracks()

@@ -30,7 +30,7 @@ import shutil
 import struct
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -141,6 +141,7 @@ class Recorder(Node):
         self._graph_topic_ids: set[int] = set()
         self._clock_sub: Any = None
         self._subs: dict[str, _Subscribed] = {}
+        self._latched_heard: set[str] = set()  # latched topics whose message has arrived
         self._ignored: set[str] = set()
         self.error: BagWriteError | None = None
         self.done = Future()
@@ -158,6 +159,26 @@ class Recorder(Node):
         if not self._patterns:
             return not _is_hidden(topic)
         return topic in self._names or any(p.fullmatch(topic) for p in self._patterns)
+
+    def wait_until_recording(self, executor: Any, topics: Iterable[str], timeout_sec: float = 10.0) -> bool:
+        """Spin ``executor`` until every wanted topic of ``topics`` is subscribed and matched with
+        its publishers, and every latched one has delivered its message: a world at
+        real_time_factor 0 runs a second of sim time in milliseconds, so a run recorded in the
+        same process starts stepping only then. False if ``timeout_sec`` ran out."""
+        from sim_runtime.testing import spin_until
+
+        wanted = [t for t in topics if self.wanted(t)]
+
+        def recording() -> bool:
+            self.discover()
+            return all(
+                t in self._subs
+                and self._subs[t].subscription.get_publisher_count() > 0
+                and (self._subs[t].qos.durability != DurabilityPolicy.TRANSIENT_LOCAL or t in self._latched_heard)
+                for t in wanted
+            )
+
+        return spin_until(executor, recording, timeout=timeout_sec)
 
     def discover(self) -> None:
         """Subscribe to matching topics that have publishers and are not yet recorded."""
@@ -205,7 +226,7 @@ class Recorder(Node):
                 tid = -1
             qos = adapted_qos(offered)
             self._subs[name] = _Subscribed(
-                self.create_subscription(msg_type, name, self._callback(name, tid), qos, raw=True),
+                self.create_subscription(msg_type, name, self._latched_or_plain(name, tid, qos), qos, raw=True),
                 msg_type,
                 tid,
                 qos,
@@ -242,12 +263,24 @@ class Recorder(Node):
         # Subscribe anew before dropping the old one: nothing falls in between (a message
         # sent in that instant may be recorded twice).
         sub.subscription = self.create_subscription(
-            sub.msg_type, name, self._callback(name, sub.topic_id), qos, raw=True
+            sub.msg_type, name, self._latched_or_plain(name, sub.topic_id, qos), qos, raw=True
         )
         sub.qos = qos
         self.destroy_subscription(old)
 
     # -- messages ------------------------------------------------------------------------
+
+    def _latched_or_plain(self, name: str, tid: int, qos: QoSProfile) -> Callable[[bytes], None]:
+        """The topic's callback; for a latched topic it also notes that its message arrived."""
+        callback = self._callback(name, tid)
+        if qos.durability != DurabilityPolicy.TRANSIENT_LOCAL:
+            return callback
+
+        def heard(data: bytes) -> None:
+            self._latched_heard.add(name)
+            callback(data)
+
+        return heard
 
     def _callback(self, name: str, tid: int) -> Callable[[bytes], None]:
         write = self._write
@@ -335,6 +368,15 @@ class Recorder(Node):
         self.writer.close()
         if self.error is None and self.writer.error is not None:
             self.error = self.writer.error
+
+
+def wait_for_recorders(executor: Any, nodes: Iterable[Any], world: Any) -> None:
+    """Let every :class:`Recorder` among ``nodes`` subscribe to what ``world`` publishes before a
+    demo steps it (see :meth:`Recorder.wait_until_recording`)."""
+    topics = [publisher.topic_name for publisher in world.publishers]
+    for node in nodes:
+        if isinstance(node, Recorder):
+            node.wait_until_recording(executor, topics)
 
 
 def default_bag_name(now: datetime | None = None) -> str:
