@@ -105,23 +105,4 @@ class ConfigMakerPage(FilePage):
         return self.save_text(text)
 
     async def apply_to_world(self) -> None:
-        ns = self.world_select.value
-        if ns is None:
-            self.say("no running world to apply to", error=True)
-            return
-        name = (self.file_name.value or "").strip()
-        if name != self.own_file:
-            self.say(f"{name} was not loaded or saved here: Save (or Load) it first", error=True)
-            return
-        self.overwrite.set_value(True)
-        if not self.save():
-            return
-        path = self.studio.workspace.path(name)
-        try:
-            refused = await self.studio.ros.set_parameters(ns, {"config_file": str(path)})
-        except TimeoutError as err:
-            refused = [str(err)]
-        if refused:
-            self.say("the world refused the config: " + "; ".join(refused), error=True)
-        else:
-            self.say(f"saved {name} and applied it to the world in {ns or '/'}")
+        await self.apply_file("config_file", "config")

@@ -11,7 +11,7 @@ from studio.app import Studio
 
 class FilePage:
     """Base of a page that edits one workspace file: subclasses set ``message_class``, define
-    ``load``, ``save`` and ``apply_to_world``, and build their file widgets with
+    ``load``, ``save`` and ``apply_to_world`` (usually :meth:`apply_file`), and build their file widgets with
     :meth:`file_controls` and :meth:`apply_controls`."""
 
     message_class = ""
@@ -60,6 +60,34 @@ class FilePage:
         self.own_file = name
         self.say(f"saved {self.studio.workspace.relative(path)}")
         return True
+
+    async def apply_file(self, parameter: str, what: str) -> None:
+        """Save the page's file (it must be the one loaded or saved here) and set the selected
+        world's ``parameter`` to it; the world's refusal, with its reason, goes to the message line."""
+        ns = self.world_select.value
+        if ns is None:
+            self.say("no running world to apply to", error=True)
+            return
+        name = (self.file_name.value or "").strip()
+        try:
+            path = self.studio.workspace.path(name)
+        except InputError as err:
+            self.say(f"error: {err}", error=True)
+            return
+        if name != self.own_file:
+            self.say(f"{name} was not loaded or saved here: Save (or Load) it first", error=True)
+            return
+        self.overwrite.set_value(True)  # the file this page loaded or saved: bring it up to date
+        if not self.save():
+            return
+        try:
+            refused = await self.studio.ros.set_parameters(ns, {parameter: str(path)})
+        except TimeoutError as err:
+            refused = [str(err)]
+        if refused:
+            self.say(f"the world refused the {what}: " + "; ".join(refused), error=True)
+        else:
+            self.say(f"saved {name} and applied it to the world in {ns or '/'}")
 
     def refresh_worlds(self) -> None:
         ros = self.studio.ros

@@ -373,27 +373,4 @@ class MapMakerPage(FilePage):
         return self.save_text(self.doc.to_map().to_text())
 
     async def apply_to_world(self) -> None:
-        ns = self.world_select.value
-        if ns is None:
-            self.say("no running world to apply to", error=True)
-            return
-        name = (self.file_name.value or "").strip()
-        try:
-            path = self.studio.workspace.path(name)
-        except InputError as err:
-            self.say(f"error: {err}", error=True)
-            return
-        if self.own_file == name:
-            self.overwrite.set_value(True)  # the file this page loaded or saved: bring it up to date
-        if self.own_file != name or not self.save():
-            if self.own_file != name:
-                self.say(f"{name} was not loaded or saved here: Save (or Load) it first", error=True)
-            return
-        try:
-            refused = await self.studio.ros.set_parameters(ns, {"map_file": str(path)})
-        except TimeoutError as err:
-            refused = [str(err)]
-        if refused:
-            self.say("the world refused the map: " + "; ".join(refused), error=True)
-        else:
-            self.say(f"saved {name} and applied it to the world in {ns or '/'}")
+        await self.apply_file("map_file", "map")
