@@ -33,7 +33,7 @@ demo: venv
 
 bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"
-	set -e; for script in $(filter-out bench/soak.py,$(wildcard bench/*.py)); do echo "== $$script"; $(PY) $$script; done
+	set -e; for script in $(filter-out bench/soak.py bench/_%.py,$(wildcard bench/*.py)); do echo "== $$script"; $(PY) $$script; done
 
 # Mutation fuzzer over every input format: 100,000 inputs or 15 minutes on 2 worker processes;
 # defects (with their inputs) under out/fuzz/defects, counts in out/fuzz/summary.json.

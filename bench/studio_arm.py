@@ -39,14 +39,14 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+from _studio_support import CHROMEDRIVER, CHROMIUM, free_port  # noqa: E402
+
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 os.environ.setdefault("ROS_DOMAIN_ID", str(50 + os.getpid() % 50))
 
 from studio.meshes import DISPLAY_FACES, binary_stl  # noqa: E402
 
-CHROMIUM = "/usr/lib/chromium/chromium"
-CHROMEDRIVER = "/usr/bin/chromedriver"
 GOAL_FIRST_DRAW_S = 2.0
 DENSE_FACES = 756_290
 MESHES = 7
@@ -77,12 +77,6 @@ try {
   })).observe({type: 'longtask', buffered: true});
 } catch (e) {}
 """.replace("MESHES", str(MESHES))
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def dense_mesh(faces: int, radius: float = 0.06) -> np.ndarray:
