@@ -7,6 +7,7 @@ import ipaddress
 import socket
 import sys
 from dataclasses import dataclass, field
+from typing import Any
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
@@ -181,6 +182,29 @@ def wheel_zoom(view, args: dict) -> bool:
     px, py = args["x"] * VIEW_SIZE[0] / args["w"], args["y"] * VIEW_SIZE[1] / args["h"]
     view.zoom_at(px, py, 1 / 1.2 if args["dy"] > 0 else 1.2)
     return True
+
+
+class ZoomableView:
+    """Zoom buttons, the mouse wheel and layer checkboxes of a page that draws ``view`` on
+    :func:`view_image`; the page says how it redraws in :meth:`view_changed`."""
+
+    view: Any
+    layers: set[str]
+
+    def view_changed(self) -> None:
+        raise NotImplementedError
+
+    def zoom(self, factor: float) -> None:
+        self.view.zoom(factor)
+        self.view_changed()
+
+    def on_wheel(self, e) -> None:
+        if wheel_zoom(self.view, e.args):
+            self.view_changed()
+
+    def toggle_layer(self, key: str, on: bool) -> None:
+        (self.layers.add if on else self.layers.discard)(key)
+        self.view_changed()
 
 
 def nav(current: str) -> None:

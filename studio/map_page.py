@@ -11,7 +11,7 @@ from nicegui import ui
 from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
 from studio.file_page import FilePage
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
 from studio.workspace import MAX_UPLOAD_BYTES
@@ -43,7 +43,7 @@ def element_label(element) -> str:
     return f"virtwall at ({element.x:g}, {element.y:g}) θ {element.theta:.3f} setting {element.setting}"
 
 
-class MapMakerPage(FilePage):
+class MapMakerPage(FilePage, ZoomableView):
     message_class = "studio-map-message"
 
     def __init__(self, studio: Studio) -> None:
@@ -150,13 +150,8 @@ class MapMakerPage(FilePage):
                 )
         self.preview.set_content("".join(parts))
 
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
+    def view_changed(self) -> None:
         self.redraw()
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.redraw()
 
     def fit(self) -> None:
         w = self.doc.to_map()

@@ -21,7 +21,7 @@ from nicegui import run, ui
 
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
 from studio.replay import Frame, Replay, RobotFrame, planar
 from studio.workspace import Workspace
 
@@ -226,7 +226,7 @@ def register(studio: Studio) -> None:
         ReplayPage(studio)
 
 
-class ReplayPage:
+class ReplayPage(ZoomableView):
     """One tab's replay: its bag, time, speed and view."""
 
     def __init__(self, studio: Studio) -> None:
@@ -516,17 +516,8 @@ class ReplayPage:
             parts.append(joints_svg(frame))
         return "".join(parts)
 
-    def toggle_layer(self, key: str, on: bool) -> None:
-        (self.layers.add if on else self.layers.discard)(key)
+    def view_changed(self) -> None:
         self.base_dirty = True
-
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
-        self.base_dirty = True
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.base_dirty = True
 
     def on_mouse(self, e) -> None:
         """Drag pans the view."""

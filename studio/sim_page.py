@@ -13,7 +13,7 @@ from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, stop_started_world, view_image, wheel_zoom
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, stop_started_world, view_image
 from studio.processes import Child, controller_command, executable_command, world_ros_args
 
 FRAME_PERIOD_S = 0.04
@@ -94,7 +94,7 @@ def register(studio: Studio) -> None:
         SimulatorPage(studio)
 
 
-class SimulatorPage:
+class SimulatorPage(ZoomableView):
     """One browser tab's simulator view: its own zoom, layers and selected robot."""
 
     def __init__(self, studio: Studio) -> None:
@@ -318,17 +318,8 @@ class SimulatorPage:
         parts.append(draw.robot_svg(self.view, st.pose, selected=True, label=self.selected or ""))
         return "".join(parts)
 
-    def toggle_layer(self, key: str, on: bool) -> None:
-        (self.layers.add if on else self.layers.discard)(key)
+    def view_changed(self) -> None:
         self.view_dirty = True
-
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
-        self.view_dirty = True
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.view_dirty = True
 
     def fit(self) -> None:
         st = self.robot()

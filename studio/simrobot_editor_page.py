@@ -18,7 +18,7 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, view_image, wheel_zoom
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
 from studio.processes import Child, executable_command, yaml_string
 from studio.simrobot_client import side
 from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
@@ -41,7 +41,7 @@ def register(studio: Studio) -> None:
         EditorPage(studio)
 
 
-class EditorPage:
+class EditorPage(ZoomableView):
     """One tab's editor: its own draft world, view, tool and selection."""
 
     def __init__(self, studio: Studio) -> None:
@@ -209,13 +209,8 @@ class EditorPage:
         self.view.fit(np.array([ox, ox + w]), np.array([oy, oy + h]), margin_m=0.05 * max(w, h))
         self.redraw(map_too=True)
 
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
+    def view_changed(self) -> None:
         self.redraw(map_too=True)
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.redraw(map_too=True)
 
     # ---------------------------------------------------------------- mouse
     def on_tool(self, e) -> None:

@@ -17,7 +17,7 @@ from nicegui import ui
 
 from sim_runtime.track_plot import draw_tracks
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, nav, stop_started_world, view_image, wheel_zoom
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, stop_started_world, view_image
 from studio.simrobot_client import WorldState, side
 from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
 
@@ -78,7 +78,7 @@ def info_html(st: WorldState, i: int) -> str:
     return f"<table class='simrobot-info text-sm'>{body}</table>"
 
 
-class SimrobotPage:
+class SimrobotPage(ZoomableView):
     """One tab's view of one SIMROBOT world."""
 
     def __init__(self, studio: Studio) -> None:
@@ -257,15 +257,9 @@ class SimrobotPage:
         self.draw_map()
         self.view_dirty = True
 
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
+    def view_changed(self) -> None:
         self.draw_map()
         self.view_dirty = True
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.draw_map()
-            self.view_dirty = True
 
     # ---------------------------------------------------------------- mouse: click a robot, drag to pan
     def on_mouse(self, e) -> None:
