@@ -14,13 +14,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=900.0, help="time budget (default 900)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--seed", type=int, default=1, help="campaign seed (same seed, same inputs)")
+    parser.add_argument(
+        "--hang-seconds", type=float, default=30.0, help="an input running longer is a hang (default 30)"
+    )
     parser.add_argument("--out", default="out/fuzz", help="folder for seeds, defects and summary.json")
     parser.add_argument("--replay", type=int, metavar="INDEX", help="run input INDEX here and show its traceback")
     opts = parser.parse_args(argv)
     if opts.replay is not None:
         replay(opts.replay, opts.seed, opts.out)
         return 0
-    report = run_campaign(opts.inputs, seconds=opts.seconds, workers=opts.workers, seed=opts.seed, out=opts.out)
+    report = run_campaign(
+        opts.inputs,
+        seconds=opts.seconds,
+        workers=opts.workers,
+        seed=opts.seed,
+        out=opts.out,
+        hang_seconds=opts.hang_seconds,
+    )
     print(report.table())
     print(f"defect inputs saved under {opts.out}/defects; summary in {opts.out}/summary.json")
     return 1 if report.failures else 0

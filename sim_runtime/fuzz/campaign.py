@@ -3,6 +3,11 @@
 Input ``i`` of a campaign with seed ``s`` is a pure function of (s, i) and the seed corpus, so the
 parent can rebuild the input a crashed worker was running and save it; each defect is saved as
 its input folder plus ``defect.txt`` (target, outcome, traceback, how to replay it).
+
+A hung worker is asked for its threads' stacks before it is killed, and the input is run once more,
+alone, in the fresh worker: if it hangs again it is a hang; if it ends there, the input did not
+cause it (the worker's history or the machine did) and it is reported apart, as a *stall*, with
+the stacks, and not counted against the input.
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ from pathlib import Path
 from typing import Any
 
 OUTCOMES = ("ok", "input_error", "defect", "crash", "hang")
+STALL = "stall"
+"""A hang its input does not reproduce alone: reported with the hung worker's stacks, not an input failure."""
 _IDLE = -1
 
 
@@ -38,6 +45,7 @@ class Report:
     restarts: int = 0
     counts: dict[str, collections.Counter] = field(default_factory=lambda: collections.defaultdict(collections.Counter))
     defects: dict[str, list[int]] = field(default_factory=lambda: collections.defaultdict(list))
+    stalls: dict[str, list[int]] = field(default_factory=lambda: collections.defaultdict(list))
     out: str = ""
 
     @property
@@ -45,13 +53,14 @@ class Report:
         return sum(c["defect"] + c["crash"] + c["hang"] for c in self.counts.values())
 
     def table(self) -> str:
-        rows = [f"{'target':<16}" + "".join(f"{o:>12}" for o in ("inputs", *OUTCOMES))]
+        columns = (*OUTCOMES, STALL)
+        rows = [f"{'target':<16}" + "".join(f"{o:>12}" for o in ("inputs", *columns))]
         total: collections.Counter = collections.Counter()
         for name in sorted(self.counts):
             c = self.counts[name]
             total.update(c)
-            rows.append(f"{name:<16}{sum(c.values()):>12}" + "".join(f"{c[o]:>12}" for o in OUTCOMES))
-        rows.append(f"{'total':<16}{sum(total.values()):>12}" + "".join(f"{total[o]:>12}" for o in OUTCOMES))
+            rows.append(f"{name:<16}{sum(c.values()):>12}" + "".join(f"{c[o]:>12}" for o in columns))
+        rows.append(f"{'total':<16}{sum(total.values()):>12}" + "".join(f"{total[o]:>12}" for o in columns))
         rate = self.inputs / self.seconds if self.seconds else 0.0
         rows.append(
             f"{self.inputs} inputs in {self.seconds:.1f} s ({rate:.0f}/s) on {self.workers} workers, "
@@ -59,6 +68,11 @@ class Report:
         )
         for signature, indices in sorted(self.defects.items()):
             rows.append(f"DEFECT x{len(indices)} {signature} (e.g. input {indices[0]})")
+        for signature, indices in sorted(self.stalls.items()):
+            rows.append(
+                f"STALL x{len(indices)} {signature} (e.g. input {indices[0]}): ended when run alone; "
+                f"the hung worker's stacks are in {self.out}/defects/*-{STALL}-{indices[0]}/defect.txt"
+            )
         return "\n".join(rows)
 
     def to_json(self) -> dict[str, Any]:
@@ -70,6 +84,7 @@ class Report:
             "restarts": self.restarts,
             "counts": {k: dict(v) for k, v in self.counts.items()},
             "defects": {k: v[:20] for k, v in self.defects.items()},
+            "stalls": {k: v[:20] for k, v in self.stalls.items()},
         }
 
 
@@ -91,6 +106,7 @@ def _worker(
     import faulthandler
 
     faulthandler.enable()
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # the parent asks for our stacks before killing a hang
     warnings.simplefilter("ignore")
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     from sim_runtime.errors import InputError
@@ -146,12 +162,29 @@ def _save(out: Path, name: str, index: int, seed: int, folder: Path, outcome: st
     )
 
 
+def _stacks_of_hung(slot: _Slot) -> str:
+    """Every thread's Python stack in a hung worker (it dumps them into its log on SIGUSR1): what
+    a hang was doing, since replaying its input alone may not hang."""
+    log = Path(slot.log)
+    size = log.stat().st_size if log.exists() else 0
+    try:
+        os.kill(slot.process.pid, signal.SIGUSR1)
+    except (ProcessLookupError, TypeError):
+        return ""
+    time.sleep(1.0)  # faulthandler writes at once, from its signal handler, GIL or not
+    with open(log, "rb") as f:
+        f.seek(size)
+        text = f.read().decode("utf-8", "replace")
+    return text[-20000:]
+
+
 class _Slot:
     """One worker process and the range of inputs it is working through."""
 
     def __init__(self, ctx: Any, args: tuple, number: int) -> None:
         self.ctx, self.args, self.number = ctx, args, number
         self.task: tuple[int, int] | None = None
+        self.pending: tuple[int, int] | None = None  # inputs to go on with after a hung one is rerun
         self.done_upto = 0
         self.start()
 
@@ -161,7 +194,7 @@ class _Slot:
         self.started = self.ctx.Value("d", time.monotonic(), lock=False)
         self.results, sender = self.ctx.Pipe(duplex=False)
         seed_folder, seed, out = self.args
-        log = str(Path(out) / f"worker-{self.number}.log")
+        self.log = log = str(Path(out) / f"worker-{self.number}.log")
         self.process = self.ctx.Process(
             target=_worker,
             args=(seed_folder, seed, self.tasks, sender, self.current, self.started, out, log),
@@ -217,39 +250,67 @@ def run_campaign(
     finished = 0
     last_print = begin
 
+    confirming: dict[int, str] = {}  # hung input -> the hung worker's stacks, while it runs again alone
+
     def record(index: int, name: str, outcome: str, signature: str = "") -> None:
         nonlocal finished
+        finished += 1
+        stacks = confirming.pop(index, None)
+        if stacks is not None and outcome in ("ok", "input_error"):  # it hung only after other inputs
+            report.counts[name][STALL] += 1
+            report.stalls[f"{name}: stall"].append(index)
+            save_lost(index, STALL, f"hung in a worker; run again alone in a fresh one: {outcome}\n\n{stacks}")
+            return
         report.counts[name][outcome] += 1
         if signature:
             report.defects[signature].append(index)
-        finished += 1
+
+    def save_lost(index: int, outcome: str, detail: str) -> str:
+        """Rebuild the input a lost worker was running and save it; returns its target's name."""
+        scratch = Path(tempfile.mkdtemp(prefix="fuzz-lost-"))
+        try:
+            name, _ = make_case(index, seed, seeds, scratch / "case")
+            _save(out, name, index, seed, scratch / "case", outcome, detail)
+        finally:
+            shutil.rmtree(scratch, ignore_errors=True)
+        return name
 
     def lost(slot: _Slot, outcome: str) -> None:
-        """The worker died or hung on its current input: record it, save it, restart the worker."""
+        """The worker died or hung on its current input: restart it; record a crash, or run a hung
+        input once more, alone, before recording it."""
         index = slot.current.value
+        stacks = _stacks_of_hung(slot) if outcome == "hang" else ""
         if slot.process.is_alive():
             slot.process.kill()
         slot.process.join()
+        exitcode = slot.process.exitcode
         report.restarts += 1
-        if index != _IDLE:
-            scratch = Path(tempfile.mkdtemp(prefix="fuzz-lost-"))
-            try:
-                name, _ = make_case(index, seed, seeds, scratch / "case")
-                _save(out, name, index, seed, scratch / "case", outcome, f"exit code {slot.process.exitcode}")
-            finally:
-                shutil.rmtree(scratch, ignore_errors=True)
-            record(index, name, outcome, f"{name}: {outcome} (exit code {slot.process.exitcode})")
         rest = (index + 1 if index != _IDLE else slot.done_upto, slot.task[1]) if slot.task else None
         slot.results.close()
         slot.start()
         slot.task = None
         if rest and rest[0] < rest[1]:
-            slot.give(rest)
+            slot.pending = rest
+        if index == _IDLE:
+            return
+        if outcome == "hang" and index not in confirming:
+            confirming[index] = f"the worker's threads when it was killed:\n{stacks}"
+            slot.give((index, index + 1))
+            return
+        detail = f"exit code {exitcode}"
+        if stacks:
+            detail += f" (it hung when run alone too)\n\nthe worker's threads when it was killed:\n{stacks}"
+        confirming.pop(index, None)
+        name = save_lost(index, outcome, detail)
+        record(index, name, outcome, f"{name}: {outcome} (exit code {exitcode})")
 
     try:
         while True:
             out_of_time = time.monotonic() - begin > seconds
             for slot in slots:
+                if slot.task is None and slot.pending is not None:  # the rest of a lost worker's batch
+                    slot.give(slot.pending)
+                    slot.pending = None
                 if slot.task is None and next_index < inputs and not out_of_time:
                     task = (next_index, min(next_index + batch, inputs))
                     next_index = task[1]

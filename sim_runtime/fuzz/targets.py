@@ -12,6 +12,7 @@ import contextlib
 import os
 import random
 import shutil
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -577,23 +578,36 @@ TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case]]] =
 
 def _selftest_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
     """Checks the harness itself: every 7th input kills its process (as a segfault would),
-    every 5th raises a plain exception, the rest load or raise InputError."""
+    every 5th raises a plain exception, number 33 never returns, number 34 never returns unless it
+    is the first input of its process (a stall), the rest load or raise InputError."""
     from sim_runtime.errors import InputError
 
     number = rng.randrange(35)
     (folder / "number.txt").write_text(str(number), encoding="utf-8")
 
     def run() -> None:
+        global _selftest_runs
+        _selftest_runs += 1
         if number % 7 == 0:
             import ctypes
 
             ctypes.string_at(0)  # SIGSEGV
         if number % 5 == 0:
             raise RuntimeError("selftest defect")
+        if number == 33 or (number == 34 and _selftest_runs > 1):
+            _selftest_hang()
         if number % 2:
             raise InputError("selftest input error")
 
     return Case(folder, run)
+
+
+_selftest_runs = 0
+
+
+def _selftest_hang() -> None:
+    while True:
+        time.sleep(1.0)
 
 
 if os.environ.get("ROBOT_SIMS_FUZZ_SELFTEST"):  # the harness's own test: its workers inherit this
