@@ -169,3 +169,22 @@ def test_loop_plays_again_until_stopped(executor, make_node, tmp_path):
     player.stop()
     assert player.finished.done()  # stop() ends the loop
     assert [m.data for m in chatter.msgs[:12]] == [f"m{i % 5}" for i in range(12)]
+
+
+def test_a_player_refused_for_its_options_or_a_topic_name_leaves_no_node_behind(make_node, tmp_path):
+    import pytest
+    from rclpy.exceptions import InvalidTopicNameException
+
+    from sim_runtime.errors import InputError
+
+    bag = make_bag(tmp_path / "bag")
+    probe = make_node("probe")
+    for options in ({"rate": 0.0}, {"start_offset": -1.0}, {"exclude": "("}):
+        with pytest.raises(InputError):
+            Player(bag, node_name="refused_player", **options)
+    with pytest.raises(InvalidTopicNameException):
+        Player(bag, remap={"/rp/chatter": "/bad name"}, node_name="refused_player")
+    assert "refused_player" not in probe.get_node_names()
+    player = Player(bag, node_name="refused_player")  # the name is free again
+    assert "refused_player" in probe.get_node_names()
+    player.destroy_node()

@@ -121,22 +121,42 @@ class Player(Node):
         node_name: str = "player",
         **node_kwargs: Any,
     ) -> None:
-        super().__init__(node_name, **node_kwargs)
+        # Options are checked before the node exists: a refused player leaves nothing in the graph.
         if not rate > 0:
             raise InputError(f"--rate {rate}: must be > 0")
         if not (0 <= start_offset * 1e9 < math.inf) or (duration is not None and not duration >= 0):
             raise InputError(f"--start-offset {start_offset} / --duration {duration}: must be ≥ 0 (offset finite)")
+        try:
+            excluded = re.compile(exclude) if exclude else None
+        except re.error as exc:
+            raise InputError(f"--exclude {exclude!r}: {exc}") from None
+        super().__init__(node_name, **node_kwargs)
         self.bag = bag
         self.rate = rate
         self.loop = loop
         self._begin = bag.start_ns + int(start_offset * 1e9)
         endless = duration is None or math.isinf(duration * 1e9)
         self._end = None if duration is None or endless else self._begin + int(duration * 1e9)
-        remap = remap or {}
         try:
-            excluded = re.compile(exclude) if exclude else None
-        except re.error as exc:
-            raise InputError(f"--exclude {exclude!r}: {exc}") from None
+            self._make_publishers(bag, topics, excluded, remap or {})
+        except BaseException:
+            self.destroy_node()  # e.g. a remapped name rcl refuses: no half-built node lingers
+            raise
+        self.stats = PlayStats()
+        self.finished = Future()
+        self._cond = threading.Condition()
+        self._paused = start_paused
+        self._steps = 0
+        self._stop = False
+        self._thread: threading.Thread | None = None
+        self.create_service(Trigger, "~/pause", self._srv_pause)
+        self.create_service(Trigger, "~/resume", self._srv_resume)
+        self.create_service(SetBool, "~/set_paused", self._srv_set_paused)
+        self.create_service(Trigger, "~/step", self._srv_step)
+
+    def _make_publishers(
+        self, bag: Bag, topics: Sequence[str] | None, excluded: re.Pattern | None, remap: dict[str, str]
+    ) -> None:
         wanted = None if not topics else {t if t.startswith("/") else "/" + t for t in topics}
         self._publishers_by_topic: dict[str, Any] = {}
         for topic, type_name in sorted(bag.topics.items()):
@@ -152,17 +172,6 @@ class Player(Node):
         self._clock_pub = (
             None if CLOCK_TOPIC in self._publishers_by_topic else self.create_publisher(Clock, CLOCK_TOPIC, 10)
         )
-        self.stats = PlayStats()
-        self.finished = Future()
-        self._cond = threading.Condition()
-        self._paused = start_paused
-        self._steps = 0
-        self._stop = False
-        self._thread: threading.Thread | None = None
-        self.create_service(Trigger, "~/pause", self._srv_pause)
-        self.create_service(Trigger, "~/resume", self._srv_resume)
-        self.create_service(SetBool, "~/set_paused", self._srv_set_paused)
-        self.create_service(Trigger, "~/step", self._srv_step)
 
     @property
     def topic_publishers(self) -> dict[str, Any]:
