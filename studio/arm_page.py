@@ -13,12 +13,11 @@ import asyncio
 import math
 import threading
 import time
-from dataclasses import dataclass
 from html import escape
 
 import numpy as np
 from fastapi import HTTPException, Response
-from nicegui import app, background_tasks, ui
+from nicegui import app, ui
 
 from arm_sim.robot_config import transform_from_xyz_rpy
 from arm_sim.trajectory_file import load_trajectory
@@ -26,13 +25,11 @@ from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path, mesh_path
 from studio.app import Studio, nav, stop_started_world
-from studio.arm_ros import ArmRos, ArmState, Drawable
-from studio.meshes import DISPLAY_FACES, MeshCache
+from studio.arm_ros import ArmRos, ArmState, Group
+from studio.arm_scene import MESH_ROUTE, MESHES, ArmScene, rotations
+from studio.meshes import DISPLAY_FACES
 from studio.processes import Child, yaml_string
 
-MESHES = MeshCache()
-"""Every page's meshes: a file is read and reduced once per studio."""
-MESH_ROUTE = "/studio/mesh"
 FRAME_PERIOD_S = 0.05
 VIEW_SIZE = (820, 620)
 DETAIL_OPTIONS = {
@@ -44,23 +41,6 @@ SYNC_AFTER_S = 1.0
 """Sliders follow the arm once it is still and nobody has moved a slider for this long."""
 REACHED_M, REACHED_RAD = 2e-3, 2e-2
 TARGET_TIMEOUT_S = 30.0
-EE_AXES_M = 0.1
-WORLD_AXES_M = 0.2
-CAMERA = {"x": 0.95, "y": -0.95, "z": 0.8, "look_at_x": 0.15, "look_at_y": 0.0, "look_at_z": 0.3}
-"""Where the camera starts, before any arm is seen (the IRB120 at the origin fills the view)."""
-
-
-def camera_for(points: np.ndarray) -> dict[str, float]:
-    """A camera looking at the middle of ``points`` (m, 3) from the front right, above, far enough
-    back to see all of them (a perspective camera's 75° field of view)."""
-    if len(points) == 0:
-        return dict(CAMERA)
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    centre = (lo + hi) / 2
-    radius = max(0.35, float(np.linalg.norm(hi - lo)) / 2 + 0.25)
-    offset = np.array([0.62, -0.62, 0.48]) * radius * 1.6
-    x, y, z = (centre + offset).tolist()
-    return {"x": x, "y": y, "z": z, "look_at_x": centre[0], "look_at_y": centre[1], "look_at_z": centre[2]}
 
 
 def _holder(studio: Studio) -> dict:
@@ -114,31 +94,6 @@ def register(studio: Studio) -> None:
         ArmPage(studio, max(0, int(faces)))
 
 
-def _hex(rgba) -> str:
-    return "#{:02x}{:02x}{:02x}".format(*(max(0, min(255, round(c * 255))) for c in rgba[:3]))
-
-
-def rotations(quaternions: np.ndarray) -> np.ndarray:
-    """(m, 3, 3) rotation matrices of quaternions (m, 4) x y z w (normalised)."""
-    q = quaternions / np.maximum(np.linalg.norm(quaternions, axis=1, keepdims=True), 1e-12)
-    x, y, z, w = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
-        ],
-        axis=1,
-    )
-
-
-def element_name(drawable: Drawable) -> str:
-    """What the element list calls a drawable: its mesh file, else its marker name."""
-    if drawable.mesh_uri:
-        return drawable.mesh_uri.rsplit("/", 1)[-1]
-    return drawable.key
-
-
 def resolve_config(studio: Studio, name: str, what: str) -> str:
     """A robot config or scene file typed in the page: in the workspace, else a shipped one
     (``arm/irb120.yaml``); never a path outside both."""
@@ -161,16 +116,6 @@ def arm_world_ros_args(ns: str, robot_config: str, scene_file: str) -> list[str]
     return args
 
 
-@dataclass
-class Shown:
-    """A drawable on this page's scene: its three.js object, what it looks like, its owner."""
-
-    obj: object | None  # None while its mesh is being prepared
-    drawable: Drawable
-    owner: str  # arm prefix, or 'scene:<world namespace>'
-    name: str
-
-
 class ArmPage:
     """One browser tab's arm view and controls."""
 
@@ -178,13 +123,6 @@ class ArmPage:
         self.studio = studio
         self.faces = faces
         self.selected: str | None = None
-        self.shown: dict[str, Shown] = {}  # element key -> what is on the scene
-        self.hidden: set[str] = set()
-        self.opacity: dict[str, float] = {}
-        self.drawn_seq: dict[str, int] = {}
-        self.axes: dict[str, object] = {}  # arm prefix -> end-effector frame
-        self.show_frames = True
-        self.fitted = False
         self.listed: tuple = ()
         self.joint_rows: dict[str, tuple] = {}
         self.built_joints: tuple = ()
@@ -198,15 +136,13 @@ class ArmPage:
         nav("/arm")
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
-                self.scene = ui.scene(
-                    width=VIEW_SIZE[0], height=VIEW_SIZE[1], grid=(4, 40), background_color="#f4f4f4"
-                ).classes("studio-arm-view")
-                self.scene.axes_helper(WORLD_AXES_M)  # the world frame
-                self.scene.move_camera(**CAMERA, duration=0)
+                self.view = ArmScene(VIEW_SIZE, "studio-arm-view", self.faces)
                 with ui.row().classes("items-center gap-3"):
                     ui.label("drag: orbit · right-drag: pan · wheel: zoom").classes("text-sm text-gray-600")
-                    ui.button("Reset view", on_click=self.reset_view).props("dense flat")
-                    ui.checkbox("End-effector frames", value=True, on_change=self.on_frames)
+                    ui.button("Reset view", on_click=self.view.reset_view).props("dense flat")
+                    ui.checkbox(
+                        "End-effector frames", value=True, on_change=lambda e: self.view.set_frames_visible(e.value)
+                    )
                     ui.select(
                         DETAIL_OPTIONS,
                         value=self.faces if self.faces in DETAIL_OPTIONS else DISPLAY_FACES,
@@ -303,151 +239,45 @@ class ArmPage:
             if key.startswith("arm:") and not world.running and world not in self.endings_shown:
                 self.endings_shown.add(world)
                 self.world_label.set_text(f"{key[4:] or '/'}: {world.error_line()}")
-        listed = tuple((k, s.name) for k, s in self.shown.items())
+        listed = tuple((k, s.name) for k, s in self.view.shown.items())
         if listed != self.listed:
             self.listed = listed
             self.build_element_list()
-        ready = [s for s in self.shown.values() if s.obj is not None]
-        self.mesh_label.set_text(f"{len(ready)} of {len(self.shown)} elements drawn")
+        self.mesh_label.set_text(f"{self.view.ready()} of {len(self.view.shown)} elements drawn")
 
     def build_element_list(self) -> None:
         self.element_list.clear()
         with self.element_list:
-            for key, shown in self.shown.items():
+            for key, shown in self.view.shown.items():
                 owner = shown.owner if shown.owner.startswith("scene:") else (shown.owner or "/")
                 with ui.row().classes("items-center gap-2 no-wrap studio-arm-element"):
                     ui.checkbox(
                         f"{owner} {shown.name}",
-                        value=key not in self.hidden,
-                        on_change=lambda e, k=key: self.set_visible(k, e.value),
+                        value=key not in self.view.hidden,
+                        on_change=lambda e, k=key: self.view.set_visible(k, e.value),
                     ).classes("w-72 text-sm")
                     ui.slider(
                         min=0.0,
                         max=1.0,
                         step=0.05,
-                        value=self.opacity.get(key, 1.0),
-                        on_change=lambda e, k=key: self.set_opacity(k, e.value),
+                        value=self.view.opacity.get(key, 1.0),
+                        on_change=lambda e, k=key: self.view.set_opacity(k, e.value),
                     ).classes("w-40")
-
-    def set_visible(self, key: str, on: bool) -> None:
-        (self.hidden.discard if on else self.hidden.add)(key)
-        shown = self.shown.get(key)
-        if shown is not None and shown.obj is not None:
-            shown.obj.visible(on)
-
-    def set_opacity(self, key: str, value: float) -> None:
-        self.opacity[key] = float(value)
-        shown = self.shown.get(key)
-        if shown is not None and shown.obj is not None:
-            self.apply_material(key, shown)
-
-    def apply_material(self, key: str, shown: Shown) -> None:
-        rgba = shown.drawable.rgba
-        shown.obj.material(_hex(rgba), opacity=float(rgba[3]) * self.opacity.get(key, 1.0), side="both")
-
-    def on_frames(self, e) -> None:
-        self.show_frames = bool(e.value)
-        for axes in self.axes.values():
-            axes.visible(self.show_frames)
-
-    def reset_view(self) -> None:
-        """Every arm and scene object in view."""
-        ros = self.ros()
-        poses = [] if ros is None else [s.poses[:, :3] for s in (*ros.arms.values(), *ros.scenes.values())]
-        points = np.concatenate(poses) if poses else np.zeros((0, 3))
-        self.scene.move_camera(**camera_for(points), up_x=0.0, up_y=0.0, up_z=1.0)
 
     # ---------------------------------------------------------------- drawing
     def tick(self) -> None:
         ros = self.ros()
         if ros is None:
             return
-        groups = [(prefix, state.look, state.poses, state.seq) for prefix, state in ros.arms.items()]
-        groups += [(f"scene:{ns}", s.look, s.poses, s.seq) for ns, s in ros.scenes.items()]
-        owners = {g[0] for g in groups}
-        for key in [k for k, s in self.shown.items() if s.owner not in owners]:
-            self.forget(key)
-        for prefix in [p for p in self.axes if p not in ros.arms]:
-            self.axes.pop(prefix).delete()
-        with self.scene._batch_calls():  # one message per frame instead of one per call
-            for owner, look, poses, seq in groups:
-                self.draw_group(owner, look, poses, seq)
-            for prefix, state in ros.arms.items():
-                self.draw_end_effector(prefix, state)
-        if not self.fitted and all(s.obj is not None for s in self.shown.values()) and self.shown:
-            self.fitted = True  # once: later the user's own orbit, pan and zoom are left alone
-            self.reset_view()
+        groups = [Group(prefix, state.look, state.poses, state.seq) for prefix, state in ros.arms.items()]
+        groups += [Group(f"scene:{ns}", s.look, s.poses, s.seq) for ns, s in ros.scenes.items()]
+        effectors = {
+            prefix: (np.array(state.end_effector[:3]), np.array(state.end_effector_quat))
+            for prefix, state in ros.arms.items()
+            if state.end_effector is not None and state.end_effector_quat is not None
+        }
+        self.view.draw(groups, effectors)
         self.update_controls()
-
-    def draw_group(self, owner: str, look: tuple[Drawable, ...], poses: np.ndarray, seq: int) -> None:
-        keys = [f"{owner}|{d.key}" for d in look]
-        for key in [k for k, s in self.shown.items() if s.owner == owner and k not in keys]:
-            self.forget(key)
-        for key, drawable in zip(keys, look, strict=True):
-            shown = self.shown.get(key)
-            if shown is None:
-                shown = self.shown[key] = Shown(None, drawable, owner, element_name(drawable))
-                background_tasks.create(self.create(key, shown), name=f"arm mesh {key}")
-            elif shown.drawable != drawable:  # e.g. the world's marker_alpha changed
-                shown.drawable = drawable
-                if shown.obj is not None:
-                    self.apply_material(key, shown)
-        if self.drawn_seq.get(owner) == seq and not any(self.shown[k].obj is None for k in keys):
-            return
-        self.drawn_seq[owner] = seq
-        if len(poses) != len(keys):
-            return
-        rot = rotations(poses[:, 3:]).tolist()
-        for k, key in enumerate(keys):
-            obj = self.shown[key].obj
-            if obj is not None:
-                obj.move(*poses[k, :3].tolist()).rotate_R(rot[k])
-
-    async def create(self, key: str, shown: Shown) -> None:
-        """Put a drawable on the scene once its mesh is ready (prepared in a worker thread, so a
-        huge file never holds up the page or the other meshes)."""
-        d = shown.drawable
-        obj = None
-        if d.mesh_uri:
-            path = mesh_path(d.mesh_uri)
-            try:
-                if path is None:
-                    raise InputError(f"{d.mesh_uri}: cannot resolve this mesh URI on this machine")
-                mesh = await asyncio.to_thread(MESHES.prepare, path, self.faces)
-            except InputError as err:
-                if not self.scene.is_deleted:
-                    with self.mesh_label:  # the tab's context: this runs as a task of its own
-                        ui.notify(f"{err}: drawing a box instead", type="warning")
-            else:
-                if self.shown.get(key) is not shown or self.scene.is_deleted:
-                    return
-                obj = self.scene.stl(f"{MESH_ROUTE}/{mesh.key}.stl")
-                shown.name = f"{element_name(d)} ({mesh.faces_out:,} of {mesh.faces_in:,} faces)"
-        if self.shown.get(key) is not shown or self.scene.is_deleted:
-            return
-        if obj is None:
-            obj = self.scene.box(1.0, 1.0, 1.0)
-        obj.with_name(key).scale(*d.scale)  # the name: tests and tools find an element by its key
-        shown.obj = obj
-        self.drawn_seq.pop(shown.owner, None)  # place it at the next frame, even if no pose came in
-        self.apply_material(key, shown)
-        if key in self.hidden:
-            obj.visible(False)
-
-    def forget(self, key: str) -> None:
-        shown = self.shown.pop(key)
-        if shown.obj is not None:
-            shown.obj.delete()
-
-    def draw_end_effector(self, prefix: str, state: ArmState) -> None:
-        if state.end_effector is None or state.end_effector_quat is None:
-            return
-        axes = self.axes.get(prefix)
-        if axes is None:
-            axes = self.axes[prefix] = self.scene.axes_helper(EE_AXES_M)
-            axes.visible(self.show_frames)
-        x, y, z = state.end_effector[:3]
-        axes.move(x, y, z).rotate_R(rotations(np.array([state.end_effector_quat]))[0].tolist())
 
     # ---------------------------------------------------------------- joints
     def update_controls(self) -> None:

@@ -93,6 +93,16 @@ def drawables(msg: MarkerArray) -> tuple[list[Drawable], np.ndarray]:
     return items, np.array(poses, dtype=np.float64).reshape(-1, 7)
 
 
+@dataclass(frozen=True)
+class Group:
+    """What one owner (an arm's prefix, or ``scene:<world namespace>``) has drawn at an instant."""
+
+    owner: str
+    look: tuple[Drawable, ...]
+    poses: np.ndarray  # (len(look), 7): x y z qx qy qz qw
+    seq: int  # changes whenever the poses do: an unchanged group is not sent again
+
+
 def pose_xyz_rpy(msg_pose) -> tuple[float, float, float, float, float, float]:
     """x, y, z (m), roll, pitch, yaw (rad, fixed axes X Y Z) of a geometry_msgs Pose."""
     p = msg_pose.position

@@ -5,7 +5,8 @@
 draws them, SIMROBOT robots, an arm's joints, the commands sent so far (the original's function-call
 column) and a one-line summary of every topic's latest message. Robots are found by their topics:
 a Create by ``overhead_pose``, a SIMROBOT robot by ``pose`` (both PoseStamped), any other robot by
-``odom``, an arm by ``joint_states``. Stepping goes from one message of the *frame topic* (the first
+``odom``, an arm by ``joint_states``, and drawn in 3D from its ``robot_markers`` and its world's
+``scene_markers`` as the Arm page draws a live arm. Stepping goes from one message of the *frame topic* (the first
 robot's pose, else the joints, else any topic) to the next.
 """
 
@@ -25,10 +26,14 @@ from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
 from sim_runtime.msgs import yaw_from_quaternion
+from studio.arm_ros import Group, drawables
 
 POSE = "geometry_msgs/msg/PoseStamped"
 ODOM = "nav_msgs/msg/Odometry"
 JOINTS = "sensor_msgs/msg/JointState"
+MARKERS = "visualization_msgs/msg/MarkerArray"
+ARM_MARKER_TOPICS = ("robot_markers", "scene_markers")
+"""An arm world's 3D look: each arm's meshes posed (robot_markers), the scene's objects (scene_markers)."""
 COMMAND_TOPICS = ("cmd_vel", "wheel_cmd", "joint_command", "joint_trajectory", "target_pose", "set_pose")
 """What a controller or a person sends: the replay's list of calls made."""
 COMMANDS_SHOWN = 12
@@ -92,12 +97,13 @@ class Frame:
     elapsed_s: float
     robots: list[RobotFrame]
     joints: dict[str, list[tuple[str, float]]]  # arm namespace → (joint, position rad)
-    end_effectors: dict[str, tuple[float, float, float]]
+    end_effectors: dict[str, tuple[float, ...]]  # arm namespace → x y z (m) qx qy qz qw
     commands: list[tuple[float, str, str]]  # (elapsed s, topic, summary), newest first
     latest: list[tuple[str, float, str]]  # (topic, age s, summary) of every topic
     map: CreateMap | None = None
     grid: object | None = None  # nav_msgs/OccupancyGrid (SIMROBOT's map)
     outlines: object | None = None  # /robots MarkerArray
+    arm_groups: list[Group] = field(default_factory=list)  # what the arm view draws, as live
 
 
 def decode(m: BagMessage):
@@ -179,6 +185,9 @@ class Replay:
         self.arms = sorted(
             namespace(t) for t, kind in topics.items() if kind == JOINTS and basename(t) == "joint_states"
         )
+        self.arm_marker_topics = sorted(
+            t for t, kind in topics.items() if kind == MARKERS and basename(t) in ARM_MARKER_TOPICS
+        )
         self.command_topics = sorted(t for t in topics if basename(t) in COMMAND_TOPICS)
         if self.robots:
             self.frame_topic: str | None = self.robots[0].pose_topic
@@ -194,10 +203,25 @@ class Replay:
             self._load_track(robot)
         self._maps: dict[str, CreateMap] = {}
         self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, object]] = OrderedDict()
+        self._groups: dict[str, tuple[int, Group]] = {}  # marker topic -> (position, its group)
 
     @classmethod
     def open(cls, path: str | Path) -> Replay:
         return cls(BagIndex.open(path))
+
+    @property
+    def has_plan_view(self) -> bool:
+        """Whether anything is drawn on the map view (robots, a Create map, an occupancy grid)."""
+        topics = self.index.topics
+        return bool(self.robots) or any(
+            basename(t) == "map_markers" or kind == "nav_msgs/msg/OccupancyGrid" for t, kind in topics.items()
+        )
+
+    @property
+    def first_frame_ns(self) -> int:
+        """Where the page opens and Stop goes back to: the first frame (an arm bag's first instant
+        holds only its latched description, its first joints come a step later)."""
+        return int(self.frames[0]) if len(self.frames) else self.start_ns
 
     @property
     def duration_s(self) -> float:
@@ -242,11 +266,12 @@ class Replay:
     def frame(self, t_ns: int) -> Frame:
         """Everything the page shows at ``t_ns``."""
         index = self.index
-        state, decoded = {}, {}
+        state, decoded, positions = {}, {}, {}
         for topic, ti in index.by_topic.items():
             position = ti.at_or_before(t_ns)
             if position >= 0:
                 state[topic], decoded[topic] = self._message(topic, position)
+                positions[topic] = position
         robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots]
         joints, effectors = {}, {}
         for arm in self.arms:
@@ -255,8 +280,13 @@ class Replay:
                 joints[arm] = list(zip(msg.name, msg.position, strict=False))
             pose = decoded.get(f"{arm}/end_effector_pose")
             if pose is not None:
-                p = pose.pose.position
-                effectors[arm] = (p.x, p.y, p.z)
+                p, o = pose.pose.position, pose.pose.orientation
+                effectors[arm] = (p.x, p.y, p.z, o.x, o.y, o.z, o.w)
+        arm_groups = [
+            self._group(topic, positions[topic], decoded[topic])
+            for topic in self.arm_marker_topics
+            if decoded.get(topic) is not None
+        ]
         commands = []
         for topic in self.command_topics:
             ti = index.by_topic.get(topic)
@@ -285,7 +315,19 @@ class Replay:
             map=create_map,
             grid=decoded[grids[0]] if grids else None,
             outlines=decoded[outlines[0]] if outlines else None,
+            arm_groups=arm_groups,
         )
+
+    def _group(self, topic: str, position: int, msg) -> Group:
+        """The meshes of a ``robot_markers`` (owner: the arm's namespace) or ``scene_markers`` (owner
+        ``scene:<namespace>``) message, as the Arm page groups a live arm's; made once per message."""
+        kept = self._groups.get(topic)
+        if kept is None or kept[0] != position:
+            look, poses = drawables(msg)
+            ns = namespace(topic)
+            owner = ns if basename(topic) == "robot_markers" else f"scene:{ns}"
+            kept = self._groups[topic] = (position, Group(owner, tuple(look), poses, position))
+        return kept[1]
 
     def _message(self, topic: str, position: int) -> tuple[BagMessage, object]:
         """A topic's message and its decoded form; the last DECODED_KEPT are kept, so a map, a robot

@@ -1,5 +1,9 @@
 """The Replay page (the original's ReplayGUI): a recorded bag drawn as the live view, played or stepped.
 
+A Create or SIMROBOT run is drawn on the map view as the simulator pages draw it; an arm run in 3D
+with its meshes, scene objects and end-effector frames, by the Arm page's own view
+(:class:`~studio.arm_scene.ArmScene`).
+
 Play, pause, stop, ¼ speed forwards and backwards, a timeline, the arrow keys (left/up one frame back,
 right/down one forward; held, they repeat). The side panel shows the time, each robot's pose, the
 commands sent up to now and every topic's latest message. Seeks go through a
@@ -22,6 +26,7 @@ from nicegui import run, ui
 from sim_runtime.errors import InputError
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
+from studio.arm_scene import ArmScene
 from studio.replay import Frame, Replay, RobotFrame, planar
 from studio.workspace import Workspace
 
@@ -194,7 +199,7 @@ def panel_html(frame: Frame) -> str:
             f"<td class='font-mono'>{values}</td></tr>"
         )
         if arm in frame.end_effectors:
-            x, y, z = frame.end_effectors[arm]
+            x, y, z = frame.end_effectors[arm][:3]
             rows.append(
                 f"<tr><td class='pr-3 text-gray-600'>{escape(arm or '/')} end effector</td>"
                 f"<td class='font-mono'>{x:.3f} {y:.3f} {z:.3f}</td></tr>"
@@ -270,6 +275,8 @@ class ReplayPage(ZoomableView):
             with ui.column().classes("gap-1"):
                 self.image = view_image(self.on_mouse, self.on_wheel, "studio-replay-view", "#fafafa")
                 self.dynamic = self.image.add_layer()
+                self.arm_view = ArmScene(VIEW_SIZE, "studio-replay-arm-view")  # an arm bag's meshes, as live
+                self.arm_view.set_shown(False)
                 with ui.row().classes("items-center gap-1"):
                     for text, icon, action, css, tip in (
                         ("", "stop", self.stop, "stop", "Stop: back to the start"),
@@ -291,13 +298,14 @@ class ReplayPage(ZoomableView):
                     .props("label")
                     .classes("w-[800px] studio-replay-slider")
                 )
-                with ui.row().classes("items-center gap-2"):
-                    ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
-                    ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
-                    ui.button("Fit", on_click=self.fit).props("dense flat")
-                with ui.row().classes("gap-3"):
-                    for key, text in LAYERS.items():
-                        ui.checkbox(text, value=True, on_change=lambda e, k=key: self.toggle_layer(k, e.value))
+                with ui.column().classes("gap-1") as self.plan_controls:  # the map view's
+                    with ui.row().classes("items-center gap-2"):
+                        ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
+                        ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
+                        ui.button("Fit", on_click=self.fit).props("dense flat")
+                    with ui.row().classes("gap-3"):
+                        for key, text in LAYERS.items():
+                            ui.checkbox(text, value=True, on_change=lambda e, k=key: self.toggle_layer(k, e.value))
             with ui.column().classes("gap-2 w-[460px]"):
                 with ui.card().classes("w-full"):
                     ui.label("Bag").classes("font-bold")
@@ -338,8 +346,13 @@ class ReplayPage(ZoomableView):
             self.bag_label.set_text(f"error: {err}")
             return
         self.replay = replay
+        self.arm_view.clear()
+        self.arm_view.set_shown(bool(replay.arm_marker_topics))
+        plan_view = replay.has_plan_view or not replay.arm_marker_topics
+        self.image.set_visibility(plan_view)
+        self.plan_controls.set_visibility(plan_view)
         self.speed = 0.0
-        self.t_ns = replay.start_ns
+        self.t_ns = replay.first_frame_ns
         self.shown_t = None
         self.base_dirty = True
         self.grid_cache = None
@@ -409,7 +422,7 @@ class ReplayPage(ZoomableView):
             return
         self.speed = SPEEDS[how]
         if self.speed > 0 and self.t_ns >= self.replay.end_ns:
-            self.t_ns = self.replay.start_ns  # play again from the start
+            self.t_ns = self.replay.first_frame_ns  # play again from the start
         self.last_tick = time.monotonic()
 
     def pause(self) -> None:
@@ -418,7 +431,7 @@ class ReplayPage(ZoomableView):
     def stop(self) -> None:
         self.speed = 0.0
         if self.replay is not None:
-            self.seek(self.replay.start_ns)
+            self.seek(self.replay.first_frame_ns)
 
     def seek(self, t_ns: int) -> None:
         if self.replay is not None:
@@ -452,7 +465,7 @@ class ReplayPage(ZoomableView):
             self.t_ns = replay.clamp(self.t_ns + round(elapsed * self.speed * 1e9))
             if self.t_ns in (replay.start_ns, replay.end_ns):
                 self.speed = 0.0  # the end (or, backwards, the start)
-        if self.base_dirty or self.t_ns != self.shown_t:
+        if self.base_dirty or self.t_ns != self.shown_t or self.arm_view.stale:
             self.show()
 
     # ---------------------------------------------------------------- drawing
@@ -470,6 +483,9 @@ class ReplayPage(ZoomableView):
                 base = self.grid_svg(frame.grid) + base
             self.image.set_content(base)
         self.dynamic.set_content(self.dynamic_svg(frame))
+        if replay.arm_marker_topics:
+            effectors = {arm: (np.array(e[:3]), np.array(e[3:])) for arm, e in frame.end_effectors.items()}
+            self.arm_view.draw(frame.arm_groups, effectors)
         self.shown_t = self.t_ns
         self.time_label.set_text(f"t = {frame.elapsed_s:.3f} s / {replay.duration_s:.3f} s")
         self.panel.set_content(panel_html(frame))
@@ -512,7 +528,7 @@ class ReplayPage(ZoomableView):
             )
             parts.append(draw.sensors_svg(v, readings, self.layers))
             parts.append(draw.robot_svg(v, rf.pose, selected=i == 0, label=rf.robot.ns))
-        if frame.joints:
+        if frame.joints and not frame.arm_groups:  # no meshes recorded: the joints as gauges
             parts.append(joints_svg(frame))
         return "".join(parts)
 

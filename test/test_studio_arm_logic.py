@@ -140,7 +140,7 @@ def test_element_poses_turn_into_the_same_rotations_as_the_messages_helpers():
     from geometry_msgs.msg import Quaternion
 
     from sim_runtime.msgs import matrix_from_quaternion
-    from studio.arm_page import rotations
+    from studio.arm_scene import rotations
 
     rng = np.random.default_rng(3)
     q = rng.normal(size=(20, 4))

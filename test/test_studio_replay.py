@@ -144,3 +144,37 @@ def test_an_empty_bag_and_a_type_that_is_not_installed_replay_without_failing(tm
         frame = replay.frame(replay.end_ns)
     assert ("/thing", 1.0, "(no_such_pkg/msg/Thing, not decoded)") in frame.latest
     assert frame.robots[0].pose == pytest.approx((1.0, 2.0, 0.5))
+
+
+def test_a_recorded_arm_run_is_drawn_with_its_meshes_posed_as_the_bag_has_them(tmp_path):
+    """The arm demo recorded for real: each frame gives the Arm page's 3D view what it draws live."""
+    from arm_sim.demo import run_demo
+    from sim_runtime.demo import _Recording
+    from sim_runtime.paths import mesh_path
+    from studio.arm_ros import drawables
+
+    recording = _Recording(tmp_path / "arm")
+    summary = run_demo(None, extra_nodes=recording)
+    recording.close()
+    replay = Replay.open(tmp_path / "arm")
+    assert replay.robots == [] and not replay.has_plan_view  # nothing for the map view: the 3D view only
+    assert replay.arms == [""] and replay.arm_marker_topics == ["/robot_markers", "/scene_markers"]
+    first, last = replay.frame(replay.frames[0]), replay.frame(replay.end_ns)
+    (arm,) = [g for g in last.arm_groups if g.owner == ""]
+    assert [d.mesh_uri.rsplit("/", 1)[-1] for d in arm.look] == ["IRB120_base.stl"] + [
+        f"IRB120_link{k}.stl" for k in range(1, 7)
+    ]
+    assert all(mesh_path(d.mesh_uri).is_file() for d in arm.look)  # what the page loads
+    recorded = latest(tmp_path / "arm", "/robot_markers", replay.end_ns)
+    np.testing.assert_array_equal(arm.poses, drawables(recorded.msg)[1])  # the bag's own poses, untouched
+    (arm_then,) = [g for g in first.arm_groups if g.owner == ""]
+    assert np.abs(arm.poses[1:, :3] - arm_then.poses[1:, :3]).max() > 0.05  # the links moved; the base did not
+    np.testing.assert_array_equal(arm.poses[0], arm_then.poses[0])
+    assert [g.owner for g in last.arm_groups] == ["", "scene:"] and last.arm_groups[1].look == ()
+    assert [round(p, 4) for _name, p in last.joints[""]] == summary["final_q"]
+    end = latest(tmp_path / "arm", "/end_effector_pose", replay.end_ns).msg.pose
+    assert last.end_effectors[""] == (
+        end.position.x, end.position.y, end.position.z,
+        end.orientation.x, end.orientation.y, end.orientation.z, end.orientation.w,
+    )  # fmt: skip
+    assert replay.frame(replay.end_ns).arm_groups[0] is arm  # a frame shown again is not rebuilt

@@ -2,7 +2,8 @@
 
 A short Create run is written into the workspace as a bag; the page opens it, steps through it with
 the arrow keys (the time and pose shown must be the bag's), plays it at ¼ speed, exports it to Rerun
-and draws its tracks. ``STUDIO_SCREENSHOTS=1`` also saves the page's picture into docs/.
+and draws its tracks. A recorded arm run is drawn in 3D, its links where the bag has them at each
+instant. ``STUDIO_SCREENSHOTS=1`` also saves the pages' pictures into docs/.
 """
 
 from __future__ import annotations
@@ -32,14 +33,21 @@ from sim_runtime.rerun_view.convert import default_output
 ROOT = Path(__file__).resolve().parent.parent
 STUDIO_DOMAIN = studio_domain(52)
 BAG = "runs/demo_run"
+ARM_BAG = "runs/arm_run"
 START_S = 100.0  # the bag's first message is at 100 s: the page shows time since the start
 DURATION_S = 10.0  # the robot meets a wall and turns after ~7.5 s
 
 
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
+    from arm_sim.demo import run_demo
+    from sim_runtime.demo import _Recording
+
     ws = tmp_path_factory.mktemp("replay_ws")
     write_create_run(ws / BAG, DURATION_S, start_s=START_S)
+    recording = _Recording(ws / ARM_BAG)  # the arm demo recorded for real (its own private domain)
+    run_demo(None, extra_nodes=recording)
+    recording.close()
     return ws
 
 
@@ -54,6 +62,17 @@ def poses(workspace) -> list[tuple[float, float, float, float]]:
             ((m.log_time_ns - bag.start_ns) / 1e9, p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
         )
     return out
+
+
+def choose_bag(driver, name: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    find(driver, ".studio-replay-bag").click()
+    wait(
+        driver, lambda d: d.find_element(By.XPATH, f"//*[contains(@class,'q-item') and contains(., '{name}')]")
+    ).click()
+    find(driver, ".studio-replay-open").click()
+    wait(driver, lambda d: f"{name}:" in find(d, ".studio-replay-message").text, timeout=30.0)
 
 
 def shown(driver) -> tuple[float, tuple[float, float, float]]:
@@ -80,16 +99,11 @@ def assert_at(driver, sample) -> None:
 
 
 def test_a_bag_opens_at_its_first_instant_and_the_arrow_keys_step_through_it(browser, studio_url, poses):
-    from selenium.webdriver.common.by import By
     from selenium.webdriver.common.keys import Keys
 
     open_page(browser, studio_url + "/replay")
-    find(browser, ".studio-replay-bag").click()
-    wait(
-        browser, lambda d: d.find_element(By.XPATH, f"//*[contains(@class,'q-item') and contains(., '{BAG}')]")
-    ).click()
-    find(browser, ".studio-replay-open").click()
-    wait(browser, lambda d: "messages" in find(d, ".studio-replay-message").text, timeout=30.0)
+    choose_bag(browser, BAG)
+    assert not find(browser, ".studio-replay-arm-view").is_displayed()  # no arm in this bag
     assert_at(browser, poses[0])
     lidar = (
         "const p = document.querySelector('.studio-replay-view polyline.lidar'); return p && p.getAttribute('points');"
@@ -164,3 +178,60 @@ def test_export_to_rerun_and_draw_tracks_write_their_files_beside_the_bag(browse
     wait(browser, lambda d: "tracks.png" in find(d, ".studio-replay-output").text, timeout=60.0)
     png = workspace / "runs" / "demo_run_tracks.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def link_positions(driver) -> dict[str, tuple[float, float, float]]:
+    """Where the 3D view has put each arm mesh: marker key → position of its three.js object."""
+    return driver.execute_script(
+        "const el = document.querySelector('.studio-replay-arm-view');"
+        "const scene = el && window['scene_' + el.id]; const out = {}; if (!scene) return out;"
+        "scene.traverse(o => { if (o.name && o.name.includes('/meshes/') && o.children.some(c => c.isMesh))"
+        " out[o.name.split('|')[1]] = [o.position.x, o.position.y, o.position.z]; }); return out;"
+    )
+
+
+def test_an_arm_bag_is_drawn_in_3d_with_each_link_where_the_bag_has_it(browser, studio_url, workspace):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    from studio.arm_ros import drawables
+
+    bag = open_bag(workspace / ARM_BAG)
+    markers = {}  # log time (ns) → marker key → position, as recorded
+    for m in bag.messages(topics=["/robot_markers"]):
+        look, poses = drawables(m.msg)
+        markers[m.log_time_ns] = {d.key: tuple(p[:3]) for d, p in zip(look, poses.tolist(), strict=True)}
+    times = sorted(markers)
+
+    def drawn_at(t_ns: int) -> bool:
+        here = link_positions(browser)
+        want = markers[max(t for t in times if t <= t_ns)]
+        return len(here) == 7 and all(
+            here[k] == pytest.approx(want[k], abs=1e-6) for k in want if k.startswith("IRB120/meshes/")
+        )
+
+    def drawn_t() -> int:
+        return int(browser.execute_script("return document.querySelector('.studio-replay-view g.view').dataset.t"))
+
+    open_page(browser, studio_url + "/replay")
+    choose_bag(browser, ARM_BAG)
+    assert "arms /" in find(browser, ".studio-replay-message").text
+    wait(browser, lambda d: find(d, ".studio-replay-arm-view").is_displayed())
+    wait(browser, lambda d: not find(d, ".studio-replay-view").is_displayed())  # nothing to draw on a map
+    assert drawn_t() == times[0]  # the first frame: the first joints, 10 ms after the latched description
+    wait(browser, lambda d: drawn_at(times[0]), timeout=30.0)  # the meshes load, then sit as there
+    start = link_positions(browser)
+
+    slider = find(browser, ".studio-replay-slider")
+    ActionChains(browser).move_to_element_with_offset(slider, round(0.3 * slider.size["width"]), 0).click().perform()
+    wait(browser, lambda d: drawn_t() > bag.start_ns + 0.6 * (bag.end_ns - bag.start_ns))
+    wait(browser, lambda d: drawn_at(drawn_t()))
+    moved = link_positions(browser)
+    assert max(abs(a - b) for k in moved for a, b in zip(moved[k], start[k], strict=True)) > 0.05
+    before = drawn_t()
+    ActionChains(browser).send_keys(Keys.ARROW_RIGHT).perform()
+    wait(browser, lambda d: drawn_t() == min(t for t in times if t > before))  # one joint_states frame on
+    wait(browser, lambda d: drawn_at(drawn_t()))
+    assert "end effector" in find(browser, ".studio-replay-panel").text
+    ActionChains(browser).move_to_element(find(browser, ".studio-replay-panel")).perform()
+    screenshot(browser, "replay_arm")
