@@ -23,6 +23,7 @@ import os
 import select
 import sys
 import termios
+import time
 import tty
 
 import rclpy
@@ -35,6 +36,8 @@ LINEAR_STEP = 0.1  # m/s per key press, as the original
 ANGULAR_STEP = 0.5  # rad/s per key press, as the original
 MAX_LINEAR_STEPS = 5  # ±0.5 m/s
 MAX_ANGULAR_STEPS = 5  # ±2.5 rad/s
+STOP_SENDS = 5  # the stop on quitting, sent this many times ...
+STOP_GAP_S = 0.05  # ... this far apart (0.2 s in all)
 
 # key token -> (linear steps, angular steps) change; None = stop
 KEY_ACTIONS: dict[bytes, tuple[int, int] | None] = {
@@ -153,11 +156,20 @@ class TeleopNode(CheckedNode):
                     self._show(out)
                 self.publish()
         finally:
-            self.linear_steps = self.angular_steps = 0
-            self.publish()  # never leave the robot driving when the teleop goes away
+            self.stop()  # never leave the robot driving when the teleop goes away
             termios.tcsetattr(fd, termios.TCSADRAIN, saved)
             out.write("\r\n")
             out.flush()
+
+    def stop(self) -> None:
+        """Zero velocity, sent so that it arrives before the node goes away: the world listens best
+        effort (nothing is acknowledged) and a sample written just before the process ends can be
+        lost, so the stop goes out STOP_SENDS times, STOP_GAP_S apart."""
+        self.linear_steps = self.angular_steps = 0
+        for k in range(STOP_SENDS):
+            if k:
+                time.sleep(STOP_GAP_S)
+            self.publish()
 
     def _show(self, out) -> None:
         v, w = self.velocity
