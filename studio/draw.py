@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from html import escape
 
 import numpy as np
@@ -219,6 +219,13 @@ class Readings:
     cliffs: dict[str, float] | None = None
     sightings: list[tuple[float, float, str]] | None = None  # camera-frame x, y, id
     track: np.ndarray | None = None  # (n, 2)
+
+
+def readings_of(robot: object, track: np.ndarray | None) -> Readings:
+    """The Readings of anything that keeps a Create's latest readings under the same names (the
+    live client's robot state, a replay frame's robot), with ``track`` as the track to draw."""
+    names = [f.name for f in fields(Readings) if f.name != "track"]
+    return Readings(**{name: getattr(robot, name) for name in names}, track=track)
 
 
 def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:

@@ -515,17 +515,7 @@ class ReplayPage(ZoomableView):
                 continue
             if rf.pose is None:
                 continue
-            readings = draw.Readings(
-                pose=rf.pose,
-                scan=rf.scan,
-                scan_stamp=rf.scan_stamp,
-                sonar=rf.sonar,
-                wall=rf.wall,
-                bumps=rf.bumps,
-                cliffs=rf.cliffs,
-                sightings=rf.sightings,
-                track=drawn_track(rf.track) if "track" in self.layers else None,
-            )
+            readings = draw.readings_of(rf, drawn_track(rf.track) if "track" in self.layers else None)
             parts.append(draw.sensors_svg(v, readings, self.layers))
             parts.append(draw.robot_svg(v, rf.pose, selected=i == 0, label=rf.robot.ns))
         if frame.joints and not frame.arm_groups:  # no meshes recorded: the joints as gauges

@@ -303,17 +303,8 @@ class SimulatorPage(ZoomableView):
         for ns, other in self.studio.ros.robots.items():
             if ns != self.selected and other.pose is not None:
                 parts.append(draw.robot_svg(self.view, other.pose, selected=False, label=ns))
-        readings = draw.Readings(
-            pose=st.pose,
-            scan=st.scan,
-            scan_stamp=st.scan_stamp,
-            sonar=st.sonar,
-            wall=st.wall,
-            bumps=st.bumps,
-            cliffs=st.cliffs,
-            sightings=st.sightings,
-            track=np.array(list(st.track)) if "track" in self.layers else None,  # list(): one atomic copy
-        )
+        track = np.array(list(st.track)) if "track" in self.layers else None  # list(): one atomic copy
+        readings = draw.readings_of(st, track)
         parts.append(draw.sensors_svg(self.view, readings, self.layers))
         parts.append(draw.robot_svg(self.view, st.pose, selected=True, label=self.selected or ""))
         return "".join(parts)
