@@ -12,6 +12,7 @@ commands sent up to now and every topic's latest message. Seeks go through a
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import io
 import math
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from nicegui import run, ui
 
+from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
@@ -368,27 +370,25 @@ class ReplayPage(ZoomableView):
         self.show()
 
     async def export_rerun(self) -> None:
-        from sim_runtime.rerun_view.convert import bag_to_rerun, default_output
+        """``robot_sims bag_to_rerun`` on the open bag, in a process of its own: Rerun keeps some
+        threads of every recording a process makes, which the studio would gather export by export."""
+        from sim_runtime.rerun_view.convert import default_output
 
         if self.replay is None:
             self.output_label.set_text("open a bag first")
             return
         out = default_output(self.replay.path)
         self.output_label.set_text(f"writing {self.studio.workspace.relative(out)}…")
-
-        def convert() -> Path:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # topics Rerun does not draw (commands): expected
-                return bag_to_rerun(self.replay.path, out, progress=False)
-
-        try:
-            written = await run.io_bound(convert)
-        except InputError as err:
-            self.output_label.set_text(f"error: {err}")
-            return
-        self.output_label.set_text(
-            f"wrote {self.studio.workspace.relative(written)} (open it with: rerun {written.name})"
+        command = executable_command("bag_to_rerun", [str(self.replay.path), "-o", str(out), "--no-progress"])
+        process = await asyncio.create_subprocess_exec(
+            *command, stdout=asyncio.subprocess.DEVNULL, stderr=asyncio.subprocess.PIPE
         )
+        _, stderr = await process.communicate()
+        if process.returncode != 0:
+            lines = stderr.decode(errors="replace").strip().splitlines() or [f"exit status {process.returncode}"]
+            self.output_label.set_text(f"error: {lines[-1].removeprefix('bag_to_rerun: error: ')}")
+            return
+        self.output_label.set_text(f"wrote {self.studio.workspace.relative(out)} (open it with: rerun {out.name})")
 
     async def draw_tracks(self) -> None:
         from sim_runtime.rerun_view.tracks import tracks_from_bag

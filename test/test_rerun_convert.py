@@ -352,3 +352,19 @@ def test_a_frontal_hit_pressing_both_bumpers_leaves_one_mark(tmp_path):
     assert column(ents["/top/map/marks/robot/contacts"], "Points2D:labels")[-1] == ["bump 0.4 s"]
     texts = [t[0] for t in column(ents["/events/robot"], "TextLog:text")]
     assert sum("on" in t.split(": ")[1] for t in texts) == 3  # both bumpers (and the cliff) still in the log
+
+
+def test_converting_bag_after_bag_in_one_process_releases_each_recordings_threads(tmp_path):
+    """The studio or a script converting many bags must not gather Rerun's threads: only the
+    blueprint recording Rerun makes for ``send_blueprint`` stays (2 threads, rerun-sdk's own)."""
+    import os
+
+    def threads() -> int:
+        return len(os.listdir("/proc/self/task"))
+
+    bag = write_bag(tmp_path / "c.mcap", create_messages())
+    bag_to_rerun(bag, tmp_path / "warm.rrd")  # Rerun's own runtime threads start once
+    before = threads()
+    for k in range(5):
+        assert bag_to_rerun(bag, tmp_path / f"c{k}.rrd").stat().st_size > 1000
+    assert threads() - before <= 2 * 5  # 4 per conversion before the sweep
