@@ -25,6 +25,7 @@ def test_two_thousand_mutated_inputs_of_every_format_load_or_raise_input_error(t
 def test_a_worker_killed_by_a_segfault_or_a_hang_is_counted_its_input_saved_and_the_campaign_goes_on(tmp_path):
     env = {**os.environ, "ROBOT_SIMS_FUZZ_SELFTEST": "1"}
     options = ["--inputs", "40", "--seconds", "120", "--hang-seconds", "3", "--seed", "31", "--out", str(tmp_path)]
+    options += ["--batch", "5", "--recycle-after", "10"]
     run = subprocess.run(
         [sys.executable, "-m", "sim_runtime.fuzz", *options],
         env=env,
@@ -51,3 +52,4 @@ def test_a_worker_killed_by_a_segfault_or_a_hang_is_counted_its_input_saved_and_
     for folder in (hung, stalled):  # the hung worker's stack, for a hang that may not replay
         assert "_selftest_hang" in (folder / "defect.txt").read_text()
     assert "STALL x1 selftest: stall" in run.stdout and summary["stalls"]
+    assert summary["recycled"] >= 1  # a worker that ran 10 inputs was replaced, and nothing was lost

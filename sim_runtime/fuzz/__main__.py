@@ -17,6 +17,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--hang-seconds", type=float, default=30.0, help="an input running longer is a hang (default 30)"
     )
+    parser.add_argument("--batch", type=int, default=50, help="inputs handed to a worker at a time (default 50)")
+    parser.add_argument(
+        "--recycle-after", type=int, default=1000, help="a worker is replaced after this many inputs (default 1000)"
+    )
     parser.add_argument("--out", default="out/fuzz", help="folder for seeds, defects and summary.json")
     parser.add_argument("--replay", type=int, metavar="INDEX", help="run input INDEX here and show its traceback")
     opts = parser.parse_args(argv)
@@ -30,6 +34,8 @@ def main(argv: list[str] | None = None) -> int:
         seed=opts.seed,
         out=opts.out,
         hang_seconds=opts.hang_seconds,
+        batch=opts.batch,
+        recycle_after=opts.recycle_after,
     )
     print(report.table())
     print(f"defect inputs saved under {opts.out}/defects; summary in {opts.out}/summary.json")

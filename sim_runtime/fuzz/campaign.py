@@ -43,6 +43,7 @@ class Report:
     seconds: float = 0.0
     workers: int = 0
     restarts: int = 0
+    recycled: int = 0  # workers replaced after recycle_after inputs (not a failure)
     counts: dict[str, collections.Counter] = field(default_factory=lambda: collections.defaultdict(collections.Counter))
     defects: dict[str, list[int]] = field(default_factory=lambda: collections.defaultdict(list))
     stalls: dict[str, list[int]] = field(default_factory=lambda: collections.defaultdict(list))
@@ -64,7 +65,7 @@ class Report:
         rate = self.inputs / self.seconds if self.seconds else 0.0
         rows.append(
             f"{self.inputs} inputs in {self.seconds:.1f} s ({rate:.0f}/s) on {self.workers} workers, "
-            f"{self.restarts} worker restarts, seed {self.seed}"
+            f"{self.restarts} worker restarts, {self.recycled} recycled, seed {self.seed}"
         )
         for signature, indices in sorted(self.defects.items()):
             rows.append(f"DEFECT x{len(indices)} {signature} (e.g. input {indices[0]})")
@@ -82,6 +83,7 @@ class Report:
             "seconds": round(self.seconds, 2),
             "workers": self.workers,
             "restarts": self.restarts,
+            "recycled": self.recycled,
             "counts": {k: dict(v) for k, v in self.counts.items()},
             "defects": {k: v[:20] for k, v in self.defects.items()},
             "stalls": {k: v[:20] for k, v in self.stalls.items()},
@@ -189,6 +191,7 @@ class _Slot:
         self.start()
 
     def start(self) -> None:
+        self.inputs_run = 0  # by this process
         self.tasks = self.ctx.Queue()
         self.current = self.ctx.Value("q", _IDLE, lock=False)
         self.started = self.ctx.Value("d", time.monotonic(), lock=False)
@@ -209,11 +212,22 @@ class _Slot:
             while self.results.poll():
                 index, name, outcome, signature = self.results.recv()
                 record(index, name, outcome, signature)
+                self.inputs_run += 1
                 self.done_upto = index + 1
                 if self.task is not None and index + 1 == self.task[1]:
                     self.task = None
         except (EOFError, OSError):
             pass
+
+    def recycle(self) -> None:
+        """A fresh worker process for the next task (this one is idle: its results are all in)."""
+        self.tasks.put(None)
+        self.process.join(timeout=10)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join()
+        self.results.close()
+        self.start()
 
     def give(self, task: tuple[int, int]) -> None:
         self.task = task
@@ -230,9 +244,14 @@ def run_campaign(
     out: str | Path = "out/fuzz",
     batch: int = 50,
     hang_seconds: float = 30.0,
+    recycle_after: int = 1000,
     progress: bool = True,
 ) -> Report:
-    """Run up to ``inputs`` inputs (fewer if ``seconds`` run out) and report what happened."""
+    """Run up to ``inputs`` inputs (fewer if ``seconds`` run out) and report what happened.
+
+    A worker process is replaced by a fresh one after ``recycle_after`` inputs (at the end of a
+    batch): what the libraries under test keep between inputs (Rerun keeps threads of every
+    recording made) must not pile up over a long campaign and slow or stall the later inputs."""
     from sim_runtime.fuzz.targets import Seeds, make_case, prepare_seeds
 
     out = Path(out)
@@ -308,6 +327,9 @@ def run_campaign(
         while True:
             out_of_time = time.monotonic() - begin > seconds
             for slot in slots:
+                if slot.task is None and slot.inputs_run >= recycle_after:
+                    slot.recycle()
+                    report.recycled += 1
                 if slot.task is None and slot.pending is not None:  # the rest of a lost worker's batch
                     slot.give(slot.pending)
                     slot.pending = None
