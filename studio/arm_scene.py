@@ -91,10 +91,9 @@ class ArmScene:
         self.fitted = False
         self.last_points: dict[str, np.ndarray] = {}  # owner -> its elements' positions, for the camera
         self.stale = False  # an element came onto the scene since the last draw: it waits to be placed
-        # A fixed CSS size: three.js takes the canvas size from the element's, which would
-        # otherwise shrink-wrap a canvas sized 0 × 0 while the view was hidden.
         # Hidden and shown through a wrapper: a scene that is itself hidden when the page loads
-        # never receives its objects.
+        # never receives its objects. A fixed CSS size: three.js takes the canvas size from the
+        # element's, which would otherwise shrink-wrap a canvas made 0 × 0 while hidden.
         with ui.element("div") as self.box:
             self.scene = (
                 ui.scene(width=size[0], height=size[1], grid=(4, 40), background_color="#f4f4f4")

@@ -5,9 +5,9 @@
 draws them, SIMROBOT robots, an arm's joints, the commands sent so far (the original's function-call
 column) and a one-line summary of every topic's latest message. Robots are found by their topics:
 a Create by ``overhead_pose``, a SIMROBOT robot by ``pose`` (both PoseStamped), any other robot by
-``odom``, an arm by ``joint_states``, and drawn in 3D from its ``robot_markers`` and its world's
-``scene_markers`` as the Arm page draws a live arm. Stepping goes from one message of the *frame topic* (the first
-robot's pose, else the joints, else any topic) to the next.
+``odom``, an arm by ``joint_states`` (drawn in 3D from its ``robot_markers`` and its world's
+``scene_markers``, as the Arm page draws a live arm). Stepping goes from one message of the *frame
+topic* (the first robot's pose, else the joints, else any topic) to the next.
 """
 
 from __future__ import annotations
