@@ -60,6 +60,12 @@ class View:
         self.centre_x = x - (px - self.width_px / 2) / self.scale
         self.centre_y = y + (py - self.height_px / 2) / self.scale
 
+    def pan(self, centre_at_press: tuple[float, float], dx_px: float, dy_px: float) -> None:
+        """Follow a drag of (dx_px, dy_px) pixels begun with the view centred on ``centre_at_press``:
+        the world moves with the mouse (image y grows downwards, world y upwards)."""
+        self.centre_x = centre_at_press[0] - dx_px / self.scale
+        self.centre_y = centre_at_press[1] + dy_px / self.scale
+
     def fit(self, xs: np.ndarray, ys: np.ndarray, margin_m: float = 0.5) -> None:
         """Centre and scale so that the points (plus a margin) fill the image."""
         if len(xs) == 0:

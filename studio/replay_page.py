@@ -534,8 +534,7 @@ class ReplayPage(ZoomableView):
         if self.mouse_down is None:
             return
         px, py = self.mouse_down
-        self.view.centre_x = self.view_at_press[0] - (e.image_x - px) / self.view.scale
-        self.view.centre_y = self.view_at_press[1] + (e.image_y - py) / self.view.scale
+        self.view.pan(self.view_at_press, e.image_x - px, e.image_y - py)
         self.base_dirty = True
         if e.type == "mouseup":
             self.mouse_down = None

@@ -346,8 +346,7 @@ class SimulatorPage(ZoomableView):
             return
         px, py = self.mouse_down
         if self.mouse_mode == "pan":
-            self.view.centre_x = self.view_at_press[0] - (e.image_x - px) / self.view.scale
-            self.view.centre_y = self.view_at_press[1] + (e.image_y - py) / self.view.scale
+            self.view.pan(self.view_at_press, e.image_x - px, e.image_y - py)
             self.view_dirty = True
             if e.type == "mouseup":
                 self.mouse_down = None

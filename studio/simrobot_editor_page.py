@@ -262,8 +262,7 @@ class EditorPage(ZoomableView):
         if tool in ("paint", "erase"):
             self.paint(x, y)
         elif tool == "pan":
-            self.view.centre_x = self.pan_from[0] - (px - self.drag[0]) / self.view.scale
-            self.view.centre_y = self.pan_from[1] + (py - self.drag[1]) / self.view.scale
+            self.view.pan(self.pan_from, px - self.drag[0], py - self.drag[1])
             self.redraw(map_too=True)
         elif self.selected is not None:
             r = self.doc.robots[self.selected]

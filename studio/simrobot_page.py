@@ -271,8 +271,7 @@ class SimrobotPage(ZoomableView):
         px, py, cx, cy = self.mouse_down
         moved = math.hypot(e.image_x - px, e.image_y - py) >= 4
         if moved:
-            self.view.centre_x = cx - (e.image_x - px) / self.view.scale
-            self.view.centre_y = cy + (e.image_y - py) / self.view.scale
+            self.view.pan((cx, cy), e.image_x - px, e.image_y - py)
             self.draw_map()
             self.view_dirty = True
         if e.type == "mouseup":

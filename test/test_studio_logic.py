@@ -252,6 +252,13 @@ def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
     assert view.to_world(620.0, 130.0) == (pytest.approx(before[0]), pytest.approx(before[1]))
 
 
+def test_dragging_the_view_keeps_the_grabbed_world_point_under_the_mouse():
+    view = draw.View(centre_x=1.0, centre_y=2.0, scale=50.0)
+    grabbed = view.to_world(300.0, 200.0)
+    view.pan((1.0, 2.0), 40.0, -25.0)  # the mouse went 40 px right and 25 px up
+    assert view.to_world(340.0, 175.0) == (pytest.approx(grabbed[0]), pytest.approx(grabbed[1]))
+
+
 def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
     """DDS can report a topic before the name of the node publishing it; parameter clients made
     for ``_NODE_NAME_UNKNOWN_`` would never reach the world, so the studio waits for the name."""
