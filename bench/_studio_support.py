@@ -6,6 +6,7 @@ import os
 import socket
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parent.parent
 CHROMIUM = "/usr/lib/chromium/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 
@@ -20,3 +21,11 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def use_local_ros() -> None:
+    """Unless the caller chose otherwise: DDS on this machine only, the project's fast-discovery
+    profile, and a ROS domain of this run's own (a benchmark must not see another run's worlds)."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
+    os.environ.setdefault("ROS_DOMAIN_ID", str(50 + os.getpid() % 50))

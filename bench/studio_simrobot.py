@@ -28,11 +28,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port  # noqa: E402
+from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, use_local_ros  # noqa: E402
 
-os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
-os.environ.setdefault("ROS_DOMAIN_ID", str(50 + os.getpid() % 50))
+use_local_ros()
 
 GOAL_FPS = 10.0
 SPACING_M = 0.3
