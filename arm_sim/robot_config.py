@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from sim_runtime.inputfile import resolved
 from sim_runtime.yamlfile import FieldReader, load_yaml
 
 MAX_JOINTS = 100
@@ -158,7 +159,7 @@ def read_color(reader: FieldReader, value: Any, where: str) -> tuple[float, floa
 
 def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     """Read and check a robot configuration file; raises InputError naming file, field and index."""
-    path = Path(path).resolve()
+    path = resolved(path)
     raw = load_yaml(path, "robot config")
     r = FieldReader(path, expressions=True)
     raw = r.mapping(raw, "<top level>")
@@ -181,7 +182,7 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
         raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(known)}")
 
     name = str(r.require(raw, "name"))
-    mesh_folder = (path.parent / str(raw.get("mesh_folder", "."))).resolve()
+    mesh_folder = resolved(path.parent / str(raw.get("mesh_folder", ".")))
     dof = r.integer(r.require(raw, "dof"), "dof", minimum=1, maximum=MAX_JOINTS)
     base = read_transform(r, raw.get("base", {}), "base")
 
@@ -308,7 +309,7 @@ def _read_links(r: FieldReader, raw: Any, dof: int, mesh_folder: Path) -> tuple[
             scale = r.number(element.get("scale", 1.0), f"{ewhere}.scale")
             if scale <= 0:
                 raise r.error(f"{ewhere}.scale", f"must be > 0, got {scale}")
-            parsed.append(MeshElement(mesh=(mesh_folder / mesh).resolve(), color=color, scale=scale))
+            parsed.append(MeshElement(mesh=resolved(mesh_folder / mesh), color=color, scale=scale))
         links[number] = tuple(parsed)
     return tuple(link or () for link in links)
 

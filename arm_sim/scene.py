@@ -27,6 +27,8 @@ import numpy as np
 
 from arm_sim.robot_config import read_color, read_transform
 from arm_sim.stl import load_stl
+from sim_runtime.errors import InputError
+from sim_runtime.inputfile import file_problem, resolved, shown
 from sim_runtime.yamlfile import FieldReader, load_yaml
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -62,7 +64,7 @@ class Scene:
 
 def load_scene(path: str | os.PathLike[str]) -> Scene:
     """Read a scene file and its meshes; raises InputError naming file, field and index."""
-    path = Path(path).resolve()
+    path = resolved(path)
     raw = load_yaml(path, "scene file")
     r = FieldReader(path, expressions=True)
     raw = r.mapping(raw if raw is not None else {}, "<top level>")
@@ -78,7 +80,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         mesh = r.require(entry, "mesh", f"{where}.")
         if not isinstance(mesh, str) or not mesh:
             raise r.error(f"{where}.mesh", f"expected an STL file name, got {mesh!r}")
-        mesh_path = (path.parent / mesh).resolve()
+        mesh_path = resolved(path.parent / mesh)
         scale = r.number(entry.get("scale", 1.0), f"{where}.scale")
         if scale <= 0:
             raise r.error(f"{where}.scale", f"must be > 0, got {scale}")
@@ -89,7 +91,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
                 color=read_color(r, entry.get("color", [0.7, 0.7, 0.7]), f"{where}.color"),
                 pose=read_transform(r, entry.get("pose", {}), f"{where}.pose"),
                 scale=scale,
-                triangles=load_stl(mesh_path) * np.float32(scale),
+                triangles=_mesh(r, mesh_path, f"{where}.mesh") * np.float32(scale),
             )
         )
     arms = []
@@ -101,12 +103,21 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         config = r.require(entry, "config", f"{where}.")
         if not isinstance(config, str) or not config:
             raise r.error(f"{where}.config", f"expected a robot config file name, got {config!r}")
-        config_file = (path.parent / config).resolve()
-        if not config_file.is_file():
-            raise r.error(f"{where}.config", f"no such file: {config_file}")
+        config_file = resolved(path.parent / config)
+        problem = file_problem(config_file)  # a FIFO, a device, a name too long: never raises
+        if problem is not None:
+            reason = "no such file" if problem == "not found" else problem
+            raise r.error(f"{where}.config", f"{reason}: {shown(config_file)}")
         base = read_transform(r, entry["base"], f"{where}.base") if "base" in entry else None
         arms.append(SceneArm(name=name, config=config_file, base=base))
     return Scene(path=path, objects=tuple(objects), arms=tuple(arms))
+
+
+def _mesh(r: FieldReader, path: Path, where: str) -> np.ndarray:
+    try:
+        return load_stl(path)
+    except InputError as error:  # the mesh's own error, said to be the field's
+        raise r.error(where, str(error)) from None
 
 
 def _list(r: FieldReader, value, where: str) -> list:

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import read_input_bytes
 
 _BINARY_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 _HEADER_BYTES = 84
@@ -31,11 +32,7 @@ _HEADER_BYTES = 84
 def load_stl(path: str | os.PathLike[str]) -> np.ndarray:
     """Triangles (F, 3, 3) float32 of the binary or ASCII STL file at ``path``."""
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise InputError.at(path, None, f"cannot read STL file: {exc.strerror or exc}") from exc
-    return parse_stl(data, path)
+    return parse_stl(read_input_bytes(path, "STL file"), path)
 
 
 def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarray:

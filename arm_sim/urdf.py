@@ -46,6 +46,7 @@ import numpy as np
 
 from arm_sim.robot_config import RobotConfig, load_robot_config
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import file_problem
 from sim_runtime.paths import config_path, mesh_uri
 
 WORLD_FRAME = "world"
@@ -332,7 +333,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _config_file(value: str) -> Path:
     path = Path(value).expanduser()
-    if path.exists() or path.is_absolute():
+    if file_problem(path) != "not found" or path.is_absolute():  # loading it says what is wrong
         return path
     shipped = config_path(value)
     if shipped.is_file():

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import read_input_text
 
 MAX_COORDINATE_M = 1e6
 """Largest |x| or |y| a map may hold (metres)."""
@@ -161,13 +162,9 @@ def parse_map(text: str, source: str = "<string>") -> CreateMap:
 
 
 def read_text_file(path: str | Path, kind: str) -> str:
-    """A text file's contents, or InputError naming it when it is missing or unreadable."""
-    try:
-        return Path(path).read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
-        raise InputError.at(path, None, f"{kind} file not found") from None
-    except OSError as exc:
-        raise InputError.at(path, None, f"cannot read {kind} file: {exc.strerror}") from None
+    """A text file's contents, or InputError naming it when it is missing, unreadable, or not a
+    regular file (a FIFO, a device, a directory)."""
+    return read_input_text(path, f"{kind} file", errors="replace")
 
 
 def load_map(path: str | Path) -> CreateMap:

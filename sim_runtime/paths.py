@@ -110,16 +110,22 @@ def kernels_cached(module: str) -> bool:
 def resolve_input_file(value: str, parameter: str) -> Path:
     """Where a file parameter points: an absolute path; else relative to the current directory;
     else relative to the shipped ``config/`` (so ``world_file:=simrobot/demo.yaml`` works from
-    anywhere). Not found: :class:`InputError` naming the parameter and every place looked at."""
+    anywhere). Not found, or found but not a regular file (a directory, a FIFO, a device), or a
+    name the system refuses: :class:`InputError` naming the parameter and every place looked at."""
     from sim_runtime.errors import InputError
+    from sim_runtime.inputfile import file_problem, shown
 
+    named = f"parameter '{parameter}' = {shown(repr(value))}"
     try:
         given = Path(value).expanduser()
         places = [given] if given.is_absolute() else [Path.cwd() / given, config_dir() / given]
-        for place in places:
-            if place.is_file():
-                return place
-    except (OSError, RuntimeError) as err:  # a name too long for the file system, ~nobody
-        raise InputError(f"parameter '{parameter}' = {value!r}: not a usable file name ({err})") from None
-    looked = " or ".join(str(p) for p in places)
-    raise InputError(f"parameter '{parameter}' = {value!r}: no such file ({looked})")
+    except (OSError, RuntimeError) as err:  # no home folder for '~', the current folder deleted
+        raise InputError(f"{named}: not a usable file name ({err})") from None
+    for place in places:
+        problem = file_problem(place)
+        if problem is None:
+            return place
+        if problem != "not found":
+            raise InputError(f"{named}: {shown(place)}: {problem}, not a readable file")
+    looked = " or ".join(shown(p) for p in places)
+    raise InputError(f"{named}: no such file ({looked})")

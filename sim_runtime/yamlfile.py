@@ -19,23 +19,18 @@ import numpy as np
 import yaml
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import read_input_text
 
 
 def load_yaml(path: str | os.PathLike[str], what: str) -> Any:
     """Parse the YAML file ``path`` (a ``what``, e.g. "world file", for messages).
 
-    A missing or unreadable file, one that is not UTF-8 text, and a YAML syntax error all become
-    an :class:`InputError` naming the file (and the line, where YAML knows it).
+    A missing or unreadable file, a FIFO, device or directory, one that is not UTF-8 text, and a
+    YAML syntax error all become an :class:`InputError` naming the file (and the line, where YAML
+    knows it).
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError.at(path, None, f"{what} not found") from None
-    except UnicodeDecodeError as exc:
-        raise InputError.at(path, None, f"{what} is not UTF-8 text (byte {exc.start}): is it the right file?") from None
-    except OSError as exc:
-        raise InputError.at(path, None, f"cannot read {what}: {exc.strerror or exc}") from None
+    text = read_input_text(path, what)
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:

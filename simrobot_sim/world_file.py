@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,6 +12,7 @@ import numpy as np
 from PIL import Image
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import read_input_bytes
 from sim_runtime.yamlfile import check_keys as _check_keys
 from sim_runtime.yamlfile import load_yaml
 from sim_runtime.yamlfile import read_bool as _bool
@@ -97,11 +99,10 @@ def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.nda
     The image's top row is the map's highest y, its left column x = 0 (the original's orientation).
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError.at(path, None, "map image not found")
+    data = read_input_bytes(path, "map image")
     try:
         img: Image.Image  # a file as opened, then maybe a converted copy
-        with Image.open(path) as img:
+        with Image.open(io.BytesIO(data)) as img:
             img.load()
             mode = img.mode
             if mode == "P":
@@ -285,7 +286,10 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     map_path = Path(data["map"])
     if not map_path.is_absolute():
         map_path = base_dir / map_path
-    walls = load_bitmap(map_path)
+    try:
+        walls = load_bitmap(map_path)
+    except InputError as error:  # the image's own error, said to be the map field's
+        raise InputError(f"{source}: map: {error}") from None
     steps = data.get("steps_limit", math.inf)
     if isinstance(steps, str) and steps.strip().lower() in ("inf", ".inf", "infinity"):
         steps = math.inf

@@ -41,6 +41,7 @@ from mcap.records import Channel, Chunk, ChunkIndex, Footer, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import file_problem, is_regular_file, read_input_text, shown
 
 __all__ = ["Bag", "BagMessage", "BagWarning", "CorruptMessage", "UnknownMessageType", "open_bag"]
 
@@ -394,30 +395,31 @@ def open_bag(path: str | Path) -> Bag:
     Raises InputError naming the path if it is neither.
     """
     path = Path(path)
-    if path.is_file():
+    problem = file_problem(path)  # never blocks nor raises: a FIFO, a device, a name too long
+    if problem is None:
         if path.suffix != ".mcap":
             raise InputError.at(path, None, "not an MCAP file (expected a .mcap file or a bag folder)")
         return Bag(path, [path], None)
-    if not path.is_dir():
-        raise InputError.at(path, None, "no such bag folder or .mcap file")
+    if problem != "a directory":
+        raise InputError(f"{shown(path)}: no such bag folder or .mcap file ({problem})")
     metadata = None
     meta_path = path / "metadata.yaml"
     files: list[Path] = []
-    if meta_path.is_file():
+    if is_regular_file(meta_path):
         try:
-            metadata = yaml.safe_load(meta_path.read_text(encoding="utf-8", errors="replace"))
+            metadata = yaml.safe_load(read_input_text(meta_path, "metadata.yaml", errors="replace"))
             metadata = metadata["rosbag2_bagfile_information"]
             listed = [path / p for p in metadata.get("relative_file_paths") or []]
         except (yaml.YAMLError, KeyError, TypeError, AttributeError, ValueError, RecursionError, OSError) as exc:
             _warn(f"{meta_path}: unreadable ({type(exc).__name__}: {exc}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
-            if f.is_file():
+            if is_regular_file(f):
                 files.append(f)
             else:
                 _warn(f"{meta_path}: lists {f.name}, which is missing")
     # Splits not in metadata.yaml: the recorder was killed before it could write it.
-    files += [f for f in sorted(path.glob("*.mcap"), key=_split_number) if f not in files]
+    files += [f for f in sorted(path.glob("*.mcap"), key=_split_number) if f not in files and is_regular_file(f)]
     if not files:
         raise InputError.at(path, None, "bag folder holds no .mcap files")
     return Bag(path, files, metadata)

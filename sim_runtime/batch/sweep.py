@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import file_problem, shown
 from sim_runtime.paths import config_path
 from sim_runtime.yamlfile import load_yaml
 
@@ -151,9 +152,13 @@ class _Reader:
         if value == "":
             return ""
         for candidate in (self.source.parent / value, config_path(value)):
-            if candidate.is_file():
+            problem = file_problem(candidate)  # a FIFO, a device, a name too long: never raises
+            if problem is None:
                 return str(candidate.resolve())
-        raise self.fail(where, f"file {value!r} not found (next to the sweep file or in the shipped config/)")
+            if problem != "not found":
+                raise self.fail(where, f"{shown(candidate)}: {problem}, not a readable file")
+        looked = "next to the sweep file or in the shipped config/"
+        raise self.fail(where, f"file {shown(repr(value))} not found ({looked})")
 
 
 def _world(r: _Reader, entry: Any, where: str) -> tuple[str, dict[str, Any]]:
