@@ -1,8 +1,8 @@
 """``make demo``: each simulator's demo, recorded into a bag, converted for the Rerun viewer.
 
 1. Create world + ``create_bump_turn`` for 60 simulated seconds, as fast as the CPU allows;
-2. SIMROBOT: the original's four robots avoiding obstacles and each other, 300 lockstep steps,
-   plus the tracks PNG;
+2. SIMROBOT: the original's four robots avoiding obstacles and each other, and a fifth that never
+   turns and crashes into a wall, 300 lockstep steps, plus the tracks PNG;
 3. the IRB120 arm following a joint trajectory, then a target pose.
 
 Every demo runs in one process with a recorder node on the same executor, so nothing is
@@ -88,7 +88,7 @@ def _hosted_demo(name: str, module: str) -> Callable[[Path], dict]:
 
 DEMOS = {
     "create": create_demo,
-    # The original SIMROBOT demo: four robots, 300 lockstep steps, tracks PNG.
+    # The original SIMROBOT demo's four robots and one that crashes, 300 lockstep steps, tracks PNG.
     "simrobot": _hosted_demo("simrobot", "simrobot_sim.demo"),
     # IRB120 following a joint trajectory, then a target pose.
     "arm": _hosted_demo("arm", "arm_sim.demo"),

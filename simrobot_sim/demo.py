@@ -3,10 +3,15 @@
 ``python -m simrobot_sim.demo [out_dir]`` or :func:`run_demo` (the lead's ``make demo``).
 The original demo map is lost; :func:`draw_demo_map` draws the shipped one (5 m x 5 m at 1 cm:
 four rooms joined by doorways, a few boxes and a round pillar).
+
+A fifth robot, :data:`CRASH_ROBOT`, joins the world file's four in the south-east room, away
+from them: its alg2 threshold is too small to ever turn (a classic controller bug), so it drives
+into the east wall and crashes about two thirds into the run: the demo shows what a crash looks like.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -16,11 +21,21 @@ import numpy as np
 from PIL import Image
 
 from sim_runtime.paths import config_path
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec, load_world
 
 if TYPE_CHECKING:
     from rclpy.node import Node
 
 DEMO_WORLD = "simrobot/demo.yaml"
+CRASH_ROBOT = RobotSpec(
+    name="r5",
+    position=(4.0, 0.8),
+    heading=0.0,  # east: 0.96 m from the wall, 0.5 cm a step
+    color=(0.9, 0.2, 0.7),
+    sensors=(SensorSpec(name="sens1", kind="ultrasonic"),),
+)
+CRASH_THRESHOLD_M = 1e-6
+"""The crash robot's alg2 threshold: no echo is ever this near, so it never turns."""
 
 
 def draw_demo_map(path: str | Path, size: int = 500) -> Path:
@@ -49,29 +64,37 @@ def draw_demo_map(path: str | Path, size: int = 500) -> Path:
     return path
 
 
+def demo_world() -> WorldSpec:
+    """The world file's four robots plus :data:`CRASH_ROBOT`."""
+    spec = load_world(config_path(DEMO_WORLD))
+    return dataclasses.replace(spec, robots=(*spec.robots, CRASH_ROBOT))
+
+
 def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None) -> dict:
-    """Run the demo world in lockstep with its four in-process alg2 controllers and write
+    """Run the demo world in lockstep with its five in-process alg2 controllers and write
     ``simrobot_tracks.png`` into ``out_dir``. Returns a summary (steps, per-robot distance
     travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a
     recorder, a viewer) to the demo's executor."""
+
+    from rclpy.parameter import Parameter
 
     from sim_runtime.bag.record import wait_for_recorders
     from sim_runtime.run import private_ros, spin_steps
     from sim_runtime.track_plot import draw_tracks
     from simrobot_sim.avoid import AvoidNode
-    from simrobot_sim.world_file import load_world
     from simrobot_sim.world_node import SimrobotWorldNode
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    spec = load_world(config_path(DEMO_WORLD))
+    spec = demo_world()
     nodes: list[Node] = []
     with private_ros() as (context, executor):
         world = SimrobotWorldNode(spec, context=context)
         nodes.append(world)
         for robot in spec.robots:
             sonar = next(s.name for s in robot.sensors if s.kind == "ultrasonic")
-            nodes.append(AvoidNode(robot=robot.name, sensor=sonar, context=context))
+            overrides = [Parameter("threshold", value=CRASH_THRESHOLD_M)] if robot is CRASH_ROBOT else []
+            nodes.append(AvoidNode(robot=robot.name, sensor=sonar, context=context, parameter_overrides=overrides))
         if extra_nodes is not None:
             nodes += extra_nodes(context)
         for node in nodes:

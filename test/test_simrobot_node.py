@@ -333,7 +333,10 @@ def test_demo_runs_the_four_robots_for_300_steps_and_draws_tracks(ros, tmp_path)
 
     summary = run_demo(tmp_path)
     assert summary["steps"] == 300
-    assert sorted(summary["travelled_m"]) == ["r1", "r2", "r3", "r4"]
+    travelled = summary["travelled_m"]
+    assert sorted(travelled) == ["r1", "r2", "r3", "r4", "r5"]
     # alg2 moves at 0.5 cm per step, straight or turning: every robot covers most of 1.5 m
-    assert all(1.0 < d <= 1.5 + 1e-6 for d in summary["travelled_m"].values())
+    assert all(1.0 < travelled[name] <= 1.5 + 1e-6 for name in ("r1", "r2", "r3", "r4"))
+    # except r5, which never turns: it crashes into the wall 0.96 m ahead
+    assert summary["crashed"] == ["r5"] and 0.9 < travelled["r5"] < 0.96
     assert Image.open(summary["tracks_png"]).size[0] > 400
