@@ -469,3 +469,109 @@ def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray, m
     dist = np.where(hit, t, np.inf).min(axis=1)
     dist[dist > max_range] = np.inf
     return dist
+
+
+# ---------------------------------------------------------------------------------------------
+# Occupancy grid of the walls (for map consumers: RViz, planners, the studio)
+# ---------------------------------------------------------------------------------------------
+
+WALL_THICKNESS_M = 0.03
+"""How thick a wall is drawn (RViz markers, the occupancy grid). To the physics and the sensors a
+wall is a line, as in the original, which assumes walls 1-2 cm thick."""
+
+MAX_MAP_CELLS = 16_000_000
+"""Most cells an occupancy grid of the walls may have: a finer resolution over a huge map is
+coarsened (doubled until it fits)."""
+
+_PIECE_CELLS = 16.0  # long walls are rasterised in pieces this long, so each piece's box stays small
+
+
+class WallRaster(NamedTuple):
+    """Walls as occupancy: ``occupied[row, column]``, row 0 the lowest y (OccupancyGrid layout);
+    cell (column, row) covers ``origin + resolution·[column, column + 1) × [row, row + 1)``."""
+
+    occupied: np.ndarray  # (height, width) bool
+    resolution_m: float
+    origin_x_m: float
+    origin_y_m: float
+
+
+def rasterise_walls(segs: np.ndarray, resolution: float, thickness: float = WALL_THICKNESS_M) -> WallRaster:
+    """Every cell that a wall of ``thickness`` (centred on its segment) overlaps, however little:
+    a wall never has a gap in the grid. Cell edges fall on multiples of the resolution; the grid
+    spans the walls plus their half thickness (no walls: a 0 x 0 grid at the origin). A
+    resolution giving more than :data:`MAX_MAP_CELLS` cells is doubled until it fits."""
+    segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
+    half = 0.5 * thickness
+    if segs.shape[0] == 0:
+        return WallRaster(np.zeros((0, 0), dtype=bool), resolution, 0.0, 0.0)
+    points = segs.reshape(-1, 2)
+    lo = points.min(axis=0) - half
+    hi = points.max(axis=0) + half
+    while True:
+        first = np.floor(lo / resolution)
+        shape = (np.floor(hi / resolution) - first + 1).astype(np.int64)
+        if float(shape[0]) * float(shape[1]) <= MAX_MAP_CELLS:
+            break
+        resolution *= 2.0
+    occupied = np.zeros((int(shape[1]), int(shape[0])), dtype=bool)
+    origin = first * resolution
+    for piece in _wall_pieces(segs, _PIECE_CELLS * resolution):
+        _mark_piece(occupied, piece, origin, resolution, half)
+    return WallRaster(occupied, resolution, float(origin[0]), float(origin[1]))
+
+
+def _wall_pieces(segs: np.ndarray, longest: float) -> np.ndarray:
+    """The segments cut into pieces at most ``longest`` long (same lines, end to end)."""
+    pieces = []
+    for x1, y1, x2, y2 in segs:
+        n = max(int(math.ceil(math.hypot(x2 - x1, y2 - y1) / longest)), 1)
+        u = np.linspace(0.0, 1.0, n + 1)
+        xs, ys = x1 + u * (x2 - x1), y1 + u * (y2 - y1)
+        pieces.append(np.column_stack([xs[:-1], ys[:-1], xs[1:], ys[1:]]))
+    return np.concatenate(pieces)
+
+
+def _mark_piece(occupied: np.ndarray, piece: np.ndarray, origin: np.ndarray, resolution: float, half: float) -> None:
+    """Set the cells within ``half`` of one straight piece of wall (exact square-to-segment distance)."""
+    height, width = occupied.shape
+    x1, y1, x2, y2 = piece
+    c0 = np.clip(np.floor((np.minimum([x1, y1], [x2, y2]) - half - origin) / resolution).astype(int) - 1, 0, None)
+    c1 = np.floor((np.maximum([x1, y1], [x2, y2]) + half - origin) / resolution).astype(int) + 1
+    c1 = np.minimum(c1, [width - 1, height - 1])
+    cols = np.arange(c0[0], c1[0] + 1)
+    rows = np.arange(c0[1], c1[1] + 1)
+    cx = origin[0] + (cols[None, :] + 0.5) * resolution
+    cy = origin[1] + (rows[:, None] + 0.5) * resolution
+    near = _square_segment_distance(cx, cy, 0.5 * resolution, x1, y1, x2, y2) <= half * (1.0 + 1e-9)
+    occupied[c0[1] : c1[1] + 1, c0[0] : c1[0] + 1] |= near
+
+
+def _square_segment_distance(cx, cy, h: float, x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
+    """Distance between the segment and each axis-aligned square (centre cx, cy; half side h):
+    0 where they meet (separating axes: the boxes overlap and the square's corners straddle the
+    line), else the least of the segment's ends to the square and the square's corners to the
+    segment (two convex shapes apart are nearest at a vertex of one of them)."""
+    cx, cy = np.broadcast_arrays(cx, cy)
+    best = np.minimum(_point_square_distance(x1, y1, cx, cy, h), _point_square_distance(x2, y2, cx, cy, h))
+    for sx, sy in ((-h, -h), (-h, h), (h, -h), (h, h)):
+        best = np.minimum(best, _point_segment_distance(cx + sx, cy + sy, x1, y1, x2, y2))
+    nx, ny = y2 - y1, x1 - x2  # the line's normal: the square meets the line if its corners straddle it
+    side = (cx - x1) * nx + (cy - y1) * ny
+    reach = h * (abs(nx) + abs(ny))
+    crosses = np.abs(side) <= reach
+    within = (np.abs(cx - 0.5 * (x1 + x2)) <= h + 0.5 * abs(x2 - x1)) & (
+        np.abs(cy - 0.5 * (y1 + y2)) <= h + 0.5 * abs(y2 - y1)
+    )
+    return np.where(crosses & within, 0.0, best)
+
+
+def _point_square_distance(px: float, py: float, cx: np.ndarray, cy: np.ndarray, h: float) -> np.ndarray:
+    return np.hypot(np.maximum(np.abs(px - cx) - h, 0.0), np.maximum(np.abs(py - cy) - h, 0.0))
+
+
+def _point_segment_distance(px: np.ndarray, py: np.ndarray, x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
+    sx, sy = x2 - x1, y2 - y1
+    length2 = sx * sx + sy * sy
+    u = np.zeros_like(px) if length2 == 0.0 else np.clip(((px - x1) * sx + (py - y1) * sy) / length2, 0.0, 1.0)
+    return np.hypot(px - (x1 + u * sx), py - (y1 + u * sy))

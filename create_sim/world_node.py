@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from std_msgs.msg import String
@@ -33,6 +33,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from create_sim.configfile import NoiseConfig, load_config
+from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
 from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
@@ -44,6 +45,7 @@ from sim_runtime.msgs import (
     color_msg,
     command_ok,
     float32_array,
+    occupancy_grid_msg,
     pose_msg,
     set_planar_pose,
     yaw_from_quaternion,
@@ -101,7 +103,7 @@ class CreateWorldNode(SimWorldNode):
         self._publish_static_transforms()
         self.create_publisher(String, "robot_description", LATCHED_QOS).publish(String(data=create_urdf(self.prefix)))
         self._make_inputs()
-        self._publish_map_markers()
+        self._publish_map()
         self.get_logger().info(self._summary())
 
     # ---------------------------------------------------------------- parameters
@@ -149,6 +151,15 @@ class CreateWorldNode(SimWorldNode):
             "",
             None,
             "prefix of the robot's frames ('' = from the namespace: /robot1 -> robot1/)",
+        )
+        self.map_resolution = declare(
+            "map_resolution",
+            0.05,
+            None,
+            "cell size of the occupancy grid of the walls on 'map' (m); a huge map gets coarser cells",
+            live=True,
+            on_change=self._change_map_resolution,
+            bounds=(0.001, 10.0),
         )
         self.publish_map_tf = declare(
             "publish_map_tf",
@@ -232,8 +243,12 @@ class CreateWorldNode(SimWorldNode):
             )
         self.map, self.map_file, self.model = new_map, path, model
         self._delayed_cmds.clear()
-        self._publish_map_markers()
+        self._publish_map()
         self.get_logger().info(f"map_file: loaded {path or 'an empty map'}")
+
+    def _change_map_resolution(self, value: float) -> None:
+        self.map_resolution = value
+        self._publish_map()
 
     def _change_noise(self, value: str) -> None:
         path = self._resolve(value, "config_file")
@@ -273,6 +288,7 @@ class CreateWorldNode(SimWorldNode):
         self.pub_buttons = pub(Joy, "buttons")
         self.pub_battery = pub(BatteryState, "battery_state")
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
+        self.pub_map = pub(OccupancyGrid, "map", LATCHED_QOS)
         self._make_templates()
 
         # rate name -> (CreateModel method reading it or None, publisher of its message, its publishers,
@@ -655,9 +671,19 @@ class CreateWorldNode(SimWorldNode):
         msg.header.stamp = self.stamp()
         self._send(self.pub_battery, msg)
 
-    # ---------------------------------------------------------------- map markers
-    def _publish_map_markers(self) -> None:
-        self.pub_map_markers.publish(map_markers(self.map, self.stamp()))
+    # ---------------------------------------------------------------- the map
+    def _publish_map(self) -> None:
+        """The latched ``map_markers`` and the occupancy grid of the walls on ``map``."""
+        stamp = self.stamp()
+        self.pub_map_markers.publish(map_markers(self.map, stamp))
+        raster = rasterise_walls(self.map.walls, self.map_resolution)
+        if raster.resolution_m != self.map_resolution:
+            self.get_logger().warning(
+                f"map: {self.map_resolution:g} m cells would be more than {MAX_MAP_CELLS:,} over this map's "
+                f"walls; published with {raster.resolution_m:g} m cells"
+            )
+        origin = (raster.origin_x_m, raster.origin_y_m)
+        self.pub_map.publish(occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, stamp))
 
 
 def _duration(seconds: float) -> Duration:
@@ -696,7 +722,7 @@ def map_markers(create_map: CreateMap, stamp) -> MarkerArray:
     ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids are the row index.
     """
     markers = [
-        _line_list("walls", create_map.walls, (0.1, 0.1, 0.1), 0.03, stamp),
+        _line_list("walls", create_map.walls, (0.1, 0.1, 0.1), WALL_THICKNESS_M, stamp),
         _line_list("lines", create_map.lines, (0.2, 0.2, 0.9), 0.02, stamp),
     ]
     beacons = zip(create_map.beacon_xy, create_map.beacon_rgb, create_map.beacon_ids, strict=True)

@@ -12,6 +12,7 @@ import math
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Pose, Quaternion
+from nav_msgs.msg import OccupancyGrid
 from numpy.typing import ArrayLike
 from std_msgs.msg import ColorRGBA
 
@@ -68,6 +69,23 @@ def float32_array(values: ArrayLike) -> array.array:
 def float64_array(values: ArrayLike) -> array.array:
     """Fast fill for ``float64[]`` fields (JointState positions, …)."""
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
+
+
+def occupancy_grid_msg(
+    occupied: np.ndarray, resolution: float, origin_xy: tuple[float, float], stamp: Time
+) -> OccupancyGrid:
+    """A map as ``nav_msgs/OccupancyGrid`` in frame ``map`` (map_server's conventions): 100 where
+    ``occupied[row, column]`` is true, else 0; row 0 is the lowest y; ``origin_xy`` is the
+    lower-left corner of cell (0, 0)."""
+    msg = OccupancyGrid()
+    msg.header.frame_id = "map"
+    msg.header.stamp = stamp
+    msg.info.map_load_time = stamp
+    msg.info.resolution = float(resolution)
+    msg.info.height, msg.info.width = (int(n) for n in occupied.shape)
+    msg.info.origin = pose_msg(origin_xy[0], origin_xy[1], 0.0)
+    msg.data = array.array("b", np.where(occupied, 100, 0).astype(np.int8).tobytes())
+    return msg
 
 
 def pose_msg(x: float, y: float, yaw: float, z: float = 0.0) -> Pose:

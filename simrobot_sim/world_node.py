@@ -41,7 +41,7 @@ from sim_runtime.msgs import (
     color_msg,
     command_ok,
     float32_array,
-    pose_msg,
+    occupancy_grid_msg,
     quaternion_from_yaw,
     set_planar_pose,
     time_from_msg,
@@ -216,19 +216,9 @@ class SimrobotWorldNode(SimWorldNode):
         return transforms
 
     def _map_msg(self) -> OccupancyGrid:
-        model = self.model
-        msg = OccupancyGrid()
-        msg.header.frame_id = "map"
-        msg.header.stamp = self.stamp()
-        nx, ny = model.grid.shape
-        msg.info.resolution = float(model.resolution)
-        msg.info.width = nx
-        msg.info.height = ny
-        msg.info.origin = pose_msg(model.origin[0], model.origin[1], 0.0)
-        # OccupancyGrid is row-major with rows along y: the transpose of grid[x, y]
-        data = np.where(self.spec.walls.T, 100, 0).astype(np.int8)
-        msg.data = array.array("b", data.tobytes())
-        return msg
+        # OccupancyGrid rows run along y: the transpose of grid[x, y]
+        x, y = self.model.origin
+        return occupancy_grid_msg(self.spec.walls.T, self.model.resolution, (float(x), float(y)), self.stamp())
 
     def _marker_msgs(self) -> MarkerArray:
         model = self.model
