@@ -3,8 +3,10 @@
 Rows ``<sensor> mean std`` for sensor in wall, cliff, odometry, sonar, lidar, camera, and
 ``com_delay seconds``; ``%`` comments, blank rows and whitespace as in map files; keywords are
 case-insensitive. Unlisted sensors are noise-free. ``imu`` rows are accepted and ignored with a
-warning (the original accepted them but had no IMU). Unknown rows warn and are skipped; bad values
-raise :class:`InputError` naming file, line and value.
+warning (the original accepted them but had no IMU). Unknown rows warn and are skipped, but a file
+none of whose rows is known (``/etc/passwd``) is refused; bad values raise :class:`InputError`
+naming file, line and value. Warnings go to ``warn`` (a node's logger), or by default to Python's
+:mod:`warnings`.
 
 What mean/std mean per sensor (from the original's user manual): wall – offset of the IR range (m);
 cliff – added to the signal (%); odometry and camera – proportional (0.02 = 2 %); sonar, lidar –
@@ -13,11 +15,10 @@ added to the distance (m).
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from create_sim.mapfile import parse_number, read_text_file, split_row
+from create_sim.mapfile import Warn, parse_number, python_warning, read_text_file, report_skipped, split_row
 from sim_runtime.errors import InputError
 
 SENSORS = ("wall", "cliff", "odometry", "sonar", "lidar", "camera")
@@ -48,9 +49,12 @@ MAX_COM_DELAY_S = 3600.0
 """Longest communication delay a config may ask for."""
 
 
-def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
-    """Parse config-file text; ``source`` names the file in warnings and errors."""
+def parse_config(text: str, source: str = "<string>", warn: Warn | None = None) -> NoiseConfig:
+    """Parse config-file text; ``source`` names the file in warnings and errors, ``warn`` receives
+    the warnings (default: Python's :mod:`warnings`)."""
     config = NoiseConfig()
+    skipped: list[tuple[int, str]] = []
+    recognised = 0
     for number, raw in enumerate(text.splitlines(), start=1):
         tokens = split_row(raw)
         if not tokens:
@@ -69,8 +73,9 @@ def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
             if max(abs(mean), std) > MAX_NOISE:
                 # Noise this size only turns readings into inf (a proportional camera error of 1e300).
                 raise InputError.at(source, number, f"{keyword} noise {' '.join(args)!r} beyond ±{MAX_NOISE:g}")
+            recognised += 1
             if keyword == "imu":
-                warnings.warn(f"{source}:{number}: 'imu' noise ignored (the simulated Create has no IMU)", stacklevel=2)
+                (warn or python_warning)(f"{source}:{number}: 'imu' noise ignored (the simulated Create has no IMU)")
                 continue
             config.noise[keyword] = (mean, std)
         elif keyword == "com_delay":
@@ -82,15 +87,13 @@ def parse_config(text: str, source: str = "<string>") -> NoiseConfig:
             if not 0.0 <= delay <= MAX_COM_DELAY_S:
                 raise InputError.at(source, number, f"com_delay {args[0]!r} must be in 0..{MAX_COM_DELAY_S:g} s")
             config.com_delay = delay
+            recognised += 1
         else:
-            warnings.warn(
-                f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
-                f"(expected {', '.join(SENSORS)} or com_delay)",
-                stacklevel=2,
-            )
+            skipped.append((number, raw.strip()))
+    report_skipped(skipped, recognised, source, f"{', '.join(SENSORS)} or com_delay", warn)
     return config
 
 
-def load_config(path: str | Path) -> NoiseConfig:
-    """Read and parse a config file."""
-    return parse_config(read_text_file(path, "config"), str(path))
+def load_config(path: str | Path, warn: Warn | None = None) -> NoiseConfig:
+    """Read and parse a config file (``warn``: as :func:`parse_config`)."""
+    return parse_config(read_text_file(path, "config"), str(path), warn)

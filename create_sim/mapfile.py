@@ -8,8 +8,10 @@ tabs between fields and around the row are fine; keywords are case-insensitive::
     beacon x y [r g b] id       % a coloured beacon for the camera; id keeps its case
     virtwall x y theta setting  % virtual-wall emitter facing theta (rad), setting 1, 2 or 3
 
-A row with an unknown keyword is skipped with a warning naming file and line (as the original);
-a known row with a bad value raises :class:`InputError` naming file, line and value. Coordinates
+A row with an unknown keyword is skipped with a warning naming file and line (as the original),
+but a file none of whose rows is known (``/etc/passwd``, a PNG) is refused; a known row with a
+bad value raises :class:`InputError` naming file, line and value. Warnings go to ``warn`` (a
+node's logger), or by default to Python's :mod:`warnings`. Coordinates
 are bounded to ±1,000 km (:data:`MAX_COORDINATE_M`): far beyond any room, and small enough that
 every distance between two points of a map is an ordinary float.
 """
@@ -19,6 +21,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,6 +32,12 @@ from sim_runtime.inputfile import read_input_text
 
 MAX_COORDINATE_M = 1e6
 """Largest |x| or |y| a map may hold (metres)."""
+
+#: Unrecognised rows reported one by one; beyond these, one warning counts the rest.
+MAX_REPORTED_ROWS = 10
+
+Warn = Callable[[str], None]
+"""Where a parser's warnings go, e.g. a node's ``get_logger().warning``."""
 
 _BEACON_RE = re.compile(r"^(\S+)\s+(\S+)\s+\[([^\]]*)\]\s*(.*)$")
 
@@ -117,14 +126,40 @@ def _beacon(tokens: list[str], source: str, line: int) -> tuple[list[float], lis
     return xy, rgb, id_tokens[0]
 
 
-def parse_map(text: str, source: str = "<string>") -> CreateMap:
-    """Parse map-file text; ``source`` names the file in warnings and errors."""
+def python_warning(message: str) -> None:
+    """The default :data:`Warn`: a ``UserWarning`` (shown on stderr, or caught by a caller)."""
+    warnings.warn(message, stacklevel=4)
+
+
+def report_skipped(
+    skipped: list[tuple[int, str]], recognised: int, source: str, expected: str, warn: Warn | None
+) -> None:
+    """Warn about each unrecognised row (line number, text; at most :data:`MAX_REPORTED_ROWS`, then
+    a count); refuse a file that had rows but none of them recognised: it is not a file of this kind."""
+    if skipped and not recognised:
+        number, row = skipped[0]
+        raise InputError.at(
+            source,
+            None,
+            f"none of its {len(skipped)} rows is a {expected} row: is it the right file? (line {number}: {row[:80]!r})",
+        )
+    say = warn or python_warning
+    for number, row in skipped[:MAX_REPORTED_ROWS]:
+        say(f"{source}:{number}: unrecognized row {row[:80]!r} skipped (expected {expected})")
+    if len(skipped) > MAX_REPORTED_ROWS:
+        say(f"{source}: {len(skipped) - MAX_REPORTED_ROWS} more unrecognized rows skipped")
+
+
+def parse_map(text: str, source: str = "<string>", warn: Warn | None = None) -> CreateMap:
+    """Parse map-file text; ``source`` names the file in warnings and errors, ``warn`` receives the
+    warnings (default: Python's :mod:`warnings`)."""
     walls: list[list[float]] = []
     lines: list[list[float]] = []
     beacon_xy: list[list[float]] = []
     beacon_rgb: list[list[float]] = []
     beacon_ids: list[str] = []
     virtwalls: list[list[float]] = []
+    skipped: list[tuple[int, str]] = []
     for number, raw in enumerate(text.splitlines(), start=1):
         tokens = split_row(raw)
         if not tokens:
@@ -146,11 +181,9 @@ def parse_map(text: str, source: str = "<string>") -> CreateMap:
                 raise InputError.at(source, number, f"virtwall setting {args[3]!r} must be 1, 2 or 3")
             virtwalls.append([x, y, theta, setting])
         else:
-            warnings.warn(
-                f"{source}:{number}: unrecognized row {raw.strip()!r} skipped "
-                "(expected wall, line, beacon or virtwall)",
-                stacklevel=2,
-            )
+            skipped.append((number, raw.strip()))
+    recognised = len(walls) + len(lines) + len(beacon_ids) + len(virtwalls)
+    report_skipped(skipped, recognised, source, "wall, line, beacon or virtwall", warn)
     return CreateMap(
         walls=np.array(walls, dtype=np.float64).reshape(-1, 4),
         lines=np.array(lines, dtype=np.float64).reshape(-1, 4),
@@ -167,6 +200,6 @@ def read_text_file(path: str | Path, kind: str) -> str:
     return read_input_text(path, f"{kind} file", errors="replace")
 
 
-def load_map(path: str | Path) -> CreateMap:
-    """Read and parse a map file."""
-    return parse_map(read_text_file(path, "map"), str(path))
+def load_map(path: str | Path, warn: Warn | None = None) -> CreateMap:
+    """Read and parse a map file (``warn``: as :func:`parse_map`)."""
+    return parse_map(read_text_file(path, "map"), str(path), warn)

@@ -197,21 +197,19 @@ class CreateWorldNode(SimWorldNode):
         except InputError as err:  # the pose overlaps a wall
             raise InputError(f"parameter 'initial_pose' = {list(self.initial_pose)}: {err}") from err
 
-    @staticmethod
-    def _load_map(path: str) -> CreateMap:
+    def _load_map(self, path: str) -> CreateMap:
         if not path:
             return CreateMap()
-        try:
-            return load_map(path)
+        try:  # skipped rows are logged (/rosout), not Python warnings on stderr
+            return load_map(path, warn=self.get_logger().warning)
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'map_file' = {path!r}: {err}") from err
 
-    @staticmethod
-    def _load_noise(path: str) -> NoiseConfig:
+    def _load_noise(self, path: str) -> NoiseConfig:
         if not path:
             return NoiseConfig()
         try:
-            return load_config(path)
+            return load_config(path, warn=self.get_logger().warning)
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'config_file' = {path!r}: {err}") from err
 
