@@ -579,44 +579,59 @@ def _seen(matrix, x, y, own_id):
 
 @numba.njit(cache=True)
 def cast_ray_original(matrix: np.ndarray, cx: int, cy: int, ex: int, ey: int, own_id: int) -> tuple[float, int]:
-    """One ray by the original SIMROBOT's rules (``usonic8.c``/``laser5.c``), in cell indices:
-    from the sensor's cell ``(cx, cy)`` to the end cell ``(ex, ey)`` by an 8-connected Bresenham
-    line; after each step the new cell and then the next cell along x are tested, so a ray is two
-    cells wide and may report a cell beyond its end. Returns the distance between the centres of
-    the sensor's cell and the hit cell (cells) and the hit cell's value; ``(inf, 0)`` for none.
-    The sensor's own cell counts (distance 0). The trace stops where the original's does: two
-    cells from the left and right map edges, one from the bottom and top (the original expects a
-    walled map)."""
+    """One ray by the original SIMROBOT's rules, in cell indices: from the sensor's cell ``(cx,
+    cy)`` to the end cell ``(ex, ey)`` by the original's midpoint Bresenham line (8-connected; at
+    an exact midpoint it steps along the main axis only); after each step the new cell and then
+    the next cell along x are tested, so a ray is two cells wide and may report a cell beyond its
+    end. Returns the distance between the centres of the sensor's cell and the hit cell (cells)
+    and the hit cell's value; ``(inf, 0)`` for none. The sensor's own cell counts (distance 0).
+    The trace stops where the original's does: two cells from the left and right map edges, one
+    from the bottom and top (the original expects a walled map)."""
     nx, ny = matrix.shape
     if 0 <= cx < nx and 0 <= cy < ny:
         v = _seen(matrix, cx, cy, own_id)
         if v != 0:
             return 0.0, v
-    extra = 1 if ex >= cx else -1
+    sx = 1 if ex >= cx else -1  # also the side of the extra cell: to the right for a vertical ray
+    sy = 1 if ey >= cy else -1
     dx = abs(ex - cx)
-    dy = -abs(ey - cy)
-    sx = 1 if cx < ex else -1
-    sy = 1 if cy < ey else -1
-    err = dx + dy
+    dy = abs(ey - cy)
+    x_major = dy < dx
+    steps = max(dx, dy)
+    minor = dy if x_major else dx
+    d = 2 * minor - steps
     x = cx
     y = cy
-    while x != ex or y != ey:
+    for _ in range(steps):
         if x >= nx - 2 or y >= ny - 1 or x <= 1 or y <= 0:
             break
-        e2 = 2 * err
-        if e2 >= dy:
-            err += dy
+        side_step = d > 0  # a tie (d == 0) stays on the main axis
+        d += 2 * (minor - steps) if side_step else 2 * minor
+        if x_major or side_step:
             x += sx
-        if e2 <= dx:
-            err += dx
+        if not x_major or side_step:
             y += sy
         v = _seen(matrix, x, y, own_id)
         if v != 0:
             return math.hypot(x - cx, y - cy), v
-        v = _seen(matrix, x + extra, y, own_id)
+        v = _seen(matrix, x + sx, y, own_id)
         if v != 0:
-            return math.hypot(x + extra - cx, y - cy), v
+            return math.hypot(x + sx - cx, y - cy), v
     return np.inf, 0
+
+
+@numba.njit(cache=True, inline="always")
+def original_end_cell(cell: int, reach: float) -> int:
+    """The cell where an original ray ends, along one axis: ``reach`` cells from the centre of
+    ``cell``, rounded as the original's C code rounds. Its cells count from 1 (ours from 0), and
+    it rounds down when the fractional part is below one half, else up; the fractional part
+    keeps the number's sign, so a negative coordinate (a ray ending beyond the left or bottom
+    edge) is always rounded down, where halves-up rounding would round -0.3 to 0."""
+    v = cell + 1 + reach  # the original's coordinate
+    whole = math.floor(v)
+    if v >= 0.0 and v - whole >= 0.5:
+        whole += 1
+    return int(whole) - 1
 
 
 @numba.njit(cache=True)
@@ -624,13 +639,13 @@ def cast_scan_original(matrix: np.ndarray, fan: Fan, out_t: np.ndarray, out_v: n
     """All rays of a :class:`Fan` by the original's rules (:func:`cast_ray_original`): the sensor's
     cell is the one holding the fan's origin (the original rounds to the nearest cell centre, and
     its cell ``k`` is centred on ``k``: that is our cell ``floor``); each ray ends at the sensor
-    cell's centre plus ``max_range`` along the ray, rounded to a cell (halves up). Distances are
-    not cut at the range: the original's rays can echo up to about one cell beyond it."""
+    cell's centre plus ``max_range`` along the ray, rounded to a cell (:func:`original_end_cell`).
+    Distances are not cut at the range: the original's rays can echo up to about one cell beyond it."""
     cx = int(math.floor(fan.origin_x))
     cy = int(math.floor(fan.origin_y))
     for i in range(fan.directions.shape[0]):
-        ex = int(math.floor(cx + fan.max_range * fan.directions[i, 0] + 0.5))
-        ey = int(math.floor(cy + fan.max_range * fan.directions[i, 1] + 0.5))
+        ex = original_end_cell(cx, fan.max_range * fan.directions[i, 0])
+        ey = original_end_cell(cy, fan.max_range * fan.directions[i, 1])
         out_t[i], out_v[i] = cast_ray_original(matrix, cx, cy, ex, ey, fan.own_id)
 
 
