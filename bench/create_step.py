@@ -8,6 +8,7 @@ steps; CPU time of this process only, so other load on the machine moves it less
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -23,6 +24,7 @@ from sim_runtime.paths import config_path
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     world = random_map()
     robot = CreateModel(world, load_config(config_path("create/example_config.txt")), pose=free_poses(world, 1)[0])
 

@@ -12,6 +12,7 @@ compile itself (numba's ``NUMBA_DEBUG_CACHE`` "data saved" lines): 0 means the w
 
 from __future__ import annotations
 
+import argparse
 import os
 import signal
 import subprocess
@@ -77,6 +78,7 @@ def time_to_first_scan(executor, node) -> tuple[float, int]:
 
 
 def main() -> int:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     rclpy.init()
     node = rclpy.create_node("first_start_bench")
     executor = make_executor()

@@ -16,6 +16,7 @@ load on a shared machine inflates them less. Run: ``.venv/bin/python bench/simro
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import sys
@@ -35,10 +36,10 @@ N_RECTS = 60
 N_ROBOTS = 20
 RAYS = 683
 RANGE_CELLS = 560
-ROBOT_SCALE = float(sys.argv[1]) if len(sys.argv) > 1 else 3.0
+ROBOT_SCALE = 3.0
 
 
-def reference_scene(seed: int = 0) -> SimrobotWorld:
+def reference_scene(seed: int = 0, scale: float = ROBOT_SCALE) -> SimrobotWorld:
     """The benchmark world (resolution 0.01 m, so 560 cells = 5.6 m)."""
     rng = np.random.default_rng(seed)
     walls = np.zeros((N_CELLS, N_CELLS), dtype=bool)
@@ -56,7 +57,7 @@ def reference_scene(seed: int = 0) -> SimrobotWorld:
             f"r{len(robots)}",
             tuple(rng.uniform(0.2, N_CELLS * 0.01 - 0.2, 2)),
             heading=float(rng.uniform(-math.pi, math.pi)),
-            scale=ROBOT_SCALE,
+            scale=scale,
             sensors=(laser,),
         )
         try:
@@ -77,7 +78,9 @@ def best_cpu(fn, repeats: int) -> float:
 
 
 def main() -> None:
-    world = reference_scene()
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("scale", nargs="?", type=float, default=ROBOT_SCALE, help="robots' scale (default 3)")
+    world = reference_scene(scale=parser.parse_args().scale)
     n_rays = N_ROBOTS * RAYS
     scans = []
     for k in range(len(world.sensors)):

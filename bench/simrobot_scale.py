@@ -20,6 +20,7 @@ Run: ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python bench/simrobot_s
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 import sys
@@ -150,6 +151,7 @@ def history_memory() -> list[tuple[int, int, float]]:
 def main() -> None:
     import rclpy
 
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     print("model alone (step + all sensors), 2 ultrasonic x 30 rays + laser x 181 rays per robot:")
     print(f"{'N':>6}{'steps/s':>12}{'ms/step':>10}{'us/robot':>10}")
     for n, steps in ((10, 50), (100, 20), (1000, 5)):

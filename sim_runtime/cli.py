@@ -7,6 +7,8 @@ import sys
 from collections.abc import Sequence
 
 from sim_runtime.executables import EXECUTABLES
+from sim_runtime.node_help import NODE_EXECUTABLES, wants_help
+from sim_runtime.node_help import help_text as node_help_text
 
 USAGE = "usage: robot_sims <executable> [arguments] [--ros-args -p name:=value ...]"
 
@@ -34,6 +36,9 @@ def run(name: str, argv: list[str]) -> int:
     if name not in EXECUTABLES:
         print(f"robot_sims: unknown executable '{name}'. Known: {', '.join(EXECUTABLES)}", file=sys.stderr)
         return 2
+    if name in NODE_EXECUTABLES and wants_help(argv):  # rclpy ignores --help: the node would start
+        print(node_help_text(name))
+        return 0
     module, function = EXECUTABLES[name][0].split(":")
     main = getattr(importlib.import_module(module), function)
     # Nodes read sys.argv (rclpy.init, argparse): make it look like a direct call.

@@ -57,6 +57,16 @@ class _Spec(NamedTuple):
     on_change: Callable[[Any], None] | None
 
 
+class ParameterInfo(NamedTuple):
+    """A declared parameter as ``--help`` shows it (see :mod:`sim_runtime.node_help`)."""
+
+    name: str
+    default: Any
+    description: str
+    live: bool
+    bounds: tuple[float, float] | None
+
+
 def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float, float] | None) -> ParameterDescriptor:
     descriptor = ParameterDescriptor(description=description, read_only=not live)
     if bounds is not None:
@@ -71,12 +81,23 @@ def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float,
 class CheckedNode(Node):
     """A node whose parameters are declared with :meth:`declare_checked`."""
 
+    #: True in a class made by :func:`sim_runtime.node_help.describing`: no rcl node is created and
+    #: each declaration is recorded in ``described`` (``--help`` lists them without starting ROS).
+    describe_only = False
+    described: list[ParameterInfo]
+    _checked: dict[str, _Spec]
+
     def __init__(self, node_name: str, **node_kwargs: Any) -> None:
+        if self.describe_only:
+            self._checked = {}
+            self._parameter_overrides = {}
+            self.described = []
+            return
         try:
             super().__init__(node_name, **node_kwargs)
         except ParameterException as err:  # rclpy's own parameters, e.g. use_sim_time:=abc
             raise InputError(f"parameter of node {node_name!r}: {err}") from None
-        self._checked: dict[str, _Spec] = {}
+        self._checked = {}
         self.add_pre_set_parameters_callback(self._widen_whole_numbers)
         self.add_on_set_parameters_callback(self._check_and_apply)
 
@@ -107,6 +128,10 @@ class CheckedNode(Node):
                 return lo <= v <= hi and (inner is None or inner(v))
 
         spec = _Spec(default, check or (lambda _v: True), description, on_change if live else None)
+        if self.describe_only:
+            self._checked[name] = spec
+            self.described.append(ParameterInfo(name, default, description, live, bounds))
+            return default
         override = self._parameter_overrides.get(name)
         if override is not None:
             given = override.value

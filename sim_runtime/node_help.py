@@ -1,0 +1,141 @@
+"""``robot_sims <node executable> --help``: usage and every parameter, without starting ROS.
+
+The parameters come from where each node declares them (:meth:`CheckedNode.declare_checked`): the
+node's class is built in describe mode (:func:`describing`), where no rcl node exists and every
+method of rclpy's ``Node`` does nothing, so the constructor runs through its declarations without
+a ROS context, a topic, or a simulation step.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import textwrap
+from typing import Any
+
+from rclpy.node import Node
+
+from sim_runtime.executables import EXECUTABLES
+from sim_runtime.params import CheckedNode, ParameterInfo
+
+#: Node executable → (its node class as ``module:Class``, what follows the name in its usage).
+NODE_EXECUTABLES: dict[str, tuple[str, str]] = {
+    "create_world": ("create_sim.world_node:CreateWorldNode", "[--ros-args -p NAME:=VALUE ...]"),
+    "create_teleop": ("create_sim.teleop:TeleopNode", "[--ros-args -p NAME:=VALUE ...]  (in a terminal)"),
+    "create_bump_turn": ("create_sim.bump_turn:BumpTurnNode", "[--ros-args -r __ns:=/ROBOT -p NAME:=VALUE ...]"),
+    "simrobot_world": ("simrobot_sim.world_node:SimrobotWorldNode", "--ros-args -p world_file:=WORLD.yaml [-p ...]"),
+    "simrobot_avoid": ("simrobot_sim.avoid:AvoidNode", "--ros-args -r __ns:=/ROBOT [-p NAME:=VALUE ...]"),
+    "arm": ("arm_sim.arm_node:ArmNode", "[--ros-args -p NAME:=VALUE ...]"),
+}
+
+
+def wants_help(argv: list[str]) -> bool:
+    """Whether ``-h`` or ``--help`` is among the arguments before ``--ros-args``."""
+    ours = argv[: argv.index("--ros-args")] if "--ros-args" in argv else argv
+    return "-h" in ours or "--help" in ours
+
+
+class _Nothing:
+    """What every rclpy call returns in describe mode: accepts any use and does nothing."""
+
+    def __getattr__(self, _name: str) -> _Nothing:
+        return self
+
+    def __call__(self, *_args: Any, **_kwargs: Any) -> _Nothing:
+        return self
+
+    def __iter__(self):
+        return iter(())
+
+    def __bool__(self) -> bool:
+        return False
+
+
+_NOTHING = _Nothing()
+_KEEP = {"get_namespace", "get_name"}  # text the constructors build names from
+
+
+def _nothing(*_args: Any, **_kwargs: Any) -> _Nothing:
+    return _NOTHING
+
+
+def describing(cls: type[CheckedNode]) -> type[CheckedNode]:
+    """A subclass of ``cls`` whose instances declare their parameters and nothing else."""
+    members: dict[str, Any] = {"describe_only": True, "get_namespace": lambda _self: "/"}
+    members["get_name"] = lambda _self: cls.__name__
+    for name, member in vars(Node).items():
+        if name.startswith("_") or name in _KEEP:
+            continue
+        if isinstance(member, property):
+            members[name] = property(_nothing)
+        elif callable(member):
+            members[name] = _nothing
+    return type(f"Describing{cls.__name__}", (cls,), members)
+
+
+def node_class(executable: str) -> type[CheckedNode]:
+    module, name = NODE_EXECUTABLES[executable][0].split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def _placeholder_world() -> dict[str, Any]:
+    """simrobot_world reads its world file before it declares anything: a one-robot world stands in."""
+    import numpy as np
+
+    from simrobot_sim.world_file import RobotSpec, WorldSpec
+
+    spec = WorldSpec(walls=np.zeros((10, 10), dtype=bool), robots=(RobotSpec("r", (0.05, 0.05)),), source="")
+    return {"spec": spec}
+
+
+def declared_parameters(executable: str) -> list[ParameterInfo]:
+    """Every parameter the node of ``executable`` declares, in declaration order."""
+    kwargs = _placeholder_world() if executable == "simrobot_world" else {}
+    cls = describing(node_class(executable))
+    node = cls.__new__(cls)
+    # What a constructor does after its declarations may need ROS and fail: the declarations stay.
+    with contextlib.suppress(Exception):
+        type(node).__init__(node, **kwargs)
+    return list(getattr(node, "described", []))
+
+
+def type_name(value: Any) -> str:
+    """The ROS parameter type of a default value, as ``ros2 param describe`` names it."""
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "double"
+    if isinstance(value, str):
+        return "string"
+    if isinstance(value, list | tuple):
+        return f"{type_name(value[0]) if value else 'double'}[]"
+    return type(value).__name__
+
+
+def _line(info: ParameterInfo) -> str:
+    facts = [type_name(info.default), f"default {info.default!r}"]
+    if info.bounds is not None:
+        facts.append("..".join(f"{b:g}" if isinstance(b, float) else str(b) for b in info.bounds))
+    if info.live:
+        facts.append("live")
+    wrapped = textwrap.fill(info.description, width=96, initial_indent="      ", subsequent_indent="      ")
+    return f"  {info.name} ({', '.join(facts)})\n{wrapped}"
+
+
+def help_text(executable: str) -> str:
+    """Usage, what the executable does, and each parameter: name, type, default, description."""
+    usage = NODE_EXECUTABLES[executable][1]
+    parameters = declared_parameters(executable)
+    return "\n".join(
+        [
+            f"usage: robot_sims {executable} {usage}",
+            f"       ros2 run robot_sims {executable} {usage}",
+            "",
+            EXECUTABLES[executable][1],
+            "",
+            "parameters (-p NAME:=VALUE at start; 'live' ones also later with `ros2 param set`):",
+            *(_line(info) for info in parameters),
+        ]
+    )

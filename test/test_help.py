@@ -1,0 +1,112 @@
+"""`--help` of every executable and every benchmark: usage and parameters, exit 0, in a few seconds,
+without starting ROS or a simulation (rclpy ignores --help: a world used to start instead)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+from rclpy.parameter import Parameter
+
+from sim_runtime.cli import executable_command
+from sim_runtime.executables import EXECUTABLES
+from sim_runtime.node_help import NODE_EXECUTABLES, declared_parameters
+
+ROOT = Path(__file__).resolve().parent.parent
+BENCHMARKS = sorted(p for p in (ROOT / "bench").glob("*.py") if not p.name.startswith("_"))
+HELP_SECONDS = 30.0  # a few seconds alone; the suite shares 2 cores with other tests
+
+
+def run_help(argv: list[str]) -> tuple[subprocess.CompletedProcess, float]:
+    start = time.monotonic()
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=HELP_SECONDS)
+    return done, time.monotonic() - start
+
+
+@pytest.fixture(scope="module")
+def executable_helps() -> dict[str, tuple[subprocess.CompletedProcess, float]]:
+    """`robot_sims <exe> --help` for every executable, four at a time."""
+    with ThreadPoolExecutor(4) as pool:
+        runs = pool.map(lambda name: run_help(executable_command(name, ["--help"])), EXECUTABLES)
+        return dict(zip(EXECUTABLES, runs, strict=True))
+
+
+@pytest.mark.parametrize("name", list(EXECUTABLES))
+def test_every_executable_answers_help_with_its_usage_and_exit_0(executable_helps, name):
+    done, seconds = executable_helps[name]
+    assert done.returncode == 0, done.stderr
+    assert "usage:" in done.stdout and name in done.stdout.split("\n", 1)[0]
+    assert seconds < HELP_SECONDS
+    if name in NODE_EXECUTABLES:
+        assert "parameters" in done.stdout
+
+
+def _real_node(executable: str):
+    import numpy as np
+
+    from sim_runtime.node_help import node_class
+    from simrobot_sim.world_file import RobotSpec, WorldSpec
+
+    cls = node_class(executable)
+    if executable == "simrobot_world":
+        return cls(WorldSpec(walls=np.zeros((10, 10), dtype=bool), robots=(RobotSpec("r", (0.05, 0.05)),)))
+    if executable == "create_world":
+        return cls(parameter_overrides=[Parameter("map_file", value="")])
+    return cls()
+
+
+@pytest.mark.parametrize("executable", list(NODE_EXECUTABLES))
+def test_a_nodes_help_lists_every_parameter_the_node_declares_with_type_default_and_description(
+    ros, executable, executable_helps
+):
+    node = _real_node(executable)
+    try:
+        real = {name: spec for name, spec in node._checked.items()}
+    finally:
+        node.destroy_node()
+    described = {info.name: info for info in declared_parameters(executable)}
+    assert set(described) == set(real)  # nothing the node declares is missing from --help
+    shown = executable_helps[executable][0].stdout
+    for name, spec in real.items():
+        assert described[name].description == spec.description
+        assert f"  {name} (" in shown and spec.description.split()[0] in shown
+
+
+def test_a_nodes_help_starts_no_ros_context():
+    code = (
+        "import rclpy\nfrom sim_runtime.cli import run\n"
+        f"for name in {list(NODE_EXECUTABLES)!r}:\n"
+        "    assert run(name, ['-h']) == 0\n"
+        "    assert not rclpy.ok(), name\n"
+    )
+    done, _seconds = run_help([sys.executable, "-c", code])
+    assert done.returncode == 0, done.stderr
+
+
+def test_help_after_ros_args_is_a_ros_argument_not_ours():
+    from sim_runtime.node_help import wants_help
+
+    assert wants_help(["--help"]) and wants_help(["-h", "--ros-args", "-p", "a:=1"])
+    assert not wants_help(["--ros-args", "-p", "help:=1", "--help"])
+
+
+@pytest.fixture(scope="module")
+def benchmark_helps() -> dict[Path, tuple[subprocess.CompletedProcess, float]]:
+    """`bench/<script>.py --help` for every benchmark, four at a time."""
+    with ThreadPoolExecutor(4) as pool:
+        runs = pool.map(lambda script: run_help([sys.executable, str(script), "--help"]), BENCHMARKS)
+        return dict(zip(BENCHMARKS, runs, strict=True))
+
+
+@pytest.mark.parametrize("script", BENCHMARKS, ids=lambda p: p.name)
+def test_every_benchmark_answers_help_with_its_usage_and_exit_0_without_running(benchmark_helps, script):
+    done, seconds = benchmark_helps[script]
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("usage:")
+    assert seconds < HELP_SECONDS
