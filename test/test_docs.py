@@ -103,3 +103,25 @@ def test_every_parameter_a_node_declares_is_in_its_docs_table(ros, executable, t
         assert not missing, f"docs/executables.md, {executable}: parameters not documented: {missing}"
     finally:
         node.destroy_node()
+
+
+def _qos_text(profile) -> str:
+    """A QoS profile as the docs' tables write it: "reliable, volatile, depth 100"."""
+    reliability = profile.reliability.name.lower().replace("_", " ")
+    durability = profile.durability.name.lower().replace("_", " ")
+    return f"{reliability}, {durability}, depth {profile.depth}"
+
+
+def test_the_qos_column_of_the_arm_topics_table_is_what_the_arm_node_uses(ros):
+    from arm_sim.arm_node import ArmNode
+
+    rows = re.findall(r"^\| `([a-z_]+)` \| [^|]+ \| (in|out) \| ([^|]+) \|", (ROOT / "docs/arm.md").read_text(), re.M)
+    assert len(rows) >= 7
+    node = ArmNode()
+    try:
+        used = {p.topic_name.lstrip("/"): _qos_text(p.qos_profile) for p in node.publishers}
+        used |= {s.topic_name.lstrip("/"): _qos_text(s.qos_profile) for s in node.subscriptions}
+        wrong = {topic: (doc.strip(), used.get(topic)) for topic, _dir, doc in rows if used.get(topic) != doc.strip()}
+        assert not wrong, f"docs/arm.md says (doc, node): {wrong}"
+    finally:
+        node.destroy_node()
