@@ -9,13 +9,20 @@ holds only what the sweep determines.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import sys
 import time
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
+
+from sim_runtime.batch.metrics import reached_column, split_unit, unit_of
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 ID_COLUMNS = ("episode", "key", "world", "controller")
 STATUS_COLUMNS = ("status", "error", "sim_time_s")
@@ -74,8 +81,28 @@ def _column_order(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def table_rows(log: ResultLog, keys: Iterable[str]) -> list[dict[str, Any]]:
-    """The logged rows of ``keys`` (the sweep's episodes, in order); missing ones are left out."""
-    return [log.rows[k] for k in keys if k in log.rows]
+    """The logged rows of ``keys`` (the sweep's episodes, in order; missing ones are left out),
+    each "time to" metric preceded by its ``<event>_reached`` column (:func:`with_reached`)."""
+    return [with_reached(log.rows[k]) for k in keys if k in log.rows]
+
+
+def with_reached(row: dict[str, Any]) -> dict[str, Any]:
+    """``row`` with ``goal_reached`` (true/false) before ``goal_time_s``, and so for every
+    ``<event>_time_s`` metric of an ok episode: its NaN means the event never happened, which a
+    mean or a plot would otherwise drop without a word."""
+    if row.get("status") != "ok":
+        return row
+    out: dict[str, Any] = {}
+    for name, value in row.items():
+        reached = None if name in STATUS_COLUMNS else reached_column(name)
+        if reached and reached not in row and (value is None or _is_number(value)):
+            out[reached] = _is_number(value) and not _nan(value)
+        out[name] = value
+    return out
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def write_table(rows: list[dict[str, Any]], folder: Path) -> tuple[Path, Path]:
@@ -122,92 +149,329 @@ def _fmt(value: Any) -> str:
     return f"{value:.6f}" if isinstance(value, float) else str(value)
 
 
-def metric_columns(rows: list[dict[str, Any]], grid_keys: list[str]) -> list[str]:
-    """Numeric columns that are results (not ids, parameters, poses or seeds)."""
+def metric_columns(rows: list[dict[str, Any]], grid_keys: list[str] | None = None) -> list[str]:
+    """Numeric columns that are results (not ids, parameters, poses, seeds or per-robot columns)."""
     skip = set(ID_COLUMNS) | set(STATUS_COLUMNS) | {"seed"}
     out = []
     for name in _column_order(rows):
         if name in skip or name.startswith("param.") or name.startswith("pose_") or "." in name:
             continue
         values = [row.get(name) for row in rows if row.get("status") == "ok"]
-        if values and all(isinstance(v, int | float) and not isinstance(v, bool) for v in values if v is not None):
+        if values and all(_is_number(v) for v in values if v is not None):
             out.append(name)
     return out
 
 
+def _finite(rows: list[dict[str, Any]], metric: str) -> list[float]:
+    """The metric's values that are numbers (a NaN or a missing value is not one)."""
+    return [r[metric] for r in rows if _is_number(r.get(metric)) and not _nan(r[metric])]
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else math.nan
+
+
+def _number(value: float, unit: str = "") -> str:
+    return "nan" if _nan(value) else f"{value:.4g}" + (f" {unit}" if unit else "")
+
+
 def summary(rows: list[dict[str, Any]], grid_keys: list[str], out: TextIO = sys.stdout) -> None:
-    """Episodes ok/failed, then the mean of each metric per controller (× world, × grid point)."""
+    """Episodes ok/failed, the mean of each metric per controller × world × grid point, then how
+    many episodes reached each "time to" metric's event and how many NaN any other metric has."""
     ok = [r for r in rows if r.get("status") == "ok"]
     failed = [r for r in rows if r.get("status") != "ok"]
     print(f"{len(rows)} episodes: {len(ok)} ok, {len(failed)} failed", file=out)
     for row in failed[:5]:
         print(f"  episode {row['episode']} ({row['controller']} on {row['world']}): {row.get('error')}", file=out)
-    metrics = metric_columns(rows, grid_keys)
+    metrics = metric_columns(rows)
     if not ok or not metrics:
         return
-    groups: dict[tuple, list[dict[str, Any]]] = {}
-    for row in ok:
-        label = (row["controller"], row["world"], *(row.get(f"param.{k}") for k in grid_keys))
-        groups.setdefault(label, []).append(row)
-    head = ["controller", "world", *grid_keys, "n", *metrics]
+    time_to = [m for m in metrics if reached_column(m)]
+    head = ["controller", "world", *grid_keys, "n"]
+    for m in metrics:
+        head += [str(reached_column(m)), m] if m in time_to else [m]
     lines = [head]
-    for label, members in groups.items():
-        means = []
+    for label, members in _groups(ok, grid_keys).items():
+        cells = [*map(str, label), str(len(members))]
         for m in metrics:
-            values = [r[m] for r in members if r.get(m) is not None and not _nan(r[m])]
-            means.append(f"{sum(values) / len(values):.4g}" if values else "nan")
-        lines.append([*map(str, label), str(len(members)), *means])
-    widths = [max(len(line[i]) for line in lines) for i in range(len(head))]
-    print("mean per group:", file=out)
+            values = _finite(members, m)
+            if m in time_to:
+                cells.append(f"{len(values)}/{len(members)}")
+            cells.append(_number(_mean(values)) if values or m not in time_to else "-")
+        lines.append(cells)
+    widths = [max(len(line[i]) for line in lines) for i in range(len(lines[0]))]
+    print("mean per group" + (" (a time: over the episodes that reached it)" if time_to else "") + ":", file=out)
     for line in lines:
         print("  " + "  ".join(cell.rjust(w) for cell, w in zip(line, widths, strict=True)), file=out)
+    for m in metrics:
+        note = _nan_note(ok, m)
+        if note:
+            print(note, file=out)
+
+
+def _groups(ok: list[dict[str, Any]], grid_keys: list[str]) -> dict[tuple[Any, ...], list[dict[str, Any]]]:
+    """Rows per controller × world × grid point, in the order they first appear."""
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for row in ok:
+        label = (row["controller"], row["world"], *(_param(row, k) for k in grid_keys))
+        groups.setdefault(tuple(map(str, label)), []).append(row)
+    return groups
+
+
+def _nan_note(ok: list[dict[str, Any]], metric: str) -> str:
+    """``goal_time_s: reached 331/1000 (33 %), mean of those 12.3 s``, or for any other metric
+    with NaN ``x: NaN in 3 of 1000 episodes, left out of its mean``; "" when there is nothing
+    to say."""
+    values = _finite(ok, metric)
+    n = len(ok)
+    if reached_column(metric):
+        share = f"{metric}: reached {len(values)}/{n} ({100 * len(values) / n:.0f} %)"
+        return share + (f", mean of those {_number(_mean(values), unit_of(metric))}" if values else "")
+    if len(values) < n:
+        return f"{metric}: NaN in {n - len(values)} of {n} episodes, left out of its mean"
+    return ""
+
+
+def _param(row: dict[str, Any], key: str) -> Any:
+    return row.get(f"param.{key}")
 
 
 def _nan(value: Any) -> bool:
     return isinstance(value, float) and math.isnan(value)
 
 
+# ------------------------------------------------------------------------------------- plots
+#: Size of one panel of a plot (inches), and the most panels a figure gets in a row.
+PANEL_SIZE = (4.4, 3.2)
+#: The smallest span of a value axis: a near-constant column (all 0.0 m, or 3 bumps) gets an
+#: axis this wide around its value instead of one zoomed in on its rounding noise.
+MIN_SPAN = 0.01
+MIN_SPAN_RELATIVE = 0.05
+#: A "time to" plot writes each grid value's reached count for up to this many controller × world.
+MAX_COUNTED_SERIES = 4
+
+
+def plot_columns(rows: list[dict[str, Any]]) -> list[str]:
+    """The columns :func:`plots` draws: every metric, each "time to" one after its reached share."""
+    out = []
+    for metric in metric_columns(rows):
+        reached = reached_column(metric)
+        if reached and any(reached in row for row in rows):
+            out.append(reached)
+        out.append(metric)
+    return out
+
+
 def plots(rows: list[dict[str, Any]], grid_keys: list[str], folder: Path) -> list[Path]:
-    """One PNG per metric: against the first grid parameter (a line per controller × world) when
-    the sweep has a grid, else a box per controller × world over the seeds and poses."""
+    """``<column>.png`` per column of :func:`plot_columns` (see :func:`figure`)."""
+    plt = _pyplot()
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for column in plot_columns(rows):
+        fig = figure(rows, grid_keys, column)
+        path = folder / f"{column}.png"
+        fig.savefig(path, dpi=90)
+        plt.close(fig)
+        written.append(path)
+    return written
+
+
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Figure:
+    """One column of the ok episodes, nothing averaged away: against the first grid parameter (a
+    line of means per controller × world over the episodes' dots), a column of panels per value of
+    the second, a row per combination of the others; without a grid a box per controller × world.
+
+    A ``<event>_reached`` column is drawn as the share of episodes (%); a "time to" metric shows
+    the episodes that reached, and every title says how many of how many those are."""
+    plt = _pyplot()
     ok = [r for r in rows if r.get("status") == "ok"]
-    folder.mkdir(parents=True, exist_ok=True)
-    written = []
-    series: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    col_values = _values(ok, grid_keys[1]) if len(grid_keys) > 1 else [None]
+    row_values = list(itertools.product(*(_values(ok, k) for k in grid_keys[2:])))
+    fig, axes = plt.subplots(
+        len(row_values),
+        len(col_values),
+        figsize=(max(7.0, 1.2 + PANEL_SIZE[0] * len(col_values)), 1.0 + PANEL_SIZE[1] * len(row_values)),
+        sharex=True,
+        sharey=True,
+        squeeze=False,
+    )
+    series = list(dict.fromkeys((r["controller"], r["world"]) for r in ok))
+    for i, row_value in enumerate(row_values):
+        for j, col_value in enumerate(col_values):
+            facet = dict(zip(grid_keys[2:], row_value, strict=True))
+            if len(grid_keys) > 1:
+                facet = {grid_keys[1]: col_value, **facet}
+            members = [r for r in ok if all(_param(r, k) == v for k, v in facet.items())]
+            ax = axes[i][j]
+            _panel(ax, members, ok, grid_keys[:1], column, series)
+            ax.set_title(_panel_title(facet, members, column), fontsize="medium")
+            if i == len(row_values) - 1 and grid_keys:
+                ax.set_xlabel(_axis_label(grid_keys[0]))
+        axes[i][0].set_ylabel(_axis_label(column, share=_is_share(column, ok)))
+    _value_axis(axes[0][0], ok, column)
+    if grid_keys and reached_column(column):  # room at the foot for the reached counts
+        bottom, top = axes[0][0].get_ylim()
+        axes[0][0].set_ylim(bottom - 0.2 * (top - bottom), top)
+    if len(series) > 1 and grid_keys:
+        axes[0][-1].legend(fontsize="small")
+    fig.suptitle(_figure_title(rows, ok, column))
+    fig.tight_layout()
+    return fig
+
+
+def _is_share(column: str, ok: list[dict[str, Any]]) -> bool:
+    """A yes/no column (``goal_reached``): drawn as the share of episodes."""
+    values = [r.get(column) for r in ok if r.get(column) is not None]
+    return bool(values) and all(isinstance(v, bool) for v in values)
+
+
+def _values(ok: list[dict[str, Any]], key: str) -> list[Any]:
+    """The grid parameter's values, sorted when they are numbers, else in the sweep's order."""
+    values: list[Any] = []
     for row in ok:
-        series.setdefault((row["controller"], row["world"]), []).append(row)
-    for metric in metric_columns(rows, grid_keys):
-        fig, ax = plt.subplots(figsize=(7, 4.2))
-        if grid_keys and all(isinstance(r.get(f"param.{grid_keys[0]}"), int | float) for r in ok):
-            key = f"param.{grid_keys[0]}"
-            for (controller, world), members in series.items():
-                xs = sorted({r[key] for r in members})
-                means = []
-                for x in xs:
-                    values = [r[metric] for r in members if r[key] == x and not _nan(r[metric])]
-                    means.append(sum(values) / len(values) if values else math.nan)
-                ax.plot(xs, means, marker="o", label=f"{controller} / {world}")
-            ax.set_xlabel(grid_keys[0])
-            ax.legend(fontsize="small")
+        if _param(row, key) not in values:
+            values.append(_param(row, key))
+    return sorted(values) if all(_is_number(v) for v in values) else values
+
+
+def _panel(
+    ax: Axes,
+    members: list[dict[str, Any]],
+    ok: list[dict[str, Any]],
+    x_key: list[str],
+    column: str,
+    series: list[tuple[str, str]],
+) -> None:
+    """One panel: a line per controller × world against ``x_key`` (dots: the episodes), or a box
+    (a bar for a share) per controller × world without one."""
+    share = _is_share(column, ok)
+    if not x_key:
+        groups = [[r for r in members if (r["controller"], r["world"]) == s] for s in series]
+        data = [_shares(g, column) if share else _finite(g, column) for g in groups]
+        positions = list(range(1, len(series) + 1))
+        if share:
+            bars = ax.bar(positions, [_mean(d) for d in data], color="C0", width=0.6)
+            ax.bar_label(bars, [f"{int(sum(d) / 100)}/{len(d)}" for d in data])
         else:
-            labels = [f"{c}\n{w}" for c, w in series]
-            data = [[r[metric] for r in members if not _nan(r[metric])] for members in series.values()]
-            ax.boxplot(data, tick_labels=labels)
-            ax.tick_params(axis="x", labelsize="small")
-        ax.set_ylabel(metric)
-        ax.set_title(f"{metric} ({len(ok)} episodes)")
-        ax.grid(alpha=0.3)
-        fig.tight_layout()
-        path = folder / f"{metric}.png"
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-        written.append(path)
-    return written
+            filled = [(p, d) for p, d in zip(positions, data, strict=True) if d]
+            if filled:
+                ax.boxplot([d for _, d in filled], positions=[p for p, _ in filled], showfliers=False)
+            for p, d in filled:  # every episode, spread sideways so that equal values stay apart
+                spread = [p + 0.25 * ((i * 0.618) % 1 - 0.5) for i in range(len(d))]
+                ax.scatter(spread, d, s=9, alpha=0.35, color="C0", linewidths=0)
+        ax.set_xticks(positions, [_series_tick(s, g, column) for s, g in zip(series, groups, strict=True)])
+        ax.tick_params(axis="x", labelsize="small")
+        return
+    xs = _values(ok, x_key[0])
+    numeric = all(_is_number(x) for x in xs)
+    positions = xs if numeric else list(range(len(xs)))
+    for k, (controller, world) in enumerate(series):
+        mine = [r for r in members if (r["controller"], r["world"]) == (controller, world)]
+        per_x = [[r for r in mine if _param(r, x_key[0]) == x] for x in xs]
+        data = [_shares(g, column) if share else _finite(g, column) for g in per_x]
+        if not share:
+            dots = [(p, v) for p, d in zip(positions, data, strict=True) for v in d]
+            ax.scatter([p for p, _ in dots], [v for _, v in dots], s=9, alpha=0.3, color=f"C{k}", linewidths=0)
+        means = [_mean(d) for d in data]
+        line = "-" if numeric else "none"  # no line between unordered values
+        ax.plot(positions, means, marker="o", linestyle=line, color=f"C{k}", label=f"{controller} / {world}")
+        if reached_column(column) and len(series) <= MAX_COUNTED_SERIES:
+            _reached_counts(ax, positions, per_x, data, k)
+    if numeric:
+        ax.ticklabel_format(axis="x", useOffset=False, style="plain")
+        pad = 0.05 * (max(xs) - min(xs)) or 0.5
+        ax.set_xlim(min(xs) - pad, max(xs) + pad)  # every grid value, even one nobody reached at
+    else:
+        ax.set_xticks(positions, [str(x) for x in xs])
+        ax.set_xlim(-0.5, len(xs) - 0.5)
+    ax.grid(alpha=0.3)
+
+
+def _reached_counts(ax: Axes, positions: list[Any], per_x: list[Any], data: list[list[float]], k: int) -> None:
+    """``2/6`` at the foot of each grid value: how many of its episodes reached (series k's colour,
+    one line per series), so that a value none reached shows as 0/6, not as a gap."""
+    foot = ax.get_xaxis_transform()  # x in data, y in axes fractions
+    for p, rows, d in zip(positions, per_x, data, strict=True):
+        if rows:
+            text = f"{len(d)}/{len(rows)}"
+            ax.text(p, 0.03 + 0.07 * k, text, transform=foot, ha="center", fontsize="x-small", color=f"C{k}")
+
+
+def _shares(rows: list[dict[str, Any]], column: str) -> list[float]:
+    """A yes/no column as 100 (yes) and 0 (no), so that their mean is the share in %."""
+    return [100.0 * bool(r[column]) for r in rows if isinstance(r.get(column), bool)]
+
+
+def _series_tick(series: tuple[str, str], rows: list[dict[str, Any]], column: str) -> str:
+    tick = f"{series[0]}\n{series[1]}"
+    if reached_column(column):
+        tick += f"\n{len(_finite(rows, column))}/{len(rows)} reached"
+    return tick
+
+
+def _panel_title(facet: dict[str, Any], members: list[dict[str, Any]], column: str) -> str:
+    """``turn = 0.5, speed = 0.2``: the panel's grid values, and for a "time to" metric how many
+    of its episodes reached the event (the others have no time to draw)."""
+    parts = [f"{k} = {v}" for k, v in facet.items()]
+    if reached_column(column) and facet:  # without facets the figure's title says it
+        parts.append(f"{len(_finite(members, column))} of {len(members)} reached")
+    return ", ".join(parts)
+
+
+def _figure_title(rows: list[dict[str, Any]], ok: list[dict[str, Any]], column: str) -> str:
+    failed = len(rows) - len(ok)
+    title = f"{column}: {len(ok)} episodes"
+    if reached_column(column):
+        reached = len(_finite(ok, column))
+        title = f"{column}: {reached} of {len(ok)} episodes reached ({len(ok) - reached} never: not drawn)"
+    elif _is_share(column, ok):
+        title = f"{column}: share of {len(ok)} episodes"
+    else:
+        missing = len(ok) - len(_finite(ok, column))
+        title += f" ({missing} NaN not drawn)" if missing else ""
+    return title + (f"; {failed} failed, not drawn" if failed else "")
+
+
+def _axis_label(name: str, share: bool = False) -> str:
+    """``goal_time_s`` → ``goal time (s)``; a share → ``goal reached (% of episodes)``."""
+    stem, unit = split_unit(name.removeprefix("param."))
+    if share:
+        unit = "% of episodes"
+    return f"{stem.replace('_', ' ')} ({unit})" if unit else stem.replace("_", " ")
+
+
+def _value_axis(ax: Axes, ok: list[dict[str, Any]], column: str) -> None:
+    """Plain tick labels (no offset, no 1e-8 scale) on the value axis the panels share, at least
+    :data:`MIN_SPAN` wide; a share spans 0–100 %, whole numbers get whole ticks."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.ticklabel_format(axis="y", useOffset=False, style="plain")
+    if _is_share(column, ok):
+        ax.set_ylim(-3, 103)
+        return
+    values = _finite(ok, column)
+    if not values:
+        ax.set_ylim(0, 1)
+        return
+    counts = all(isinstance(v, int) for v in values)
+    if counts:
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    lo, hi = min(values), max(values)
+    # whole numbers: at least two steps, or the locator falls back to 2.5, 2.6...
+    span = max(MIN_SPAN, MIN_SPAN_RELATIVE * max(abs(lo), abs(hi)), 2.0 if counts else 0.0)
+    if hi - lo < span:
+        middle = (lo + hi) / 2
+        bottom = max(middle - span / 2, 0.0) if lo >= 0 else middle - span / 2
+        ax.set_ylim(bottom, bottom + span)
 
 
 class Progress:

@@ -1,0 +1,302 @@
+"""What `robot_sims batch` tells a teacher: the summary, the table's columns, NaN ("never
+happened") counted and shown, plots faceted by every grid parameter with plain axes, and metric
+options checked before anything runs. Pure tests on rows, and one short sweep as a user runs it."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+from typing import Any
+
+import pyarrow.parquet as pq
+import pytest
+
+from sim_runtime.batch import output
+from sim_runtime.batch.sweep import load_sweep
+from sim_runtime.errors import InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+NAN = math.nan
+
+
+def episode(index: int, status: str = "ok", controller: str = "ours", world: str = "map", **columns: Any) -> dict:
+    """A row as an episode logs it: ids, ``param.*`` (``p_<name>=`` keywords), status, metrics."""
+    row: dict[str, Any] = {"episode": index, "key": f"k{index}", "world": world, "controller": controller}
+    row.update({f"param.{k[2:]}": v for k, v in columns.items() if k.startswith("p_")})
+    row.update(seed=0, status=status, error="" if status == "ok" else "RuntimeError: boom", sim_time_s=20.0)
+    if status == "ok":
+        row.update({k: v for k, v in columns.items() if not k.startswith("p_")})
+    return output.with_reached(row)
+
+
+def summary_text(rows: list[dict], grid_keys: list[str] | None = None) -> str:
+    out = io.StringIO()
+    output.summary(rows, grid_keys or [], out)
+    return out.getvalue()
+
+
+GOALS = [
+    episode(0, distance_m=5.0, goal_time_s=12.5),
+    episode(1, distance_m=4.0, goal_time_s=NAN),
+    episode(2, distance_m=3.0, goal_time_s=NAN),
+    episode(3, status="error"),
+]
+
+
+# ------------------------------------------------------------------------------ summary, table
+def test_the_summary_says_how_many_reached_the_goal_and_averages_only_those() -> None:
+    text = summary_text(GOALS)
+    assert "4 episodes: 3 ok, 1 failed" in text
+    assert "goal_time_s: reached 1/3 (33 %), mean of those 12.5 s" in text
+    lines = text.splitlines()
+    table = lines.index("mean per group (a time: over the episodes that reached it):")
+    head, values = lines[table + 1].split(), lines[table + 2].split()
+    assert dict(zip(head, values, strict=True)) == {
+        "controller": "ours",
+        "world": "map",
+        "n": "3",
+        "distance_m": "4",
+        "goal_reached": "1/3",
+        "goal_time_s": "12.5",
+    }
+
+
+def test_a_group_where_nobody_reached_shows_zero_and_no_time() -> None:
+    rows = [episode(0, goal_time_s=NAN), episode(1, goal_time_s=NAN)]
+    text = summary_text(rows)
+    assert "goal_time_s: reached 0/2 (0 %)" in text and "mean of those" not in text
+    assert text.splitlines()[-2].split()[-2:] == ["0/2", "-"]
+
+
+def test_a_nan_in_any_other_metric_is_counted_in_the_summary() -> None:
+    rows = [episode(0, score=1.0), episode(1, score=NAN), episode(2, score=3.0)]
+    assert "score: NaN in 1 of 3 episodes, left out of its mean" in summary_text(rows)
+
+
+def test_the_table_has_a_reached_column_before_each_time_and_keeps_nan(tmp_path: Path) -> None:
+    output.write_table(GOALS, tmp_path)
+    table = pq.read_table(tmp_path / "episodes.parquet")
+    names = table.column_names
+    assert names.index("goal_reached") == names.index("goal_time_s") - 1
+    assert str(table.schema.field("goal_reached").type) == "bool"
+    assert table.column("goal_reached").to_pylist() == [True, False, False, None]  # None: failed episode
+    times = table.column("goal_time_s").to_pylist()
+    assert times[0] == 12.5 and math.isnan(times[1]) and math.isnan(times[2]) and times[3] is None
+    csv_lines = (tmp_path / "episodes.csv").read_text().splitlines()
+    assert csv_lines[2].endswith("false,nan")
+
+
+def test_a_time_metric_of_a_user_named_like_ours_gets_its_reached_column_too() -> None:
+    row = episode(0, dock_time_s=NAN, sim_time_s=3.0)
+    assert row["dock_reached"] is False and "sim_reached" not in row
+
+
+# -------------------------------------------------------------------------------------- plots
+def grid_rows() -> list[dict]:
+    """turn × speed × mode, two episodes each: distance = 10·speed + turn (+ 0.1 for mode b, + 0.01
+    for the second episode), so that averaging any parameter away shows."""
+    rows = []
+    for turn in (0.0, 0.5, 1.0):
+        for speed in (0.2, 0.4):
+            for mode in ("a", "b"):
+                for k in (0, 1):
+                    value = 10 * speed + turn + (0.1 if mode == "b" else 0.0) + 0.01 * k
+                    goal = 3.0 if turn == 0.0 and k == 0 else NAN
+                    fields = {"distance_m": value, "goal_time_s": goal}
+                    rows.append(episode(len(rows), p_turn=turn, p_speed=speed, p_mode=mode, **fields))
+    return rows
+
+
+@pytest.fixture
+def close_figures():
+    yield
+    output._pyplot().close("all")
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_a_plot_has_a_panel_per_value_of_the_second_grid_parameter_and_a_row_per_third() -> None:
+    fig = output.figure(grid_rows(), ["turn", "speed", "mode"], "distance_m")
+    axes = fig.axes
+    assert len(axes) == 4
+    assert [ax.get_title() for ax in axes] == [
+        "speed = 0.2, mode = a",
+        "speed = 0.4, mode = a",
+        "speed = 0.2, mode = b",
+        "speed = 0.4, mode = b",
+    ]
+    for ax, (speed, extra) in zip(axes, [(0.2, 0.0), (0.4, 0.0), (0.2, 0.1), (0.4, 0.1)], strict=True):
+        (line,) = ax.lines
+        assert list(line.get_xdata()) == [0.0, 0.5, 1.0]
+        assert list(line.get_ydata()) == pytest.approx([10 * speed + t + extra + 0.005 for t in (0.0, 0.5, 1.0)])
+    assert axes[2].get_xlabel() == "turn" and axes[0].get_ylabel() == "distance (m)"
+    assert fig.get_suptitle() == "distance_m: 24 episodes"
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_a_near_constant_metric_is_drawn_on_plain_ticks_without_an_offset() -> None:
+    rows = [episode(k, min_clearance_m=1e-8 + k * 1e-16, bumps=3) for k in range(5)]
+    for column in ("min_clearance_m", "bumps"):
+        fig = output.figure(rows, [], column)
+        fig.canvas.draw()
+        (ax,) = fig.axes
+        assert ax.yaxis.get_offset_text().get_text() == ""
+        labels = [t.get_text() for t in ax.get_yticklabels()]
+        assert labels and not any("e" in label.lower() for label in labels), labels
+        bottom, top = ax.get_ylim()
+        assert top - bottom >= output.MIN_SPAN and bottom >= 0  # a clearance axis never goes below 0
+    assert all(float(t.replace("−", "-")).is_integer() for t in labels)  # bumps: whole ticks
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_a_time_plot_says_how_many_reached_and_counts_each_grid_value() -> None:
+    rows = grid_rows()
+    fig = output.figure(rows, ["turn", "speed"], "goal_time_s")
+    assert fig.get_suptitle() == "goal_time_s: 4 of 24 episodes reached (20 never: not drawn)"
+    assert [ax.get_title() for ax in fig.axes] == ["speed = 0.2, 2 of 12 reached", "speed = 0.4, 2 of 12 reached"]
+    counts = [t.get_text() for t in fig.axes[0].texts]
+    assert counts == ["2/4", "0/4", "0/4"]  # turn 0.5 and 1.0: nobody reached, shown as such
+    assert fig.axes[0].get_xlim()[1] > 1.0  # the axis spans every grid value, reached or not
+
+    share = output.figure(rows, ["turn", "speed"], "goal_reached")
+    (line,) = share.axes[0].lines
+    assert list(line.get_ydata()) == [50.0, 0.0, 0.0]
+    assert share.axes[0].get_ylabel() == "goal reached (% of episodes)"
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_without_a_grid_each_controller_and_world_gets_a_box_with_its_reached_count() -> None:
+    rows = [*GOALS, episode(4, controller="alice", distance_m=2.0, goal_time_s=7.0)]
+    fig = output.figure(rows, [], "goal_time_s")
+    ticks = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert ticks == ["ours\nmap\n1/3 reached", "alice\nmap\n1/1 reached"]
+    assert fig.get_suptitle().endswith("; 1 failed, not drawn")
+    assert output.plot_columns(rows) == ["distance_m", "goal_reached", "goal_time_s"]
+
+
+def test_plots_writes_a_png_per_column(tmp_path: Path) -> None:
+    written = output.plots(grid_rows(), ["turn", "speed", "mode"], tmp_path)
+    assert [p.name for p in written] == ["distance_m.png", "goal_reached.png", "goal_time_s.png"]
+    assert all(p.stat().st_size > 10_000 for p in written)
+
+
+@pytest.mark.parametrize(
+    ("name", "label"),
+    [("area_covered_m2", "area covered (m²)"), ("goal_time_s", "goal time (s)"), ("bumps", "bumps")],
+)
+def test_axis_labels_carry_the_unit_of_the_column_name(name: str, label: str) -> None:
+    assert output._axis_label(name) == label
+
+
+# ------------------------------------------------------------------------------ metric options
+USER_METRICS = """
+def reach(data, center: list[float], within_m: float = 0.5):
+    return 0.0
+
+
+def anything(data, **options):
+    return 0.0
+"""
+
+
+@pytest.mark.parametrize(
+    ("metric", "field", "message"),
+    [
+        (
+            "{goal_time_s: {centre: [2, 0]}}",
+            "goal_time_s.centre",
+            "unknown option of goal_time_s (it takes: center, radius_m)",
+        ),
+        ("{goal_time_s: {radius_m: 0.3}}", "goal_time_s.center", "missing: goal_time_s needs it"),
+        ("{goal_time_s: {center: 2}}", "goal_time_s.center", "2: expected [x, y] in metres"),
+        ("{goal_time_s: {center: [1, 2, 3]}}", "goal_time_s.center", "[1, 2, 3]: expected [x, y] in metres"),
+        ("{goal_time_s: {center: [1, 2], radius_m: big}}", "goal_time_s.radius_m", "'big': expected a radius > 0 m"),
+        ("{area_covered_m2: {cell_m: [1]}}", "area_covered_m2.cell_m", "[1]: expected a cell side > 0 m"),
+        ("{bumps: {cell_m: 1}}", "bumps.cell_m", "unknown option of bumps (it takes no options)"),
+        ("{user_metrics_a:reach: {centre: [1, 2]}}", "user_metrics_a:reach.centre", "(it takes: center, within_m)"),
+        (
+            "{user_metrics_a:reach: {center: [1, 2], within_m: true}}",
+            "user_metrics_a:reach.within_m",
+            "expected a number (m)",
+        ),
+    ],
+)
+def test_a_bad_metric_option_names_the_field_the_option_and_the_accepted_ones(
+    tmp_path: Path, metric: str, field: str, message: str
+) -> None:
+    (tmp_path / "user_metrics_a.py").write_text(USER_METRICS, encoding="utf-8")
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(
+        f"worlds: [{{map: create/example.map}}]\ncontrollers: [create_bump_turn]\nduration_s: 1\nmetrics: [{metric}]\n"
+    )
+    with pytest.raises(InputError) as error:
+        load_sweep(sweep)
+    assert str(error.value) == f"{sweep}: field 'metrics[0].{field}': " + str(error.value).split("': ", 1)[1]
+    assert message in str(error.value)
+
+
+def test_good_metric_options_and_a_metric_taking_any_options_load(tmp_path: Path) -> None:
+    (tmp_path / "user_metrics_b.py").write_text(USER_METRICS.replace("reach", "reach_b"), encoding="utf-8")
+    sweep = tmp_path / "sweep.yaml"
+    metrics = "[{goal_time_s: {center: [2, 0]}}, {user_metrics_b:anything: {x: 1}}, {area_covered_m2: {cell_m: 0.1}}]"
+    sweep.write_text(
+        f"worlds: [{{map: create/example.map}}]\ncontrollers: [create_bump_turn]\nduration_s: 1\nmetrics: {metrics}\n"
+    )
+    assert len(load_sweep(sweep).episodes) == 1
+
+
+# ---------------------------------------------------------------------------------- end to end
+CONTROLLER = '''
+def drive(model, params, seed):
+    """Straight at speed, or an arc: only the straight ones reach the goal ahead."""
+    def control(model, t):
+        model.set_velocity(params["speed"], params["turn"])
+
+    return control
+'''
+
+
+def test_a_short_sweep_writes_the_reached_share_in_its_summary_table_and_plots(tmp_path: Path) -> None:
+    (tmp_path / "arc_driver.py").write_text(CONTROLLER, encoding="utf-8")
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(
+        textwrap.dedent(
+            """
+            worlds: [{map: create/example.map}]
+            controllers: [arc_driver:drive]
+            grid: {turn: [0.0, 1.0], speed: [0.2, 0.4]}
+            poses: [[0.0, 0.0, 0.0]]
+            duration_s: 3
+            metrics: [distance_m, min_clearance_m, {goal_time_s: {center: [0.5, 0.0], radius_m: 0.2}}]
+            """
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "sim_runtime.batch.cli", str(sweep), "--workers", "1", "--out", "out", "--quiet"],
+        cwd=tmp_path,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+        text=True,
+        capture_output=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    table = pq.read_table(tmp_path / "out" / "episodes.parquet").to_pylist()
+    by = {(r["param.turn"], r["param.speed"]): r for r in table}
+    # 0.3 m to the goal's edge: 1.5 s at 0.2 m/s, 0.75 s at 0.4 m/s; an arc of radius 0.2 or
+    # 0.4 m never gets 0.3 m ahead
+    assert {k: r["goal_reached"] for k, r in by.items()} == {
+        (0.0, 0.2): True,
+        (0.0, 0.4): True,
+        (1.0, 0.2): False,
+        (1.0, 0.4): False,
+    }
+    times = [by[0.0, 0.2]["goal_time_s"], by[0.0, 0.4]["goal_time_s"]]
+    assert times == pytest.approx([1.5, 0.75], abs=0.02)
+    assert f"goal_time_s: reached 2/4 (50 %), mean of those {sum(times) / 2:.4g} s" in done.stdout
+    assert all(math.isnan(by[1.0, s]["goal_time_s"]) for s in (0.2, 0.4))
+    plots = {p.name for p in (tmp_path / "out" / "plots").iterdir()}
+    assert plots == {"distance_m.png", "min_clearance_m.png", "goal_reached.png", "goal_time_s.png"}
