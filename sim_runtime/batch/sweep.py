@@ -346,7 +346,7 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     pose_specs = _poses(r, data.get("poses"), simulator)
     duration = r.number(data.get("duration_s"), "duration_s", positive=True)
     metrics = _metrics(r, data.get("metrics"))
-    check_metrics(simulator, metrics, lambda where, msg: r.fail(where, msg))
+    check_metrics(simulator, metrics, lambda where, msg: r.fail(where, msg), str(source.resolve().parent))
     for k, entry in enumerate(metrics):
         name = entry if isinstance(entry, str) else next(iter(entry))
         if ":" in name:
