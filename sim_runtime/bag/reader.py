@@ -414,10 +414,12 @@ def open_bag(path: str | Path) -> Bag:
             _warn(f"{meta_path}: unreadable ({type(exc).__name__}: {exc}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
-            if is_regular_file(f):
+            problem = file_problem(f)
+            if problem is None:
                 files.append(f)
             else:
-                _warn(f"{meta_path}: lists {f.name}, which is missing")
+                state = "missing" if problem == "not found" else problem
+                _warn(f"{meta_path}: lists {shown(f.name)}, which is {state}")
     # Splits not in metadata.yaml: the recorder was killed before it could write it.
     files += [f for f in sorted(path.glob("*.mcap"), key=_split_number) if f not in files and is_regular_file(f)]
     if not files:

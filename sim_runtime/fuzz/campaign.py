@@ -28,6 +28,8 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any
 
+from sim_runtime.inputfile import is_regular_file
+
 OUTCOMES = ("ok", "input_error", "defect", "crash", "hang")
 STALL = "stall"
 """A hang its input does not reproduce alone: reported with the hung worker's stacks, not an input failure."""
@@ -148,14 +150,19 @@ def _worker(
         shutil.rmtree(scratch, ignore_errors=True)
 
 
+def _copy_regular_file(source: str, dest: str) -> None:
+    if is_regular_file(source):
+        shutil.copy2(source, dest)
+
+
 def _save(out: Path, name: str, index: int, seed: int, folder: Path, outcome: str, detail: str) -> None:
     """Keep a defect's input (at most 20 per target and outcome) with what happened."""
     kept = out / "defects"
     if len(list(kept.glob(f"{name}-{outcome}-*"))) >= 20 if kept.is_dir() else False:
         return
     dest = kept / f"{name}-{outcome}-{index}"
-    if folder.is_dir():
-        shutil.copytree(folder, dest, dirs_exist_ok=True)
+    if folder.is_dir():  # links as links, FIFOs skipped: copying them would read /dev/zero or wait
+        shutil.copytree(folder, dest, dirs_exist_ok=True, symlinks=True, copy_function=_copy_regular_file)
     dest.mkdir(parents=True, exist_ok=True)
     (dest / "defect.txt").write_text(
         f"target {name}, input {index} of seed {seed}: {outcome}\n"

@@ -55,6 +55,7 @@ INTERESTING_TOKENS = (
     "1e6",
     "-1e6",
     "1000000.1",
+    *("/dev/zero", "/dev/stdin", "/", "n" * 300, "d/" * 2100),  # files no loader may read
 )
 
 #: Values for YAML-tree mutations: numbers at every limit, wrong types, odd keys, deep nesting.
@@ -99,6 +100,7 @@ INTERESTING_VALUES: tuple[Any, ...] = (
     {None: 1},
     {(1, 2): 3},
     [[[[[[[[[[0]]]]]]]]]],
+    *("/dev/zero", "/dev/stdin", ".", "n" * 300, "d/" * 2100, "nul\0name"),  # paths no loader may read
 )
 
 _INTERESTING_INTS = (0, 1, -1, 0x7F, 0x80, 0xFF, 0x7FFF, 0xFFFF, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF)

@@ -558,6 +558,149 @@ def _ensure_ros() -> None:
         _ROS_READY = True
 
 
+# --------------------------------------------------------------------------------- special paths
+#: Paths no loader may hang on, read forever, or crash with an OSError over.
+SPECIAL_PATHS = (
+    "long_name",
+    "long_path",
+    "nul_name",
+    "fifo",
+    "directory",
+    "dev_zero",
+    "zero_link",
+    "link_loop",
+    "missing",
+)
+
+
+def special_path(kind: str, folder: Path, suffix: str = "") -> Path:
+    """A path of ``kind`` (see :data:`SPECIAL_PATHS`) in ``folder``, made on disk where it is a file:
+    a name longer than a file name may be, a path longer than a path may be, a name holding a NUL
+    (a YAML field can: ``"\\0"``), a FIFO (opening it for reading waits for a writer), a directory,
+    ``/dev/zero`` (endless) and a link to it, a link to itself, or nothing."""
+    if kind == "long_name":
+        return folder / ("n" * 300 + suffix)
+    if kind == "long_path":
+        return folder.joinpath(*["d" * 200] * 25, "f" + suffix)
+    if kind == "dev_zero":
+        return Path("/dev/zero")
+    if kind == "nul_name":
+        return folder / f"nul\0name{suffix}"
+    path = folder / f"special_{kind}{suffix}"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "zero_link":
+        path.symlink_to("/dev/zero")
+    elif kind == "link_loop":
+        path.symlink_to(path.name)
+    return path
+
+
+def _bag_with_special_split(rng: random.Random, seeds: Seeds, folder: Path, kind: str) -> Path:
+    """A seed bag whose metadata.yaml lists a special split, or holding one named like a split."""
+    bag = folder / "bag"
+    shutil.copytree(rng.choice(seeds.bags), bag)
+    special = special_path(kind, bag, ".mcap")
+    meta = bag / "metadata.yaml"
+    if rng.random() < 0.5 and meta.exists():
+        tree = yaml.safe_load(meta.read_text(encoding="utf-8"))
+        with contextlib.suppress(KeyError, TypeError):
+            tree["rosbag2_bagfile_information"]["relative_file_paths"].append(os.path.relpath(special, bag))
+        meta.write_text(yaml.safe_dump(tree), encoding="utf-8")
+    return bag
+
+
+def _field_cases(rng: random.Random, seeds: Seeds, folder: Path, special: Path) -> dict[str, Callable[[], object]]:
+    """Files whose field names ``special``: a world's map, a robot config's mesh folder and mesh, a
+    scene's mesh and arm config, a sweep's map file."""
+    world = dict(rng.choice(seeds.worlds), map=str(special))
+    (folder / "world.yaml").write_text(dump_yaml(world), encoding="utf-8")
+    arm = dict(rng.choice(seeds.arm_configs))
+    if rng.random() < 0.5:
+        arm["mesh_folder"] = str(special)
+    else:
+        arm["links"] = [{"link": 0, "elements": [{"mesh": str(special)}]}]
+    (folder / "arm.yaml").write_text(dump_yaml(arm), encoding="utf-8")
+    scene = {"objects": [{"name": "thing", "mesh": str(special)}]}
+    if rng.random() < 0.5:
+        scene = {"arms": [{"name": "a", "config": str(special)}]}
+    (folder / "scene.yaml").write_text(dump_yaml(scene), encoding="utf-8")
+    sweep = {"worlds": [{"map": str(special)}], "controllers": ["create_bump_turn"], "duration_s": 1}
+    (folder / "sweep.yaml").write_text(dump_yaml(sweep), encoding="utf-8")
+    return {
+        "world_map": lambda: _drive_simrobot(rng, folder / "world.yaml"),
+        "arm_mesh": lambda: _drive_arm(rng, folder / "arm.yaml"),
+        "scene_field": lambda: _load_scene(folder / "scene.yaml"),
+        "sweep_map": lambda: _load_sweep(folder / "sweep.yaml"),
+    }
+
+
+def _load_sweep(path: Path) -> None:
+    from sim_runtime.batch.sweep import load_sweep
+
+    load_sweep(path, out=str(path.parent / "sweep_out"))
+
+
+def _loaders(rng: random.Random, folder: Path) -> dict[str, Callable[[Path], object]]:
+    """Each input file kind's loader, as a user's program (or a node) calls it."""
+    from create_sim.configfile import load_config
+    from create_sim.mapfile import load_map
+    from simrobot_sim.world_file import load_bitmap
+
+    return {
+        "map": load_map,
+        "config": load_config,
+        "world": lambda p: _drive_simrobot(rng, p),
+        "bitmap": load_bitmap,
+        "robot_config": lambda p: _drive_arm(rng, p),
+        "scene": _load_scene,
+        "stl": _load_stl,
+        "trajectory": _load_trajectory,
+        "bag": _read_bag,
+        "sweep": _load_sweep,
+    }
+
+
+def _load_trajectory(path: Path) -> None:
+    from arm_sim.trajectory_file import load_trajectory
+
+    load_trajectory(path)
+
+
+def special_path_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
+    """A loader handed a special path (:data:`SPECIAL_PATHS`) directly, through a field of a file,
+    as a bag's split, or as a world node's file parameter: it must refuse it with InputError, at once."""
+    how = rng.choice(("direct", "direct", "field", "bag_split", "parameter"))
+    # A command line cannot hold a NUL: rcl would see the name cut short.
+    kind = rng.choice([k for k in SPECIAL_PATHS if how != "parameter" or k != "nul_name"])
+    special = special_path(kind, folder, rng.choice(("", ".yaml", ".map", ".png", ".stl", ".mcap")))
+    note = f"{kind} {how}"
+    if how == "field":
+        name, run = rng.choice(sorted(_field_cases(rng, seeds, folder, special).items()))
+        return Case(folder, run, f"{note} {name}")
+    if how == "bag_split":
+        bag = _bag_with_special_split(rng, seeds, folder, kind)
+        return Case(folder, lambda: _read_bag(bag), note)
+    if how == "parameter":
+        exe, name = rng.choice(_FILE_PARAMETERS)
+        args = ["--ros-args", "-p", f"{name}:={special}"]
+        return Case(folder, lambda: _run_world_node(exe, args, steps=1), f"{note} {exe} {name}")
+    name, load = rng.choice(sorted(_loaders(rng, folder).items()))
+    return Case(folder, lambda: load(special), f"{note} {name}")
+
+
+#: (world executable, a file parameter of it).
+_FILE_PARAMETERS = (
+    ("create_world", "map_file"),
+    ("create_world", "config_file"),
+    ("simrobot_world", "world_file"),
+    ("arm", "robot_config_file"),
+    ("arm", "scene_file"),
+)
+
+
 # ----------------------------------------------------------------------------------------- table
 TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case]]] = {
     "create_map": (16, create_map_case),
@@ -572,6 +715,7 @@ TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case]]] =
     "bag_to_rerun": (6, bag_to_rerun_case),
     "replay": (4, replay_case),
     "node_parameters": (4, node_parameters_case),
+    "special_paths": (4, special_path_case),
 }
 """Target name → (relative weight, case maker)."""
 
