@@ -11,12 +11,12 @@ from __future__ import annotations
 import contextlib
 import importlib
 import textwrap
-from typing import Any
-
-from rclpy.node import Node
+from typing import TYPE_CHECKING, Any
 
 from sim_runtime.executables import EXECUTABLES
-from sim_runtime.params import CheckedNode, ParameterInfo
+
+if TYPE_CHECKING:  # rclpy is imported only to describe a node: `robot_sims urdf` runs without ROS
+    from sim_runtime.params import CheckedNode, ParameterInfo
 
 #: Node executable → (its node class as ``module:Class``, what follows the name in its usage).
 NODE_EXECUTABLES: dict[str, tuple[str, str]] = {
@@ -61,6 +61,8 @@ def _nothing(*_args: Any, **_kwargs: Any) -> _Nothing:
 
 def describing(cls: type[CheckedNode]) -> type[CheckedNode]:
     """A subclass of ``cls`` whose instances declare their parameters and nothing else."""
+    from rclpy.node import Node
+
     members: dict[str, Any] = {"describe_only": True, "get_namespace": lambda _self: "/"}
     members["get_name"] = lambda _self: cls.__name__
     for name, member in vars(Node).items():

@@ -22,6 +22,7 @@ import numpy as np
 import yaml
 
 from sim_runtime.fuzz.mutate import dump_yaml, mutate_bytes, mutate_text, mutate_tree
+from sim_runtime.node_help import NODE_EXECUTABLES
 from sim_runtime.paths import config_path
 
 
@@ -472,11 +473,7 @@ def _replay(argv: list[str]) -> None:
 
 
 #: Executable → its world node class, as ``module:Class`` (what ``robot_sims <exe>`` builds).
-_WORLD_NODES = {
-    "create_world": "create_sim.world_node:CreateWorldNode",
-    "simrobot_world": "simrobot_sim.world_node:SimrobotWorldNode",
-    "arm": "arm_sim.arm_node:ArmNode",
-}
+_WORLD_NODES = {exe: NODE_EXECUTABLES[exe][0] for exe in ("create_world", "simrobot_world", "arm")}
 _PARAMETER_VALUES = (
     *("0", "-1", "1", "0.5", "1e300", "-1e300", ".nan", ".inf", "-.inf", "1e-300", "9" * 400, "-" + "9" * 30),
     *("true", "false", "''", "abc", "[]", "[1.0, 2.0]", "[.nan, 0.0, 0.0]", "[1e300, 0.0, 0.0]", "[0.0, 0.0, 0.0]"),
