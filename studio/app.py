@@ -11,7 +11,7 @@ from typing import Any
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
-from studio.processes import Child, parse_controller
+from studio.processes import CLOCK, Child, parse_controller, stop_all
 from studio.workspace import Workspace
 
 DEFAULT_CONTROLLERS = {"create_bump_turn": "create_bump_turn"}
@@ -32,6 +32,7 @@ class Studio:
     recorder: Child | None = None
     arm: dict = field(default_factory=dict)  # the arm page's shared client and mesh cache
     recording_to: str = ""
+    recording_status: str = ""  # the Save Data line every tab shows: starting, recording to, saved
 
     def default_robot(self, names: list[str], current: str | None) -> str | None:
         """What a robot selector shows: its current choice, else the studio's, else the first."""
@@ -40,11 +41,78 @@ class Studio:
                 return choice
         return names[0] if names else None
 
+    def world_children(self) -> dict[str, Child]:
+        """namespace → running world the studio started, of every kind (Create, arm, SIMROBOT)."""
+        simrobot = getattr(self, "simrobot", None)
+        started = {**self.worlds, **(simrobot.worlds if simrobot is not None else {})}
+        return {key.removeprefix("arm:"): child for key, child in started.items() if child.running}
+
+    def graph_worlds(self) -> list[tuple[str, str]]:
+        """``(clock topic, namespace)`` of every world on the domain, started here or not."""
+        clocks = getattr(self.ros, "clock_publishers", None)
+        return clocks() if clocks is not None else []
+
+    def namespace_refusal(self, ns: str) -> str | None:
+        """Why a new world may not start in ``ns`` (None: it may): a world already runs there, or
+        in the root where ``/clock`` is taken (a root world cannot move its clock)."""
+        where = ns or "/"
+        child = self.world_children().get(ns)
+        if child is not None:
+            return f"{child.label} already runs in {where}: give another namespace or stop it"
+        graph = self.graph_worlds()
+        if ns in world_namespaces(graph):
+            return f"a world already runs in {where} (started elsewhere): give another namespace"
+        owner = self.clock_owner(graph)
+        if not ns and owner is not None:
+            return f"the world in {owner or '/'} publishes /clock: a world in / would publish a second one"
+        return None
+
+    def clock_owner(self, graph: list[tuple[str, str]] | None = None) -> str | None:
+        """The namespace of the world publishing ``/clock`` (None: nobody does yet)."""
+        for ns, child in self.world_children().items():
+            if child.clock == CLOCK:
+                return ns
+        owners = [ns for topic, ns in (self.graph_worlds() if graph is None else graph) if topic == CLOCK]
+        return owners[0] if owners else None
+
+    def free_namespace(self, stem: str) -> str:
+        """``/<stem>1``, ``/<stem>2``, …: the first namespace no world uses (a new world's default)."""
+        taken = set(self.world_children()) | world_namespaces(self.graph_worlds())
+        n = 1
+        while f"/{stem}{n}" in taken:
+            n += 1
+        return f"/{stem}{n}"
+
     def stop_children(self) -> None:
-        children = [self.recorder, *self.running_controllers.values(), *self.worlds.values()]
-        for child in children:
-            if child is not None:
-                child.stop()
+        """Stop the recorder, controllers and worlds together (Ctrl-C must not wait for each in turn)."""
+        simrobot = getattr(self, "simrobot", None)
+        children = [
+            self.recorder,
+            *self.running_controllers.values(),
+            *self.worlds.values(),
+            *(simrobot.worlds.values() if simrobot is not None else ()),
+        ]
+        stop_all([child for child in children if child is not None])
+
+
+def world_namespaces(graph: list[tuple[str, str]]) -> set[str]:
+    """The namespaces holding a world, from ``(clock topic, publishing node's namespace)`` pairs: a
+    world publishes ``<ns>/clock``, or ``/clock`` from a node in ``ns``."""
+    return {ns if topic == CLOCK else topic.removesuffix(CLOCK) for topic, ns in graph}
+
+
+def recording_clock(graph: list[tuple[str, str]]) -> tuple[str, str]:
+    """The recorder's ``--clock`` and what it means, for the worlds on the domain: one world
+    publishing ``/clock`` → its sim time; several worlds (each its own sim time, speed and pauses)
+    → wall time, the one timeline they share."""
+    worlds = sorted(world_namespaces(graph))
+    if len(worlds) == 1 and any(topic == CLOCK for topic, _ns in graph):
+        return "sim", f"sim time of the world in {worlds[0] or '/'}"
+    if not worlds:
+        return "auto", "no world running: wall time until one publishes /clock"
+    return "wall", f"wall time: {len(worlds)} worlds, each with its own sim time" if len(worlds) > 1 else (
+        f"wall time: the world in {worlds[0]} publishes {worlds[0]}/clock"
+    )
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
@@ -119,6 +187,7 @@ def main(argv: list[str] | None = None) -> int:
         studio.stop_children()
         if studio.ros is not None:
             studio.ros.shutdown()
+            studio.ros = None
 
     app.on_startup(startup)
     app.on_shutdown(shutdown)
@@ -130,15 +199,23 @@ def main(argv: list[str] | None = None) -> int:
     simrobot_page.register(studio)
     simrobot_editor_page.register(studio)
     print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
-    ui.run(
-        host=options.host,
-        port=options.port,
-        title="robot_sims studio",
-        reload=False,
-        show=options.show,
-        show_welcome_message=False,
-        favicon="🤖",
-    )
+    try:
+        ui.run(
+            host=options.host,
+            port=options.port,
+            title="robot_sims studio",
+            reload=False,
+            show=options.show,
+            show_welcome_message=False,
+            favicon="🤖",
+            timeout_graceful_shutdown=1,
+        )
+    except KeyboardInterrupt:
+        # Ctrl-C is how a studio ends: uvicorn has shut down, asyncio re-raises the signal.
+        pass
+    finally:
+        shutdown()  # already done unless the interrupt cut the app's own shutdown short
+    print("robot_sims studio: stopped", flush=True)
     return 0
 
 
@@ -153,6 +230,51 @@ def stop_started_world(worlds: dict, key: str) -> None:
         return
     child.stop()
     ui.notify(f"{child.label} stopped")
+
+
+UNSAVED_GUARD = (
+    "<script>window.addEventListener('beforeunload', (e) => {"
+    " if (window.studioUnsaved) { e.preventDefault(); e.returnValue = ''; } });</script>"
+)
+"""The browser asks before a reload or a closed tab drops a draft the page has marked unsaved."""
+
+
+class DraftGuard:
+    """A page whose draft (a map, a config, a world) can be unsaved: it says what its draft is
+    (:meth:`draft`); :meth:`note_draft` after each edit tells the browser whether leaving the page
+    would lose it, :meth:`draft_saved` after a load or save."""
+
+    saved_draft: object = None
+    unsaved = False
+
+    def draft(self) -> object:
+        raise NotImplementedError
+
+    def guard_drafts(self) -> None:
+        """On building the page: the browser's warning, and the draft as it starts (nothing to lose)."""
+        from nicegui import ui
+
+        ui.add_body_html(UNSAVED_GUARD)
+        self.saved_draft = self.draft()
+
+    def note_draft(self) -> None:
+        unsaved = self.draft() != self.saved_draft
+        if unsaved != self.unsaved:
+            from nicegui import ui
+
+            self.unsaved = unsaved
+            ui.run_javascript(f"window.studioUnsaved = {'true' if unsaved else 'false'}")
+
+    def draft_saved(self) -> None:
+        self.saved_draft = self.draft()
+        self.note_draft()
+
+
+def at_least(minimum: float) -> dict:
+    """A number field's ``validation``: a value below ``minimum`` stays in the field, in red with
+    this message, and the page's check refuses it (a ``min`` would silently clamp it, and that
+    clamped value would be saved)."""
+    return {f"must be ≥ {minimum:g}": lambda value: value is None or value >= minimum}
 
 
 VIEW_SIZE = (800, 600)

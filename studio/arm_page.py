@@ -28,7 +28,7 @@ from studio.app import Studio, nav, stop_started_world
 from studio.arm_ros import ArmRos, ArmState, Group
 from studio.arm_scene import MESH_ROUTE, MESHES, ArmScene, rotations
 from studio.meshes import DISPLAY_FACES
-from studio.processes import Child, yaml_string
+from studio.processes import Child, clock_topic, namespace_args, yaml_string
 
 FRAME_PERIOD_S = 0.05
 VIEW_SIZE = (820, 620)
@@ -107,13 +107,11 @@ def resolve_config(studio: Studio, name: str, what: str) -> str:
     raise InputError(f"{name!r}: no {what} in the workspace {studio.workspace.root} nor among the shipped configs")
 
 
-def arm_world_ros_args(ns: str, robot_config: str, scene_file: str) -> list[str]:
-    """``--ros-args`` of an arm world in namespace ``ns`` ('' = root): its clock goes to ``<ns>/clock``."""
+def arm_world_ros_args(ns: str, robot_config: str, scene_file: str, owns_clock: bool = False) -> list[str]:
+    """``--ros-args`` of an arm world in namespace ``ns`` ('' = root), its clock on :func:`clock_topic`."""
     args = ["--ros-args", "-p", f"robot_config_file:={yaml_string(robot_config)}"]
     args += ["-p", f"scene_file:={yaml_string(scene_file)}"]
-    if ns:
-        args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
-    return args
+    return args + namespace_args(ns, owns_clock)
 
 
 class ArmPage:
@@ -207,7 +205,7 @@ class ArmPage:
             self.world_scene = ui.input("scene file (empty = none; e.g. arm/workcell.yaml)").classes(
                 "w-full studio-arm-scene"
             )
-            self.world_ns = ui.input("namespace", value="").classes("w-40 studio-arm-ns")
+            self.world_ns = ui.input("namespace", value=self.studio.free_namespace("arm")).classes("w-40 studio-arm-ns")
             with ui.row().classes("gap-2"):
                 ui.button("Start arm world", on_click=self.start_world).props("dense").classes("studio-arm-start")
                 ui.button("Stop arm world", on_click=self.stop_world).props("dense outline")
@@ -479,13 +477,20 @@ class ArmPage:
             return
         key = f"arm:{ns}"
         ros = self.ros()
-        if (key in studio.worlds and studio.worlds[key].running) or (ros is not None and ns in ros.arms):
-            self.world_label.set_text(f"error: an arm world already runs in {ns or '/'}: give another namespace")
+        refusal = studio.namespace_refusal(ns) or (
+            f"an arm world already runs in {ns or '/'}: give another namespace"
+            if ros is not None and ns in ros.arms
+            else None
+        )
+        if refusal:
+            self.world_label.set_text(f"error: {refusal}")
             return
+        owns_clock = studio.clock_owner() is None
         child = Child(
             f"arm {ns or '/'}",
-            executable_command("arm", arm_world_ros_args(ns, config, scene)),
+            executable_command("arm", arm_world_ros_args(ns, config, scene, owns_clock)),
             cwd=studio.workspace.root,
+            clock=clock_topic(ns, owns_clock),
         )
         studio.worlds[key] = child
         self.world_label.set_text(f"starting an arm world in {ns or '/'}…")
@@ -505,7 +510,8 @@ class ArmPage:
         self.built_joints = ()
         if ns in self.arm_select.options:
             self.arm_select.set_value(ns)
-        ui.notify(f"arm world started in {ns or '/'}")
+        self.world_ns.set_value(studio.free_namespace("arm"))
+        ui.notify(f"arm world started in {ns or '/'} (its clock: {child.clock})")
 
     def stop_world(self) -> None:
         ns = self.selected or ""

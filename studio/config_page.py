@@ -8,7 +8,7 @@ from nicegui import ui
 
 from create_sim.configfile import SENSORS, NoiseConfig, parse_config
 from sim_runtime.errors import InputError
-from studio.app import Studio, nav
+from studio.app import Studio, at_least, nav
 from studio.file_page import FilePage
 
 MEANINGS = {
@@ -44,11 +44,15 @@ class ConfigMakerPage(FilePage):
                 for name in SENSORS:
                     ui.label(name)
                     mean = ui.number(value=0.0, format="%g", step=0.01).classes(f"w-28 studio-{name}-mean")
-                    std = ui.number(value=0.0, format="%g", step=0.01, min=0.0).classes(f"w-28 studio-{name}-std")
+                    std = ui.number(value=0.0, format="%g", step=0.01, validation=at_least(0.0)).classes(
+                        f"w-28 studio-{name}-std"
+                    )
                     ui.label(MEANINGS[name]).classes("text-sm text-gray-600")
                     self.fields[name] = (mean, std)
                 ui.label("com_delay")
-                self.delay = ui.number(value=0.0, format="%g", step=0.01, min=0.0).classes("w-28 studio-com-delay")
+                self.delay = ui.number(value=0.0, format="%g", step=0.01, validation=at_least(0.0)).classes(
+                    "w-28 studio-com-delay"
+                )
                 ui.label("")
                 ui.label("seconds, commands and readings").classes("text-sm text-gray-600")
             self.file_controls(
@@ -59,6 +63,15 @@ class ConfigMakerPage(FilePage):
                 lambda: ui.button("Reset to zero", on_click=lambda: self.show(NoiseConfig())).props("dense outline"),
             )
             self.apply_controls("config")
+        for field in (*(f for pair in self.fields.values() for f in pair), self.delay):
+            field.on_value_change(self.note_draft)
+        self.guard_drafts()
+
+    def draft(self) -> object:
+        try:
+            return self.config().to_text()
+        except InputError as err:  # a bad value is a change too
+            return str(err)
 
     def config(self) -> NoiseConfig:
         """The form as a NoiseConfig; InputError naming the field for a bad value."""
@@ -92,6 +105,7 @@ class ConfigMakerPage(FilePage):
                 self.say(f"error: {err}", error=True)
                 return
         self.show(config)
+        self.draft_saved()
         self.own_file = name
         notes = "; ".join(str(w.message) for w in caught)
         self.say(f"loaded {name}" + (f" (warnings: {notes})" if notes else ""), error=bool(notes))

@@ -6,10 +6,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from sim_runtime.errors import InputError
-from studio.app import Studio
+from studio.app import DraftGuard, Studio
 
 
-class FilePage:
+class FilePage(DraftGuard):
     """Base of a page that edits one workspace file: subclasses set ``message_class``, define
     ``load``, ``save`` and ``apply_to_world`` (usually :meth:`apply_file`), and build their file widgets with
     :meth:`file_controls` and :meth:`apply_controls`."""
@@ -58,6 +58,7 @@ class FilePage:
             self.say(f"error: {err}", error=True)
             return False
         self.own_file = name
+        self.draft_saved()
         self.say(f"saved {self.studio.workspace.relative(path)}")
         return True
 

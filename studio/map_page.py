@@ -14,7 +14,7 @@ from studio import draw
 from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
 from studio.file_page import FilePage
 from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
-from studio.workspace import MAX_UPLOAD_BYTES
+from studio.workspace import MAX_UPLOAD_BYTES, upload_text
 
 TOOLS = {
     "select": "Select/move",
@@ -57,6 +57,7 @@ class MapMakerPage(FilePage, ZoomableView):
         self.selected: int | None = None
         self.drag_from: tuple[float, float] | None = None
         self.build()
+        self.guard_drafts()
         self.redraw()
 
     # ---------------------------------------------------------------- layout
@@ -103,6 +104,9 @@ class MapMakerPage(FilePage, ZoomableView):
                         auto_upload=True,
                         max_file_size=MAX_UPLOAD_BYTES,
                         on_upload=self.upload,
+                        on_rejected=lambda: self.say(
+                            f"upload refused: a map file may be at most {MAX_UPLOAD_BYTES:,} bytes", error=True
+                        ),
                     ).props("dense flat").classes("w-full")
                     self.apply_controls("map")
                 self.count_label = ui.label("").classes("text-sm")
@@ -121,6 +125,10 @@ class MapMakerPage(FilePage, ZoomableView):
         )
         self.beacon_id.props(f'placeholder="{self.doc.next_beacon_id()}"')
         self.draw_preview()
+        self.note_draft()
+
+    def draft(self) -> object:
+        return self.doc.to_map().to_text()
 
     def highlight(self, element) -> str:
         if isinstance(element, Segment):
@@ -348,6 +356,7 @@ class MapMakerPage(FilePage, ZoomableView):
         self.doc.load(world)
         self.selected = None
         self.show_selection()
+        self.draft_saved()  # before the redraw: a loaded file is nothing to lose
         self.fit()
         notes = "; ".join(str(w.message) for w in caught)
         self.say(f"loaded {source}" + (f" (warnings: {notes})" if notes else ""), error=bool(notes))
@@ -362,7 +371,12 @@ class MapMakerPage(FilePage, ZoomableView):
         self.own_file = self.file_name.value.strip()
 
     async def upload(self, e) -> None:
-        self.load_text(await e.file.text(), e.file.name)
+        try:
+            text = upload_text(e.file.name, await e.file.read(), "map")
+        except InputError as err:
+            self.say(f"error: {err}", error=True)
+            return
+        self.load_text(text, e.file.name)
 
     def save(self) -> bool:
         return self.save_text(self.doc.to_map().to_text())

@@ -17,6 +17,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 from sim_runtime.cli import executable_command
@@ -28,7 +29,17 @@ RUN_FUNCTION = (
 )
 
 
-__all__ = ["Child", "controller_command", "executable_command", "parse_controller", "world_ros_args", "yaml_string"]
+__all__ = [
+    "Child",
+    "controller_command",
+    "executable_command",
+    "namespace_args",
+    "parse_controller",
+    "stop_all",
+    "world_ros_args",
+    "yaml_string",
+]
+CLOCK = "/clock"
 
 
 def controller_command(target: str, ros_args: list[str]) -> list[str]:
@@ -54,28 +65,42 @@ def yaml_string(value: str) -> str:
     return "'" + value.replace("'", "''") + "'"
 
 
-def world_ros_args(ns: str, map_file: str, config_file: str, pose: tuple[float, float, float]) -> list[str]:
-    """``--ros-args`` of a Create world in namespace ``ns`` ('' = root) with these files and pose.
+def clock_topic(ns: str, owns_clock: bool) -> str:
+    """Where a world in ``ns`` publishes its clock: ``/clock`` if it owns it (or is in the root),
+    else ``<ns>/clock``: one ``/clock`` per domain, so a recording has one timeline."""
+    return CLOCK if owns_clock or not ns else f"{ns}{CLOCK}"
 
-    A namespaced world publishes its clock as ``<ns>/clock`` so several worlds share a domain."""
+
+def namespace_args(ns: str, owns_clock: bool = False) -> list[str]:
+    """The remap rules of a world (or its controller) in ``ns``: ``__ns`` and the clock topic."""
+    if not ns:
+        return []
+    args = ["-r", f"__ns:={ns}"]
+    return args if owns_clock else [*args, "-r", f"{CLOCK}:={clock_topic(ns, False)}"]
+
+
+def world_ros_args(
+    ns: str, map_file: str, config_file: str, pose: tuple[float, float, float], owns_clock: bool = False
+) -> list[str]:
+    """``--ros-args`` of a Create world in namespace ``ns`` ('' = root) with these files and pose,
+    publishing its clock on :func:`clock_topic`."""
     args = [
         "--ros-args",
         "-p", f"map_file:={yaml_string(map_file)}",
         "-p", f"config_file:={yaml_string(config_file)}",
         "-p", f"initial_pose:=[{pose[0]!r}, {pose[1]!r}, {pose[2]!r}]",
     ]  # fmt: skip
-    if ns:
-        args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
-    return args
+    return args + namespace_args(ns, owns_clock)
 
 
 class Child:
     """A child process with the last lines of its output kept for the page (and echoed, prefixed
     with its label, to the studio's own output)."""
 
-    def __init__(self, label: str, argv: list[str], cwd: Path | None = None) -> None:
+    def __init__(self, label: str, argv: list[str], cwd: Path | None = None, clock: str = "") -> None:
         self.label = label
         self.argv = argv
+        self.clock = clock  # the clock topic of a world ('' for controllers and recorders)
         self.output: collections.deque[str] = collections.deque(maxlen=50)
         self.process = subprocess.Popen(
             argv,
@@ -113,11 +138,26 @@ class Child:
         except subprocess.TimeoutExpired:
             return None
 
-    def stop(self, timeout: float = 5.0) -> int | None:
-        """SIGINT (a recorder finishes its bag), then SIGKILL after ``timeout``."""
+    def interrupt(self) -> None:
+        """SIGINT, as Ctrl-C in its terminal (a recorder finishes its bag)."""
         if self.running:
             self.process.send_signal(signal.SIGINT)
-            if self.wait(timeout) is None:
-                self.process.kill()
-                self.wait(2.0)
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        """SIGINT, then SIGKILL after ``timeout``."""
+        stop_all([self], timeout)
         return self.process.returncode
+
+
+def stop_all(children: list[Child], timeout: float = 3.0) -> None:
+    """Stop ``children`` together: SIGINT to all, one shared ``timeout``, then SIGKILL to those
+    left (one after another, five worlds took five times one world's time)."""
+    for child in children:
+        child.interrupt()
+    deadline = time.monotonic() + timeout
+    for child in children:
+        child.wait(max(0.0, deadline - time.monotonic()))
+    for child in children:
+        if child.running:
+            child.process.kill()
+            child.wait(2.0)

@@ -295,6 +295,7 @@ class Replay:
                 m, msg = self._message(topic, i)
                 commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, msg)))
         commands.sort(key=lambda c: -c[0])
+        # Age: how long before the instant shown the message came (never negative: at_or_before).
         latest = [
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
         ]

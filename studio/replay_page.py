@@ -212,7 +212,7 @@ def panel_html(frame: Frame) -> str:
         for t, topic, text in frame.commands
     )
     latest = "".join(
-        f"<tr><td class='pr-2'>{escape(topic)}</td><td class='pr-2 font-mono text-gray-500'>-{age:.2f}</td>"
+        f"<tr><td class='pr-2'>{escape(topic)}</td><td class='pr-2 font-mono text-gray-500'>{age:.2f}</td>"
         f"<td class='font-mono'>{escape(text)}</td></tr>"
         for topic, age, text in frame.latest[:TOPICS_LISTED]
     )

@@ -41,6 +41,7 @@ from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QO
 from sim_runtime.run import make_executor
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
+CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
 #: The node name rmw reports for an endpoint whose participant is not fully discovered yet.
 UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"
 TRACK_POINTS = 2000
@@ -59,6 +60,7 @@ class RobotState:
     pose: tuple[float, float, float] | None = None
     odom: tuple[float, float, float] | None = None
     velocity: tuple[float, float] = (0.0, 0.0)
+    command: tuple[float, float] = (0.0, 0.0)  # the last cmd_vel (v, ω) anyone sent this world
     sim_time: float = 0.0
     rtf: float = float("nan")  # sim seconds per wall second, measured over the last seconds
     scan: tuple[float, float, np.ndarray] | None = None
@@ -182,6 +184,9 @@ class _Robot:
             self.subs.append(
                 sub(Illuminance, s.topic(f"cliff/{name}"), lambda m, n=name: s.cliffs.__setitem__(n, m.illuminance), q)
             )
+        # Every tab, teleop and controller commands the same world: the speed steps start from
+        # its last command, whoever sent it.
+        self.subs.append(sub(Twist, s.topic("cmd_vel"), self._on_command, q))  # best effort: hears any publisher
         self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
         self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
         self.reset = node.create_client(Trigger, s.topic("reset"))
@@ -210,6 +215,9 @@ class _Robot:
         p = msg.pose.pose
         self.state.odom = (p.position.x, p.position.y, yaw_from_quaternion(p.orientation))
         self.state.velocity = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+    def _on_command(self, msg: Twist) -> None:
+        self.state.command = (msg.linear.x, msg.angular.z)
 
     def _on_scan(self, msg: LaserScan) -> None:
         s = self.state
@@ -245,7 +253,7 @@ class StudioRos:
         self.executor.add_node(self.node)
         self._robots: dict[str, _Robot] = {}
         self.robots: dict[str, RobotState] = {}
-        self.node.create_timer(0.5, self._discover)
+        self.node.create_timer(0.5, self._discover_while_open)
         self._thread = threading.Thread(target=self._spin, name="studio-ros", daemon=True)
         self._thread.start()
 
@@ -253,6 +261,14 @@ class StudioRos:
         try:
             while self.context.ok():
                 self.executor.spin_once(timeout_sec=0.1)
+        except Exception:
+            if self.context.ok():
+                raise
+
+    def _discover_while_open(self) -> None:
+        """A discovery round; one cut short by the studio shutting down its context is no error."""
+        try:
+            self._discover()
         except Exception:
             if self.context.ok():
                 raise
@@ -280,12 +296,43 @@ class StudioRos:
     def namespaces(self) -> list[str]:
         return sorted(self.robots)
 
+    def clock_publishers(self) -> list[tuple[str, str]]:
+        """``(clock topic, publishing node's namespace, '' for the root)`` of every world on the domain."""
+        found = []
+        for topic, types in self.node.get_topic_names_and_types():
+            if CLOCK_TYPE in types and topic.endswith("/clock"):
+                found += [(topic, p.node_namespace.rstrip("/")) for p in self.node.get_publishers_info_by_topic(topic)]
+        return found
+
+    def published_topics(self) -> list[str]:
+        """Every topic with a publisher now, but hidden ones (a part starting with ``_``): what a
+        recorder of everything must subscribe to."""
+        node = self.node
+        return [
+            topic
+            for topic, _types in node.get_topic_names_and_types()
+            if node.count_publishers(topic) and not any(part.startswith("_") for part in topic.split("/"))
+        ]
+
+    def not_subscribed(self, topics: list[str], node_name: str) -> list[str]:
+        """Of ``topics``, those that still have a publisher (other than ``node_name``) but no
+        subscription of node ``node_name``: a recorder started a moment ago is not recording them yet."""
+        node, waiting = self.node, []
+        for topic in topics:
+            if not any(p.node_name != node_name for p in node.get_publishers_info_by_topic(topic)):
+                continue
+            if not any(s.node_name == node_name for s in node.get_subscriptions_info_by_topic(topic)):
+                waiting.append(topic)
+        return waiting
+
     # ---------------------------------------------------------------- commands (from the pages)
     def drive(self, ns: str, v: float, w: float) -> None:
         """Publish ``cmd_vel`` (m/s, rad/s) to the Create in ``ns``."""
         msg = Twist()
         msg.linear.x, msg.angular.z = float(v), float(w)
-        self._robots[ns].cmd_vel.publish(msg)
+        robot = self._robots[ns]
+        robot.state.command = (msg.linear.x, msg.angular.z)  # at once: the next key press builds on it
+        robot.cmd_vel.publish(msg)
 
     def set_pose(self, ns: str, x: float, y: float, theta: float) -> None:
         """Publish ``set_pose`` (map frame) to the Create in ``ns``."""

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
+import os
 from html import escape
 
 import numpy as np
@@ -13,8 +15,8 @@ from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, stop_started_world, view_image
-from studio.processes import Child, controller_command, executable_command, world_ros_args
+from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, recording_clock, stop_started_world, view_image
+from studio.processes import Child, clock_topic, controller_command, executable_command, namespace_args, world_ros_args
 
 FRAME_PERIOD_S = 0.04
 """The view is redrawn at most this often (25 frames/s), and only when a new reading came in."""
@@ -45,6 +47,20 @@ KEYS = {
 }
 """Key → (linear steps, angular steps) change, None = stop: the keys of ``create_teleop``."""
 SET_POSE_MIN_DRAG_PX = 5.0
+RECORDER_START_S = 30.0
+"""How long Record waits for the recorder to subscribe to every topic before saying which it lacks."""
+
+
+def command_steps(command: tuple[float, float]) -> list[int]:
+    """The teleop steps (linear, angular) nearest to a world's last command (m/s, rad/s): a key
+    press changes the speed the world was last given, by whichever tab, teleop or controller."""
+    return [round(command[0] / LINEAR_STEP), round(command[1] / ANGULAR_STEP)]
+
+
+def fit_due(fitted_map_seq: int | None, map_seq: int) -> bool:
+    """Whether the view fits (again): the robot is shown for the first time (``fitted_map_seq``
+    None), or it was fitted before its map arrived (a fit to the robot alone is ±1 m around it)."""
+    return fitted_map_seq is None or (fitted_map_seq == 0 and map_seq > 0)
 
 
 def _fmt(value: float | None, digits: int = 3) -> str:
@@ -104,13 +120,12 @@ class SimulatorPage(ZoomableView):
         self.layers = set(LAYERS)
         self.centred = False
         self.mouse_mode = "pan"
-        self.steps = {}  # namespace → [linear steps, angular steps]
         self.drawn_seq = -1
         self.drawn_map = (None, -1)
         self.view_dirty = True
         self.mouse_down: tuple[float, float] | None = None  # pixel of the mouse press
         self.view_at_press = (0.0, 0.0)
-        self.fitted: set[str] = set()
+        self.fitted: dict[str, int] = {}  # namespace → its map_seq when the view was fitted to it
         # Worlds whose end this page has shown. Every open page shows a world's end (a tab left open
         # earlier must not swallow the error of a world started from this one).
         self.endings_shown: set[Child] = set()
@@ -199,7 +214,7 @@ class SimulatorPage(ZoomableView):
                         self.record_button = (
                             ui.button("Record", on_click=self.toggle_recording).props("dense").classes("studio-record")
                         )
-                    self.record_label = ui.label("").classes("text-sm break-all")
+                    self.record_label = ui.label("").classes("text-sm break-all studio-record-label")
                 self.status = ui.html("", sanitize=False).classes("w-full")
         ui.timer(FRAME_PERIOD_S, self.tick)
         ui.timer(0.5, self.slow_tick)
@@ -217,7 +232,9 @@ class SimulatorPage(ZoomableView):
                 self.world_x = ui.number("x (m)", value=0.0, step=0.1).classes("w-20")
                 self.world_y = ui.number("y (m)", value=0.0, step=0.1).classes("w-20")
                 self.world_theta = ui.number("θ (rad)", value=0.0, step=0.1).classes("w-20")
-                self.world_ns = ui.input("namespace", value="").classes("w-28 studio-world-ns")
+                self.world_ns = ui.input("namespace", value=self.studio.free_namespace("create")).classes(
+                    "w-28 studio-world-ns"
+                )
             with ui.row().classes("gap-2"):
                 ui.button("Start world", on_click=self.start_world).props("dense").classes("studio-start-world")
                 ui.button("Stop world", on_click=self.stop_world).props("dense outline")
@@ -259,6 +276,7 @@ class SimulatorPage(ZoomableView):
         st = self.robot()
         if st is not None:
             self.status.set_content(status_html(self.selected, st))
+            self.show_command(st.command)
         for ns, world in list(self.studio.worlds.items()):
             if not world.running and world not in self.endings_shown:
                 self.show_ending(ns, world)
@@ -269,17 +287,15 @@ class SimulatorPage(ZoomableView):
             else (f"{child.label} ended: {child.error_line()}" if child else "manual control")
         )
         if self.studio.recorder is not None:
-            running = self.studio.recorder.running
-            self.record_button.set_text("Stop recording" if running else "Record")
-            self.record_label.set_text(f"{'recording to' if running else 'saved'} {self.studio.recording_to}")
+            self.show_recording()
 
     # ---------------------------------------------------------------- drawing
     def tick(self) -> None:
         st = self.robot()
         if st is None or st.pose is None:
             return
-        if self.selected not in self.fitted:
-            self.fitted.add(self.selected)
+        if fit_due(self.fitted.get(self.selected), st.map_seq):
+            self.fitted[self.selected] = st.map_seq
             self.fit()
         if self.centred:
             self.view.centre_x, self.view.centre_y = st.pose[0], st.pose[1]
@@ -405,9 +421,8 @@ class SimulatorPage(ZoomableView):
             return
         v = round(e.y * MAX_LINEAR_STEPS * LINEAR_STEP, 2)
         w = round(-e.x * MAX_ANGULAR_STEPS * ANGULAR_STEP, 2)
-        self.steps[self.selected] = [0, 0]
         self.studio.ros.drive(self.selected, v, w)
-        self.command_label.set_text(f"v {v:.2f} m/s, ω {w:.2f} rad/s")
+        self.show_command((v, w))
 
     def controller_running(self) -> bool:
         child = self.studio.running_controllers.get(self.selected or "")
@@ -420,7 +435,7 @@ class SimulatorPage(ZoomableView):
         if self.controller_running():
             ui.notify("a controller is driving: Stop it for manual control", type="warning")
             return
-        steps = self.steps.setdefault(self.selected, [0, 0])
+        steps = command_steps(self.robot().command)
         steps[0] = max(-MAX_LINEAR_STEPS, min(MAX_LINEAR_STEPS, steps[0] + linear))
         steps[1] = max(-MAX_ANGULAR_STEPS, min(MAX_ANGULAR_STEPS, steps[1] + angular))
         self.send(steps)
@@ -428,13 +443,15 @@ class SimulatorPage(ZoomableView):
     def stop(self) -> None:
         if self.selected is None or self.robot() is None:
             return
-        self.steps[self.selected] = [0, 0]
         self.send([0, 0])
 
     def send(self, steps: list[int]) -> None:
         v, w = steps[0] * LINEAR_STEP, steps[1] * ANGULAR_STEP
         self.studio.ros.drive(self.selected, v, w)
-        self.command_label.set_text(f"v {v:.2f} m/s, ω {w:.2f} rad/s")
+        self.show_command((v, w))
+
+    def show_command(self, command: tuple[float, float]) -> None:
+        self.command_label.set_text(f"v {command[0]:.2f} m/s, ω {command[1]:.2f} rad/s")
 
     async def press(self, button: int, down: bool) -> None:
         if self.robot() is None:
@@ -447,12 +464,14 @@ class SimulatorPage(ZoomableView):
     async def reset(self) -> None:
         if self.robot() is None:
             return
-        self.steps[self.selected] = [0, 0]
         try:
             ui.notify(await self.studio.ros.reset(self.selected))
         except TimeoutError as err:
             ui.notify(str(err), type="negative")
-        self.robot().track.clear()
+        st = self.robot()
+        if st is not None:
+            st.track.clear()
+            st.command = (0.0, 0.0)  # the reset world stands still
 
     async def on_pause(self, e) -> None:
         """Hold or release the selected world (its live ``paused`` parameter)."""
@@ -499,15 +518,20 @@ class SimulatorPage(ZoomableView):
         except InputError as err:
             self.world_label.set_text(f"error: {err}")
             return
-        if (ns in studio.worlds and studio.worlds[ns].running) or ns in studio.ros.robots:
-            self.world_label.set_text(
-                f"error: a world already runs in {ns or '/'}: give another namespace (e.g. /robot2) or stop it"
-            )
+        refusal = studio.namespace_refusal(ns) or (
+            f"a Create world already runs in {ns or '/'}: give another namespace or stop it"
+            if ns in studio.ros.robots
+            else None
+        )
+        if refusal:
+            self.world_label.set_text(f"error: {refusal}")
             return
+        owns_clock = studio.clock_owner() is None
         child = Child(
             f"create_world {ns or '/'}",
-            executable_command("create_world", world_ros_args(ns, map_file, config_file, pose)),
+            executable_command("create_world", world_ros_args(ns, map_file, config_file, pose, owns_clock)),
             cwd=ws.root,
+            clock=clock_topic(ns, owns_clock),
         )
         studio.worlds[ns] = child
         self.world_label.set_text(f"starting a world in {ns or '/'}…")
@@ -524,9 +548,10 @@ class SimulatorPage(ZoomableView):
         self.selected = self.studio.selected = ns
         if ns in self.robot_select.options:
             self.robot_select.set_value(ns)
-        self.fitted.discard(ns)
+        self.fitted.pop(ns, None)
         self.view_dirty = True
-        ui.notify(f"world started in {ns or '/'}")
+        self.world_ns.set_value(studio.free_namespace("create"))
+        ui.notify(f"world started in {ns or '/'} (its clock: {child.clock})")
 
     def stop_world(self) -> None:
         stop_started_world(self.studio.worlds, self.selected or "")
@@ -542,7 +567,9 @@ class SimulatorPage(ZoomableView):
             return
         name = self.controller_select.value
         target = self.studio.controllers[name]
-        ros_args = ["-r", f"__ns:={ns}"] if ns else []
+        world = self.studio.world_children().get(ns)
+        # The controller follows its world's clock (a world that does not own /clock publishes <ns>/clock).
+        ros_args = namespace_args(ns, owns_clock=world is None or world.clock == "/clock")
         self.studio.running_controllers[ns] = Child(
             name, controller_command(target, ros_args), cwd=self.studio.workspace.root
         )
@@ -554,17 +581,57 @@ class SimulatorPage(ZoomableView):
             child.stop()
         self.stop()
 
-    def toggle_recording(self) -> None:
+    async def toggle_recording(self) -> None:
         studio = self.studio
         if studio.recorder is not None and studio.recorder.running:
-            studio.recorder.stop(timeout=10.0)
-            self.record_button.set_text("Record")
-            self.record_label.set_text(f"saved {studio.recording_to}")
+            recorder = studio.recorder
+            await asyncio.to_thread(recorder.stop, 10.0)  # the page stays live while the bag is finished
+            studio.recording_status = f"saved {studio.recording_to}"
+            self.show_recording()
             return
         ws = studio.workspace
         name = ws.new_folder_name("studio_data/SimulatorOutputData")
         ws.path(name).parent.mkdir(parents=True, exist_ok=True)
+        topics = studio.ros.published_topics()  # what "recording" promises to be in the bag
+        clock, timeline = recording_clock(studio.graph_worlds())
+        node_name = f"studio_record_{os.getpid()}_{next(RECORDINGS)}"
+        args = ["-o", str(ws.path(name)), "--clock", clock, "--ros-args", "-r", f"__node:={node_name}"]
         studio.recording_to = name
-        studio.recorder = Child("record", executable_command("record", ["-o", str(ws.path(name))]), cwd=ws.root)
-        self.record_button.set_text("Stop recording")
-        self.record_label.set_text(f"recording to {name}")
+        studio.recorder = recorder = Child("record", executable_command("record", args), cwd=ws.root)
+        studio.recording_status = f"starting the recorder for {name}…"
+        self.show_recording()
+        status = await recorder_ready(studio, recorder, node_name, topics, name, timeline)
+        if studio.recorder is recorder and recorder.running:  # not stopped meanwhile
+            studio.recording_status = status
+        self.show_recording()
+
+    def show_recording(self) -> None:
+        recorder = self.studio.recorder
+        running = recorder is not None and recorder.running
+        self.record_button.set_text("Stop recording" if running else "Record")
+        if recorder is not None and not running and self.studio.recording_status.startswith(("starting", "recording")):
+            self.studio.recording_status = f"the recorder ended: {recorder.error_line()}"
+        self.record_label.set_text(self.studio.recording_status)
+
+
+RECORDINGS = itertools.count(1)
+
+
+async def recorder_ready(
+    studio: Studio, recorder: Child, node_name: str, topics: list[str], name: str, timeline: str
+) -> str:
+    """Wait until ``recorder`` (node ``node_name``) subscribes to every topic of ``topics`` still
+    published: only then is the run being recorded (a loaded machine takes seconds to start it).
+    Returns the line the page shows."""
+    deadline = asyncio.get_running_loop().time() + RECORDER_START_S
+    while True:
+        if not recorder.running:
+            return f"the recorder ended: {recorder.error_line()}"
+        if studio.recorder is not recorder:
+            return ""
+        waiting = studio.ros.not_subscribed(topics, node_name)
+        if not waiting:
+            return f"recording to {name} ({timeline})"
+        if asyncio.get_running_loop().time() > deadline:
+            return f"recording to {name} ({timeline}); not yet recording {', '.join(waiting[:5])}"
+        await asyncio.sleep(0.1)

@@ -28,7 +28,7 @@ from sim_runtime.errors import InputError
 from sim_runtime.qos import ANY_PUBLISHER_QOS
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
 from simrobot_sim.world_node import ROBOT_STATE_FIELDS
-from studio.processes import Child
+from studio.processes import Child, stop_all
 from studio.ros_client import StudioRos, new_worlds, node_full_name, parameter
 
 STATES_TYPE = "std_msgs/msg/Float64MultiArray"
@@ -233,8 +233,7 @@ class SimrobotSide:
     selected: str | None = None
 
     def stop(self) -> None:
-        for child in self.worlds.values():
-            child.stop()
+        stop_all(list(self.worlds.values()))
         if self.ros is not None:
             self.ros.shutdown()
 

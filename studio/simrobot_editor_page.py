@@ -18,8 +18,8 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
 from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
-from studio.processes import Child, executable_command, yaml_string
+from studio.app import VIEW_SIZE, DraftGuard, Studio, ZoomableView, at_least, nav, view_image
+from studio.processes import Child, clock_topic, executable_command, namespace_args, yaml_string
 from studio.simrobot_client import side
 from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
 from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg
@@ -41,7 +41,7 @@ def register(studio: Studio) -> None:
         EditorPage(studio)
 
 
-class EditorPage(ZoomableView):
+class EditorPage(ZoomableView, DraftGuard):
     """One tab's editor: its own draft world, view, tool and selection."""
 
     def __init__(self, studio: Studio) -> None:
@@ -58,7 +58,9 @@ class EditorPage(ZoomableView):
         self.map_url = ""
         self.map_unsaved = False
         self.filling = False  # while the form is being filled from the selection (no edits)
+        self.own_world = ""  # the world file this tab opened or saved: Run it may save over it
         self.build()
+        self.guard_drafts()
         self.fit()
 
     # ---------------------------------------------------------------- layout
@@ -71,7 +73,7 @@ class EditorPage(ZoomableView):
                 self.layer = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
                     ui.toggle(TOOLS, value=self.tool, on_change=self.on_tool).props("dense").classes("simrobot-tools")
-                    ui.number("brush (m)", value=self.brush_m, min=0.005, step=0.01, format="%.3f",
+                    ui.number("brush (m)", value=self.brush_m, validation=at_least(0.005), step=0.01, format="%.3f",
                               on_change=self.on_brush).classes("w-24")  # fmt: skip
                     ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
                     ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
@@ -87,27 +89,31 @@ class EditorPage(ZoomableView):
         with ui.expansion("Map and world file", value=True).classes("w-full border"):
             with ui.row().classes("items-center gap-2"):
                 self.map_name = ui.input("bitmap (PNG/BMP)", value="simrobot_map.png").classes("w-48 simrobot-map-name")
-                self.resolution = ui.number("m per cell", value=self.doc.resolution, min=0.0001, format="%g").classes(
-                    "w-24 simrobot-resolution"
-                )
+                self.resolution = ui.number(
+                    "m per cell", value=self.doc.resolution, validation=at_least(0.0001), format="%g"
+                ).classes("w-24 simrobot-resolution")
                 ui.button("Import", on_click=self.import_map).props("dense outline")
                 ui.button("Save bitmap", on_click=self.save_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
-                self.blank_w = ui.number("width (m)", value=3.0, min=0.05, format="%g").classes("w-20")
-                self.blank_h = ui.number("height (m)", value=2.0, min=0.05, format="%g").classes("w-20")
+                self.blank_w = ui.number("width (m)", value=3.0, validation=at_least(0.05), format="%g").classes("w-20")
+                self.blank_h = ui.number("height (m)", value=2.0, validation=at_least(0.05), format="%g").classes(
+                    "w-20"
+                )
                 ui.button("New blank map", on_click=self.new_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
                 self.world_name = ui.input("world file (YAML)", value="simrobot_world.yaml").classes(
                     "w-48 simrobot-world-name"
                 )
                 ui.button("Open", on_click=self.open_world).props("dense outline")
-                self.overwrite = ui.checkbox("overwrite", value=True)
+                self.overwrite = ui.checkbox("overwrite", value=False).classes("simrobot-overwrite")
             with ui.row().classes("items-center gap-2"):
                 self.dt = ui.number(
-                    "dt (s)", value=self.doc.dt, min=0.001, format="%g", on_change=self.on_world
+                    "dt (s)", value=self.doc.dt, validation=at_least(0.001), format="%g", on_change=self.on_world
                 ).classes("w-20")
                 self.lockstep = ui.checkbox("lockstep", value=False, on_change=self.on_world)
-                self.ns = ui.input("namespace", value="", placeholder="/ (root)").classes("w-28 simrobot-ns")
+                self.ns = ui.input("namespace", value=self.studio.free_namespace("simrobot")).classes(
+                    "w-28 simrobot-ns"
+                )
             with ui.row().classes("items-center gap-2"):
                 ui.button("Validate", on_click=self.validate).props("dense outline")
                 ui.button("Save world", on_click=self.save_world).props("dense color=primary")
@@ -202,6 +208,12 @@ class EditorPage(ZoomableView):
                 parts.append(beams_svg(self.view, robot, sensor, pose, rays_drawn=True))
             parts.append(robot_svg(self.view, robot, pose, selected=i == self.selected, label=robot.name))
         self.layer.set_content("".join(parts))
+        self.note_draft()
+
+    def draft(self) -> object:
+        """The world as its file says it, and whether its bitmap has unsaved paint."""
+        self.on_world()
+        return self.doc.world_yaml("map"), self.map_unsaved
 
     def fit(self) -> None:
         w, h = self.doc.size_m()
@@ -217,7 +229,7 @@ class EditorPage(ZoomableView):
         self.tool = e.value
 
     def on_brush(self, e) -> None:
-        if e.value:
+        if e.value and e.value >= 0.005:  # a smaller brush stays red in its field, unused
             self.brush_m = float(e.value)
 
     def on_mouse(self, e) -> None:
@@ -467,7 +479,7 @@ class EditorPage(ZoomableView):
 
     # ---------------------------------------------------------------- world
     def on_world(self, _e=None) -> None:
-        if self.dt.value:
+        if self.dt.value is not None:  # a bad dt is the world check's to refuse, with its reason
             self.doc.dt = float(self.dt.value)
         self.doc.lockstep = bool(self.lockstep.value)
 
@@ -534,6 +546,8 @@ class EditorPage(ZoomableView):
         self.map_name.set_value(map_name)
         self.set_doc(WorldDraft.from_spec(spec))
         self.map_unsaved = False
+        self.own_world = name
+        self.draft_saved()
         self.say(f"opened {name}: {len(spec.robots)} robots")
 
     def map_ref(self) -> str:
@@ -568,27 +582,42 @@ class EditorPage(ZoomableView):
         except (InputError, OSError) as err:
             self.say(f"error: {err}", error=True)
             return False
+        self.own_world = name
+        self.draft_saved()
         self.say(f"saved {name} (map {self.map_ref()})")
         return True
 
     async def run_world(self) -> None:
-        if not self.save_world():
-            return
         ws, simrobot = self.studio.workspace, self.side
         ns = (self.ns.value or "").strip().rstrip("/")
         if ns and not ns.startswith("/"):
             ns = "/" + ns
         running = simrobot.worlds.get(ns)
-        if running is not None and running.running:
-            running.stop()  # "Run it" again runs the edited world
+        rerun = running is not None and running.running  # "Run it" again runs the edited world
+        refusal = None if rerun else self.studio.namespace_refusal(ns)
+        if refusal:
+            self.say(f"error: {refusal}", error=True)
+            return
+        if (self.world_name.value or "").strip() == self.own_world:
+            self.overwrite.set_value(True)  # the file this tab opened or saved: bring it up to date
+        if not self.save_world():
+            return
+        # A re-run keeps the clock its world had; a new world owns /clock if nobody does.
+        owns_clock = running.clock == "/clock" if rerun else self.studio.clock_owner() is None
+        if rerun:
+            running.stop()
         old = simrobot.ros.worlds.get(ns) if simrobot.ros is not None else None
         if simrobot.ros is not None:
             simrobot.ros.forget(ns)
         path = ws.path(self.world_name.value or "")
         args = ["--ros-args", "-p", f"world_file:={yaml_string(str(path))}"]
-        if ns:
-            args += ["-r", f"__ns:={ns}", "-r", f"/clock:={ns}/clock"]
-        child = Child(f"simrobot_world {ns or '/'}", executable_command("simrobot_world", args), cwd=ws.root)
+        args += namespace_args(ns, owns_clock)
+        child = Child(
+            f"simrobot_world {ns or '/'}",
+            executable_command("simrobot_world", args),
+            cwd=ws.root,
+            clock=clock_topic(ns, owns_clock),
+        )
         simrobot.worlds[ns] = child
         simrobot.selected = ns
         self.say(f"starting simrobot_world on {self.world_name.value} in {ns or '/'}…")

@@ -11,6 +11,21 @@ MAX_UPLOAD_BYTES = 1_000_000
 """Map and config files are a few kB; anything larger is refused before it is read."""
 
 
+def upload_text(name: str, data: bytes, kind: str) -> str:
+    """An uploaded file's text; InputError naming the file when it is too large or not text."""
+    if len(data) > MAX_UPLOAD_BYTES:
+        raise InputError.at(name, None, f"{kind} file is {len(data)} bytes, more than the limit {MAX_UPLOAD_BYTES}")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError.at(
+            name, None, f"not a text file (byte {err.start} is not UTF-8): a {kind} file is text"
+        ) from None
+    if "\x00" in text:
+        raise InputError.at(name, None, f"not a text file (it holds NUL bytes): a {kind} file is text")
+    return text
+
+
 class Workspace:
     """Files under ``root`` only: absolute paths, ``..`` and symlinks that lead outside are refused."""
 

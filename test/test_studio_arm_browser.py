@@ -54,8 +54,9 @@ def workspace(tmp_path_factory) -> Path:
 def listener():
     """The test's own ROS node in the studio's domain: the arm's joint states and flange pose."""
     with listener_node(STUDIO_DOMAIN, "studio_arm_test_listener") as (executor, node):
-        joints = Collector(node, JointState, "/joint_states", ANY_PUBLISHER_QOS)
-        pose = Collector(node, PoseStamped, "/end_effector_pose", ANY_PUBLISHER_QOS)
+        # The page's first arm world goes to its default namespace, /arm1.
+        joints = Collector(node, JointState, "/arm1/joint_states", ANY_PUBLISHER_QOS)
+        pose = Collector(node, PoseStamped, "/arm1/end_effector_pose", ANY_PUBLISHER_QOS)
         yield executor, joints, pose
 
 
@@ -79,6 +80,7 @@ def test_the_arm_page_starts_an_irb120_world_and_draws_its_seven_meshes(browser,
     wait(browser, lambda d: d.execute_script("return document.readyState") == "complete")
     click(browser, ".studio-new-arm-world .q-item")
     wait(browser, lambda d: find(d, ".studio-arm-config input").get_attribute("value") == "arm/irb120.yaml")
+    assert find(browser, ".studio-arm-ns input").get_attribute("value") == "/arm1"
     click(browser, ".studio-arm-start")
     assert spin_until(executor, lambda: joints.last is not None, timeout=60.0), text_of(browser, "body")
     wait(browser, lambda d: "7 of 7 elements drawn" in text_of(d, ".studio-arm-meshes"), timeout=30.0)

@@ -10,7 +10,11 @@ from __future__ import annotations
 
 import math
 import os
+import signal
+import socket
 import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -19,7 +23,8 @@ from studio_browser_support import NO_CHROMIUM
 if NO_CHROMIUM:
     pytest.skip(NO_CHROMIUM, allow_module_level=True)
 
-from geometry_msgs.msg import PoseStamped
+import yaml
+from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.srv import GetParameters
 from selenium.webdriver.common.action_chains import ActionChains
@@ -28,8 +33,10 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from studio_browser_support import (
     ROOT,
+    click,
     click_text,
     find,
+    free_port,
     listener_node,
     open_page,
     screenshot,
@@ -45,7 +52,7 @@ from create_sim.configfile import load_config
 from create_sim.mapfile import load_map
 from sim_runtime.cli import executable_command
 from sim_runtime.msgs import yaw_from_quaternion
-from sim_runtime.qos import ANY_PUBLISHER_QOS, LATCHED_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
 from sim_runtime.testing import Collector, spin_until
 
 SCALE = 60.0  # the pages' initial px per metre, view centred on (0, 0)
@@ -119,6 +126,29 @@ def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, wo
     assert not (workspace.parent / "escape.map").exists()
 
 
+def test_leaving_the_map_maker_with_an_unsaved_edit_asks_first(browser):
+    # The page cancels the beforeunload event (the browser then asks "Leave site?"); WebDriver
+    # answers that prompt by itself, so the event is sent here as the browser sends it.
+    leaving_asks = (
+        "const e = new Event('beforeunload', {cancelable: true}); window.dispatchEvent(e); return e.defaultPrevented;"
+    )
+    assert browser.execute_script(leaving_asks) is False  # everything saved
+    click_text(browser, "Beacon", ".studio-tools")
+    click_at(browser, find(browser, ".studio-map-view"), -1.0, 1.0)
+    wait(browser, lambda d: d.execute_script(leaving_asks) is True)
+    click_text(browser, "Undo")  # back to the saved map: nothing to lose
+    wait(browser, lambda d: d.execute_script(leaving_asks) is False)
+
+
+def test_an_upload_that_is_binary_or_too_large_says_why_it_was_not_loaded(browser, tmp_path):
+    (tmp_path / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
+    (tmp_path / "huge.map").write_text("% padding\n" * 200_000)  # 2 MB
+    find(browser, ".q-uploader input[type=file]").send_keys(str(tmp_path / "photo.png"))
+    wait(browser, lambda d: "photo.png: not a text file (byte 0 is not UTF-8)" in find(d, ".studio-map-message").text)
+    find(browser, ".q-uploader input[type=file]").send_keys(str(tmp_path / "huge.map"))  # the uploader was redrawn
+    wait(browser, lambda d: "upload refused: a map file may be at most 1,000,000 bytes" in d.page_source)
+
+
 def test_a_new_world_on_the_saved_map_shows_the_lidar_hitting_its_walls(browser, studio_url, listener):
     open_page(browser, studio_url + "/")
     find(browser, ".studio-new-world").click()
@@ -159,6 +189,22 @@ def test_the_keyboard_drives_the_create_forward(browser, listener):
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.1), timeout=15.0)
     ActionChains(browser).send_keys(Keys.ENTER).perform()
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+
+
+def test_a_key_press_steps_from_the_worlds_last_command_whoever_sent_it(browser, listener):
+    executor, odom, _pose = listener
+    ActionChains(browser).send_keys("w").send_keys("w").perform()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.2), timeout=15.0)
+    other_tab = executor.get_nodes()[0].create_publisher(Twist, f"{NS}/cmd_vel", COMMAND_PUBLISHER_QOS)
+    other_tab.publish(Twist())  # another tab, teleop or controller stops the robot
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    wait(browser, lambda d: "v 0.00 m/s" in find(d, "body").text)
+    ActionChains(browser).send_keys("w").perform()  # one step up from the stop: 0.1, not 0.3
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x > 0.0, timeout=15.0)
+    assert odom.last.twist.twist.linear.x == pytest.approx(0.1)
+    ActionChains(browser).send_keys(" ").perform()
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    executor.get_nodes()[0].destroy_publisher(other_tab)
 
 
 def test_dragging_in_set_position_mode_sets_the_pose(browser, listener):
@@ -214,6 +260,12 @@ def test_a_world_on_a_missing_map_shows_its_one_line_error(browser, studio_url):
 
 def test_the_config_maker_saves_an_edited_noise_value(browser, studio_url, workspace):
     open_page(browser, studio_url + "/config")
+    type_into(browser, ".studio-lidar-std", "-1")
+    type_into(browser, ".studio-config-file", "negative.cfg")
+    find(browser, ".studio-config-save").click()
+    wait(browser, lambda d: "lidar std -1.0 must be >= 0" in find(d, ".studio-config-message").text)
+    assert find(browser, ".studio-lidar-std input").get_attribute("value") == "-1"  # kept, not made 0
+    assert "must be ≥ 0" in find(browser, ".studio-lidar-std").text and not (workspace / "negative.cfg").exists()
     type_into(browser, ".studio-lidar-std", "0.05")
     type_into(browser, ".studio-com-delay", "0.1")
     type_into(browser, ".studio-config-file", "noisy.cfg")
@@ -319,11 +371,104 @@ def test_a_world_started_in_another_terminal_appears_beside_the_selected_one_and
     wait(browser, lambda d: "/other" not in d.execute_script(drawn), timeout=30.0)
 
 
-def test_save_data_records_the_run_into_a_new_folder(browser, studio_url, workspace):
+def test_a_second_world_gets_the_next_free_namespace_and_clock_and_an_occupied_one_is_refused(
+    browser, studio_url, listener
+):
+    executor, _odom, _pose = listener
+    node = executor.get_nodes()[0]
     open_page(browser, studio_url + "/")
+    find(browser, ".studio-new-world").click()
+    wait(browser, lambda d: find(d, ".studio-world-ns input").get_attribute("value") == "/create1")
+    type_into(browser, ".studio-world-map", "box.map")
+    find(browser, ".studio-start-world").click()
+    assert spin_until(executor, lambda: node.count_publishers("/create1/clock") == 1, timeout=60.0)
+    owners = [(p.node_namespace, p.node_name) for p in node.get_publishers_info_by_topic("/clock")]
+    assert owners == [(NS, "create_world")]  # the first world keeps /clock, alone
+    wait(browser, lambda d: find(d, ".studio-world-ns input").get_attribute("value") == "/create2")
+    type_into(browser, ".studio-world-ns", NS)
+    find(browser, ".studio-start-world").click()
+    wait(browser, lambda d: f"already runs in {NS}" in find(d, ".studio-world-error").text)
+
+
+def test_save_data_says_recording_once_every_topic_is_subscribed_and_keeps_one_timeline(
+    browser, studio_url, workspace, listener
+):
+    executor, _odom, _pose = listener
+    node = executor.get_nodes()[0]
+    open_page(browser, studio_url + "/")
+    published = [t for t, _types in node.get_topic_names_and_types() if node.count_publishers(t) and "/_" not in t]
+    assert f"{NS}/scan" in published and "/create1/scan" in published
+
+    def recorded(topic: str) -> bool:
+        subscribers = node.get_subscriptions_info_by_topic(topic)
+        return not node.count_publishers(topic) or any(s.node_name.startswith("studio_record_") for s in subscribers)
+
+    started = time.monotonic()
     find(browser, ".studio-record").click()
+    wait(browser, lambda d: find(d, ".studio-record-label").text.startswith("recording to"), timeout=40.0)
+    # What the label promises (our node sees the graph a moment after the studio does).
+    assert spin_until(executor, lambda: all(recorded(t) for t in published), timeout=2.0), [
+        t for t in published if not recorded(t)
+    ]
+    assert "(wall time: 2 worlds, each with its own sim time)" in find(browser, ".studio-record-label").text
     bag = workspace / "studio_data" / "SimulatorOutputData_1"
     wait(browser, lambda d: any(bag.glob("*.mcap")), timeout=20.0)
-    wait(browser, lambda d: "stop recording" in find(d, ".studio-record").text.lower())
     find(browser, ".studio-record").click()
     wait(browser, lambda d: (bag / "metadata.yaml").exists(), timeout=20.0)
+    took = time.monotonic() - started
+    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert 0 < info["duration"]["nanoseconds"] / 1e9 < took  # one timeline: not the sum of two worlds' clocks
+    wait(browser, lambda d: "saved studio_data/SimulatorOutputData_1" in find(d, ".studio-record-label").text)
+
+
+def test_ctrl_c_stops_the_studio_and_its_worlds_with_status_0_within_5_s(browser, tmp_path):
+    domain = studio_domain(54)
+    port = free_port()
+    log = tmp_path / "studio.log"
+    with log.open("w") as out:  # its own session: Ctrl-C reaches the whole group, as in a terminal
+        studio = subprocess.Popen(
+            [sys.executable, "-m", "studio", "--workspace", str(tmp_path), "--port", str(port)],
+            stdout=out, stderr=subprocess.STDOUT, cwd=ROOT, env=studio_env(domain), start_new_session=True,
+        )  # fmt: skip
+    try:
+        wait(browser, lambda d: accepts_connections(port), timeout=60.0)
+        open_page(browser, f"http://127.0.0.1:{port}/")  # a connected tab: the case that ended in a traceback
+        find(browser, ".studio-new-world").click()
+        for n in (1, 2):
+            click(browser, ".studio-start-world")  # once the expansion has opened
+            wait(browser, lambda d, n=n: log.read_text().count("studio: following") == n, timeout=60.0)
+        assert len(worlds_in(domain)) == 2
+        stopped = time.monotonic()
+        os.killpg(studio.pid, signal.SIGINT)
+        status = studio.wait(timeout=20.0)
+        took = time.monotonic() - stopped
+    finally:
+        if studio.poll() is None:
+            os.killpg(studio.pid, signal.SIGKILL)
+            studio.wait()
+    output = log.read_text()
+    assert status == 0 and "Traceback" not in output, output[-3000:]
+    assert took < 5.0
+    assert worlds_in(domain) == []
+
+
+def accepts_connections(port: int) -> bool:
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+    except OSError:
+        return False
+    return True
+
+
+def worlds_in(domain: int) -> list[int]:
+    """Process ids of the create_world processes running on ROS domain ``domain``."""
+    found = []
+    for proc in Path("/proc").iterdir():
+        try:
+            env = (proc / "environ").read_bytes().split(b"\0")
+            cmdline = (proc / "cmdline").read_bytes()
+        except (OSError, ValueError):
+            continue
+        if f"ROS_DOMAIN_ID={domain}".encode() in env and b"create_world" in cmdline:
+            found.append(int(proc.name))
+    return found

@@ -7,6 +7,7 @@ import os
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -285,3 +286,141 @@ def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
         assert ros._robots["/box"].set_params.srv_name == "/box/create_world/set_parameters"
     finally:
         ros.shutdown()
+
+
+# ---------------------------------------------------------------- namespaces, clocks, recording, stopping
+
+
+class FakeGraph:
+    """The two graph questions the studio asks about worlds: ``(clock topic, node namespace)``."""
+
+    def __init__(self, clocks: list[tuple[str, str]]) -> None:
+        self.clocks = clocks
+
+    def clock_publishers(self) -> list[tuple[str, str]]:
+        return self.clocks
+
+
+def sleeper(tmp_path: Path, label: str, exit_after_s: float, clock: str = ""):
+    """A child that takes ``exit_after_s`` to finish after SIGINT (a world closing down)."""
+    from studio.processes import Child
+
+    code = (
+        "import signal, sys, time\n"
+        f"signal.signal(signal.SIGINT, lambda *a: (time.sleep({exit_after_s!r}), sys.exit(0)))\n"
+        "print('ready', flush=True)\n"
+        "while True: time.sleep(0.05)\n"
+    )
+    child = Child(label, [sys.executable, "-c", code], cwd=tmp_path, clock=clock)
+    deadline = time.monotonic() + 30.0
+    while "ready" not in child.output:  # its SIGINT handler is in place
+        assert time.monotonic() < deadline and child.running
+        time.sleep(0.01)
+    return child
+
+
+def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refused_with_the_reason(tmp_path):
+    from studio.app import Studio
+
+    studio = Studio(workspace=Workspace(tmp_path), controllers={})
+    studio.ros = FakeGraph([("/clock", "/create1"), ("/arm1/clock", "/arm1")])  # one world owns /clock
+    assert studio.free_namespace("create") == "/create2"
+    assert studio.free_namespace("arm") == "/arm2"
+    assert studio.free_namespace("simrobot") == "/simrobot1"
+    assert "already runs in /create1" in studio.namespace_refusal("/create1")
+    assert "already runs in /arm1" in studio.namespace_refusal("/arm1")  # any kind of world
+    assert "a world in / would publish a second one" in studio.namespace_refusal("")
+    assert studio.namespace_refusal("/create2") is None
+    assert studio.clock_owner() == "/create1"
+    studio.ros = FakeGraph([])
+    started = sleeper(tmp_path, "create_world /mine", 0.0, clock="/clock")
+    studio.worlds["/mine"] = started  # started a moment ago: not on the graph yet
+    try:
+        assert "create_world /mine already runs in /mine" in studio.namespace_refusal("/mine")
+        assert studio.clock_owner() == "/mine"
+    finally:
+        started.stop()
+    assert studio.namespace_refusal("/mine") is None and studio.clock_owner() is None
+
+
+def test_only_a_world_owning_the_clock_publishes_clock_the_others_and_their_controllers_use_theirs():
+    from studio.processes import clock_topic, namespace_args
+
+    assert namespace_args("/create1", owns_clock=True) == ["-r", "__ns:=/create1"]
+    assert namespace_args("/arm1") == ["-r", "__ns:=/arm1", "-r", "/clock:=/arm1/clock"]
+    assert namespace_args("") == []
+    assert (clock_topic("/create1", True), clock_topic("/arm1", False), clock_topic("", False)) == (
+        "/clock",
+        "/arm1/clock",
+        "/clock",
+    )
+
+
+def test_a_recording_of_one_world_is_on_its_sim_time_and_of_several_on_wall_time():
+    from studio.app import recording_clock, world_namespaces
+
+    one = [("/clock", "/create1")]
+    assert recording_clock(one) == ("sim", "sim time of the world in /create1")
+    several = [("/clock", "/create1"), ("/arm1/clock", "/arm1"), ("/simrobot1/clock", "/simrobot1")]
+    assert world_namespaces(several) == {"/create1", "/arm1", "/simrobot1"}
+    clock, why = recording_clock(several)
+    assert clock == "wall" and why == "wall time: 3 worlds, each with its own sim time"
+    assert recording_clock([("/arm1/clock", "/arm1")])[0] == "wall"  # its clock is not /clock
+    assert recording_clock([])[0] == "auto"
+
+
+def test_children_are_stopped_together_within_one_timeout(tmp_path):
+    from studio.processes import stop_all
+
+    children = [sleeper(tmp_path, f"world {i}", 1.0) for i in range(5)]
+    started = time.monotonic()
+    stop_all(children, timeout=3.0)
+    took = time.monotonic() - started
+    assert [c.process.returncode for c in children] == [0] * 5
+    assert took < 2.5, f"five children that each take 1 s stopped in {took:.1f} s"
+
+
+def test_a_stuck_child_is_killed_when_the_timeout_runs_out(tmp_path):
+    from studio.processes import stop_all
+
+    stuck = sleeper(tmp_path, "stuck", 60.0)
+    started = time.monotonic()
+    stop_all([stuck], timeout=0.5)
+    assert not stuck.running and time.monotonic() - started < 3.0
+
+
+def test_key_presses_step_from_the_worlds_last_command_whoever_sent_it():
+    from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP
+    from studio.sim_page import command_steps
+
+    assert command_steps((0.0, 0.0)) == [0, 0]
+    assert command_steps((3 * LINEAR_STEP, -2 * ANGULAR_STEP)) == [3, -2]
+    assert command_steps((0.30000000000000004, 0.0)) == [3, 0]  # float noise of 3 × 0.1
+
+
+def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
+    from studio.sim_page import fit_due
+
+    assert fit_due(None, 0)  # first shown, no map yet: fit to the robot
+    assert fit_due(0, 1)  # then its map arrives: fit to the map
+    assert not fit_due(1, 1) and not fit_due(1, 2)  # later map changes keep the user's zoom
+    assert not fit_due(0, 0)
+
+
+def test_an_upload_that_is_not_text_or_too_large_is_an_error_naming_the_file():
+    from studio.workspace import upload_text
+
+    assert upload_text("lab.map", "wall 0 0 1 1 % é\n".encode(), "map") == "wall 0 0 1 1 % é\n"
+    with pytest.raises(InputError, match=r"photo.png: not a text file \(byte 0 is not UTF-8\)"):
+        upload_text("photo.png", b"\x89PNG\r\n\x1a\n", "map")
+    with pytest.raises(InputError, match="NUL"):
+        upload_text("a.bin", b"wall\x00", "map")
+    with pytest.raises(InputError, match=f"more than the limit {MAX_UPLOAD_BYTES}"):
+        upload_text("big.map", b"%" * (MAX_UPLOAD_BYTES + 1), "map")
+
+
+def test_a_number_below_its_minimum_is_flagged_not_clamped():
+    from studio.app import at_least
+
+    ((message, ok),) = at_least(0.0).items()
+    assert message == "must be ≥ 0" and ok(0.0) and ok(None) and not ok(-1.0)

@@ -178,3 +178,16 @@ def test_a_recorded_arm_run_is_drawn_with_its_meshes_posed_as_the_bag_has_them(t
         end.orientation.x, end.orientation.y, end.orientation.z, end.orientation.w,
     )  # fmt: skip
     assert replay.frame(replay.end_ns).arm_groups[0] is arm  # a frame shown again is not rebuilt
+
+
+def test_the_age_of_each_topics_message_is_how_long_before_the_instant_never_negative(create_bag):
+    import re
+
+    replay = Replay.open(create_bag)
+    t = replay.start_ns + 1_234_567_890
+    frame = replay.frame(t)
+    scan = latest(create_bag, "/scan", t)
+    ages = {topic: age for topic, age, _text in frame.latest}
+    assert ages["/scan"] == pytest.approx((t - scan.log_time_ns) / S) and all(age >= 0 for age in ages.values())
+    shown = re.findall(r"<td class='pr-2 font-mono text-gray-500'>([^<]*)</td>", panel_html(frame))
+    assert shown and all(float(cell) >= 0 and not cell.startswith("-") for cell in shown)

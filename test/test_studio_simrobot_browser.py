@@ -141,6 +141,9 @@ def test_the_editor_refuses_overlapping_robots_with_the_command_lines_words(brow
     )
     type_into(browser, ".simrobot-x", "2.0")
     type_into(browser, ".simrobot-y", "0.6")
+    click_text(browser, "Save world")  # overwrite is off by default, as on every page
+    wait(browser, lambda d: "two.yaml: file exists (tick 'overwrite' to replace it)" in message(d), timeout=60)
+    find(browser, ".simrobot-overwrite").click()
     click_text(browser, "Save world")
     wait(browser, lambda d: "saved two.yaml" in message(d), timeout=60)
 
@@ -150,7 +153,8 @@ def test_run_it_shows_both_robots_moving_and_the_laser_beams(browser, ros):
     wait(browser, lambda d: d.current_url.endswith("/simrobot"), timeout=90)
     wait(browser, lambda d: set(robots_drawn(d, ".simrobot-view")) == {"r1", "r2"}, timeout=30)
     start = robots_drawn(browser, ".simrobot-view")
-    pubs = [ros.create_publisher(Twist, f"/{name}/cmd_vel", 10) for name in ("r1", "r2")]
+    # The editor's first world goes to its default namespace, /simrobot1.
+    pubs = [ros.create_publisher(Twist, f"/simrobot1/{name}/cmd_vel", 10) for name in ("r1", "r2")]
     cmd = Twist()
     cmd.linear.x, cmd.angular.z = 0.05, 0.3
 
