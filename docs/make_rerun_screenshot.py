@@ -67,14 +67,19 @@ class HeadlessViewer:
                 self.client = ViewerClient.connect(url)
                 self.client.get_state()
                 break
-            except (ConnectionError, RuntimeError):
+            except (ConnectionError, RuntimeError, TimeoutError):
                 if time.monotonic() > deadline or self.process.poll() is not None:
+                    self.close()  # not left running when we give up
                     raise
                 time.sleep(0.5)
 
     def close(self) -> None:
         self.process.terminate()
-        self.process.wait(timeout=30)
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
 
 
 def _show_tab(viewer, view_id: str) -> None:

@@ -67,7 +67,7 @@ def test_create_bag_draws_map_robot_track_scan_sonar_and_events(tmp_path, rerun_
     walls = column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")
     assert len(walls[0]) == 2  # LINE_LIST of 4 points = 2 segments
     assert column(ents["/top/map/map_markers/beacons/0"], "Points2D:positions") == [[[0.0, 0.0]]]
-    assert column(ents["/top/map/robots/robot/body/name"], "Points2D:labels") == [["robot"]]
+    assert column(ents["/top/map/robots/robot/follow/label"], "Points2D:labels") == [["robot"]]
     assert column(ents["/top/map/robots/robot/body/heading"], "Arrows2D:vectors")[0][0] == pytest.approx(
         [mounts.RADIUS_M, 0.0]
     )
@@ -128,16 +128,23 @@ def test_events_have_levels_and_are_logged_on_and_off(tmp_path):
     ]
 
 
-def test_a_bump_leaves_a_mark_with_its_time_where_it_happened(tmp_path):
+def _crosses(batches) -> list[list[float]]:
+    """The centres of the crosses in the last logged marks (two strokes each)."""
+    strokes = column(batches, "LineStrips2D:strips")[-1]
+    return [np.mean(stroke, axis=0).tolist() for stroke in strokes[::2]]
+
+
+def test_a_bump_leaves_an_unlabelled_mark_where_it_happened(tmp_path):
     ents = load_entities(bag_to_rerun(write_bag(tmp_path / "c.mcap", create_messages()), tmp_path / "c.rrd"))
     marks = ents["/top/map/marks/robot/contacts"]
-    assert column(marks, "Points2D:labels") == [["bump 0.4 s"]]  # pressed at step 20 (0.4 s)
+    assert column(marks, "Points2D:labels") == []  # where a robot keeps bumping, labels would pile up
+    assert "    0.40 s  robot: bump_left on" in [t[0] for t in column(ents["/events/robot"], "TextLog:text")]
     # the left bumper's place on the map at that instant: the robot's pose plus the mount
     yaw = 0.5 * math.pi * 20 / 50
     x, y = math.sin(yaw), 1.0 - math.cos(yaw)
     m = mounts.SENSOR_MOUNTS["bump_left"]
     expected = [x + math.cos(yaw) * m.x_m - math.sin(yaw) * m.y_m, y + math.sin(yaw) * m.x_m + math.cos(yaw) * m.y_m]
-    assert column(marks, "Points2D:positions")[0][0] == pytest.approx(expected, abs=1e-5)
+    assert _crosses(marks) == [pytest.approx(expected, abs=1e-5)]
     assert column(marks, "LineStrips2D:colors")[0] != [LIDAR_COLOR]
 
 
@@ -318,7 +325,7 @@ def test_odometry_is_aligned_with_truth_even_when_it_comes_first(tmp_path):
     assert odom_track[-1] == pytest.approx([1.0, 2.9], abs=1e-5)  # each odometry pose waited for its truth
 
 
-def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
+def test_a_crash_is_a_warning_a_mark_at_the_robot_and_a_word_in_its_label(tmp_path):
     msgs = [
         *simrobot_messages(),
         ("/r1/crashed", Bool(data=False), 0.0),
@@ -334,9 +341,9 @@ def test_a_crash_is_a_warning_and_leaves_a_mark_at_the_robot(tmp_path):
         "    4.50 s  r1: crash cleared",
     ]
     assert [lv[0] for lv in column(events, "TextLog:level")] == ["WARN", "INFO"]
-    marks = ents["/top/map/marks/r1/crashes"]
-    assert column(marks, "Points2D:labels") == [["crash 3.0 s"]]
-    assert column(marks, "Points2D:positions")[0][0] == pytest.approx([0.3, 0.0])  # r1's pose at 3 s
+    assert _crosses(ents["/top/map/marks/r1/crashes"]) == [pytest.approx([0.3, 0.0])]  # r1's pose at 3 s
+    labels = [t[0] for t in column(ents["/top/map/robots/r1/follow/label"], "Points2D:labels")]
+    assert labels == ["r1", "r1 crashed", "r1"]  # from 3 s until it is cleared at 4.5 s
 
 
 def test_a_frontal_hit_pressing_both_bumpers_leaves_one_mark(tmp_path):
@@ -349,7 +356,7 @@ def test_a_frontal_hit_pressing_both_bumpers_leaves_one_mark(tmp_path):
     ents = load_entities(
         bag_to_rerun(write_bag(tmp_path / "b.mcap", sorted(msgs, key=lambda m: m[2])), tmp_path / "b.rrd")
     )
-    assert column(ents["/top/map/marks/robot/contacts"], "Points2D:labels")[-1] == ["bump 0.4 s"]
+    assert len(_crosses(ents["/top/map/marks/robot/contacts"])) == 1
     texts = [t[0] for t in column(ents["/events/robot"], "TextLog:text")]
     assert sum("on" in t.split(": ")[1] for t in texts) == 3  # both bumpers (and the cliff) still in the log
 

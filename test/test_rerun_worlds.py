@@ -129,7 +129,7 @@ def test_simrobot_world_bag_converts_with_map_robots_and_sonar(executor, tmp_pat
         # the world file's colour, as the outline and the tracks PNG have it
         track_colors = column(ents[f"/top/map/tracks/{name}/truth/0"], "LineStrips2D:colors")
         assert track_colors[-1] == [_packed(colors[name])]
-        assert column(ents[f"/top/map/robots/{name}/body/name"], "Points2D:colors")[-1] == [_packed(colors[name])]
+        assert column(ents[f"/top/map/robots/{name}/body"], "Points2D:colors")[-1] == [_packed(colors[name])]
     outlines = [e for e in ents if e.startswith("/top/map/markers/robots/robots/")]
     assert len(outlines) == len(world.model.names)  # the /robots shapes
     assert "/top/map/robots/r1/sens1/beam" in ents  # the ultrasonic sensor's cone

@@ -15,18 +15,20 @@ entity                                  what
                                         walls), static
 ``top/map/markers/<topic>/<ns>/<id>``   other MarkerArrays in 2-D (``/robots`` outlines…)
 ``top/map/robots/<robot>``              ground-truth pose (``overhead_pose``, ``pose``; ``odom``
-                                        if there is none); ``body``: outline, heading arrow, name
-``top/map/robots/<robot>/follow``       a frame at the robot, north up: origin of its own view
+                                        if there is none); ``body``: outline or dot, heading arrow
+``top/map/robots/<robot>/follow``       a frame at the robot, north up: origin of its own view;
+                                        ``label``: name, obstacle number, power and crash state
 ``top/map/robots/<robot>/<sensor>``     sensor frames at their mount (TF, else the known mounts):
                                         scan points, sonar beam cone and hit, lit detectors
 ``top/map/tracks/<robot>/{truth,odom}``  tracks in the robot's colour (strips of segments)
-``top/map/marks/<robot>/{contacts,crashes}``  where a bumper was pressed or the robot crashed,
-                                        with the time, kept for the rest of the run
+``top/map/marks/<robot>/{contacts,crashes}``  where a bumper was pressed or the robot crashed
+                                        (labelled with the time), kept for the rest of the run
 ``world``                               3-D frame of arms: meshes, axes, target pose,
                                         ``paths/<topic>`` end-effector path
 ``plots/<tab>/<robot>/<series>``        scalars, one time-series tab per quantity
-``events/<robot>``                      text log: contacts (INFO), crashes (WARN), detectors
-                                        (DEBUG), each on and off
+``events/<robot>``                      text log: contacts (INFO), crashes (WARN), power switched
+                                        (INFO), detectors (DEBUG), each on and off
+``legend``                              a text panel saying what each colour and mark means
 ======================================  =========================================================
 
 Robots are named by their namespace (``robot`` for the root namespace); sensor frames
@@ -81,12 +83,19 @@ an odometry error of 1e-16 m, or a button never pressed): it would be drawn as l
 FOLLOW_HALF_WIDTH_M = {"create": 2.2, "simrobot": 0.6}
 """Half the width of a robot-centred view: the Create's LIDAR reaches 4 m, SIMROBOT's sonars 0.3 m."""
 SIMROBOT_HEADING_M = 0.1
+SIMROBOT_FIRST_NUMBER = 2
+"""SIMROBOT's ``/robots`` marker i outlines robot i, whose obstacle number is i + 2 (1 is a wall)."""
+LABEL_OFFSET_M = {"create": 0.2, "simrobot": 0.07}
+"""A robot's label hangs from this far below its centre (on screen), clear of its body."""
 SIMROBOT_MATCH_M = 0.3
 """A ``/robots`` outline belongs to the robot whose pose is nearest its centre, within this."""
 AXES_LENGTH_M = 0.15
 MARK_MERGE_NS = 500_000_000
 MARK_MERGE_M = 0.3
 """Contacts this close in time and place make one mark (a frontal hit presses both bumpers)."""
+KEEP_CONSTANT_TABS = frozenset({"commands"})
+"""Plot tabs whose never-changing series are still plotted: a command is what a controller sent
+(alg2's right wheel is always 0.5 rad/s)."""
 
 TRUTH_POSE_TOPICS = ("overhead_pose", "pose")
 STATIC_MARKER_TOPICS = ("map_markers", "scene_markers")
@@ -109,7 +118,22 @@ CRASH_COLOR = (120, 0, 0)
 GRID_COLOR = (215, 215, 215)
 GRID_LABEL_COLOR = (110, 110, 110)
 FADED_MARKERS = {"virtual_wall_fields": 0.3, "virtual_wall_halos": 0.45}
-"""Map marker namespaces drawn faint: the virtual walls' fields are large triangles crossing walls."""
+"""Map marker namespaces drawn faint and clipped to the walls' extent: the virtual walls' fields
+are large triangles that walls block."""
+COLOR_NAMES = {
+    "yellow": (255, 255, 0),
+    "red": (255, 0, 0),
+    "blue": (0, 100, 255),
+    "green": (0, 170, 0),
+    "orange": (235, 125, 0),
+    "magenta": (230, 50, 180),
+    "teal": (0, 150, 136),
+    "brown": (140, 86, 75),
+    "violet": (140, 60, 220),
+    "grey": (127, 127, 127),
+    "black": (0, 0, 0),
+}
+"""Names the legend gives robot colours (the nearest)."""
 SERIES_COLORS = [
     (31, 119, 180),
     (255, 127, 14),
@@ -213,8 +237,30 @@ def _cross(x: float, y: float, half: float) -> list[np.ndarray]:
     ]
 
 
-def _seconds(t_ns: int) -> str:
-    return f"{t_ns / 1e9:.1f} s"
+def _extent(point_sets: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The box around the points, if it has an area."""
+    pts = np.concatenate([p.reshape(-1, 2) for p in point_sets]) if point_sets else np.zeros((0, 2))
+    if not len(pts) or np.any(pts.max(axis=0) - pts.min(axis=0) <= 0):
+        return None
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def _clip_outline(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """A closed outline (last point = first) cut to the box lo–hi (Sutherland–Hodgman); an open
+    line is returned as it is."""
+    if len(pts) < 4 or not np.allclose(pts[0], pts[-1]):
+        return pts
+    poly = [tuple(map(float, p)) for p in pts[:-1]]
+    for axis, bound, sign in ((0, lo[0], 1), (0, hi[0], -1), (1, lo[1], 1), (1, hi[1], -1)):
+        out: list[tuple[float, ...]] = []
+        for prev, cur in zip(poly[-1:] + poly[:-1], poly, strict=True):
+            if (sign * (cur[axis] - bound) >= 0) != (sign * (prev[axis] - bound) >= 0):
+                t = (bound - prev[axis]) / (cur[axis] - prev[axis])
+                out.append(tuple(a + t * (b - a) for a, b in zip(prev, cur, strict=True)))
+            if sign * (cur[axis] - bound) >= 0:
+                out.append(cur)
+        poly = out
+    return np.array(poly + poly[:1], dtype=np.float32).reshape(-1, 2)
 
 
 def robots_in_topics(topics: Iterable[str]) -> list[str]:
@@ -229,6 +275,8 @@ class Outline(NamedTuple):
     centre: np.ndarray
     color: tuple[int, int, int]
     size_m: float
+    number: int
+    """The robot's obstacle number (what others' sensors report seeing it as)."""
 
 
 def robot_outlines(markers) -> list[Outline]:
@@ -244,7 +292,8 @@ def robot_outlines(markers) -> list[Outline]:
         centre = np.array(
             [m.pose.position.x + c * local[0] - s * local[1], m.pose.position.y + s * local[0] + c * local[1]]
         )
-        outlines.append(Outline(centre, _rgba(m.color)[:3], float(np.max(np.linalg.norm(pts, axis=1)))))
+        size = float(np.max(np.linalg.norm(pts, axis=1)))
+        outlines.append(Outline(centre, _rgba(m.color)[:3], size, m.id + SIMROBOT_FIRST_NUMBER))
     return outlines
 
 
@@ -308,8 +357,11 @@ class _Robot:
     pose: tuple[float, float, float] | None = None  # latest drawn pose in map
     mounts: dict[str, Mount] = field(default_factory=dict)  # sensor leaf → mount drawn
     heading_m: float = SIMROBOT_HEADING_M
-    marks: dict[str, list[tuple[float, float, str]]] = field(default_factory=dict)
+    marks: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
     last_mark: dict[str, tuple[int, float, float]] = field(default_factory=dict)
+    number: int | None = None  # SIMROBOT's obstacle number
+    powered: bool | None = None  # None: the world does not say
+    crashed: bool = False
 
 
 @dataclass
@@ -317,6 +369,8 @@ class _Series:
     tab: str
     name: str
     color: tuple[int, int, int]
+    robot: str
+    shade: int | None = None  # None: ``color``; 0: the robot's world colour, 1: darker
     times: list[int] = field(default_factory=list)
     values: list[float] = field(default_factory=list)
 
@@ -349,6 +403,7 @@ class RerunLogger:
         self._create_namespaces: set[str] = set()
         self._outlined = False  # the world draws its robots' outlines in colour (SIMROBOT's /robots)
         self._outlines: list[Outline] = []
+        self._arena: tuple[np.ndarray, np.ndarray] | None = None  # the extent of the map's walls
         self._marker_entities: dict[str, set[str]] = {}
         self._static_meshes: dict[str, str] = {}
         self._binary_state: dict[str, bool] = {}
@@ -411,7 +466,7 @@ class RerunLogger:
 
     def blueprint(self) -> rrb.Blueprint:
         """The layout: maps (top-down, then one view following each robot) or the arm's 3-D view;
-        plots in a few tabs; the event log.
+        plots in a few tabs; the event log; the legend (logged here: it lists what is known now).
 
         The time cursor follows the newest data: the end of a converted bag, "now" in a live view.
         """
@@ -438,24 +493,61 @@ class RerunLogger:
         else:
             tabs = [rrb.Spatial3DView(origin=f"/{WORLD}", name="3-D", background=white, eye_controls=self._arm_eye())]
         plots = [self._plot_view(tab) for tab in PLOT_TABS if tab in self.plot_tabs]
-        side: list = []
+        side: list[tuple[rrb.View | rrb.Container, int]] = []
         if plots:
-            side.append(rrb.Tabs(*plots, name="Plots"))
+            side.append((rrb.Tabs(*plots, name="Plots"), 4))
         if self.has_events:
             columns = rrb.TextLogColumns(
                 timeline_columns=[rrb.encodings.TimelineColumn(TIMELINE, visible=False)],
                 text_log_columns=[rrb.encodings.TextLogColumn("LogLevel"), rrb.encodings.TextLogColumn("Body")],
             )
-            side.append(rrb.TextLogView(origin="/events", name="Events", columns=columns))
+            side.append((rrb.TextLogView(origin="/events", name="Events", columns=columns), 2))
+        self.rec.log("legend", rr.TextDocument(self.legend(), media_type=rr.MediaType.MARKDOWN), static=True)
+        side.append((rrb.TextDocumentView(origin="/legend", name="Legend"), 3))
         main: rrb.Container = rrb.Tabs(*tabs, active_tab=0)
-        if side:
-            column = rrb.Vertical(*side, row_shares=[3, 2]) if len(side) == 2 else side[0]
-            main = rrb.Horizontal(main, column, column_shares=[3, 2])
+        column = rrb.Vertical(*(v for v, _ in side), row_shares=[share for _, share in side])
+        main = rrb.Horizontal(main, column, column_shares=[3, 2])
         return rrb.Blueprint(
             main,
             rrb.TimePanel(timeline=TIMELINE, play_state="following", state="collapsed"),
             collapse_panels=True,
         )
+
+    def legend(self) -> str:
+        """What each colour and mark of the views means, for what this world has (markdown)."""
+        if not self.planar:
+            return (
+                "**Arm**: meshes in their colours; axes x red, y green, z blue.\n\n"
+                "- orange line: the flange's path (small axes: the flange now)\n"
+                "- large axes with a name: a commanded target pose"
+            )
+        kinds = set(self.topics.values())
+        leaves = {_basename(t) for t in self.topics}
+        robots = []
+        for name in sorted(set(self._topic_robots) | set(self._robots)):
+            robot = self._robots.get(name)
+            color = _color_name(robot.color) if robot is not None and robot.color else ""
+            robots.append(f"{name} {color}{f' #{robot.number}' if robot and robot.number else ''}".strip())
+        notes = ["label below each", "#n: its obstacle number" if "obstacle" in leaves else ""]
+        notes.append("*off*: powered off, *crashed*: stopped by a collision" if "crashed" in leaves else "")
+        lines = [
+            f"**Robots**: {', '.join(robots)} ({'; '.join(n for n in notes if n)})",
+            "- tracks in the robot's colour: thick = ground truth, thin = odometry; dark arrow: heading",
+            "- walls dark; a light grey line every metre",
+        ]
+        optional = [
+            ("map_markers" in leaves, "- blue lines: painted lines; coloured dots: beacons with their id"),
+            ("map_markers" in leaves, "- pale green: virtual walls (halo and field, cut at the outer walls)"),
+            ("sensor_msgs/msg/LaserScan" in kinds, "- violet dots: LIDAR hits (blue: another robot); faint rays"),
+            ("sensor_msgs/msg/Range" in kinds, "- grey fan: a sonar's cone; teal arc or ray: its echo"),
+            ("/bump/" in str(self.topics), "- red dot: bumper pressed; orange dot: cliff, IR wall seen"),
+            ("/bump/" in str(self.topics), "- red x: where a bumper was pressed (times in Events)"),
+            ("crashed" in leaves, "- dark red x: where a robot crashed (time in Events)"),
+        ]
+        lines += [line for shown, line in optional if shown]
+        if "obstacle" in leaves:
+            lines.append("- *Obstacle seen* plot: 0 nothing, 1 a wall, n the robot labelled #n")
+        return "\n".join(lines)
 
     def _plot_view(self, tab: str) -> rrb.TimeSeriesView:
         title, y_range = PLOT_TABS[tab]
@@ -483,7 +575,8 @@ class RerunLogger:
         """The map and everything drawn on it, with a margin; in view coordinates (y mirrored)."""
         if not np.all(np.isfinite(self._map_lo)):
             return None
-        lo, hi = self._map_lo - [0.7, 0.4], self._map_hi + 0.2  # room for the grid's labels
+        # room for the grid's labels left and below, and for a robot's label at the right wall
+        lo, hi = self._map_lo - [0.7, 0.4], self._map_hi + np.array([0.4, 0.2])
         return rrb.VisualBounds2D(x_range=[lo[0], hi[0]], y_range=[-hi[1], -lo[1]])
 
     def _arm_eye(self) -> rrb.EyeControls3D | None:
@@ -584,47 +677,52 @@ class RerunLogger:
 
     def _log_body(self, robot: _Robot) -> None:
         entity = f"{MAP}/robots/{robot.name}/body"
-        label_color = robot.color or HEADING_COLOR
+        color = robot.color or HEADING_COLOR
         if robot.is_create:
             a = np.linspace(0.0, 2 * math.pi, 49)
             circle = np.column_stack([create_mounts.RADIUS_M * np.cos(a), create_mounts.RADIUS_M * np.sin(a)])
-            self.rec.log(
-                entity,
-                rr.LineStrips2D([circle], radii=rr.Radius.ui_points(3.0), colors=[label_color], draw_order=30),
-                static=True,
+            shape: rr.AsComponents = rr.LineStrips2D(
+                [circle], radii=rr.Radius.ui_points(3.0), colors=[color], draw_order=30
             )
+        else:  # the world's outline is a few pixels across at map zoom: a dot in its colour too
+            shape = rr.Points2D([[0.0, 0.0]], radii=rr.Radius.ui_points(5.0), colors=[color], draw_order=38)
+        self.rec.log(entity, shape, static=True)
         # The heading is dark on every robot colour, drawn above the sensor beams.
         self.rec.log(
             f"{entity}/heading",
             rr.Arrows2D(
                 origins=[[0.0, 0.0]],
                 vectors=[[robot.heading_m, 0.0]],
-                radii=rr.Radius.ui_points(2.5),
+                radii=rr.Radius.ui_points(2.5 if robot.is_create else 1.5),  # not hiding a small robot's dot
                 colors=[HEADING_COLOR],
                 draw_order=40,
             ),
             static=True,
         )
-        self.rec.log(
-            f"{entity}/name",
-            rr.Points2D(
-                [[0.0, 0.0]],
-                radii=rr.Radius.ui_points(3.0),
-                colors=[label_color],
-                labels=[robot.name],
-                show_labels=True,
-                draw_order=41,
-            ),
-            static=True,
-        )
+        self._log_label(robot)
 
-    def _set_color(self, robot: _Robot, color: tuple[int, int, int], size_m: float) -> None:
-        robot.color = color
-        robot.heading_m = max(1.8 * size_m, 0.06)  # reaches out of the outline
+    def _log_label(self, robot: _Robot) -> None:
+        """The robot's one label, below it on screen (the follow frame is the view's own: +y down;
+        a label hangs from its point), saying its name, obstacle number and state; logged again
+        when they change."""
+        text = robot.name if robot.number is None else f"{robot.name} (#{robot.number})"
+        text += " crashed" if robot.crashed else ""
+        text += " off" if robot.powered is False else ""
+        d = LABEL_OFFSET_M["create" if robot.is_create else "simrobot"]
+        label = rr.Points2D([[0.0, d]], radii=0.0, colors=[HEADING_COLOR], labels=[text], show_labels=True)
+        self.rec.log(f"{MAP}/robots/{robot.name}/follow/label", label)
+
+    def _set_color(self, robot: _Robot, outline: Outline) -> None:
+        robot.color, robot.number = outline.color, outline.number
+        robot.heading_m = max(3.0 * outline.size_m, 0.12)  # reaches well out of the outline and its dot
         for track in (robot.truth, robot.odom):
-            track.color = color
+            track.color = outline.color
             track.log(self.rec)
         self._log_body(robot)
+        if not self._batch:  # its plotted series were given the palette's colours until now
+            for entity, series in self._series.items():
+                if series.robot == robot.name and series.shade is not None:
+                    self._log_series_style(entity, series)
 
     def _match_outlines(self) -> None:
         """Give each SIMROBOT robot the colour of the ``/robots`` outline around its pose."""
@@ -632,7 +730,7 @@ class RerunLogger:
             if robot.color is None and robot.pose is not None:
                 outline = outline_at(self._outlines, *robot.pose[:2])
                 if outline is not None:
-                    self._set_color(robot, outline.color, outline.size_m)
+                    self._set_color(robot, outline)
 
     def _frame_entity(self, frame_id: str) -> str:
         """The entity of a frame: the map, the 3-D world, a robot, or a sensor mounted on a robot."""
@@ -691,28 +789,35 @@ class RerunLogger:
         robot: str,
         key: str,
         value: float,
-        color: tuple[int, int, int] | None = None,
+        shade: int | None = None,
         name: str | None = None,
     ) -> None:
-        """Plot ``value`` as series ``key`` (legend: ``name``, default the key) of ``robot`` in tab ``tab``."""
+        """Plot ``value`` as series ``key`` (legend: ``name``, default the key) of ``robot`` in tab
+        ``tab``; with a ``shade``, in the robot's world colour (0) or a darker one (1) once known."""
         entity = f"plots/{tab}/{_path_part(robot)}/{_path_part(key)}"
         name = name or key
         series = self._series.get(entity)
         if series is None:
-            if color is None:
-                index = sum(1 for s in self._series.values() if s.tab == tab)
-                color = SERIES_COLORS[index % len(SERIES_COLORS)]
+            index = sum(1 for s in self._series.values() if s.tab == tab)
+            color = SERIES_COLORS[index % len(SERIES_COLORS)]
             label = name if len({*self._topic_robots, robot}) <= 1 else f"{robot} {name}"
-            series = self._series[entity] = _Series(tab, label, color)
+            series = self._series[entity] = _Series(tab, label, color, robot, shade)
             if not self._batch:
                 self._use_tab(tab)
-                self.rec.log(entity, rr.SeriesLines(colors=[color], names=[label], widths=[1.5]), static=True)
+                self._log_series_style(entity, series)
         if not self._batch:
             self._grow_tab(tab, value, value)
             self.rec.log(entity, rr.Scalars(value))
             return
         series.times.append(self._t_ns)
         series.values.append(value)
+
+    def _log_series_style(self, entity: str, series: _Series) -> None:
+        robot = self._robots.get(series.robot)
+        color = series.color
+        if series.shade is not None and self._outlined and robot is not None and robot.color is not None:
+            color = robot.color if series.shade == 0 else _darker(robot.color)  # type: ignore[assignment]
+        self.rec.log(entity, rr.SeriesLines(colors=[color], names=[series.name], widths=[1.5]), static=True)
 
     def _use_tab(self, tab: str) -> None:
         if tab not in self.plot_tabs:
@@ -737,13 +842,14 @@ class RerunLogger:
             # An odometry error is noise-only when nearly all of it is (a republished step can
             # pair one odometry message with the truth of the step before).
             noise = s.tab == "odom_error" and spread.size and float(np.percentile(spread, 99)) <= CONSTANT_SPAN
-            if finite.size == 0 or float(finite.max() - finite.min()) <= CONSTANT_SPAN or noise:
+            constant = float(finite.max() - finite.min()) <= CONSTANT_SPAN if finite.size else True
+            if finite.size == 0 or (constant and s.tab not in KEEP_CONSTANT_TABS) or noise:
                 s.times.clear()
                 s.values.clear()
                 continue
             self._use_tab(s.tab)
             self._grow_tab(s.tab, float(finite.min()), float(finite.max()))
-            self.rec.log(entity, rr.SeriesLines(colors=[s.color], names=[s.name], widths=[1.5]), static=True)
+            self._log_series_style(entity, s)
             if self._epoch:
                 index = rr.TimeColumn(TIMELINE, timestamp=np.array(s.times, dtype="datetime64[ns]"))
             else:
@@ -760,28 +866,21 @@ class RerunLogger:
         line = f"{self._t_ns / 1e9:8.2f} s  {robot}: {text}"
         self.rec.log(f"events/{_path_part(robot)}", rr.TextLog(line, level=level))
 
-    def _mark(self, robot: _Robot, kind: str, x: float, y: float, text: str) -> None:
-        """A mark that stays on the map: a cross where it happened, labelled with what and when."""
+    def _mark(self, robot: _Robot, kind: str, x: float, y: float) -> None:
+        """A cross that stays on the map where it happened. Unlabelled: where a robot keeps bumping
+        labels would pile up; Events has the times."""
         marks = robot.marks.setdefault(kind, [])
         if robot.last_mark.get(kind) is not None:
             t, mx, my = robot.last_mark[kind]
             if self._t_ns - t < MARK_MERGE_NS and math.hypot(x - mx, y - my) < MARK_MERGE_M:
                 return  # both bumpers of one frontal hit: one mark
         robot.last_mark[kind] = (self._t_ns, x, y)
-        marks.append((x, y, f"{text} {_seconds(self._t_ns)}"))
+        marks.append((x, y))
         color, half = (CRASH_COLOR, 0.05) if kind == "crashes" else (CONTACT_COLOR, 0.035)
-        strips = [s for mx, my, _ in marks for s in _cross(mx, my, half)]
+        strips = [s for mx, my in marks for s in _cross(mx, my, half)]
         self.rec.log(
             f"{MAP}/marks/{robot.name}/{kind}",
             rr.LineStrips2D(strips, radii=rr.Radius.ui_points(2.5), colors=[color], draw_order=50),
-            rr.Points2D(
-                [(mx, my) for mx, my, _ in marks],
-                radii=rr.Radius.ui_points(1.0),
-                colors=[color],
-                labels=[label for _, _, label in marks],
-                show_labels=True,
-                draw_order=51,
-            ),
         )
 
     # ---------------------------------------------------------------- poses
@@ -873,16 +972,11 @@ class RerunLogger:
             if truth is None:  # odometry is all we know of this robot's pose
                 self._robot_pose(robot, x, y, yaw)
             else:
-                color = self._robot_series_color(robot)
                 error = math.hypot(x - truth[0], y - truth[1])
-                self._scalar("odom_error", robot.name, "position_m", error, color, "position (m)")
+                self._scalar("odom_error", robot.name, "position_m", error, 0, "position (m)")
                 error = wrap_angle(yaw - truth[2])
-                self._scalar("odom_error", robot.name, "heading_rad", error, _darker(color), "heading (rad)")
+                self._scalar("odom_error", robot.name, "heading_rad", error, 1, "heading (rad)")
         self._set_time(now)
-
-    def _robot_series_color(self, robot: _Robot) -> tuple[int, int, int] | None:
-        """Several robots with colours of their own: their series in those colours."""
-        return robot.color if self._outlined and robot.color is not None else None
 
     # ---------------------------------------------------------------- sensors
     def _sensor_robot(self, entity: str) -> _Robot | None:
@@ -954,7 +1048,7 @@ class RerunLogger:
                 self.rec.log(f"{entity}/hit", rr.Clear(recursive=False))
         if math.isfinite(r):
             self._grow_tab("range", 0.0, float(msg.max_range))
-            self._scalar("range", robot_name, name, r, self._robot_series_color(robot) if robot else None)
+            self._scalar("range", robot_name, name, r, 0)
 
     def _binary(self, topic: str, entity: str, robot_name: str, name: str, active: bool, msg=None) -> None:
         previous = self._binary_state.get(topic)
@@ -977,6 +1071,12 @@ class RerunLogger:
             self._event(robot_name, "crashed" if active else "crash cleared", level if active else rr.TextLogLevel.INFO)
         else:
             self._event(robot_name, f"{name} {'on' if active else 'off'}", level)
+        if crash and robot is not None:  # a state: the label says it, a cross marks where
+            robot.crashed = active
+            self._log_label(robot)
+            if active:
+                self._mark(robot, "crashes", *(robot.pose or (0.0, 0.0))[:2])
+            return
         if entity == WORLD:
             return
         lit = f"{entity}/detection" if entity.startswith(f"{MAP}/robots/") else entity
@@ -993,10 +1093,8 @@ class RerunLogger:
                     )
                 )
             self.rec.log(lit, *shapes)
-            if robot is not None and (contact or crash):
-                leaf = entity.rpartition("/")[2]
-                x, y = self._at_mount(robot, leaf) if contact else (robot.pose or (0.0, 0.0))[:2]
-                self._mark(robot, "crashes" if crash else "contacts", x, y, "crash" if crash else "bump")
+            if robot is not None and contact:
+                self._mark(robot, "contacts", *self._at_mount(robot, entity.rpartition("/")[2]))
         else:
             self.rec.log(lit, rr.Clear(recursive=False))
 
@@ -1011,17 +1109,26 @@ class RerunLogger:
     def _bool(self, topic: str, msg) -> None:
         robot = _namespace(topic) or "robot"
         if robot in self._robots or robot in self._topic_robots:
+            if _basename(topic) == "power":
+                self._power(self._robot(_namespace(topic)), bool(msg.data))
+                return
             entity = f"{MAP}/robots/{self._robot(_namespace(topic)).name}/{_path_part(_basename(topic))}"
         else:
             entity = f"{MAP if self.planar else WORLD}/flags/{_topic_path(topic)}"
         self._binary(topic, entity, robot, _basename(topic), bool(msg.data))
 
+    def _power(self, robot: _Robot, on: bool) -> None:
+        """A robot's power is a state (SIMROBOT latches it): its label says "off"; a switch is an event."""
+        if robot.powered is not None and robot.powered != on:
+            self._event(robot.name, f"power {'on' if on else 'off'}", rr.TextLogLevel.INFO)
+        if robot.powered != on:
+            robot.powered = on
+            self._log_label(robot)
+
     def _scalar_data(self, topic: str, msg) -> None:
         robot = _namespace(topic).partition("/")[0] or "robot"
         if _basename(topic) == "obstacle":
-            r = self._robots.get(robot)
-            self._scalar("obstacle", robot, _namespace(topic).partition("/")[2] or "obstacle", float(msg.data),
-                         self._robot_series_color(r) if r else None)  # fmt: skip
+            self._scalar("obstacle", robot, _namespace(topic).partition("/")[2] or "obstacle", float(msg.data), 0)
             return
         self._scalar("other", robot, _topic_path(topic), float(msg.data))
 
@@ -1043,20 +1150,16 @@ class RerunLogger:
 
     def _twist(self, topic: str, twist) -> None:
         robot = _namespace(topic) or "robot"
-        r = self._robots.get(robot)
-        color = self._robot_series_color(r) if r else None
         base = _basename(topic)
-        self._scalar("commands", robot, f"{base}_linear_x", twist.linear.x, color, f"{base} linear (m/s)")
-        self._scalar("commands", robot, f"{base}_angular_z", twist.angular.z, _darker(color), f"{base} angular (rad/s)")
+        self._scalar("commands", robot, f"{base}_linear_x", twist.linear.x, 0, f"{base} linear (m/s)")
+        self._scalar("commands", robot, f"{base}_angular_z", twist.angular.z, 1, f"{base} angular (rad/s)")
 
     def _joint_state(self, topic: str, msg) -> None:
         names = list(msg.name) or [f"joint{i + 1}" for i in range(len(msg.position))]
         ns = _namespace(topic)
         if _basename(topic) == "wheel_cmd":  # SIMROBOT wheel speed commands: [left, right] rad/s
-            r = self._robots.get(ns or "robot")
-            color = self._robot_series_color(r) if r else None
-            for side, value, c in zip(("left", "right"), msg.velocity, (color, _darker(color)), strict=False):
-                self._scalar("commands", ns or "robot", f"wheel_{side}", float(value), c, f"wheel {side} (rad/s)")
+            for shade, (side, value) in enumerate(zip(("left", "right"), msg.velocity, strict=False)):
+                self._scalar("commands", ns or "robot", f"wheel_{side}", float(value), shade, f"wheel {side} (rad/s)")
             return
         for field_name in ("position", "velocity", "effort"):
             values = getattr(msg, field_name)
@@ -1101,6 +1204,11 @@ class RerunLogger:
         label = "map_markers" if _basename(topic) == "map_markers" else f"markers/{_topic_path(topic)}"
         seen: set[str] = set()
         grew = False
+        if label == "map_markers":
+            walls = [
+                _points(m.points)[:, :2] + [m.pose.position.x, m.pose.position.y] for m in markers if m.ns == "walls"
+            ]
+            self._arena = _extent(walls)
         for m in markers:
             if m.action == DELETEALL:
                 for entity in self._marker_entities.pop(topic, set()):
@@ -1141,7 +1249,10 @@ class RerunLogger:
         colors = [_rgba(c) for c in m.colors] if len(m.colors) == len(m.points) and m.colors else [color]
         width = rr.Radius.ui_points(1.5) if alpha is not None else max(m.scale.x, 1e-3) / 2
         p = m.pose.position
-        transform = _yaw_transform(p.x, p.y, yaw_from_quaternion(m.pose.orientation))
+        yaw = yaw_from_quaternion(m.pose.orientation)
+        transform = _yaw_transform(p.x, p.y, yaw)
+        if alpha is not None and self._arena is not None and yaw == 0.0:  # walls block the field
+            pts = _clip_outline(pts, self._arena[0] - [p.x, p.y], self._arena[1] - [p.x, p.y])
         grew = False
         shape: rr.AsComponents
         if is_map and static:
@@ -1236,6 +1347,11 @@ class RerunLogger:
                 translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]), scale=scale
             ),
         )
+
+
+def _color_name(color: tuple[int, int, int]) -> str:
+    """The nearest of COLOR_NAMES."""
+    return min(COLOR_NAMES, key=lambda n: sum((a - b) ** 2 for a, b in zip(COLOR_NAMES[n], color, strict=True)))
 
 
 def _darker(color: tuple[int, int, int] | None) -> tuple[int, int, int] | None:
