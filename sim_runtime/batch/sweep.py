@@ -354,6 +354,10 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
+    from sim_runtime.batch.precheck import check_sweep  # builds nodes: after the cheap checks
+
+    search = str(source.resolve().parent)
+    grid_values = check_sweep(r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search)
     out_dir = Path(out) if out else Path(data["out"]) if "out" in data else Path("out/batch") / source.stem
     if not out and "out" in data and not out_dir.is_absolute():
         out_dir = source.parent / out_dir

@@ -1,0 +1,354 @@
+"""The forms a user's controller takes in a sweep, and how an episode runs each one.
+
+- ``node``: an rclpy ``Node`` subclass, with or without ``**kwargs`` in its ``__init__``;
+- ``main``: a function callable without arguments (``main()``, ``main(args=None)``) that builds its
+  node(s) and spins them: ``rclpy.spin``, a ``rclpy.spin_once`` loop, ``spin_until_future_complete``,
+  or an executor of its own;
+- ``model``: ``function(model, params, seed)`` returning ``control(model, t)``.
+
+Every episode runs in its own rclpy context, made rclpy's default for the episode
+(:class:`EpisodeContext`), whose command-line arguments carry the controller's parameters
+(``--ros-args -p name:=value``): a node built without ``context`` or ``parameter_overrides``, as
+``super().__init__("name")`` does, still joins the episode and gets its parameters.
+
+A ``main`` runs in a thread of its own (:class:`MainRunner`) with rclpy's spin functions redirected:
+its nodes join the episode's executor, whose callbacks run in the stepping thread, and a spin call
+in ``main``'s thread hands the turn to the stepping thread until the sim has moved on (one physics
+step for ``spin_once``, the future done for ``spin_until_future_complete``, the episode's end for
+``spin``). The two threads never run at the same time: a ``spin_once`` loop is as deterministic
+as a callback.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from sim_runtime.errors import InputError
+
+#: What a sweep's ``module:name`` may be, said in every error about one that is none of them.
+EXPECTED = (
+    "expected a Node subclass, a function main(args=None) that builds its node(s) and spins them "
+    "(rclpy.spin, a rclpy.spin_once loop or spin_until_future_complete), "
+    "or a model controller function(model, params, seed)"
+)
+#: Keyword arguments an episode may give a node class's ``__init__``.
+NODE_KWARGS = ("context", "parameter_overrides", "namespace", "sensor")
+#: Wall seconds ``main`` may run between two spin calls before its episode fails (a loop that
+#: never spins, or waits on something only another spinning thread would deliver).
+TURN_TIMEOUT = 30.0
+
+
+# ------------------------------------------------------------------------------ classification
+def classify(obj: Any, target: str) -> str:
+    """``node``, ``main`` or ``model`` for the object ``target`` names; InputError otherwise."""
+    from rclpy.node import Node
+
+    if isinstance(obj, type):
+        if not issubclass(obj, Node):
+            raise InputError(f"{target}: class {obj.__name__} is not an rclpy Node subclass; {EXPECTED}")
+        missing = _required(obj) - set(NODE_KWARGS)
+        if missing:
+            raise InputError(
+                f"{target}: {obj.__name__}.__init__ needs {', '.join(sorted(missing))}, which an episode cannot "
+                f"give (it passes nothing, or context, parameter_overrides and namespace through **kwargs)"
+            )
+        return "node"
+    if not callable(obj):
+        raise InputError(f"{target}: a {type(obj).__name__}, not a class or function; {EXPECTED}")
+    if _binds(obj, 0):
+        return "main"
+    if _binds(obj, 3):
+        return "model"
+    raise InputError(f"{target}: {_signature_text(obj)} takes neither no arguments nor 3; {EXPECTED}")
+
+
+def _binds(func: Callable[..., Any], count: int) -> bool:
+    try:
+        inspect.signature(func).bind(*range(count))
+    except TypeError:
+        return False
+    except ValueError:  # no signature (a builtin): assume the common case
+        return count == 0
+    return True
+
+
+def _required(cls: type) -> set[str]:
+    """Names the class's constructor needs and has no default for."""
+    try:
+        params = inspect.signature(cls).parameters.values()
+    except (TypeError, ValueError):
+        return set()
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return {p.name for p in params if p.kind in kinds and p.default is inspect.Parameter.empty}
+
+
+def _signature_text(func: Callable[..., Any]) -> str:
+    try:
+        return f"{getattr(func, '__name__', 'it')}{inspect.signature(func)}"
+    except (TypeError, ValueError):
+        return repr(func)
+
+
+def node_kwargs(cls: type, wanted: dict[str, Any]) -> dict[str, Any]:
+    """The part of ``wanted`` that ``cls(...)`` accepts: all of it with ``**kwargs``, else what it names."""
+    try:
+        params = inspect.signature(cls).parameters
+    except (TypeError, ValueError):
+        return dict(wanted)
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return dict(wanted)
+    return {k: v for k, v in wanted.items() if k in params}
+
+
+def ros_args(params: dict[str, Any]) -> list[str]:
+    """``--ros-args -p name:=value ...`` for rclpy.init: YAML values, which JSON's are."""
+    return ["batch", "--ros-args"] + [a for k, v in params.items() for a in ("-p", f"{k}:={json.dumps(v)}")]
+
+
+def declared(nodes: list[Any]) -> dict[str, Any]:
+    """Every parameter the nodes declared, with its rclpy type."""
+    out: dict[str, Any] = {}
+    for node in nodes:
+        for name in node.list_parameters([], 0).names:
+            out[name] = node.get_parameter(name).type_
+    return out
+
+
+# --------------------------------------------------------------------------------- the context
+class EpisodeContext:
+    """A fresh rclpy context on ``domain_id`` with ``args``, rclpy's default one until :meth:`close`."""
+
+    def __init__(self, args: list[str], domain_id: int | None) -> None:
+        import rclpy
+        import rclpy.utilities
+        from rclpy.context import Context
+
+        self.context = Context()
+        rclpy.init(args=args, context=self.context, domain_id=domain_id)
+        with rclpy.utilities.g_context_lock:
+            self._previous: Context | None = rclpy.utilities.g_default_context
+            rclpy.utilities.g_default_context = self.context  # type: ignore[assignment]
+
+    def close(self) -> None:
+        import rclpy
+        import rclpy.utilities
+
+        with rclpy.utilities.g_context_lock:
+            if rclpy.utilities.g_default_context is self.context:
+                rclpy.utilities.g_default_context = self._previous
+        rclpy.shutdown(context=self.context)
+
+
+# ------------------------------------------------------------------------------------ a main()
+class NotSpinning(RuntimeError):
+    """``main`` did not spin a node in time (it may be waiting for something only a world sends)."""
+
+
+class MainRunner:
+    """Runs a user's ``main()`` in a thread, in turns with the stepping thread (see the module)."""
+
+    def __init__(self, main: Callable[..., Any], target: str) -> None:
+        self.main = main
+        self.target = target
+        self.stepper = threading.get_ident()
+        self.cond = threading.Condition()
+        self.nodes: list[Any] = []
+        self.added = 0  # nodes already handed to the episode's executor
+        self.steps = 0
+        self.sim_time = 0.0
+        self.finished = False  # the episode is over: every spin returns
+        self.parked = False  # main's thread waits in a spin call: the stepping thread's turn
+        self.release: Callable[[], bool] = lambda: False  # when its spin call returns
+        self.ended = False  # main returned or raised
+        self.others = False  # another thread of main's waits in a spin call
+        self.error: BaseException | None = None
+        self.thread: threading.Thread | None = None
+        self._saved: list[tuple[Any, str, Any]] = []
+
+    # -- the stepping thread ------------------------------------------------------------------
+    def start(self, timeout: float) -> list[Any]:
+        """Start ``main`` and wait until it spins; returns its nodes."""
+        self._patch()
+        self.thread = threading.Thread(target=self._run, name="controller main()", daemon=True)
+        self.thread.start()
+        with self.cond:
+            self.cond.wait_for(lambda: self.parked or self.ended or self.others, timeout=timeout)
+            if self.error is not None:
+                raise self.error
+            if not self.nodes:
+                why = "returned" if self.ended else f"did not get there within {timeout:g} s"
+                raise (InputError if self.ended else NotSpinning)(
+                    f"{self.target} {why} before spinning a node: an episode runs the nodes that main() gives "
+                    "rclpy.spin, rclpy.spin_once or rclpy.spin_until_future_complete"
+                )
+        return self.new_nodes()
+
+    def new_nodes(self) -> list[Any]:
+        """Nodes ``main`` has spun since the last call."""
+        with self.cond:
+            fresh = self.nodes[self.added :]
+            self.added = len(self.nodes)
+        return fresh
+
+    def after_step(self, sim_time: float) -> bool:
+        """The sim moved on: give ``main`` its turn if its spin call is over, and wait until it
+        spins again (or ends); True if it had a turn."""
+        with self.cond:
+            self.steps += 1
+            self.sim_time = sim_time
+            self.cond.notify_all()  # spin calls in other threads of main's
+            if not (self.parked and self.release()):
+                return False
+            self.parked = False
+            self.cond.notify_all()
+            if not self.cond.wait_for(lambda: self.parked or self.ended, timeout=TURN_TIMEOUT):
+                raise RuntimeError(
+                    f"{self.target} ran {TURN_TIMEOUT:g} s of wall time without coming back to a spin call "
+                    "(a loop that never spins, or a wait that needs another thread spinning, such as Rate.sleep)"
+                )
+            if self.error is not None:
+                raise self.error
+            return True
+
+    def stop(self) -> None:
+        """End the episode for ``main``: its spin calls return (``spin_once`` raises rclpy's
+        ExternalShutdownException, as after a Ctrl-C) and its thread is joined."""
+        with self.cond:
+            self.finished = True
+            self.parked = False
+            self.cond.notify_all()
+        if self.thread is not None:
+            self.thread.join(timeout=TURN_TIMEOUT)
+        for owner, name, value in self._saved:
+            setattr(owner, name, value)
+        self._saved = []
+
+    def _run(self) -> None:
+        try:
+            self.main()
+        except BaseException as exc:  # sys.exit too: the episode reports it
+            with self.cond:
+                if not self.finished:
+                    self.error = exc
+        finally:
+            with self.cond:
+                self.ended = True
+                self.cond.notify_all()
+
+    # -- main's threads -----------------------------------------------------------------------
+    def _wait(self, nodes: list[Any], release: Callable[[], bool], *, park: bool = True) -> bool:
+        """Take ``nodes`` into the episode and park in a spin call until ``release()`` after a
+        step (or the episode's end); False when the episode is over."""
+        with self.cond:
+            for node in nodes:
+                if node is not None and node not in self.nodes:
+                    self.nodes.append(node)
+            self.cond.notify_all()
+            if self.finished or not park:
+                return not self.finished
+            if threading.current_thread() is self.thread:
+                self.release, self.parked = release, True
+                self.cond.notify_all()
+                self.cond.wait_for(lambda: not self.parked or self.finished)
+            else:  # another thread of main's: not in turns, it just waits for its condition
+                self.others = True
+                self.cond.notify_all()
+                self.cond.wait_for(lambda: self.finished or release())
+            return not self.finished
+
+    def _after(self, steps: int) -> Callable[[], bool]:
+        start = self.steps
+        return lambda: self.steps >= start + steps
+
+    def _until(self, future: Any, timeout_sec: float | None) -> Callable[[], bool]:
+        end = None if timeout_sec is None or timeout_sec < 0 else self.sim_time + timeout_sec
+        return lambda: future.done() or (end is not None and self.sim_time >= end - 1e-9)
+
+    def spin(self, node: Any, executor: Any = None) -> None:
+        self._wait([node], lambda: False)
+
+    def spin_once(self, node: Any, *, executor: Any = None, timeout_sec: float | None = None) -> None:
+        from rclpy.executors import ExternalShutdownException
+
+        if not self._wait([node], self._after(1)):
+            raise ExternalShutdownException()
+
+    def spin_until_future_complete(
+        self, node: Any, future: Any, executor: Any = None, timeout_sec: float | None = None
+    ) -> None:
+        self._wait([node], self._until(future, timeout_sec))
+
+    # -- the redirection ----------------------------------------------------------------------
+    def _patch(self) -> None:
+        """Redirect rclpy's spin functions, and those of executors main makes, in every thread but
+        the stepping one (which keeps the originals)."""
+        import rclpy
+        from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
+
+        runner = self
+        module: dict[str, Callable[..., Any]] = {
+            "init": lambda *a, **k: None,
+            "shutdown": lambda *a, **k: None,
+            "try_shutdown": lambda *a, **k: None,
+            "ok": lambda *a, **k: not runner.finished,
+            "spin": self.spin,
+            "spin_once": self.spin_once,
+            "spin_until_future_complete": self.spin_until_future_complete,
+        }
+        for name, replacement in module.items():
+            self._redirect(rclpy, name, replacement, bound=False)
+
+        def add_node(_executor: Any, node: Any) -> bool:
+            runner._wait([node], lambda: True, park=False)
+            return True
+
+        def executor_spin(_executor: Any) -> None:
+            runner._wait([], lambda: False)
+
+        def executor_spin_once(_executor: Any, timeout_sec: float | None = None) -> None:
+            from rclpy.executors import ExternalShutdownException
+
+            if not runner._wait([], runner._after(1)):
+                raise ExternalShutdownException()
+
+        def executor_until(_executor: Any, future: Any, timeout_sec: float | None = None) -> None:
+            runner._wait([], runner._until(future, timeout_sec))
+
+        methods: dict[str, Callable[..., Any]] = {
+            "add_node": add_node,
+            "spin": executor_spin,
+            "spin_once": executor_spin_once,
+            "spin_until_future_complete": executor_until,
+        }
+        # main's own executors: their nodes join the episode's executor instead (a node belongs
+        # to one executor), and their spin calls take turns like rclpy's.
+        for cls in (Executor, SingleThreadedExecutor, MultiThreadedExecutor):
+            for name, replacement in methods.items():
+                if name in vars(cls):
+                    self._redirect(cls, name, replacement, bound=True)
+
+    def _redirect(self, owner: Any, name: str, replacement: Callable[..., Any], *, bound: bool) -> None:
+        original = getattr(owner, name)
+        self._saved.append((owner, name, original))
+        stepper = self.stepper
+
+        if bound:
+
+            def method(obj: Any, *args: Any, **kwargs: Any) -> Any:
+                if threading.get_ident() == stepper:
+                    return original(obj, *args, **kwargs)
+                return replacement(obj, *args, **kwargs)
+
+            setattr(owner, name, method)
+        else:
+
+            def function(*args: Any, **kwargs: Any) -> Any:
+                if threading.get_ident() == stepper:
+                    return original(*args, **kwargs)
+                return replacement(*args, **kwargs)
+
+            setattr(owner, name, function)

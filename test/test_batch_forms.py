@@ -1,0 +1,279 @@
+"""`robot_sims batch`: the controller forms students write, determinism without the student's
+help, and sweep files checked before any episode runs. Every sweep runs in its own process."""
+
+from __future__ import annotations
+
+import csv
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+STUDENTS = '''
+import random
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import Twist
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.task import Future
+from sensor_msgs.msg import Range
+
+
+class Arc(Node):
+    """A tutorial node: no **kwargs, its own name, a parameter, default QoS depth 10."""
+
+    def __init__(self):
+        super().__init__("arc")
+        self.turn = self.declare_parameter("turn", 0.5).value
+        self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+        self.create_subscription(Range, "bump/left", self.on_bump, 10)
+
+    def on_bump(self, msg):
+        self.drive()
+
+    def drive(self):
+        cmd = Twist()
+        cmd.linear.x, cmd.angular.z = 0.3, float(self.turn)
+        self.pub.publish(cmd)
+
+
+class ArcKwargs(Arc):
+    def __init__(self, **kwargs):
+        Node.__init__(self, "arc_kwargs", **kwargs)
+        self.turn = self.declare_parameter("turn", 0.5).value
+        self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+        self.create_subscription(Range, "bump/left", self.on_bump, 10)
+
+
+def main(args=None):
+    """The tutorial's entry point."""
+    try:
+        rclpy.init(args=args)
+        rclpy.spin(Arc())
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
+def loop():
+    """A spin_once loop that publishes from the loop body, not from a callback."""
+    rclpy.init()
+    node = Arc()
+    node.on_bump = lambda msg: None
+    while rclpy.ok():
+        rclpy.spin_once(node, timeout_sec=0.1)
+        node.drive()
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def wait_then_spin():
+    """Waits for a future a callback completes, then spins an executor of its own."""
+    rclpy.init()
+    node = Arc()
+    started = Future()
+    node.create_subscription(Range, "bump/right", lambda msg: started.done() or started.set_result(True), 10)
+    rclpy.spin_until_future_complete(node, started)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    executor.spin()
+
+
+class Timed(Node):
+    """The tutorial's timer node: a wall-clock create_timer, no use_sim_time of its own."""
+
+    def __init__(self, **kwargs):
+        super().__init__("timed", **kwargs)
+        self.pub = self.create_publisher(Twist, "cmd_vel", 10)
+        self.ticks = 0
+        self.create_timer(0.1, self.tick)
+
+    def tick(self):
+        self.ticks += 1
+        cmd = Twist()
+        cmd.linear.x, cmd.angular.z = 0.3, 1.0 if (self.ticks // 5) % 2 else -1.0
+        self.pub.publish(cmd)
+
+
+class Dice(Arc):
+    """Turns by unseeded random numbers, Python's and numpy's."""
+
+    def drive(self):
+        cmd = Twist()
+        cmd.linear.x, cmd.angular.z = 0.3, random.uniform(-2, 2) + float(np.random.normal())
+        self.pub.publish(cmd)
+
+
+class NotANode:
+    pass
+
+
+class Broken(Arc):
+    def __init__(self, **kwargs):
+        raise ValueError("forgot to finish __init__")
+
+
+def two_args(a, b):
+    pass
+
+
+def no_spin():
+    rclpy.init()
+    Arc()
+'''
+
+
+def batch(*args: str, cwd: Path, timeout: float = 180) -> subprocess.CompletedProcess:
+    """``robot_sims batch args...`` in its own process."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run(
+        [sys.executable, "-m", "sim_runtime.batch.cli", *args, "--no-plots", "--quiet"],
+        cwd=cwd,
+        env=env,
+        text=True,
+        capture_output=True,
+        timeout=timeout,
+    )
+
+
+def sweep_in(folder: Path, body: str) -> Path:
+    (folder / "students.py").write_text(STUDENTS, encoding="utf-8")
+    path = folder / "sweep.yaml"
+    path.write_text(textwrap.dedent(body), encoding="utf-8")
+    return path
+
+
+def table(folder: Path) -> list[dict[str, str]]:
+    with (folder / "episodes.csv").open(newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+RESULTS = ("distance_m", "final_x", "final_y", "final_theta")
+
+
+def test_node_classes_with_or_without_kwargs_and_every_kind_of_main_run_with_their_grid_parameter(
+    tmp_path: Path,
+) -> None:
+    sweep = sweep_in(
+        tmp_path,
+        """
+        worlds: [{map: create/example.map}]
+        controllers: [students:Arc, students:ArcKwargs, students:main, students:loop, students:wait_then_spin]
+        grid: {turn: [0, 1]}
+        poses: [[0.0, 0.0, 0.0]]
+        duration_s: 1.5
+        """,
+    )
+    done = batch(str(sweep), "--workers", "1", "--out", "out", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    rows = table(tmp_path / "out")
+    assert [r["status"] for r in rows] == ["ok"] * 10, [r["error"] for r in rows]
+    by = {(r["controller"], float(r["param.turn"])): [r[k] for k in RESULTS] for r in rows}
+    assert by["students:Arc", 0.0] != by["students:Arc", 1.0]  # the grid's 0 and 1 given as 0.0 and 1.0
+    for form in ("students:ArcKwargs", "students:main", "students:wait_then_spin"):
+        assert by[form, 0.0] == by["students:Arc", 0.0] and by[form, 1.0] == by["students:Arc", 1.0]
+    # the loop publishes after every step instead of after every bumper message (50 Hz): it
+    # turns earlier, so its own numbers, but still one per parameter value
+    assert by["students:loop", 0.0] != by["students:loop", 1.0]
+    assert float(rows[6]["distance_m"]) > 0.3
+
+
+def test_the_tutorial_timer_node_gives_the_same_table_on_one_and_two_workers(tmp_path: Path) -> None:
+    sweep = sweep_in(
+        tmp_path,
+        """
+        worlds: [{map: create/example.map}]
+        controllers: [students:Timed]
+        poses: {random: 4, seed: 3}
+        duration_s: 3
+        """,
+    )
+    one = batch(str(sweep), "--workers", "1", "--out", "one", cwd=tmp_path)
+    two = batch(str(sweep), "--workers", "2", "--out", "two", cwd=tmp_path)
+    assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
+    assert {r["status"] for r in table(tmp_path / "one")} == {"ok"}
+    assert (tmp_path / "one" / "episodes.csv").read_text() == (tmp_path / "two" / "episodes.csv").read_text()
+    turns = {round(float(r["final_theta"]) - float(r["pose_theta"]), 3) for r in table(tmp_path / "one")}
+    assert len(turns) > 1 or turns != {0.0}  # the timer fired: the robots turned
+
+
+def test_unseeded_random_numbers_in_a_controller_give_the_same_table_on_two_runs(tmp_path: Path) -> None:
+    sweep = sweep_in(
+        tmp_path,
+        """
+        worlds: [{map: create/example.map}]
+        controllers: [students:Dice]
+        poses: [[0.0, 0.0, 0.0]]
+        seeds: [0, 1]
+        duration_s: 1
+        """,
+    )
+    first = batch(str(sweep), "--workers", "1", "--out", "first", cwd=tmp_path)
+    second = batch(str(sweep), "--workers", "1", "--out", "second", cwd=tmp_path)
+    assert first.returncode == 0 and second.returncode == 0, first.stderr + second.stderr
+    rows = table(tmp_path / "first")
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert rows[0]["final_theta"] != rows[1]["final_theta"]  # each seed its own numbers
+    assert (tmp_path / "first" / "episodes.csv").read_text() == (tmp_path / "second" / "episodes.csv").read_text()
+
+
+CREATE = "worlds: [{map: create/example.map}]\nposes: [[0.0, 0.0, 0.0]]\nduration_s: 1\n"
+BAD_MAP = CREATE.replace("create/example.map", "bad.map")
+SIMROBOT = "worlds: [{world_file: bad.yaml}]\ncontrollers: [simrobot_avoid]\nduration_s: 1\n"
+
+
+@pytest.mark.parametrize(
+    ("body", "field", "says"),
+    [
+        (CREATE + "controllers: [create_bump_turn]\ngrid: {no_such_param: [1, 2]}\n", "grid.no_such_param", "no con"),
+        (
+            CREATE + "controllers: [{use: students:Arc, parameters: {trun: 1.0}}]\n",
+            "controllers[0].parameters.trun",
+            "",
+        ),
+        (CREATE + "controllers: [students:Arc]\ngrid: {seed: [1, 2]}\n", "grid.seed", "the sweep's seeds"),
+        (
+            CREATE.replace("create/example.map", "bad.map") + "controllers: [students:Arc]\n",
+            "worlds[0].map",
+            "bad.map:2",
+        ),
+        (
+            CREATE.replace("map}", "map, config: bad.txt}") + "controllers: [students:Arc]\n",
+            "worlds[0].config",
+            "bad.txt",
+        ),
+        (
+            "worlds: [{world_file: bad.yaml}]\ncontrollers: [simrobot_avoid]\nduration_s: 1\n",
+            "worlds[0].world_file",
+            "",
+        ),
+        (
+            "worlds: [{robot_config: bad.yaml, targets: [[0.4, 0, 0.5]]}]\ncontrollers: [arm_targets]\nduration_s: 1\n",
+            "worlds[0].robot_config",
+            "",
+        ),
+        (CREATE + "controllers: [students:two_args]\n", "controllers[0].use", "expected a Node subclass"),
+        (CREATE + "controllers: [students:NotANode]\n", "controllers[0].use", "not an rclpy Node subclass"),
+        (CREATE + "controllers: [students:Broken]\n", "controllers[0]", "forgot to finish __init__"),
+        (CREATE + "controllers: [students:no_spin]\n", "controllers[0].use", "returned before spinning a node"),
+    ],
+)
+def test_a_sweep_whose_parameters_files_or_controllers_cannot_work_is_one_error_before_any_episode(
+    tmp_path: Path, body: str, field: str, says: str
+) -> None:
+    (tmp_path / "bad.map").write_text("wall -1 -1 1 -1\nwall 0 0 1\n", encoding="utf-8")
+    (tmp_path / "bad.txt").write_text("noise of the sonar is loud\n", encoding="utf-8")
+    (tmp_path / "bad.yaml").write_text("name: [unclosed\n", encoding="utf-8")
+    sweep = sweep_in(tmp_path, body)
+    done = batch(str(sweep), "--out", "out", cwd=tmp_path, timeout=60)
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {sweep}: field '{field}'"), done.stderr
+    assert says in lines[0]
+    assert not (tmp_path / "out").exists()  # nothing ran
