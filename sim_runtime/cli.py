@@ -7,6 +7,7 @@ import sys
 from collections.abc import Sequence
 
 from sim_runtime.executables import EXECUTABLES
+from sim_runtime.inputfile import shown
 from sim_runtime.node_help import NODE_EXECUTABLES, wants_help
 from sim_runtime.node_help import help_text as node_help_text
 
@@ -43,7 +44,12 @@ def run(name: str, argv: list[str]) -> int:
     main = getattr(importlib.import_module(module), function)
     # Nodes read sys.argv (rclpy.init, argparse): make it look like a direct call.
     sys.argv = [name, *argv]
-    result = main()
+    try:
+        result = main()
+    except OSError as error:  # the system refused a file (an output name too long, a full disk)
+        where = f": {shown(error.filename)}" if error.filename else ""
+        print(f"{name}: error: {error.strerror or error}{where}", file=sys.stderr)
+        return 2
     return int(result or 0)
 
 

@@ -5,6 +5,8 @@ no endless read."""
 
 from __future__ import annotations
 
+import os
+import subprocess
 import threading
 import time
 from collections.abc import Callable
@@ -21,12 +23,15 @@ from arm_sim.trajectory_file import load_trajectory
 from create_sim.configfile import load_config
 from create_sim.mapfile import load_map
 from sim_runtime.bag.reader import open_bag
+from sim_runtime.bag.writer import BagWriter
 from sim_runtime.batch.sweep import load_sweep
+from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.fuzz.targets import SPECIAL_PATHS, special_path
 from sim_runtime.paths import config_path, resolve_input_file
 from simrobot_sim.world_file import load_bitmap, load_world
 
+ROOT = Path(__file__).resolve().parent.parent
 QUICKLY_S = 10.0  # each takes milliseconds; the margin is for a loaded machine
 
 LOADERS: dict[str, Callable[[Path], object]] = {
@@ -130,9 +135,26 @@ def test_a_sweeps_map_naming_a_special_path_is_refused_naming_the_field(tmp_path
 
 @pytest.mark.parametrize("kind", ["fifo", "directory", "zero_link", "link_loop"])
 def test_a_bag_holding_a_special_file_named_like_a_split_opens_without_it(tmp_path, kind):
-    from sim_runtime.bag.writer import BagWriter
-
     with BagWriter(tmp_path / "bag") as writer:
         writer.write(writer.add_topic("/t", "std_msgs/msg/String", ""), 1, b"\x00\x01\x00\x00\x01\x00\x00\x00\x00")
     special_path(kind, tmp_path / "bag", ".mcap")
     assert quickly(lambda: sum(1 for _ in open_bag(tmp_path / "bag").messages())) == 1
+
+
+@pytest.mark.parametrize("executable", ["record", "bag_to_rerun"])
+def test_an_output_name_the_system_refuses_is_one_error_line_and_exit_2(tmp_path, executable):
+    with BagWriter(tmp_path / "bag") as writer:
+        writer.write(writer.add_topic("/t", "std_msgs/msg/String", ""), 1, b"\x00\x01\x00\x00\x01\x00\x00\x00\x00")
+    too_long = tmp_path / ("o" * 300)
+    args = {"record": ["-o", str(too_long)], "bag_to_rerun": [str(tmp_path / "bag"), "-o", f"{too_long}.rrd"]}
+    done = subprocess.run(
+        executable_command(executable, args[executable]),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+        env=dict(os.environ, PYTHONPATH=str(ROOT)),
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith(f"{executable}: error: File name too long: ")
+    assert "Traceback" not in done.stderr
