@@ -93,6 +93,10 @@ class Episode:
         for volatile in ("index", "record_bag", "bag_dir", "search_path"):
             what.pop(volatile)
         what["controller"].pop("transport")  # how messages travel does not change the result
+        if what["controller"]["kind"] == "user":
+            # users' nodes run on sim time with seeded random/numpy since this mark: rows logged
+            # before it (wall-clock timers, unseeded draws) must not be resumed beside new ones
+            what["runs"] = "sim time, seeded"
         return hashlib.sha1(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
