@@ -241,8 +241,10 @@ def _nan(value: Any) -> bool:
 
 
 # ------------------------------------------------------------------------------------- plots
-#: Size of one panel of a plot (inches), and the most panels a figure gets in a row.
+#: Size of one panel of a plot (inches).
 PANEL_SIZE = (4.4, 3.2)
+#: Width of a box (a controller × world) in a plot without a grid (inches): 30 students stay legible.
+BOX_WIDTH = 0.9
 #: The smallest span of a value axis: a near-constant column (all 0.0 m, or 3 bumps) gets an
 #: axis this wide around its value instead of one zoomed in on its rounding noise.
 MIN_SPAN = 0.01
@@ -296,15 +298,16 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
     ok = [r for r in rows if r.get("status") == "ok"]
     col_values = _values(ok, grid_keys[1]) if len(grid_keys) > 1 else [None]
     row_values = list(itertools.product(*(_values(ok, k) for k in grid_keys[2:])))
+    series = list(dict.fromkeys((r["controller"], r["world"]) for r in ok))
+    width = 1.2 + PANEL_SIZE[0] * len(col_values) if grid_keys else 1.2 + BOX_WIDTH * len(series)
     fig, axes = plt.subplots(
         len(row_values),
         len(col_values),
-        figsize=(max(7.0, 1.2 + PANEL_SIZE[0] * len(col_values)), 1.0 + PANEL_SIZE[1] * len(row_values)),
+        figsize=(max(7.0, width), 1.0 + PANEL_SIZE[1] * len(row_values)),
         sharex=True,
         sharey=True,
         squeeze=False,
     )
-    series = list(dict.fromkeys((r["controller"], r["world"]) for r in ok))
     for i, row_value in enumerate(row_values):
         for j, col_value in enumerate(col_values):
             facet = dict(zip(grid_keys[2:], row_value, strict=True))
