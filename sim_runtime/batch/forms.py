@@ -168,6 +168,7 @@ class MainRunner:
         self.error: BaseException | None = None
         self.thread: threading.Thread | None = None
         self._saved: list[tuple[Any, str, Any]] = []
+        self.created: list[Any] = []  # every node main's threads built
 
     # -- the stepping thread ------------------------------------------------------------------
     def start(self, timeout: float) -> list[Any]:
@@ -226,6 +227,9 @@ class MainRunner:
         for owner, name, value in self._saved:
             setattr(owner, name, value)
         self._saved = []
+        for node in self.created:  # made but never spun: nobody else destroys them
+            if node not in self.nodes:
+                node.destroy_node()
 
     def _run(self) -> None:
         try:
@@ -301,6 +305,7 @@ class MainRunner:
         }
         for name, replacement in module.items():
             self._redirect(rclpy, name, replacement, bound=False)
+        self._track_nodes()
 
         def add_node(_executor: Any, node: Any) -> bool:
             runner._wait([node], lambda: True, park=False)
@@ -330,6 +335,21 @@ class MainRunner:
             for name, replacement in methods.items():
                 if name in vars(cls):
                     self._redirect(cls, name, replacement, bound=True)
+
+    def _track_nodes(self) -> None:
+        """Note every node main's threads build, spun or not (see :meth:`stop`)."""
+        from rclpy.node import Node
+
+        original = Node.__init__
+        self._saved.append((Node, "__init__", original))
+        stepper, created = self.stepper, self.created
+
+        def init(node: Any, *args: Any, **kwargs: Any) -> None:
+            original(node, *args, **kwargs)
+            if threading.get_ident() != stepper:
+                created.append(node)
+
+        Node.__init__ = init  # type: ignore[method-assign,assignment]
 
     def _redirect(self, owner: Any, name: str, replacement: Callable[..., Any], *, bound: bool) -> None:
         original = getattr(owner, name)
