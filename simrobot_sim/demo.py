@@ -31,7 +31,7 @@ CRASH_ROBOT = RobotSpec(
     name="r5",
     position=(4.0, 0.8),
     heading=0.0,  # east: 0.96 m from the wall, 0.5 cm a step
-    color=(0.9, 0.2, 0.7),
+    color=(1.0, 0.2, 0.6),
     sensors=(SensorSpec(name="sens1", kind="ultrasonic"),),
 )
 CRASH_THRESHOLD_M = 1e-6

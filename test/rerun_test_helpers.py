@@ -21,6 +21,7 @@ from sensor_msgs.msg import Illuminance, JointState, LaserScan, Range
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.rerun_view.logger import type_name
+from simrobot_sim.world_file import DEFAULT_SHAPE
 
 NS = 1_000_000_000
 
@@ -223,3 +224,23 @@ def simrobot_messages() -> list[tuple[str, object, float]]:
         pose.pose.orientation.w = 1.0
         msgs.append(("/r1/pose", pose, float(k)))
     return msgs
+
+
+def robots_outlines(robots: list[tuple[float, float, tuple[float, float, float]]]) -> MarkerArray:
+    """SIMROBOT's ``/robots``: robot i at (x, y) in colour rgb 0-1 as LINE_STRIP marker id i, its
+    points the default shape placed on the map."""
+    out = MarkerArray()
+    for i, (x, y, rgb) in enumerate(robots):
+        m = Marker(ns="robots", id=i, type=Marker.LINE_STRIP, action=Marker.ADD)
+        m.header.frame_id = "map"
+        m.scale.x = 0.01
+        m.color.r, m.color.g, m.color.b, m.color.a = (*rgb, 1.0)
+        shape = [*DEFAULT_SHAPE, DEFAULT_SHAPE[0]]
+        m.points = [Point(x=x + px, y=y + py) for px, py in shape]
+        out.markers.append(m)
+    return out
+
+
+def packed(rgb: tuple[int, int, int]) -> int:
+    """An rgb colour as Rerun stores it (0xRRGGBBAA)."""
+    return (rgb[0] << 24) | (rgb[1] << 16) | (rgb[2] << 8) | 0xFF

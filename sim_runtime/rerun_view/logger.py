@@ -126,7 +126,7 @@ COLOR_NAMES = {
     "blue": (0, 100, 255),
     "green": (0, 170, 0),
     "orange": (235, 125, 0),
-    "magenta": (230, 50, 180),
+    "pink": (255, 50, 150),
     "teal": (0, 150, 136),
     "brown": (140, 86, 75),
     "violet": (140, 60, 220),
@@ -362,6 +362,7 @@ class _Robot:
     number: int | None = None  # SIMROBOT's obstacle number
     powered: bool | None = None  # None: the world does not say
     crashed: bool = False
+    label: str = ""  # as last logged
 
 
 @dataclass
@@ -708,6 +709,9 @@ class RerunLogger:
         text = robot.name if robot.number is None else f"{robot.name} (#{robot.number})"
         text += " crashed" if robot.crashed else ""
         text += " off" if robot.powered is False else ""
+        if text == robot.label:
+            return
+        robot.label = text
         d = LABEL_OFFSET_M["create" if robot.is_create else "simrobot"]
         label = rr.Points2D([[0.0, d]], radii=0.0, colors=[HEADING_COLOR], labels=[text], show_labels=True)
         self.rec.log(f"{MAP}/robots/{robot.name}/follow/label", label)
