@@ -9,7 +9,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/config/fastdds_localhost.xml
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
-.PHONY: venv test demo bench lint clean fuzz soak test-boundscheck
+.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck
 
 venv: $(STAMP)
 
@@ -30,6 +30,10 @@ test: venv lint
 
 demo: venv
 	$(PY) -m sim_runtime.demo
+
+# docs/rerun_*.png from fresh demo runs, taken by a headless Rerun viewer (needs mesa-vulkan-drivers).
+screenshots: venv
+	$(PY) docs/make_rerun_screenshot.py
 
 bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"

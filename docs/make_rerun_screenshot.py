@@ -1,8 +1,8 @@
 """Regenerate the Rerun screenshots in docs/: each demo's views at its start, middle and end.
 
-Run from the repository root::
+Run from the repository root: ``make screenshots``, or::
 
-    PYTHONPATH=. ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python docs/make_rerun_screenshot.py [DEMO_DIR]
+    .venv/bin/python docs/make_rerun_screenshot.py [DEMO_DIR]
 
 DEMO_DIR is a ``make demo`` output folder (``out/demo/<time>``) holding ``<demo>_bag``
 folders; without it the three demos are recorded first. Each bag is converted by
