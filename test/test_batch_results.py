@@ -60,6 +60,7 @@ def test_the_summary_says_how_many_reached_the_goal_and_averages_only_those() ->
         "controller": "ours",
         "world": "map",
         "n": "3",
+        "failed": "1",
         "distance_m": "4",
         "goal_reached": "1/3",
         "goal_time_s": "12.5",
@@ -71,6 +72,13 @@ def test_a_group_where_nobody_reached_shows_zero_and_no_time() -> None:
     text = summary_text(rows)
     assert "goal_time_s: reached 0/2 (0 %)" in text and "mean of those" not in text
     assert text.splitlines()[-2].split()[-2:] == ["0/2", "-"]
+
+
+def test_each_group_of_the_summary_counts_its_failed_episodes() -> None:
+    rows = [*GOALS, episode(4, status="error", controller="alice"), episode(5, status="error", controller="alice")]
+    groups = {line.split()[0]: line.split() for line in summary_text(rows).splitlines() if line.endswith(("-", "12.5"))}
+    assert groups["ours"][2:5] == ["3", "1", "4"]  # n ok, failed, mean distance
+    assert groups["alice"][2:] == ["0", "2", "-", "0/0", "-"]  # every episode failed: no means
 
 
 def test_a_nan_in_any_other_metric_is_counted_in_the_summary() -> None:

@@ -186,20 +186,9 @@ def summary(rows: list[dict[str, Any]], grid_keys: list[str], out: TextIO = sys.
     metrics = metric_columns(rows)
     if not ok or not metrics:
         return
-    time_to = [m for m in metrics if reached_column(m)]
-    head = ["controller", "world", *grid_keys, "n"]
-    for m in metrics:
-        head += [str(reached_column(m)), m] if m in time_to else [m]
-    lines = [head]
-    for label, members in _groups(ok, grid_keys).items():
-        cells = [*map(str, label), str(len(members))]
-        for m in metrics:
-            values = _finite(members, m)
-            if m in time_to:
-                cells.append(f"{len(values)}/{len(members)}")
-            cells.append(_number(_mean(values)) if values or m not in time_to else "-")
-        lines.append(cells)
+    lines = _group_table(rows, grid_keys, metrics, with_failed=bool(failed))
     widths = [max(len(line[i]) for line in lines) for i in range(len(lines[0]))]
+    time_to = any(reached_column(m) for m in metrics)
     print("mean per group" + (" (a time: over the episodes that reached it)" if time_to else "") + ":", file=out)
     for line in lines:
         print("  " + "  ".join(cell.rjust(w) for cell, w in zip(line, widths, strict=True)), file=out)
@@ -209,10 +198,39 @@ def summary(rows: list[dict[str, Any]], grid_keys: list[str], out: TextIO = sys.
             print(note, file=out)
 
 
-def _groups(ok: list[dict[str, Any]], grid_keys: list[str]) -> dict[tuple[Any, ...], list[dict[str, Any]]]:
+def _group_table(
+    rows: list[dict[str, Any]], grid_keys: list[str], metrics: list[str], with_failed: bool
+) -> list[list[str]]:
+    """The summary's table: a head, then per group its ok episodes ``n`` (and ``failed``), and
+    each metric's mean over the ok ones; a "time to" metric gets ``reached/n`` before its mean."""
+    head = ["controller", "world", *grid_keys, "n", *(["failed"] if with_failed else [])]
+    for m in metrics:
+        head += [str(reached_column(m)), m] if reached_column(m) else [m]
+    lines = [head]
+    for label, members in _groups(rows, grid_keys).items():
+        good = [r for r in members if r.get("status") == "ok"]
+        cells = [*label, str(len(good)), *([str(len(members) - len(good))] if with_failed else [])]
+        for m in metrics:
+            values = _finite(good, m)
+            if reached_column(m):
+                cells.append(f"{len(values)}/{len(good)}")
+            cells.append(_mean_cell(values, len(good), m))
+        lines.append(cells)
+    return lines
+
+
+def _mean_cell(values: list[float], ok: int, metric: str) -> str:
+    """The mean, ``-`` when there is none to take (no ok episode, nobody reached), ``nan`` when
+    every value of a metric that is not a time is NaN."""
+    if values:
+        return _number(_mean(values))
+    return "-" if reached_column(metric) or not ok else "nan"
+
+
+def _groups(rows: list[dict[str, Any]], grid_keys: list[str]) -> dict[tuple[str, ...], list[dict[str, Any]]]:
     """Rows per controller × world × grid point, in the order they first appear."""
-    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
-    for row in ok:
+    groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
+    for row in rows:
         label = (row["controller"], row["world"], *(_param(row, k) for k in grid_keys))
         groups.setdefault(tuple(map(str, label)), []).append(row)
     return groups
