@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import file_problem, read_input_text
 
 MAX_UPLOAD_BYTES = 1_000_000
 """Map and config files are a few kB; anything larger is refused before it is read."""
@@ -56,12 +57,10 @@ class Workspace:
     def read_text(self, name: str, kind: str) -> tuple[str, Path]:
         """A text file's contents and path; InputError if missing, too large or outside."""
         path = self.path(name)
-        if not path.is_file():
+        if file_problem(path) == "not found":
             raise InputError.at(name, None, f"{kind} file not found in the workspace {self.root}")
-        size = path.stat().st_size
-        if size > MAX_UPLOAD_BYTES:
-            raise InputError.at(name, None, f"{kind} file is {size} bytes, more than the limit {MAX_UPLOAD_BYTES}")
-        return path.read_text(encoding="utf-8", errors="replace"), path
+        # A FIFO, a folder or a name too long: refused by the reader, at once.
+        return read_input_text(path, f"{kind} file", MAX_UPLOAD_BYTES, errors="replace"), path
 
     def write_text(self, name: str, text: str, *, overwrite: bool = False) -> Path:
         """Write ``text`` to ``name`` (parent folders made); an existing file only if ``overwrite``."""
