@@ -13,10 +13,12 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
 from sim_runtime.batch import output
+from sim_runtime.batch.metrics import EpisodeData, create_min_clearance_m
 from sim_runtime.batch.sweep import load_sweep
 from sim_runtime.errors import InputError
 
@@ -102,6 +104,13 @@ def test_the_table_has_a_reached_column_before_each_time_and_keeps_nan(tmp_path:
 def test_a_time_metric_of_a_user_named_like_ours_gets_its_reached_column_too() -> None:
     row = episode(0, dock_time_s=NAN, sim_time_s=3.0)
     assert row["dock_reached"] is False and "sim_reached" not in row
+
+
+def test_min_clearance_is_zero_when_the_body_touched_a_wall_not_the_physics_gap() -> None:
+    t = np.arange(3) * 0.01
+    touched = EpisodeData(t, {"clearance": np.array([0.5, 1e-8, 0.3])})
+    clear = EpisodeData(t, {"clearance": np.array([0.5, 0.2, 0.3])})
+    assert create_min_clearance_m(touched) == 0.0 and create_min_clearance_m(clear) == 0.2
 
 
 # -------------------------------------------------------------------------------------- plots
