@@ -94,14 +94,14 @@ def read_input_bytes(path: str | os.PathLike[str], what: str, limit: int = MAX_B
         os.close(fd)
         if not stat.S_ISREG(info.st_mode):
             raise InputError(f"{shown(path)}: {what} is {_kind(info.st_mode)}, not a regular file")
-        raise InputError(f"{shown(path)}: {what} is {info.st_size} bytes, more than the {limit} it may have")
+        raise InputError(f"{shown(path)}: {what} is {info.st_size} bytes, more than the limit {limit}")
     with os.fdopen(fd, "rb") as stream:
         try:
             data = stream.read(limit + 1)  # the size may have grown (or lied, as /proc's do)
         except OSError as error:
             raise InputError(f"{shown(path)}: cannot read {what}: {_reason(error)}") from None
     if len(data) > limit:
-        raise InputError(f"{shown(path)}: {what} is more than the {limit} bytes it may have")
+        raise InputError(f"{shown(path)}: {what} is more than the limit {limit} bytes")
     return data
 
 
