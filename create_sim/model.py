@@ -17,6 +17,7 @@ sensor angles relative to the heading; every noise draw comes from the ``rng`` g
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -280,6 +281,9 @@ class CreateModel:
         """Whether the front receiver is in any emitter's halo or field, with no wall between."""
         if self.map.virtwalls.shape[0] == 0:
             return False
+        return self._virtual_wall_seen()
+
+    def _virtual_wall_seen(self) -> bool:
         x, y, th = self._pose
         return virtual_wall_seen(
             self.grid,
@@ -331,17 +335,7 @@ class CreateModel:
         """Beacons within 6 m and ±60° of the camera (0.13 m ahead) with no wall in between."""
         if self._beacon_xy.shape[0] == 0:
             return []
-        x, y, th = self._pose
-        index, dist, bearing = camera_view(
-            self.grid,
-            x + self.CAMERA_OFFSET * math.cos(th),
-            y + self.CAMERA_OFFSET * math.sin(th),
-            th,
-            self._beacon_xy,
-            self.CAMERA_RANGE,
-            self.CAMERA_HALF_FOV,
-            _OCCLUSION_TOL,
-        )
+        index, dist, bearing = self._camera_view()
         sightings = []
         for i, d, a in zip(index.tolist(), dist.tolist(), bearing.tolist(), strict=True):
             # Camera noise is proportional ("percent"), separate draws for distance and angle.
@@ -354,6 +348,35 @@ class CreateModel:
                 )
             )
         return sightings
+
+    def _camera_view(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Indices, distances and bearings of the beacons the camera sees (no noise)."""
+        x, y, th = self._pose
+        return camera_view(
+            self.grid,
+            x + self.CAMERA_OFFSET * math.cos(th),
+            y + self.CAMERA_OFFSET * math.sin(th),
+            th,
+            self._beacon_xy,
+            self.CAMERA_RANGE,
+            self.CAMERA_HALF_FOV,
+            _OCCLUSION_TOL,
+        )
+
+    # ----------------------------------------------------------------------------- numba
+    def compile_kernels(self) -> None:
+        """Run every numba kernel this model may call once, on a copy of it: each is compiled (or
+        loaded from numba's cache) now, not when a sensor is first read (a world would stall for
+        seconds then). This model, its state and its noise draws are untouched. Kernels are
+        compiled for their arguments' types, not the map's contents, so any map loaded later is
+        covered too."""
+        twin = copy.deepcopy(self)
+        twin.noise = NoiseConfig()  # noise-free: the IR wall sensor then always casts its ray
+        SegmentGrid.build(np.array([[0.0, 0.0, 1.0, 0.0]]))  # a map without walls builds no grid
+        twin.set_velocity(0.3, 0.5)
+        twin.step(0.01)
+        twin.bumps(), twin.cliff_signals(), twin.wall_sensor(), twin.sonar(), twin.lidar(), twin.clearance()
+        twin._virtual_wall_seen(), twin._camera_view()  # what the sensors skip on a map without them
 
 
 __all__ = ["BeaconSighting", "CreateModel"]

@@ -54,6 +54,7 @@ from sim_runtime.paths import config_path, resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_sensor_publisher
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
+from sim_runtime.warmup import announce_compiling
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0
@@ -85,8 +86,10 @@ class CreateWorldNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
-            self.note_compiling("create_sim.geometry", "create_sim.sensing", "create_sim.physics")
-            self.model = self._make_model()
+            with announce_compiling(self.get_logger().info):
+                self.model = self._make_model()
+                # every sensor's kernels now: compiling one when it is first subscribed would stall the world
+                self.model.compile_kernels()
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
             raise

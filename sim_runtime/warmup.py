@@ -12,25 +12,55 @@ from __future__ import annotations
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
+#: What a world logs before numba compiles its first kernel (only then: loads from the cache are silent).
+COMPILING_NOTICE = "compiling kernels (first run only, ~30 s) ..."
+
+
+@contextmanager
+def announce_compiling(say: Callable[[str], None]) -> Iterator[None]:
+    """Within the block, ``say`` :data:`COMPILING_NOTICE` once when numba starts compiling a kernel
+    (a cache miss: nothing when every kernel comes from numba's cache, wherever that is), and when
+    the block ends how many kernels were compiled in how long."""
+    from numba.core import event
+
+    class Notice(event.Listener):
+        def __init__(self) -> None:
+            self.depth = 0  # a kernel's callees are compiled inside its own compile event
+            self.compiled = 0
+            self.started = 0.0
+
+        def on_start(self, _event: event.Event) -> None:
+            if self.depth == 0 and self.compiled == 0:
+                say(COMPILING_NOTICE)
+                self.started = time.monotonic()
+            self.depth += 1
+
+        def on_end(self, _event: event.Event) -> None:
+            self.depth -= 1
+            self.compiled += self.depth == 0
+
+    notice = Notice()
+    with event.install_listener("numba:compile", notice):
+        yield
+    if notice.compiled:
+        seconds = time.monotonic() - notice.started
+        say(f"compiled {notice.compiled} kernels in {seconds:.1f} s (numba caches them for the next start)")
+
 
 def warm_create() -> None:
     from create_sim.configfile import load_config
-    from create_sim.mapfile import CreateMap, load_map
+    from create_sim.mapfile import load_map
     from create_sim.model import CreateModel
     from sim_runtime.paths import config_path
 
-    maps = (load_map(config_path("create/example.map")), CreateMap())  # walls and all; empty space
-    for world in maps:
-        model = CreateModel(world, load_config(config_path("create/example_config.txt")))
-        model.set_velocity(0.3, 0.5)
-        for _ in range(5):
-            model.step(0.01)
-        model.bumps(), model.cliff_signals(), model.wall_sensor(), model.virtual_wall()
-        model.sonar(), model.lidar(), model.camera()
+    world = load_map(config_path("create/example.map"))
+    CreateModel(world, load_config(config_path("create/example_config.txt"))).compile_kernels()
 
 
 def warm_simrobot() -> None:
@@ -44,18 +74,15 @@ def warm_simrobot() -> None:
         robot.format(i, x, sensor.format("us", "ultrasonic"), sensor.format("lz", "laser"))
         for i, x in ((1, 1.3), (2, 1.8))
     )
-    world_text = f"map: {config_path('simrobot/demo_map.png')}\nresolution: 0.01\ndt: 1.0\nrobots:\n{robots}"
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "warmup.yaml"
-        path.write_text(world_text)
-        world = SimrobotWorld(load_world(path))
-    world.set_wheel_speeds(0, 0.5, 0.4)
-    world.set_cmd_vel(1, 0.1, 0.2)
-    for _ in range(2):
-        world.step()
-        world.sense()
-    for k in range(len(world.sensors)):
-        world.ranges(k), world.nearest(k)
+    for model in ("exact", "original"):
+        world_text = (
+            f"map: {config_path('simrobot/demo_map.png')}\nresolution: 0.01\ndt: 1.0\n"
+            f"sensor_model: {model}\nrobots:\n{robots}"
+        )
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "warmup.yaml"
+            path.write_text(world_text)
+            SimrobotWorld(load_world(path)).compile_kernels()
 
 
 def warm_arm() -> None:

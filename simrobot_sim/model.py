@@ -11,6 +11,7 @@ the exact sensor model and the ``sensor_model: original`` option), and why: docs
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from dataclasses import dataclass
@@ -823,6 +824,14 @@ class SimrobotWorld:
             _sense(self._grid, self._robots, self._sensors, self._buckets(), self._readings)
         _nearest(self._sensors.first_ray, self._readings, self._nearest)
         self._sensed_at = self.step_count
+
+    def compile_kernels(self) -> None:
+        """Step and sense a copy of this world once: every numba kernel it uses (serial or threaded,
+        its sensor model, its id width) is compiled, or loaded from numba's cache, now rather than
+        at its first step. This world is untouched."""
+        twin = copy.deepcopy(self)
+        twin.step()
+        twin.sense()
 
     def _buckets(self) -> Buckets:
         # every robot sorted into the bucket of its pivot, so a sensor reads only nearby buckets

@@ -50,6 +50,7 @@ from sim_runtime.paths import resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
+from sim_runtime.warmup import announce_compiling
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
@@ -106,8 +107,9 @@ class SimrobotWorldNode(SimWorldNode):
             "frame_prefix", "", None, "prefix of every robot's frames ('' = from the namespace: /sim1 -> sim1/)"
         )
         self.prefix = prefix or namespace_prefix(self.get_namespace())
-        self.note_compiling("simrobot_sim.model", "simrobot_sim.raycast")
-        self.model = SimrobotWorld(spec)
+        with announce_compiling(self.get_logger().info):
+            self.model = SimrobotWorld(spec)
+            self.model.compile_kernels()  # now: not at the first step after "ready"
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)
         n = len(self.model.names)
