@@ -225,7 +225,8 @@ def test_the_tutorial_timer_node_gives_the_same_table_on_one_and_two_workers(tmp
         """
         worlds: [{map: create/example.map}]
         controllers: [students:Timed]
-        poses: {random: 4, seed: 3}
+        grid: {cmd_vel_timeout: [0, 0.05]}
+        poses: {random: 2, seed: 3}
         duration_s: 3
         """,
     )
@@ -234,7 +235,12 @@ def test_the_tutorial_timer_node_gives_the_same_table_on_one_and_two_workers(tmp
     assert one.returncode == 0 and two.returncode == 0, one.stderr + two.stderr
     assert {r["status"] for r in table(tmp_path / "one")} == {"ok"}
     assert (tmp_path / "one" / "episodes.csv").read_text() == (tmp_path / "two" / "episodes.csv").read_text()
-    assert all(float(r["distance_m"]) > 0.3 for r in table(tmp_path / "one"))  # the timer drove them
+    rows = table(tmp_path / "one")
+    assert all(float(r["distance_m"]) > 0.2 for r in rows)  # the timer drove them
+    # a world's parameter in the grid goes to the world: stopping 0.05 s after each 0.1 s command
+    (pose0, _), (stopping0, _) = (rows[:2], rows[2:])
+    assert stopping0["pose_x"] == pose0["pose_x"] and float(stopping0["param.cmd_vel_timeout"]) == 0.05
+    assert float(stopping0["distance_m"]) < 0.75 * float(pose0["distance_m"])
 
 
 def test_unseeded_random_numbers_in_a_controller_give_the_same_table_on_two_runs(tmp_path: Path) -> None:
@@ -260,6 +266,7 @@ def test_unseeded_random_numbers_in_a_controller_give_the_same_table_on_two_runs
 CREATE = "worlds: [{map: create/example.map}]\nposes: [[0.0, 0.0, 0.0]]\nduration_s: 1\n"
 BAD_MAP = CREATE.replace("create/example.map", "bad.map")
 SIMROBOT = "worlds: [{world_file: bad.yaml}]\ncontrollers: [simrobot_avoid]\nduration_s: 1\n"
+SIMROBOT_ARC = SIMROBOT.replace("bad.yaml", "simrobot/demo.yaml").replace("simrobot_avoid", "students:Arc")
 
 
 @pytest.mark.parametrize(
@@ -296,6 +303,7 @@ SIMROBOT = "worlds: [{world_file: bad.yaml}]\ncontrollers: [simrobot_avoid]\ndur
         (CREATE + "controllers: [students:NotANode]\n", "controllers[0].use", "not an rclpy Node subclass"),
         (CREATE + "controllers: [students:Broken]\n", "controllers[0]", "forgot to finish __init__"),
         (CREATE + "controllers: [students:no_spin]\n", "controllers[0].use", "returned before spinning a node"),
+        (SIMROBOT_ARC, "controllers[0].use", "give its __init__ **kwargs"),
     ],
 )
 def test_a_sweep_whose_parameters_files_or_controllers_cannot_work_is_one_error_before_any_episode(
