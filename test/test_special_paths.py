@@ -158,3 +158,13 @@ def test_an_output_name_the_system_refuses_is_one_error_line_and_exit_2(tmp_path
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().splitlines()[-1].startswith(f"{executable}: error: File name too long: ")
     assert "Traceback" not in done.stderr
+
+
+def test_a_file_beyond_its_kinds_size_limit_is_refused_before_it_is_read(tmp_path):
+    from sim_runtime.inputfile import read_input_bytes
+
+    path = tmp_path / "big.stl"
+    path.write_bytes(b"x" * 11)
+    assert read_input_bytes(path, "STL file", limit=11) == b"x" * 11
+    with pytest.raises(InputError, match=r"big\.stl: STL file is 11 bytes, more than the limit 10"):
+        read_input_bytes(path, "STL file", limit=10)
