@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import subprocess
 
+import numpy as np
 import pytest
 import rerun as rr
 import rerun.chunk as rrc
@@ -94,6 +95,10 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     walls = column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")[0]
     assert len(walls) == len(world.map.walls)
     assert column(ents["/top/map/map_markers/beacon_ids/0"], "Points2D:labels") == [["Red1"]]
+    # its latched OccupancyGrid drawn as SIMROBOT's: an image of its cells, walls dark
+    fmt = column(ents["/top/map/map"], "Image:format")[0][0]
+    pixels = np.frombuffer(bytes(column(ents["/top/map/map"], "Image:buffer")[0][0]), dtype=np.uint8)
+    assert len(pixels) == fmt["width"] * fmt["height"] and {60, 255} <= set(pixels.tolist())
     poses = column(ents["/top/map/robots/robot"], "Transform3D:translation")
     assert len(poses) >= 90  # 50 Hz for 2 s, a few may be in flight when recording starts
     x, y, _ = world.model.pose

@@ -54,6 +54,7 @@ from create_sim import mounts as create_mounts
 from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 from sim_runtime.paths import mesh_path
+from sim_runtime.rerun_view import legend as legend_text
 from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
 
 TIMELINE = "sim_time"
@@ -120,20 +121,6 @@ GRID_LABEL_COLOR = (110, 110, 110)
 FADED_MARKERS = {"virtual_wall_fields": 0.3, "virtual_wall_halos": 0.45}
 """Map marker namespaces drawn faint and clipped to the walls' extent: the virtual walls' fields
 are large triangles that walls block."""
-COLOR_NAMES = {
-    "yellow": (255, 255, 0),
-    "red": (255, 0, 0),
-    "blue": (0, 100, 255),
-    "green": (0, 170, 0),
-    "orange": (235, 125, 0),
-    "pink": (255, 50, 150),
-    "teal": (0, 150, 136),
-    "brown": (140, 86, 75),
-    "violet": (140, 60, 220),
-    "grey": (127, 127, 127),
-    "black": (0, 0, 0),
-}
-"""Names the legend gives robot colours (the nearest)."""
 SERIES_COLORS = [
     (31, 119, 180),
     (255, 127, 14),
@@ -517,38 +504,12 @@ class RerunLogger:
     def legend(self) -> str:
         """What each colour and mark of the views means, for what this world has (markdown)."""
         if not self.planar:
-            return (
-                "**Arm**: meshes in their colours; axes x red, y green, z blue.\n\n"
-                "- orange line: the flange's path (small axes: the flange now)\n"
-                "- large axes with a name: a commanded target pose"
-            )
-        kinds = set(self.topics.values())
-        leaves = {_basename(t) for t in self.topics}
-        robots = []
+            return legend_text.ARM
+        entries = []
         for name in sorted(set(self._topic_robots) | set(self._robots)):
             robot = self._robots.get(name)
-            color = _color_name(robot.color) if robot is not None and robot.color else ""
-            robots.append(f"{name} {color}{f' #{robot.number}' if robot and robot.number else ''}".strip())
-        notes = ["label below each", "#n: its obstacle number" if "obstacle" in leaves else ""]
-        notes.append("*off*: powered off, *crashed*: stopped by a collision" if "crashed" in leaves else "")
-        lines = [
-            f"**Robots**: {', '.join(robots)} ({'; '.join(n for n in notes if n)})",
-            "- tracks in the robot's colour: thick = ground truth, thin = odometry; dark arrow: heading",
-            "- walls dark; a light grey line every metre",
-        ]
-        optional = [
-            ("map_markers" in leaves, "- blue lines: painted lines; coloured dots: beacons with their id"),
-            ("map_markers" in leaves, "- pale green: virtual walls (halo and field, cut at the outer walls)"),
-            ("sensor_msgs/msg/LaserScan" in kinds, "- violet dots: LIDAR hits (blue: another robot); faint rays"),
-            ("sensor_msgs/msg/Range" in kinds, "- grey fan: a sonar's cone; teal arc or ray: its echo"),
-            ("/bump/" in str(self.topics), "- red dot: bumper pressed; orange dot: cliff, IR wall seen"),
-            ("/bump/" in str(self.topics), "- red x: where a bumper was pressed (times in Events)"),
-            ("crashed" in leaves, "- dark red x: where a robot crashed (time in Events)"),
-        ]
-        lines += [line for shown, line in optional if shown]
-        if "obstacle" in leaves:
-            lines.append("- *Obstacle seen* plot: 0 nothing, 1 a wall, n the robot labelled #n")
-        return "\n".join(lines)
+            entries.append(legend_text.robot_entry(name, robot.color, robot.number) if robot else name)
+        return legend_text.mobile(self.topics, entries)
 
     def _plot_view(self, tab: str) -> rrb.TimeSeriesView:
         title, y_range = PLOT_TABS[tab]
@@ -1351,11 +1312,6 @@ class RerunLogger:
                 translation=[p.x, p.y, p.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]), scale=scale
             ),
         )
-
-
-def _color_name(color: tuple[int, int, int]) -> str:
-    """The nearest of COLOR_NAMES."""
-    return min(COLOR_NAMES, key=lambda n: sum((a - b) ** 2 for a, b in zip(COLOR_NAMES[n], color, strict=True)))
 
 
 def _darker(color: tuple[int, int, int] | None) -> tuple[int, int, int] | None:
