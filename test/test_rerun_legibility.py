@@ -113,7 +113,7 @@ def test_virtual_wall_fields_are_cut_at_the_outer_walls(tmp_path):
     assert outline[:, 1].max() == pytest.approx(0.4) and np.allclose(outline[0], outline[-1])  # …still closed
 
 
-def test_a_live_series_is_recoloured_when_its_robots_outline_arrives(tmp_path):
+def test_a_live_series_and_the_legend_take_the_robots_colour_when_its_outline_arrives(tmp_path):
     rec = rr.RecordingStream("robot_sims_test")
     out = tmp_path / "live.rrd"
     rec.save(out)
@@ -121,7 +121,9 @@ def test_a_live_series_is_recoloured_when_its_robots_outline_arrives(tmp_path):
     for topic, msg, t in simrobot_messages()[:2]:  # the map and r1's first pose
         logger.log(topic, msg, int(t * 1e9))
     logger.log("/r1/sens1/obstacle", UInt8(data=1), 1)
+    layout = logger.layout_version
     logger.log("/robots", robots_outlines([(0.0, 0.0, RED)]), 2)
+    assert logger.layout_version > layout and "r1 red #2" in logger.legend()  # the live view resends both
     rec.disconnect()
     colors = column(load_entities(out)["/plots/obstacle/r1/sens1"], "SeriesLines:colors")
     assert colors[0] != [packed((255, 0, 0))] and colors[-1] == [packed((255, 0, 0))]

@@ -679,6 +679,7 @@ class RerunLogger:
 
     def _set_color(self, robot: _Robot, outline: Outline) -> None:
         robot.color, robot.number = outline.color, outline.number
+        self.layout_version += 1  # a live view sends the legend again, with the colour's name
         robot.heading_m = max(3.0 * outline.size_m, 0.12)  # reaches well out of the outline and its dot
         for track in (robot.truth, robot.odom):
             track.color = outline.color
