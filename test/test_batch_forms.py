@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 STUDENTS = '''
 import random
+import threading
 
 import numpy as np
 import rclpy
@@ -88,6 +89,18 @@ def loop_fails():
         rclpy.spin_once(node)
         if node.get_clock().now().nanoseconds >= 500_000_000:
             raise RuntimeError("gave up at 0.5 s of sim time")
+
+
+def rate_loop():
+    """The ROS 1 habit: a Rate loop publishing, rclpy.spin in a thread of its own."""
+    rclpy.init()
+    node = Arc()
+    node.on_bump = lambda msg: None
+    threading.Thread(target=rclpy.spin, args=(node,), daemon=True).start()
+    rate = node.create_rate(20)
+    while rclpy.ok():
+        node.drive()
+        rate.sleep()
 
 
 def wait_then_spin():
@@ -181,7 +194,8 @@ def test_node_classes_with_or_without_kwargs_and_every_kind_of_main_run_with_the
         tmp_path,
         """
         worlds: [{map: create/example.map}]
-        controllers: [students:Arc, students:ArcKwargs, students:main, students:loop, students:wait_then_spin]
+        controllers:
+          [students:Arc, students:ArcKwargs, students:main, students:loop, students:wait_then_spin, students:rate_loop]
         grid: {turn: [0, 1]}
         poses: [[0.0, 0.0, 0.0]]
         duration_s: 1.5
@@ -190,7 +204,7 @@ def test_node_classes_with_or_without_kwargs_and_every_kind_of_main_run_with_the
     done = batch(str(sweep), "--workers", "1", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     rows = table(tmp_path / "out")
-    assert [r["status"] for r in rows] == ["ok"] * 10, [r["error"] for r in rows]
+    assert [r["status"] for r in rows] == ["ok"] * 12, [r["error"] for r in rows]
     by = {(r["controller"], float(r["param.turn"])): [r[k] for k in RESULTS] for r in rows}
     assert by["students:Arc", 0.0] != by["students:Arc", 1.0]  # the grid's 0 and 1 given as 0.0 and 1.0
     for form in ("students:ArcKwargs", "students:main", "students:wait_then_spin"):
@@ -198,6 +212,7 @@ def test_node_classes_with_or_without_kwargs_and_every_kind_of_main_run_with_the
     # the loop publishes after every step instead of after every bumper message (50 Hz): it
     # turns earlier, so its own numbers, but still one per parameter value
     assert by["students:loop", 0.0] != by["students:loop", 1.0]
+    assert by["students:rate_loop", 0.0] != by["students:rate_loop", 1.0]
     assert float(rows[6]["distance_m"]) > 0.3
 
 

@@ -3,7 +3,7 @@
 - ``node``: an rclpy ``Node`` subclass, with or without ``**kwargs`` in its ``__init__``;
 - ``main``: a function callable without arguments (``main()``, ``main(args=None)``) that builds its
   node(s) and spins them: ``rclpy.spin``, a ``rclpy.spin_once`` loop, ``spin_until_future_complete``,
-  or an executor of its own;
+  an executor of its own, or a ``Rate.sleep()`` loop;
 - ``model``: ``function(model, params, seed)`` returning ``control(model, t)``.
 
 Every episode runs in its own rclpy context, made rclpy's default for the episode
@@ -14,9 +14,9 @@ Every episode runs in its own rclpy context, made rclpy's default for the episod
 A ``main`` runs in a thread of its own (:class:`MainRunner`) with rclpy's spin functions redirected:
 its nodes join the episode's executor, whose callbacks run in the stepping thread, and a spin call
 in ``main``'s thread hands the turn to the stepping thread until the sim has moved on (one physics
-step for ``spin_once``, the future done for ``spin_until_future_complete``, the episode's end for
-``spin``). The two threads never run at the same time: a ``spin_once`` loop is as deterministic
-as a callback.
+step for ``spin_once``, the future done for ``spin_until_future_complete``, the rate's timer fired
+for ``Rate.sleep``, the episode's end for ``spin``). The two threads never run at the same time:
+a ``spin_once`` loop is as deterministic as a callback.
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ NODE_KWARGS = ("context", "parameter_overrides", "namespace", "sensor")
 #: Wall seconds ``main`` may run between two spin calls before its episode fails (a loop that
 #: never spins, or waits on something only another spinning thread would deliver).
 TURN_TIMEOUT = 30.0
+#: Wall seconds to wait for ``main``'s thread to finish once its spin calls have returned.
+JOIN_TIMEOUT = 5.0
 
 
 # ------------------------------------------------------------------------------ classification
@@ -209,7 +211,7 @@ class MainRunner:
             if not self.cond.wait_for(lambda: self.parked or self.ended, timeout=TURN_TIMEOUT):
                 raise RuntimeError(
                     f"{self.target} ran {TURN_TIMEOUT:g} s of wall time without coming back to a spin call "
-                    "(a loop that never spins, or a wait that needs another thread spinning, such as Rate.sleep)"
+                    "(a loop that never spins, or a wait that needs another thread spinning)"
                 )
             if self.error is not None:
                 raise self.error
@@ -223,7 +225,7 @@ class MainRunner:
             self.parked = False
             self.cond.notify_all()
         if self.thread is not None:
-            self.thread.join(timeout=TURN_TIMEOUT)
+            self.thread.join(timeout=JOIN_TIMEOUT)
         for owner, name, value in self._saved:
             setattr(owner, name, value)
         self._saved = []
@@ -286,12 +288,22 @@ class MainRunner:
     ) -> None:
         self._wait([node], self._until(future, timeout_sec))
 
+    def rate_sleep(self, rate: Any) -> None:
+        """``Rate.sleep``: a turn until the rate's timer fires (on sim time, in the episode's
+        executor), where rclpy would need another thread spinning."""
+        from rclpy.exceptions import ROSInterruptException
+
+        if not self._wait([], rate._event.is_set):
+            raise ROSInterruptException()
+        rate._event.clear()
+
     # -- the redirection ----------------------------------------------------------------------
     def _patch(self) -> None:
         """Redirect rclpy's spin functions, and those of executors main makes, in every thread but
         the stepping one (which keeps the originals)."""
         import rclpy
         from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
+        from rclpy.timer import Rate
 
         runner = self
         module: dict[str, Callable[..., Any]] = {
@@ -306,6 +318,7 @@ class MainRunner:
         for name, replacement in module.items():
             self._redirect(rclpy, name, replacement, bound=False)
         self._track_nodes()
+        self._redirect(Rate, "sleep", self.rate_sleep, bound=True)
 
         def add_node(_executor: Any, node: Any) -> bool:
             runner._wait([node], lambda: True, park=False)
