@@ -40,6 +40,8 @@ NODE_KWARGS = ("context", "parameter_overrides", "namespace", "sensor")
 #: Wall seconds ``main`` may run between two spin calls before its episode fails (a loop that
 #: never spins, or waits on something only another spinning thread would deliver).
 TURN_TIMEOUT = 30.0
+#: Wall seconds ``main`` gets to reach its first wait once another thread of its spins.
+OTHERS_GRACE = 2.0
 #: Wall seconds to wait for ``main``'s thread to finish once its spin calls have returned.
 JOIN_TIMEOUT = 5.0
 
@@ -180,6 +182,9 @@ class MainRunner:
         self.thread.start()
         with self.cond:
             self.cond.wait_for(lambda: self.parked or self.ended or self.others, timeout=timeout)
+            # a thread of main's spins: give main itself a moment to reach its own first wait (a
+            # rate.sleep()), so that it too starts in turns
+            self.cond.wait_for(lambda: self.parked or self.ended, timeout=OTHERS_GRACE)
             if self.error is not None:
                 raise self.error
             if not self.nodes:
