@@ -149,15 +149,16 @@ class Child:
         return self.process.returncode
 
 
-def stop_all(children: list[Child], timeout: float = 3.0) -> None:
+def stop_all(children: list[Child], timeout: float = 3.0, patient: Child | None = None) -> None:
     """Stop ``children`` together: SIGINT to all, one shared ``timeout``, then SIGKILL to those
-    left (one after another, five worlds took five times one world's time)."""
+    left (one after another, five worlds took five times one world's time). ``patient`` (a
+    recorder finishing its bag) gets one second more before it is killed."""
     for child in children:
         child.interrupt()
-    deadline = time.monotonic() + timeout
-    for child in children:
-        child.wait(max(0.0, deadline - time.monotonic()))
-    for child in children:
+    start = time.monotonic()
+    for child in sorted(children, key=lambda c: c is patient):  # the patient one last
+        allowed = timeout + (1.0 if child is patient else 0.0)
+        child.wait(max(0.0, start + allowed - time.monotonic()))
         if child.running:
             child.process.kill()
             child.wait(2.0)
