@@ -185,8 +185,16 @@ def _move_plan(n: int, cells_per_robot: int) -> MovePlan:
     )
 
 
+@numba.njit(cache=True)
+def _body_cells(vx, vy, nx, ny, out, outline):
+    # the cells a robot's polygon occupies: all it overlaps, or (the original's) its outline only
+    if outline:
+        return raycast.polygon_outline_cells(vx, vy, nx, ny, out)
+    return raycast.polygon_cells(vx, vy, nx, ny, out)
+
+
 @numba.njit(cache=True, inline="always")
-def _plan_one(shape, robots, r, dt, plan, vx, vy):
+def _plan_one(shape, robots, r, dt, plan, vx, vy, outline):
     # robot r's move, if powered, not crashed and its pose changes (the wheel speeds take the
     # acceleration even when it does not)
     plan.moving[r] = False
@@ -196,7 +204,7 @@ def _plan_one(shape, robots, r, dt, plan, vx, vy):
     if x == robots.pose[r, 0] and y == robots.pose[r, 1] and hn == robots.pose[r, 2]:
         return
     m = _outline(robots.vertices, robots.first_vertex[r], robots.first_vertex[r + 1], x, y, hn, vx, vy)
-    n, outside = raycast.polygon_cells(vx[:m], vy[:m], shape[0], shape[1], plan.cells[r])
+    n, outside = _body_cells(vx[:m], vy[:m], shape[0], shape[1], plan.cells[r], outline)
     _cell_box(vx[:m], vy[:m], plan.box[r])
     plan.moving[r] = True
     plan.pose[r, 0] = x
@@ -207,27 +215,29 @@ def _plan_one(shape, robots, r, dt, plan, vx, vy):
 
 
 @numba.njit(cache=True)
-def _plan_range(shape, robots, dt, plan, first, last, vx, vy):
+def _plan_range(shape, robots, dt, plan, first, last, vx, vy, outline):
     # robots first..last-1: one compiled function for one thread or many (bit-identical plans)
     for r in range(first, last):
-        _plan_one(shape, robots, r, dt, plan, vx, vy)
+        _plan_one(shape, robots, r, dt, plan, vx, vy, outline)
 
 
 @numba.njit(cache=True)
-def _plan_moves(shape, robots, dt, plan):
-    """Every robot's planned move (:class:`MovePlan`), on this thread."""
-    _plan_range(shape, robots, dt, plan, 0, robots.pose.shape[0], np.empty(64), np.empty(64))
+def _plan_moves(shape, robots, dt, plan, outline):
+    """Every robot's planned move (:class:`MovePlan`), on this thread; ``outline``: robots occupy
+    only their outline's cells (:func:`_body_cells`)."""
+    _plan_range(shape, robots, dt, plan, 0, robots.pose.shape[0], np.empty(64), np.empty(64), outline)
 
 
 @numba.njit(cache=True, parallel=True)
-def _plan_moves_parallel(shape, robots, dt, plan, chunks):
+def _plan_moves_parallel(shape, robots, dt, plan, chunks, outline):
     """:func:`_plan_moves` on all threads, robots in ``chunks`` contiguous runs (a robot's plan
     depends on its own state only, so it is the same whatever the threads)."""
     n = robots.pose.shape[0]
     # made before the loop: an allocation inside it could be hoisted and shared by the threads
-    outline = np.empty((chunks, 2, 64))
+    corners = np.empty((chunks, 2, 64))
     for c in numba.prange(chunks):
-        _plan_range(shape, robots, dt, plan, c * n // chunks, (c + 1) * n // chunks, outline[c, 0], outline[c, 1])
+        first, last = c * n // chunks, (c + 1) * n // chunks
+        _plan_range(shape, robots, dt, plan, first, last, corners[c, 0], corners[c, 1], outline)
 
 
 @numba.njit(cache=True)
@@ -472,8 +482,9 @@ def _sense_parallel(grid, robots, sensors, buckets, out, chunks):
 
 
 @numba.njit(cache=True)
-def _sense_original(matrix, robots, sensors, out):
-    """Cast every ray of every sensor by the original SIMROBOT's rules (``sensor_model: original``)."""
+def _sense_original(matrix, robots, sensors, out, see_own):
+    """Cast every ray of every sensor by the original SIMROBOT's rules (``sensor_model: original``);
+    ``see_own``: a sensor sees its own robot's cells too, as the original's."""
     n_sensors = sensors.robot.shape[0]
     max_rays = 0
     for s in range(n_sensors):
@@ -484,7 +495,7 @@ def _sense_original(matrix, robots, sensors, out):
         a0 = sensors.first_ray[s]
         nr = sensors.first_ray[s + 1] - a0
         step = sensors.ray_offset[a0 + 1] - sensors.ray_offset[a0] if nr > 1 else 0.0
-        own = robots.id[sensors.robot[s]]
+        own = 0 if see_own else robots.id[sensors.robot[s]]
         fan = raycast.Fan(ox, oy, dirs[:nr], axis + sensors.ray_offset[a0], step, sensors.max_range[s], own)
         raycast.cast_scan_original(matrix, fan, out.distance[a0 : a0 + nr], out.value[a0 : a0 + nr])
 
@@ -581,12 +592,31 @@ class SimrobotWorld:
     is at ``origin``). ``grid`` is the occupancy matrix itself, indexed by cell ``[x, y]``
     (0 free, 1 wall, robot ids). The kernels' cell-unit state lives in the private tables."""
 
-    def __init__(self, spec: WorldSpec, *, wide_ids: bool = False, threads: int | None = None) -> None:
+    def __init__(
+        self,
+        spec: WorldSpec,
+        *,
+        wide_ids: bool = False,
+        threads: int | None = None,
+        outline_bodies: bool = False,
+        see_own_robot: bool = False,
+    ) -> None:
         """Place every robot of ``spec``. More than 254 robots need ``wide_ids=True`` (a uint16
         matrix; the ROS node keeps the original's uint8 ids so obstacle numbers fit ``UInt8``).
         ``threads``: how many threads sense and move the robots (default: the world file's
         ``threads``; 0 = every core numba may use, ``NUMBA_NUM_THREADS`` caps it). Results are
-        bit for bit the same whatever the number; small worlds stay on one thread."""
+        bit for bit the same whatever the number; small worlds stay on one thread.
+
+        Two of the original's rules, off by default: ``outline_bodies``, a robot occupies only the
+        cells of its polygon's outline (sensors see and robots collide with that alone);
+        ``see_own_robot`` (``sensor_model: original`` only), a sensor sees its own robot's cells
+        too, reading 0 when it lies on them."""
+        if see_own_robot and spec.sensor_model != "original":
+            raise InputError(f"{spec.source}: seeing a sensor's own robot needs sensor_model: original")
+        #: Robots occupy their outline's cells only (the original's painting), not every cell they overlap.
+        self.outline_bodies = bool(outline_bodies)
+        #: Sensors see their own robot (the original's rule; ``sensor_model: original`` only).
+        self.see_own_robot = bool(see_own_robot)
         n = len(spec.robots)
         if n > MAX_ROBOTS_UINT8 and not wide_ids:
             raise InputError(
@@ -720,7 +750,7 @@ class SimrobotWorld:
         rob.pose[i] = (x, y, wrap_angle(robot.heading))
         vx, vy = self._outline(i)
         tmp = np.empty(rob.cells.shape[1], dtype=np.int64)
-        n, outside = raycast.polygon_cells(vx, vy, nx, ny, tmp)
+        n, outside = _body_cells(vx, vy, nx, ny, tmp, self.outline_bodies)
         where = f"{self.spec.source}: robots[{i}] ({robot.name!r}).position {list(robot.position)}"
         if outside:
             raise InputError(f"{where}: the robot does not fit inside the map")
@@ -800,9 +830,10 @@ class SimrobotWorld:
         plan = self._plan
         if self.threads > 1 and len(self.names) >= PARALLEL_MIN_ROBOTS:
             numba.set_num_threads(self.threads)
-            _plan_moves_parallel(self.grid.shape, self._robots, self.dt, plan, self.threads * _CHUNKS_PER_THREAD)
+            chunks = self.threads * _CHUNKS_PER_THREAD
+            _plan_moves_parallel(self.grid.shape, self._robots, self.dt, plan, chunks, self.outline_bodies)
         else:
-            _plan_moves(self.grid.shape, self._robots, self.dt, plan)
+            _plan_moves(self.grid.shape, self._robots, self.dt, plan, self.outline_bodies)
         _commit_moves(self.grid, self._robots, plan, hit_by)
         # robot-on-robot crashes both (applied after everyone moved, as the original)
         self.crashed |= hit_by > 0
@@ -815,7 +846,7 @@ class SimrobotWorld:
         if self._sensed_at == self.step_count or len(self.sensors) == 0:
             return
         if self.sensor_model == "original":
-            _sense_original(self.grid, self._robots, self._sensors, self._readings)
+            _sense_original(self.grid, self._robots, self._sensors, self._readings, self.see_own_robot)
         elif self.threads > 1 and len(self.sensors) >= PARALLEL_MIN_SENSORS:
             numba.set_num_threads(self.threads)
             chunks = min(self.threads * _CHUNKS_PER_THREAD, len(self.sensors))

@@ -578,6 +578,33 @@ def _seen(matrix, x, y, own_id):
 
 
 @numba.njit(cache=True)
+def _midpoint_start(x0: int, y0: int, x1: int, y1: int) -> int:
+    """The decision value of the original's midpoint line from (x0, y0) to (x1, y1) before its first step."""
+    dx = abs(x1 - x0)
+    dy = abs(y1 - y0)
+    return 2 * dy - dx if dy < dx else 2 * dx - dy
+
+
+@numba.njit(cache=True)
+def _midpoint_step(x: int, y: int, d: int, x0: int, y0: int, x1: int, y1: int) -> tuple[int, int, int]:
+    """One step of the original's midpoint (Bresenham) line from (x0, y0) to (x1, y1): always along
+    the main axis, and along the other one too when the decision value ``d`` is above 0 (a tie,
+    0, stays on the main axis). Returns the new cell and decision value."""
+    dx = abs(x1 - x0)
+    dy = abs(y1 - y0)
+    x_major = dy < dx
+    steps = dx if x_major else dy
+    minor = dy if x_major else dx
+    side_step = d > 0
+    d += 2 * (minor - steps) if side_step else 2 * minor
+    if x_major or side_step:
+        x += 1 if x1 >= x0 else -1
+    if not x_major or side_step:
+        y += 1 if y1 >= y0 else -1
+    return x, y, d
+
+
+@numba.njit(cache=True)
 def cast_ray_original(matrix: np.ndarray, cx: int, cy: int, ex: int, ey: int, own_id: int) -> tuple[float, int]:
     """One ray by the original SIMROBOT's rules, in cell indices: from the sensor's cell ``(cx,
     cy)`` to the end cell ``(ex, ey)`` by the original's midpoint Bresenham line (8-connected; at
@@ -593,24 +620,14 @@ def cast_ray_original(matrix: np.ndarray, cx: int, cy: int, ex: int, ey: int, ow
         if v != 0:
             return 0.0, v
     sx = 1 if ex >= cx else -1  # also the side of the extra cell: to the right for a vertical ray
-    sy = 1 if ey >= cy else -1
-    dx = abs(ex - cx)
-    dy = abs(ey - cy)
-    x_major = dy < dx
-    steps = max(dx, dy)
-    minor = dy if x_major else dx
-    d = 2 * minor - steps
+    steps = max(abs(ex - cx), abs(ey - cy))
+    d = _midpoint_start(cx, cy, ex, ey)
     x = cx
     y = cy
     for _ in range(steps):
         if x >= nx - 2 or y >= ny - 1 or x <= 1 or y <= 0:
             break
-        side_step = d > 0  # a tie (d == 0) stays on the main axis
-        d += 2 * (minor - steps) if side_step else 2 * minor
-        if x_major or side_step:
-            x += sx
-        if not x_major or side_step:
-            y += sy
+        x, y, d = _midpoint_step(x, y, d, cx, cy, ex, ey)
         v = _seen(matrix, x, y, own_id)
         if v != 0:
             return math.hypot(x - cx, y - cy), v
@@ -767,4 +784,42 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
             if mark[i, j] and 0 <= y < ny:
                 out[count] = x * ny + y
                 count += 1
+    return count, outside
+
+
+@numba.njit(cache=True)
+def polygon_outline_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndarray) -> tuple[int, bool]:
+    """The cells of the closed polygon's outline only, as the original paints a robot: each
+    vertex's cell (the one holding it: the original rounds to its nearest cell centre), joined to
+    the next by the original's midpoint line (:func:`_midpoint_step`). Same contract as
+    :func:`polygon_cells`: flat indices ``x * ny + y`` into ``out``, and (count, outside)."""
+    n = vx.shape[0]
+    x_lo = int(math.floor(vx.min()))
+    y_lo = int(math.floor(vy.min()))
+    w = int(math.floor(vx.max())) - x_lo + 1
+    h = int(math.floor(vy.max())) - y_lo + 1
+    mark = np.zeros((w, h), dtype=np.bool_)
+    for e in range(n):
+        x0 = int(math.floor(vx[e]))
+        y0 = int(math.floor(vy[e]))
+        x1 = int(math.floor(vx[(e + 1) % n]))
+        y1 = int(math.floor(vy[(e + 1) % n]))
+        x, y, d = x0, y0, _midpoint_start(x0, y0, x1, y1)
+        mark[x - x_lo, y - y_lo] = True
+        for _ in range(max(abs(x1 - x0), abs(y1 - y0))):
+            x, y, d = _midpoint_step(x, y, d, x0, y0, x1, y1)
+            mark[x - x_lo, y - y_lo] = True
+    count = 0
+    outside = False
+    for i in range(w):
+        for j in range(h):
+            if not mark[i, j]:
+                continue
+            x = x_lo + i
+            y = y_lo + j
+            if 0 <= x < nx and 0 <= y < ny:
+                out[count] = x * ny + y
+                count += 1
+            else:
+                outside = True
     return count, outside

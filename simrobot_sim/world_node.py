@@ -107,8 +107,22 @@ class SimrobotWorldNode(SimWorldNode):
             "frame_prefix", "", None, "prefix of every robot's frames ('' = from the namespace: /sim1 -> sim1/)"
         )
         self.prefix = prefix or namespace_prefix(self.get_namespace())
+        outline_bodies = self.declare_checked(
+            "outline_bodies",
+            False,
+            None,
+            "robots occupy only the cells of their outline, as the original paints them (sensors see and "
+            "robots collide with the outline alone); off: every cell a robot overlaps",
+        )
+        see_own_robot = self.declare_checked(
+            "see_own_robot",
+            False,
+            lambda v: not v or spec.sensor_model == "original",
+            "with the world file's sensor_model: original, a sensor sees its own robot too (reading 0 where "
+            "it lies on its outline), as the original's",
+        )
         with announce_compiling(self.get_logger().info):
-            self.model = SimrobotWorld(spec)
+            self.model = SimrobotWorld(spec, outline_bodies=outline_bodies, see_own_robot=see_own_robot)
             self.model.compile_kernels()  # now: not at the first step after "ready"
         self.lockstep = bool(spec.lockstep)
         self.lockstep_timeout = float(spec.lockstep_timeout)

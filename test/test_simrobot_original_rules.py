@@ -8,8 +8,13 @@ import math
 
 import numpy as np
 import pytest
+from rclpy.parameter import Parameter
 
+from sim_runtime.errors import InputError
 from simrobot_sim import raycast
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
+from simrobot_sim.world_node import SimrobotWorldNode
 
 
 def reading(matrix: np.ndarray, cell: tuple[int, int], direction: tuple[float, float], reach: float):
@@ -84,3 +89,76 @@ def test_a_45_degree_line_steps_diagonally_every_time():
     grid[8, 8] = 1
     grid[6, 5] = grid[5, 6] = 1  # beside the first diagonal step: never tested
     assert raycast.cast_ray_original(grid, 5, 5, 10, 10, 0) == (pytest.approx(math.hypot(3, 3)), 1)
+
+
+def test_an_outline_is_every_vertex_cell_joined_by_the_originals_midpoint_lines():
+    out = np.empty(100, dtype=np.int64)
+    # a square of cells (2..6, 2..6): 16 outline cells, none of the 9 inside
+    n, outside = raycast.polygon_outline_cells(
+        np.array([2.5, 6.5, 6.5, 2.5]), np.array([2.5, 2.5, 6.5, 6.5]), 30, 30, out
+    )
+    cells = {(int(c) // 30, int(c) % 30) for c in out[:n]}
+    assert not outside
+    assert cells == {(x, y) for x in range(2, 7) for y in range(2, 7)} - {
+        (x, y) for x in range(3, 6) for y in range(3, 6)
+    }
+    # a triangle whose edge (0, 0)-(4, 2) has ties: along x to (1, 0), then (2, 1), along x to (3, 1), (4, 2)
+    n, _ = raycast.polygon_outline_cells(np.array([0.5, 4.5, 0.5]), np.array([0.5, 2.5, 2.5]), 30, 30, out)
+    cells = {(int(c) // 30, int(c) % 30) for c in out[:n]}
+    assert {(1, 0), (2, 1), (3, 1), (4, 2)} <= cells
+    assert (1, 1) not in cells  # where a symmetric line would step first, diagonally at the tie
+
+
+def walled(nx: int = 200, ny: int = 100) -> np.ndarray:
+    walls = np.zeros((nx, ny), dtype=bool)
+    walls[0, :] = walls[-1, :] = walls[:, 0] = walls[:, -1] = True
+    return walls
+
+
+def two_robots(**options) -> SimrobotWorld:
+    """Robot a (pivot in cell (50, 50), the default shape: nose at x = 54.3) with a laser at its pivot
+    and a sonar at its nose, and robot b further along +x (its back edge in cell 73)."""
+    laser = SensorSpec("scan", "laser", position=(0.0, 0.0), beamwidth=0.0, range=0.30, rays=1)
+    nose = SensorSpec("nose", "ultrasonic", position=(0.04, 0.0), beamwidth=0.0, range=0.30, rays=1)
+    a = RobotSpec("a", (0.503, 0.506), sensors=(laser, nose))
+    b = RobotSpec("b", (0.755, 0.505))
+    return SimrobotWorld(WorldSpec(walls=walled(), robots=(a, b), sensor_model="original"), **options)
+
+
+def test_outline_bodies_occupy_their_outline_only_and_sensors_see_through_the_inside():
+    filled = two_robots()
+    outline = two_robots(outline_bodies=True)
+    assert filled.grid[50, 50] == 2 and outline.grid[50, 50] == 0  # a's pivot cell, inside its body
+    assert outline.grid[54, 50] == 2  # the nose vertex's cell
+    assert 0 < np.count_nonzero(outline.grid == 2) < np.count_nonzero(filled.grid == 2)
+    # from inside the outline a's laser reaches b (never its own robot, by default)
+    distance, value = outline.read("a", "scan")
+    assert (distance[0], value[0]) == (pytest.approx((73 - 50) * 0.01), 3)
+
+
+def test_a_sensor_that_sees_its_own_robot_reads_its_outline_and_zero_on_it():
+    world = two_robots(outline_bodies=True, see_own_robot=True)
+    distance, value = world.read("a", "scan")  # from the pivot's cell to the nose's: the own outline
+    assert (distance[0], value[0]) == (pytest.approx((54 - 50) * 0.01), 2)
+    assert world.read("a", "nose") == (0.0, 2)  # the sensor's own cell is on the outline
+    world.step()  # robots still move: their own outline is no obstacle to themselves
+
+
+def test_seeing_the_own_robot_needs_the_original_sensor_model():
+    robot = RobotSpec("a", (0.5, 0.5))
+    with pytest.raises(InputError, match="sensor_model: original"):
+        SimrobotWorld(WorldSpec(walls=walled(), robots=(robot,)), see_own_robot=True)
+
+
+def test_the_world_nodes_parameters_choose_outline_bodies_and_seeing_the_own_robot(ros):
+    robot = RobotSpec("a", (0.5, 0.5))
+    original = WorldSpec(walls=walled(), robots=(robot,), sensor_model="original")
+    on = [Parameter("outline_bodies", value=True), Parameter("see_own_robot", value=True)]
+    node = SimrobotWorldNode(original, parameter_overrides=on)
+    try:
+        assert node.model.outline_bodies and node.model.see_own_robot
+    finally:
+        node.destroy_node()
+    exact = WorldSpec(walls=walled(), robots=(robot,))
+    with pytest.raises(InputError, match="see_own_robot"):
+        SimrobotWorldNode(exact, parameter_overrides=[Parameter("see_own_robot", value=True)])
