@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import io
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -59,7 +60,11 @@ class HeadlessViewer:
         self.port = _free_port()
         size = f"{WINDOW[0]}x{WINDOW[1]}"
         cmd = [rerun_cli(), "--headless", "--port", str(self.port), "--window-size", size, "--hide-welcome-screen"]
-        self.process = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # A session of its own: the venv's ``rerun`` is a Python wrapper that starts the viewer
+        # binary as a child, which must be stopped with it.
+        self.process = subprocess.Popen(
+            cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        )
         url = f"rerun+http://127.0.0.1:{self.port}/proxy"
         deadline = time.monotonic() + 60
         while True:
@@ -74,12 +79,16 @@ class HeadlessViewer:
                 time.sleep(0.5)
 
     def close(self) -> None:
-        self.process.terminate()
-        try:
-            self.process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
+        """Stop the wrapper and the viewer it started (its process group)."""
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            try:
+                os.killpg(self.process.pid, sig)
+                self.process.wait(timeout=10)
+                return
+            except ProcessLookupError:
+                return
+            except subprocess.TimeoutExpired:
+                continue
 
 
 def _show_tab(viewer, view_id: str) -> None:
@@ -99,10 +108,15 @@ def _settled(client, view_id: str | None = None, max_size: int | None = None) ->
     """A screenshot once the picture stops changing: the viewer fetches a recording's chunks on
     demand, so right after a time change some entities are not drawn yet."""
     previous = None
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + 60
     while True:
-        png = client.take_screenshot(view_id, max_size=max_size)
-        if png == previous or time.monotonic() > deadline:
+        try:
+            png = client.take_screenshot(view_id, max_size=max_size)
+        except TimeoutError:  # a busy machine: the software renderer is slow, ask again
+            if time.monotonic() > deadline:
+                raise
+            continue
+        if png == previous or (previous is not None and time.monotonic() > deadline):
             return png
         previous = png
         time.sleep(1.0)

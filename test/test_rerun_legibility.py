@@ -154,3 +154,19 @@ def test_the_simrobot_demo_recording_shows_r5_crash_and_every_robot_apart(tmp_pa
         assert [f"{robot.name} (#{number})"] in labels
     assert names[-1] == CRASH_ROBOT.name
     assert len([e for e in ents if e.startswith("/plots/obstacle/")]) >= 3
+
+
+def test_every_grid_label_is_inside_the_opening_view_when_the_map_ends_between_whole_metres(tmp_path):
+    msgs = create_messages(steps=3)
+    for marker in msgs[0][1].markers:  # walls from -2.3 m to 1.7 m: the Create's grid map's margins
+        for p in marker.points:
+            p.x -= 0.3
+            p.y -= 0.3
+    bag = write_bag(tmp_path / "b.mcap", msgs)
+    out = bag_to_rerun(bag, tmp_path / "b.rrd", progress=False)
+    (top,) = [v for v in blueprint_views(out) if v["ViewBlueprint:display_name"] == ["Map (top-down)"]]
+    bounds = top["VisualBounds2D:range"][0]
+    labels = load_entities(out)["/top/map/grid/labels"]
+    assert column(labels, "Points2D:labels")[0][:2] == ["-2 m", "-1 m"]
+    for x, y in column(labels, "Points2D:positions")[0]:  # the view draws the map mirrored: -y
+        assert bounds["x_range"][0] < x < bounds["x_range"][1] and bounds["y_range"][0] < -y < bounds["y_range"][1]

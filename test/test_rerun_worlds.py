@@ -24,7 +24,7 @@ from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
 from sim_runtime.rerun_view.convert import bag_to_rerun
 from sim_runtime.rerun_view.live import attach_live_view
-from sim_runtime.rerun_view.logger import type_name
+from sim_runtime.rerun_view.logger import OCCUPIED_UNDER_LINES, type_name
 from sim_runtime.rerun_view.tracks import tracks_from_bag
 from sim_runtime.run import drain
 from sim_runtime.testing import spin_until, wait_for_match
@@ -95,10 +95,10 @@ def test_create_world_bag_converts_with_everything_drawn(executor, make_node, tm
     walls = column(ents["/top/map/map_markers/walls/0"], "LineStrips2D:strips")[0]
     assert len(walls) == len(world.map.walls)
     assert column(ents["/top/map/map_markers/beacon_ids/0"], "Points2D:labels") == [["Red1"]]
-    # its latched OccupancyGrid drawn as SIMROBOT's: an image of its cells, walls dark
+    # its latched OccupancyGrid drawn as SIMROBOT's, an image of its cells, lighter under the wall lines
     fmt = column(ents["/top/map/map"], "Image:format")[0][0]
     pixels = np.frombuffer(bytes(column(ents["/top/map/map"], "Image:buffer")[0][0]), dtype=np.uint8)
-    assert len(pixels) == fmt["width"] * fmt["height"] and {60, 255} <= set(pixels.tolist())
+    assert len(pixels) == fmt["width"] * fmt["height"] and {OCCUPIED_UNDER_LINES, 255} <= set(pixels.tolist())
     poses = column(ents["/top/map/robots/robot"], "Transform3D:translation")
     assert len(poses) >= 90  # 50 Hz for 2 s, a few may be in flight when recording starts
     x, y, _ = world.model.pose

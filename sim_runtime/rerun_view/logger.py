@@ -117,6 +117,10 @@ DETECTOR_COLOR = (255, 140, 0)
 CONTACT_COLOR = (220, 0, 0)
 CRASH_COLOR = (120, 0, 0)
 GRID_COLOR = (215, 215, 215)
+OCCUPIED = 60
+OCCUPIED_UNDER_LINES = 175
+"""Grey of an OccupancyGrid's occupied cells; lighter when the world also draws its walls as lines
+(the Create: the cells a planner sees, under the exact walls)."""
 GRID_LABEL_COLOR = (110, 110, 110)
 FADED_MARKERS = {"virtual_wall_fields": 0.3, "virtual_wall_halos": 0.45}
 """Map marker namespaces drawn faint and clipped to the walls' extent: the virtual walls' fields
@@ -591,11 +595,12 @@ class RerunLogger:
         self.rec.log(MAP, rr.Transform3D(mat3x3=MIRROR_Y), static=True)
 
     def _log_grid(self) -> None:
-        """A line every metre across the map's extent, labelled along the bottom and left edges."""
+        """A line every metre across the map's extent, labelled along the bottom and left edges
+        (inside the view's bounds however the extent falls between whole metres)."""
         if not np.all(np.isfinite(self._map_lo)):
             return
-        lo, hi = np.floor(self._map_lo), np.ceil(self._map_hi)
-        xs, ys = np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1)
+        lo, hi = self._map_lo, self._map_hi
+        xs, ys = np.arange(np.ceil(lo[0]), hi[0] + 1e-9), np.arange(np.ceil(lo[1]), hi[1] + 1e-9)
         lines = [np.array([[x, lo[1]], [x, hi[1]]]) for x in xs] + [np.array([[lo[0], y], [hi[0], y]]) for y in ys]
         self.rec.log(
             f"{MAP}/grid",
@@ -1142,7 +1147,8 @@ class RerunLogger:
         cells = np.asarray(msg.data, dtype=np.int8).reshape(h, w)
         # Row 0 is the lowest y, drawn at the bottom (the map frame is mirrored): walls dark,
         # free cells white, unknown light grey.
-        image = np.where(cells >= 50, 60, np.where(cells < 0, 225, 255)).astype(np.uint8)
+        wall = OCCUPIED_UNDER_LINES if any(_basename(t) == "map_markers" for t in self.topics) else OCCUPIED
+        image = np.where(cells >= 50, wall, np.where(cells < 0, 225, 255)).astype(np.uint8)
         res = info.resolution
         o = info.origin.position
         self._grow_map(np.array([[o.x, o.y], [o.x + w * res, o.y + h * res]]))
