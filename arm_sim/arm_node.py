@@ -36,7 +36,7 @@ from arm_sim.urdf import arm_tree, arm_urdf, fixed_transforms, joint_transforms
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
 from sim_runtime.paths import mesh_uri, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, create_sensor_publisher
+from sim_runtime.qos import LATCHED_QOS, create_command_subscription, create_sensor_publisher
 from sim_runtime.rotations import quaternions_xyzw
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
@@ -156,11 +156,9 @@ class ArmInstance:
         self.marker_pub = create_sensor_publisher(node, MarkerArray, prefix + "robot_markers")
         self.pose_pub = create_sensor_publisher(node, PoseStamped, prefix + "end_effector_pose")
         self.description_pub = node.create_publisher(String, prefix + "robot_description", LATCHED_QOS)
-        node.create_subscription(
-            JointTrajectory, prefix + "joint_trajectory", self.on_trajectory, COMMAND_SUBSCRIBER_QOS
-        )
-        node.create_subscription(JointState, prefix + "joint_command", self.on_joint_command, COMMAND_SUBSCRIBER_QOS)
-        node.create_subscription(PoseStamped, prefix + "target_pose", self.on_target_pose, COMMAND_SUBSCRIBER_QOS)
+        create_command_subscription(node, JointTrajectory, prefix + "joint_trajectory", self.on_trajectory)
+        create_command_subscription(node, JointState, prefix + "joint_command", self.on_joint_command)
+        create_command_subscription(node, PoseStamped, prefix + "target_pose", self.on_target_pose)
         self.joint_msg = JointState(name=list(arm.joint_names))
         self.joint_msg.header.frame_id = frame
         self.pose_msg = PoseStamped()

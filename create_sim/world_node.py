@@ -51,7 +51,7 @@ from sim_runtime.msgs import (
     yaw_from_quaternion,
 )
 from sim_runtime.paths import config_path, resolve_input_file
-from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_sensor_publisher
+from sim_runtime.qos import LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_command_subscription, create_sensor_publisher
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.warmup import announce_compiling
@@ -338,10 +338,10 @@ class CreateWorldNode(SimWorldNode):
 
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
-            self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, COMMAND_SUBSCRIBER_QOS)
+            create_command_subscription(self, TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
         else:
-            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_SUBSCRIBER_QOS)
-        self.create_subscription(PoseStamped, "set_pose", self._on_set_pose, COMMAND_SUBSCRIBER_QOS)
+            create_command_subscription(self, Twist, "cmd_vel", self._on_cmd_vel)
+        create_command_subscription(self, PoseStamped, "set_pose", self._on_set_pose)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
         self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))

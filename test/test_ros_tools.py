@@ -116,10 +116,10 @@ def test_a_default_reliable_subscriber_hears_the_arm(executor, make_node):
     assert spin_until(executor, lambda: all(c.msgs for c in heard))
 
 
-def test_a_best_effort_command_publisher_drives_the_create(executor, make_node, tmp_path):
+def test_a_best_effort_command_publisher_drives_a_create_started_with_the_qos_override(executor, make_node, tmp_path):
     from rclpy.qos import qos_profile_sensor_data
 
-    world = create_world(executor, tmp_path)
+    world = create_world(executor, tmp_path, **{"qos_overrides./cmd_vel.subscription.reliability": "best_effort"})
     pub = make_node("joystick").create_publisher(Twist, "cmd_vel", qos_profile_sensor_data)
     assert wait_for_match(executor, pub)
     pub.publish(Twist())

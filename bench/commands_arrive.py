@@ -1,0 +1,162 @@
+"""One-shot commands from fresh processes reach a running Create world, on a loaded machine.
+
+    .venv/bin/python bench/commands_arrive.py [--tries 100] [--busy 3] [--cli '/path/to/ros2']
+
+A Create world runs at real_time_factor 1 in its own process while ``--busy`` CPU-bound loops
+load the machine. Each try starts a fresh process that does what ``ros2 topic pub --once
+/cmd_vel geometry_msgs/msg/Twist "{angular: {z: W}}"`` does in Jazzy (a reliable publisher, wait
+until it matches a subscription, publish, stay 0.1 s, exit), with a new W each time (turning on
+the spot: the robot never reaches a wall); the try counts as applied once the world's /odom
+reports angular.z = W. Goal: every command applied.
+``--cli`` runs the real ``ros2`` executable instead (``ros2 topic pub --once``);
+``--world-args`` adds ``-p`` rules to the world (e.g. a QoS override).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
+
+from record_worlds import exe, stop  # noqa: E402
+
+BUSY_LOOP = "while 1: pass"
+
+
+def publish_once(topic: str, turn: float, reliability: str) -> None:
+    """What ``ros2 topic pub --once`` does (Jazzy's ros2topic): a publisher with the default
+    profile, wait until a subscription matches, publish, keep the process 0.1 s, exit."""
+    import rclpy
+    from geometry_msgs.msg import Twist
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    rclpy.init()
+    node = rclpy.create_node(f"pub_once_{os.getpid()}")
+    qos = QoSProfile(depth=10, reliability=ReliabilityPolicy[reliability.upper()])
+    publisher = node.create_publisher(Twist, topic, qos)
+    while publisher.get_subscription_count() < 1:
+        time.sleep(0.1)
+    msg = Twist()
+    msg.angular.z = turn
+    publisher.publish(msg)
+    time.sleep(0.1)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def once_command(topic: str, turn: float, cli: str | None, reliability: str) -> list[str]:
+    """argv of one fresh publishing process."""
+    if cli:
+        yaml = f"{{angular: {{z: {turn}}}}}"
+        extra = [] if reliability == "reliable" else ["--qos-reliability", reliability]
+        return [*shlex.split(cli), "topic", "pub", "--once", *extra, topic, "geometry_msgs/msg/Twist", yaml]
+    return [sys.executable, __file__, "--publish-once", str(turn), "--topic", topic, "--reliability", reliability]
+
+
+class OdomWatcher:
+    """Follows /odom's reported turn rate in a thread of this process."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from nav_msgs.msg import Odometry
+
+        from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
+        from sim_runtime.run import make_executor
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node("commands_watcher", context=self.context)
+        self.speed: float | None = None
+        self.node.create_subscription(Odometry, "/odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        self.executor = make_executor(self.context)
+        self.executor.add_node(self.node)
+        self._running = True
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _on_odom(self, msg) -> None:
+        self.speed = msg.twist.twist.angular.z
+
+    def _spin(self) -> None:
+        while self._running and self.context.ok():
+            self.executor.spin_once(timeout_sec=0.1)
+
+    def wait_for_speed(self, speed: float, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.speed is not None and abs(self.speed - speed) < 1e-9:
+                return True
+            time.sleep(0.01)
+        return False
+
+    def close(self) -> None:
+        self._running = False
+        self._thread.join(timeout=2)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
+    """(tries, applied, seconds per try)."""
+    watcher = OdomWatcher()
+    world = exe("create_world", "--ros-args", "-p", "real_time_factor:=1.0", *shlex.split(opts.world_args))
+    busy = [subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) for _ in range(opts.busy)]
+    applied, durations = 0, []
+    try:
+        if not watcher.wait_for_speed(0.0, 120.0):
+            raise SystemExit(f"the world did not start:\n{stop(world)}")
+        for i in range(opts.tries):
+            speed = round(0.5 + 0.001 * (i + 1), 6) * (1 if i % 2 else -1)
+            begin = time.monotonic()
+            subprocess.run(once_command("/cmd_vel", speed, opts.cli, opts.reliability), check=True, timeout=60)
+            ok = watcher.wait_for_speed(speed, opts.settle)
+            durations.append(time.monotonic() - begin)
+            applied += ok
+            if not ok:
+                load = os.getloadavg()[0]
+                print(f"  try {i + 1}: v={speed} not applied (odom says {watcher.speed})   load {load:.1f}")
+    finally:
+        for process in busy:
+            process.kill()
+            process.wait()
+        stop(world)
+        watcher.close()
+    return opts.tries, applied, durations
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tries", type=int, default=100, help="fresh publishing processes (default 100)")
+    parser.add_argument("--busy", type=int, default=3, help="CPU-bound loops loading the machine (default 3)")
+    parser.add_argument("--settle", type=float, default=5.0, help="seconds a command may take to show in /odom")
+    parser.add_argument("--cli", help="the ros2 executable to publish with (e.g. 'python /path/bin/ros2')")
+    parser.add_argument("--reliability", default="reliable", choices=("reliable", "best_effort"))
+    parser.add_argument("--world-args", default="", help="extra ROS arguments of the world ('-p name:=value')")
+    parser.add_argument("--publish-once", type=float, help=argparse.SUPPRESS)
+    parser.add_argument("--topic", default="/cmd_vel", help=argparse.SUPPRESS)
+    opts = parser.parse_args()
+    if opts.publish_once is not None:
+        publish_once(opts.topic, opts.publish_once, opts.reliability)
+        return
+    print(f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}, {opts.busy} busy loops, {opts.tries} tries")
+    tries, applied, durations = run(opts)
+    durations.sort()
+    print(
+        f"applied {applied} of {tries} one-shot commands ({'met' if applied == tries else 'MISSED'}); "
+        f"median {durations[len(durations) // 2]:.2f} s per try; load {os.getloadavg()[0]:.1f}"
+    )
+
+
+if __name__ == "__main__":
+    main()
