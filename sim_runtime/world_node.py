@@ -15,6 +15,7 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
 
 from sim_runtime.errors import InputError
+from sim_runtime.flow_control import RecorderGate
 from sim_runtime.msgs import time_msg
 from sim_runtime.params import CheckedNode
 from sim_runtime.paths import kernels_cached
@@ -99,6 +100,7 @@ class SimWorldNode(CheckedNode):
         self._scheduled: list[_Scheduled] = []
         self._last_warning: dict[str, float] = {}
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
+        self._recorders = RecorderGate(self, self.physics_dt)
         self._pacer: Timer | None = None
         self._paced = False  # stepped by a wall timer (run_nodes), not only by calls to step()
 
@@ -107,9 +109,12 @@ class SimWorldNode(CheckedNode):
         """Advance the model by ``physics_dt``; override."""
 
     def ready_to_step(self) -> bool:
-        """Whether the next step may run now: not while paused or finished; lockstep worlds also
-        wait for their controllers."""
-        return not (self.finished or self.paused)
+        """Whether the next step may run now: not while paused or finished, nor at
+        real_time_factor 0 while an attached recorder is behind (:mod:`sim_runtime.flow_control`);
+        lockstep worlds also wait for their controllers."""
+        if self.finished or self.paused:
+            return False
+        return self.real_time_factor != 0.0 or not (self._recorders.attached and self._recorders.holds(self.sim_time))
 
     def _on_step(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """One physics step by hand, while paused (the SimulatorGUI's step button)."""

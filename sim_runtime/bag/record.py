@@ -25,6 +25,7 @@ as recording starts, so the world may be started before or after the recorder
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import shutil
 import struct
@@ -37,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -45,6 +47,7 @@ from rclpy.task import Future
 from sim_runtime.bag.reader import UnknownMessageType, message_class
 from sim_runtime.bag.writer import BagWriteError, BagWriter, qos_profiles_yaml
 from sim_runtime.errors import InputError
+from sim_runtime.flow_control import ProgressReporter
 from sim_runtime.run import init_ros, make_executor, split_ros_args
 
 __all__ = ["Recorder", "default_bag_name", "main", "offered_qos_dict", "parse_args"]
@@ -55,6 +58,8 @@ _GRAPH_TOPICS = frozenset({"/rosout", "/parameter_events"})
 #: samples only when they queue up).
 RECORD_DEPTH = 10_000
 _PENDING_LIMIT = 100_000
+#: Prefix of the ``custom_data`` keys in metadata.yaml counting a topic's lost messages.
+LOST_KEY = "robot_sims.lost_messages"
 
 
 def offered_qos_dict(qos: QoSProfile) -> dict[str, Any]:
@@ -143,9 +148,14 @@ class Recorder(Node):
         self._subs: dict[str, _Subscribed] = {}
         self._latched_heard: set[str] = set()  # latched topics whose message has arrived
         self._ignored: set[str] = set()
+        self._progress: ProgressReporter | None = None  # made when /clock is subscribed
+        #: Messages per topic that DDS reports lost on the way to us (a publisher's history moved on
+        #: before we took them: the recorder fell behind at real time); also in metadata.yaml.
+        self.lost: dict[str, int] = {}
         self.error: BagWriteError | None = None
         self.done = Future()
         self.topic_ids: dict[str, int] = {}
+        self._lost_warned = -math.inf
         self._discover_timer = self.create_timer(discovery_period, self.discover)
         self._flush_timer = self.create_timer(0.2, self._flush_tick)
         self.discover()
@@ -226,7 +236,7 @@ class Recorder(Node):
                 tid = -1
             qos = adapted_qos(offered)
             self._subs[name] = _Subscribed(
-                self.create_subscription(msg_type, name, self._latched_or_plain(name, tid, qos), qos, raw=True),
+                self._subscribe(msg_type, name, tid, qos),
                 msg_type,
                 tid,
                 qos,
@@ -262,11 +272,29 @@ class Recorder(Node):
         old = sub.subscription
         # Subscribe anew before dropping the old one: nothing falls in between (a message
         # sent in that instant may be recorded twice).
-        sub.subscription = self.create_subscription(
-            sub.msg_type, name, self._latched_or_plain(name, sub.topic_id, qos), qos, raw=True
-        )
+        sub.subscription = self._subscribe(sub.msg_type, name, sub.topic_id, qos)
         sub.qos = qos
         self.destroy_subscription(old)
+
+    def _subscribe(self, msg_type: Any, name: str, tid: int, qos: QoSProfile) -> Any:
+        """A raw subscription to ``name`` that counts the messages DDS reports lost."""
+
+        def lost(status: Any) -> None:  # rmw_message_lost_status_t (rclpy's stub types it loosely)
+            self._on_lost(name, status.total_count_change)
+
+        events = SubscriptionEventCallbacks(message_lost=lost)
+        callback = self._latched_or_plain(name, tid, qos)
+        return self.create_subscription(msg_type, name, callback, qos, raw=True, event_callbacks=events)
+
+    def _on_lost(self, name: str, count: int) -> None:
+        self.lost[name] = self.lost.get(name, 0) + count
+        now = time.monotonic()
+        if now - self._lost_warned >= 2.0:  # a recorder falling behind loses many: say so every 2 s
+            self._lost_warned = now
+            self.get_logger().warning(
+                f"{name}: {self.lost[name]} messages lost so far: the recorder fell behind its publisher "
+                "(a busy machine?); the counts go into the bag's metadata.yaml"
+            )
 
     # -- messages ------------------------------------------------------------------------
 
@@ -287,12 +315,15 @@ class Recorder(Node):
         if name != CLOCK_TOPIC:
             return lambda data: write(tid, data)
 
+        progress = self._progress = self._progress or ProgressReporter(self)
+
         def on_clock(data: bytes) -> None:
             self._sim_ns = clock_ns(data)
             if self._pending and self._sim:
                 self._release()
             if tid >= 0:
                 write(tid, data)
+            progress.handled(self._sim_ns)  # after writing: a world at real_time_factor 0 waits for this
 
         return on_clock
 
@@ -368,6 +399,21 @@ class Recorder(Node):
         self.writer.close()
         if self.error is None and self.writer.error is not None:
             self.error = self.writer.error
+        if self.lost and self.error is None:
+            note_lost_messages(self.writer.folder, self.lost)
+
+
+def note_lost_messages(folder: Path, lost: dict[str, int]) -> None:
+    """Put the lost-message counts into a finished bag's metadata.yaml, as rosbag2's
+    ``custom_data`` (string to string): ``robot_sims.lost_messages./scan: '12'``."""
+    import yaml
+
+    path = Path(folder) / "metadata.yaml"
+    info = yaml.safe_load(path.read_text())
+    custom = info["rosbag2_bagfile_information"].get("custom_data") or {}
+    custom.update({f"{LOST_KEY}.{topic}": str(count) for topic, count in sorted(lost.items())})
+    info["rosbag2_bagfile_information"]["custom_data"] = custom
+    path.write_text(yaml.safe_dump(info, sort_keys=False, default_flow_style=False))
 
 
 def wait_for_recorders(executor: Any, nodes: Iterable[Any], world: Any) -> None:
@@ -480,6 +526,8 @@ def main(args: Sequence[str] | None = None) -> int:
         print(f"error: {recorder.error}; the bag holds what was written before", file=sys.stderr)
         return 1
     print(f"wrote {writer.message_count} messages to {writer.folder}", file=sys.stderr)
+    if recorder is not None and recorder.lost:
+        print(f"warning: {sum(recorder.lost.values())} messages lost on the way (see metadata.yaml)", file=sys.stderr)
     return 0
 
 
