@@ -244,9 +244,10 @@ def load_elements(config: RobotConfig, skip_missing_meshes: bool = False) -> lis
             try:
                 triangles = load_stl(element.mesh) * np.float32(element.scale)
             except InputError as exc:
+                error = InputError(f"{element.where}: {exc}") if element.where else exc  # the config's field
                 if not skip_missing_meshes:
-                    raise
-                loaded.append(LoadedElement(link, element, placeholder_cube(), True, str(exc)))
+                    raise error from None
+                loaded.append(LoadedElement(link, element, placeholder_cube(), True, str(error)))
                 continue
             loaded.append(LoadedElement(link, element, triangles))
     return loaded

@@ -68,6 +68,8 @@ class MeshElement:
     mesh: Path
     color: tuple[float, float, float, float]
     scale: float = 1.0
+    #: Where the config names the mesh ("<file>: links[0].elements[1].mesh"), for messages.
+    where: str = field(default="", compare=False)
 
 
 @dataclass(frozen=True)
@@ -309,7 +311,8 @@ def _read_links(r: FieldReader, raw: Any, dof: int, mesh_folder: Path) -> tuple[
             scale = r.number(element.get("scale", 1.0), f"{ewhere}.scale")
             if scale <= 0:
                 raise r.error(f"{ewhere}.scale", f"must be > 0, got {scale}")
-            parsed.append(MeshElement(mesh=resolved(mesh_folder / mesh), color=color, scale=scale))
+            where = r.where(f"{ewhere}.mesh")
+            parsed.append(MeshElement(mesh=resolved(mesh_folder / mesh), color=color, scale=scale, where=where))
         links[number] = tuple(parsed)
     return tuple(link or () for link in links)
 

@@ -117,12 +117,12 @@ def test_a_scenes_mesh_and_arm_config_naming_a_special_path_are_refused_naming_t
 
 
 @pytest.mark.parametrize("kind", SPECIAL_PATHS)
-def test_a_robot_configs_mesh_naming_a_special_path_is_refused_naming_the_mesh(tmp_path, kind):
+def test_a_robot_configs_mesh_naming_a_special_path_is_refused_naming_the_field(tmp_path, kind):
     special = special_path(kind, tmp_path, ".stl")
     config = yaml.safe_load(config_path("arm/irb120.yaml").read_text())
     config["links"] = [{"link": 0, "elements": [{"mesh": str(special)}]}]
     path = write_yaml(tmp_path / "robot.yaml", config)
-    assert "STL file" in str(refusal(lambda: Arm.from_file(path)))
+    assert "links[0].elements[0].mesh: " in str(refusal(lambda: Arm.from_file(path)))
     assert Arm.from_file(path, skip_missing_meshes=True).elements[0].placeholder
 
 
