@@ -55,6 +55,7 @@ from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 from sim_runtime.paths import mesh_path
 from sim_runtime.rerun_view import legend as legend_text
+from sim_runtime.rerun_view import shapes
 from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
 
 TIMELINE = "sim_time"
@@ -207,51 +208,6 @@ def _follow_transform(yaw: float) -> rr.Transform3D:
 
 def _points(points) -> np.ndarray:
     return np.array([(p.x, p.y, p.z) for p in points], dtype=np.float32).reshape(-1, 3)
-
-
-def _fan(fov: float, reach: float, steps: int = 16) -> np.ndarray:
-    """Outline of a beam: from the mount out to ``reach`` across ``fov`` (rad) and back."""
-    a = np.linspace(-fov / 2, fov / 2, steps)
-    arc = np.column_stack([reach * np.cos(a), reach * np.sin(a)])
-    return np.vstack([[0.0, 0.0], arc, [0.0, 0.0]]).astype(np.float32)
-
-
-def _arc(fov: float, reach: float, steps: int = 16) -> np.ndarray:
-    a = np.linspace(-fov / 2, fov / 2, steps)
-    return np.column_stack([reach * np.cos(a), reach * np.sin(a)]).astype(np.float32)
-
-
-def _cross(x: float, y: float, half: float) -> list[np.ndarray]:
-    return [
-        np.array([[x - half, y - half], [x + half, y + half]]),
-        np.array([[x - half, y + half], [x + half, y - half]]),
-    ]
-
-
-def _extent(point_sets: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray] | None:
-    """The box around the points, if it has an area."""
-    pts = np.concatenate([p.reshape(-1, 2) for p in point_sets]) if point_sets else np.zeros((0, 2))
-    if not len(pts) or np.any(pts.max(axis=0) - pts.min(axis=0) <= 0):
-        return None
-    return pts.min(axis=0), pts.max(axis=0)
-
-
-def _clip_outline(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """A closed outline (last point = first) cut to the box lo–hi (Sutherland–Hodgman); an open
-    line is returned as it is."""
-    if len(pts) < 4 or not np.allclose(pts[0], pts[-1]):
-        return pts
-    poly = [tuple(map(float, p)) for p in pts[:-1]]
-    for axis, bound, sign in ((0, lo[0], 1), (0, hi[0], -1), (1, lo[1], 1), (1, hi[1], -1)):
-        out: list[tuple[float, ...]] = []
-        for prev, cur in zip(poly[-1:] + poly[:-1], poly, strict=True):
-            if (sign * (cur[axis] - bound) >= 0) != (sign * (prev[axis] - bound) >= 0):
-                t = (bound - prev[axis]) / (cur[axis] - prev[axis])
-                out.append(tuple(a + t * (b - a) for a, b in zip(prev, cur, strict=True)))
-            if sign * (cur[axis] - bound) >= 0:
-                out.append(cur)
-        poly = out
-    return np.array(poly + poly[:1], dtype=np.float32).reshape(-1, 2)
 
 
 def robots_in_topics(topics: Iterable[str]) -> list[str]:
@@ -848,7 +804,7 @@ class RerunLogger:
         robot.last_mark[kind] = (self._t_ns, x, y)
         marks.append((x, y))
         color, half = (CRASH_COLOR, 0.05) if kind == "crashes" else (CONTACT_COLOR, 0.035)
-        strips = [s for mx, my in marks for s in _cross(mx, my, half)]
+        strips = [s for mx, my in marks for s in shapes.cross(mx, my, half)]
         self.rec.log(
             f"{MAP}/marks/{robot.name}/{kind}",
             rr.LineStrips2D(strips, radii=rr.Radius.ui_points(2.5), colors=[color], draw_order=50),
@@ -999,7 +955,7 @@ class RerunLogger:
             if key not in self._marker_entities and fov > 0:
                 # The beam's real cone is fixed (a single-ray sensor has none: only its hit is drawn).
                 self._marker_entities[key] = set()
-                outline = _fan(fov, msg.max_range)
+                outline = shapes.fan(fov, msg.max_range)
                 self.rec.log(
                     key,
                     rr.LineStrips2D([outline], radii=rr.Radius.ui_points(1.0), colors=[BEAM_COLOR], draw_order=10),
@@ -1007,7 +963,7 @@ class RerunLogger:
                 )
             if math.isfinite(r) and r > 0:
                 # A sonar reports the nearest echo somewhere in its cone: the arc at that range.
-                shape = _arc(fov, r) if fov > 0 else np.array([[0, 0], [r, 0]], dtype=np.float32)
+                shape = shapes.arc(fov, r) if fov > 0 else np.array([[0, 0], [r, 0]], dtype=np.float32)
                 self.rec.log(
                     f"{entity}/hit",
                     rr.LineStrips2D(
@@ -1180,7 +1136,7 @@ class RerunLogger:
             walls = [
                 _points(m.points)[:, :2] + [m.pose.position.x, m.pose.position.y] for m in markers if m.ns == "walls"
             ]
-            self._arena = _extent(walls)
+            self._arena = shapes.extent(walls)
         for m in markers:
             if m.action == DELETEALL:
                 for entity in self._marker_entities.pop(topic, set()):
@@ -1224,7 +1180,7 @@ class RerunLogger:
         yaw = yaw_from_quaternion(m.pose.orientation)
         transform = _yaw_transform(p.x, p.y, yaw)
         if alpha is not None and self._arena is not None and yaw == 0.0:  # walls block the field
-            pts = _clip_outline(pts, self._arena[0] - [p.x, p.y], self._arena[1] - [p.x, p.y])
+            pts = shapes.clip_outline(pts, self._arena[0] - [p.x, p.y], self._arena[1] - [p.x, p.y])
         grew = False
         shape: rr.AsComponents
         if is_map and static:
