@@ -278,6 +278,14 @@ class DraftGuard:
         self.note_draft()
 
 
+def checked_number(label: str | None = None, *, minimum: float, **kwargs: Any):
+    """A number field that keeps a value below ``minimum`` and marks it (:func:`at_least`); no
+    space is kept under it for the message until there is one (fields in a row stay aligned)."""
+    from nicegui import ui
+
+    return ui.number(label, validation=at_least(minimum), **kwargs).props("hide-bottom-space")
+
+
 def at_least(minimum: float) -> dict:
     """A number field's ``validation``: a value below ``minimum`` stays in the field, in red with
     this message, and the page's check refuses it (a ``min`` would silently clamp it, and that

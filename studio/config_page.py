@@ -8,7 +8,7 @@ from nicegui import ui
 
 from create_sim.configfile import SENSORS, NoiseConfig, parse_config
 from sim_runtime.errors import InputError
-from studio.app import Studio, at_least, nav
+from studio.app import Studio, checked_number, nav
 from studio.file_page import FilePage
 
 MEANINGS = {
@@ -44,13 +44,13 @@ class ConfigMakerPage(FilePage):
                 for name in SENSORS:
                     ui.label(name)
                     mean = ui.number(value=0.0, format="%g", step=0.01).classes(f"w-28 studio-{name}-mean")
-                    std = ui.number(value=0.0, format="%g", step=0.01, validation=at_least(0.0)).classes(
+                    std = checked_number(value=0.0, format="%g", step=0.01, minimum=0.0).classes(
                         f"w-28 studio-{name}-std"
                     )
                     ui.label(MEANINGS[name]).classes("text-sm text-gray-600")
                     self.fields[name] = (mean, std)
                 ui.label("com_delay")
-                self.delay = ui.number(value=0.0, format="%g", step=0.01, validation=at_least(0.0)).classes(
+                self.delay = checked_number(value=0.0, format="%g", step=0.01, minimum=0.0).classes(
                     "w-28 studio-com-delay"
                 )
                 ui.label("")

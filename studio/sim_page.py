@@ -585,6 +585,8 @@ class SimulatorPage(ZoomableView):
         studio = self.studio
         if studio.recorder is not None and studio.recorder.running:
             recorder = studio.recorder
+            studio.recording_status = f"finishing {studio.recording_to}…"
+            self.show_recording()
             await asyncio.to_thread(recorder.stop, 10.0)  # the page stays live while the bag is finished
             studio.recording_status = f"saved {studio.recording_to}"
             self.show_recording()

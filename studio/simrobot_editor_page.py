@@ -18,7 +18,7 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
 from studio import draw
-from studio.app import VIEW_SIZE, DraftGuard, Studio, ZoomableView, at_least, nav, view_image
+from studio.app import VIEW_SIZE, DraftGuard, Studio, ZoomableView, checked_number, nav, view_image
 from studio.processes import Child, clock_topic, executable_command, namespace_args, yaml_string
 from studio.simrobot_client import side
 from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
@@ -73,7 +73,7 @@ class EditorPage(ZoomableView, DraftGuard):
                 self.layer = self.image.add_layer()
                 with ui.row().classes("items-center gap-2"):
                     ui.toggle(TOOLS, value=self.tool, on_change=self.on_tool).props("dense").classes("simrobot-tools")
-                    ui.number("brush (m)", value=self.brush_m, validation=at_least(0.005), step=0.01, format="%.3f",
+                    checked_number("brush (m)", value=self.brush_m, minimum=0.005, step=0.01, format="%.3f",
                               on_change=self.on_brush).classes("w-24")  # fmt: skip
                     ui.button("−", on_click=lambda: self.zoom(1 / 1.25)).props("dense flat")
                     ui.button("+", on_click=lambda: self.zoom(1.25)).props("dense flat")
@@ -89,16 +89,14 @@ class EditorPage(ZoomableView, DraftGuard):
         with ui.expansion("Map and world file", value=True).classes("w-full border"):
             with ui.row().classes("items-center gap-2"):
                 self.map_name = ui.input("bitmap (PNG/BMP)", value="simrobot_map.png").classes("w-48 simrobot-map-name")
-                self.resolution = ui.number(
-                    "m per cell", value=self.doc.resolution, validation=at_least(0.0001), format="%g"
+                self.resolution = checked_number(
+                    "m per cell", value=self.doc.resolution, minimum=0.0001, format="%g"
                 ).classes("w-24 simrobot-resolution")
                 ui.button("Import", on_click=self.import_map).props("dense outline")
                 ui.button("Save bitmap", on_click=self.save_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
-                self.blank_w = ui.number("width (m)", value=3.0, validation=at_least(0.05), format="%g").classes("w-20")
-                self.blank_h = ui.number("height (m)", value=2.0, validation=at_least(0.05), format="%g").classes(
-                    "w-20"
-                )
+                self.blank_w = checked_number("width (m)", value=3.0, minimum=0.05, format="%g").classes("w-20")
+                self.blank_h = checked_number("height (m)", value=2.0, minimum=0.05, format="%g").classes("w-20")
                 ui.button("New blank map", on_click=self.new_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
                 self.world_name = ui.input("world file (YAML)", value="simrobot_world.yaml").classes(
@@ -107,8 +105,8 @@ class EditorPage(ZoomableView, DraftGuard):
                 ui.button("Open", on_click=self.open_world).props("dense outline")
                 self.overwrite = ui.checkbox("overwrite", value=False).classes("simrobot-overwrite")
             with ui.row().classes("items-center gap-2"):
-                self.dt = ui.number(
-                    "dt (s)", value=self.doc.dt, validation=at_least(0.001), format="%g", on_change=self.on_world
+                self.dt = checked_number(
+                    "dt (s)", value=self.doc.dt, minimum=0.001, format="%g", on_change=self.on_world
                 ).classes("w-20")
                 self.lockstep = ui.checkbox("lockstep", value=False, on_change=self.on_world)
                 self.ns = ui.input("namespace", value=self.studio.free_namespace("simrobot")).classes(
