@@ -2,8 +2,10 @@
 
 Runs every episode of the sweep that the output folder does not already hold, then writes
 ``episodes.parquet``, ``episodes.csv``, ``timings.csv`` and ``plots/*.png`` there and prints a
-summary. Exit status: 0 when the sweep ran (failed episodes are rows of the table), 2 for a bad
-sweep file or arguments.
+summary; each episode's output is in ``logs/<episode key>.log`` there. Exit status: 0 when the
+sweep ran (failed episodes, crashed or stopped at a limit included, are rows of the table), 2 for a
+bad sweep file or arguments, 1 when no worker process can start, 130 after Ctrl-C (what finished
+is kept).
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     """Run the sweep the arguments describe; returns paths and counts (the tests' entry point)."""
     from sim_runtime.batch import engines, output
+    from sim_runtime.batch.supervisor import Limits
     from sim_runtime.batch.sweep import load_sweep
 
     args = parse_args(argv)
@@ -75,6 +78,7 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     where = f"ray {args.ray or '(local)'}" if engine == "ray" else f"{workers} local workers"
     print(f"{sweep.source}: {len(episodes)} episodes ({skipped} already done) -> {folder} [{where}]", file=sys.stderr)
     progress = None if args.quiet else output.Progress(len(episodes), skipped)
+    limits = Limits(sweep.time_limit_s, sweep.memory_limit_mb)
 
     def on_result(result: dict[str, Any]) -> None:
         log.add(result)
@@ -83,12 +87,12 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
 
     try:
         if engine == "ray":
-            engines.run_ray(todo, args.ray or None, args.workers, on_result)
+            engines.run_ray(todo, args.ray or None, args.workers, on_result, limits, folder)
         else:
-            engines.run_local(todo, workers, on_result)
+            engines.run_local(todo, workers, on_result, limits, folder)
         if sweep.keep_bags == "failures":
             failed = [ep for ep in todo if log.rows.get(ep.key, {}).get("status") != "ok"]
-            _record_failures(failed, bags)
+            _record_failures(failed, bags, limits, folder)
     finally:
         log.close()
     keys = [ep.key for ep in episodes]
@@ -109,28 +113,32 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     }
 
 
-def _record_failures(failed: list[Any], bags: Path) -> None:
+def _record_failures(failed: list[Any], bags: Path, limits: Any, folder: Path) -> None:
     """Run each failed episode again with a recorder (episodes are deterministic: it fails the
-    same way) and keep its bag."""
-    from sim_runtime.batch.episode import isolate_process, run_episode
+    same way), in a worker process like the first time, and keep its bag (logs/<key>.bag.log)."""
+    from sim_runtime.batch.engines import run_local
 
-    if not failed:
-        return
-    isolate_process(0)
-    for ep in failed:
-        folder = bags / f"episode_{ep.index:05d}"
-        run_episode(dataclasses.replace(ep, record_bag=True, bag_dir=str(folder)))
-        print(f"bag of failed episode {ep.index}: {folder}", file=sys.stderr)
+    recorded = [
+        dataclasses.replace(ep, record_bag=True, bag_dir=str(bags / f"episode_{ep.index:05d}")) for ep in failed
+    ]
+    run_local(recorded, 1, lambda result: None, limits, folder, log_suffix=".bag")
+    for ep in recorded:
+        print(f"bag of failed episode {ep.index}: {ep.bag_dir}", file=sys.stderr)
 
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``batch``."""
+    from sim_runtime.batch.supervisor import WorkerStartError
+
     argv = sys.argv[1:] if args is None else list(args)
     try:
         run_sweep(argv)
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except WorkerStartError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("\ninterrupted: finished episodes are kept; run the same command to resume", file=sys.stderr)
         return 130

@@ -16,6 +16,8 @@ grid: {threshold: [0.1, 0.2]}   # controller parameters, every combination
 poses: {random: 1000, seed: 1, margin_m: 0.05}  # or a list of [x, y, theta] (Create only)
 seeds: [0, 1, 2]             # or {count: 5, start: 0}; seeds the world's noise and the controller
 duration_s: 60               # sim time per episode
+time_limit_s: 180            # wall seconds per episode (default max(60, 3 x duration_s))
+memory_limit_mb: 2000        # an episode's process may use this much memory (default: no limit)
 metrics: [distance_m, bumps, {goal_time_s: {center: [3, 1], radius_m: 0.4}}, my_metrics:score]
 keep_bags: none              # none | all | failures
 out: out/batch/my_sweep      # default out/batch/<sweep file name>
@@ -61,6 +63,8 @@ TOP_KEYS = {
     "metrics",
     "keep_bags",
     "out",
+    "time_limit_s",
+    "memory_limit_mb",
     "name",
 }
 KEEP_BAGS = ("none", "all", "failures")
@@ -109,6 +113,8 @@ class Sweep:
     keep_bags: str
     out: Path
     grid_keys: list[str] = field(default_factory=list)
+    time_limit_s: float = 60.0
+    memory_limit_mb: float | None = None
 
 
 class _Reader:
@@ -355,6 +361,9 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
         name = entry if isinstance(entry, str) else next(iter(entry))
         if ":" in name:
             _importable(r, name, f"metrics[{k}]")
+    time_limit = r.number(data.get("time_limit_s", default_time_limit(duration)), "time_limit_s", positive=True)
+    memory = data.get("memory_limit_mb")
+    memory_limit = None if memory is None else r.number(memory, "memory_limit_mb", positive=True)
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
@@ -391,4 +400,19 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
                     record_bag=keep == "all",
                 )
             )
-    return Sweep(source=source, episodes=episodes, keep_bags=keep, out=out_dir, grid_keys=grid_keys)
+    return Sweep(
+        source=source,
+        episodes=episodes,
+        keep_bags=keep,
+        out=out_dir,
+        grid_keys=grid_keys,
+        time_limit_s=time_limit,
+        memory_limit_mb=memory_limit,
+    )
+
+
+def default_time_limit(duration_s: float) -> float:
+    """Wall seconds an episode may take unless the sweep says: it runs as fast as the CPU allows,
+    so three times its sim time means something is wrong; a minute at least for set-up on a busy
+    machine."""
+    return max(60.0, 3.0 * duration_s)

@@ -1,0 +1,114 @@
+"""`robot_sims batch`: whatever a student's controller does, it is that episode's error row, the
+sweep goes on, and the table is the same on one worker, two, and Ray.
+
+The students are the shipped ``examples/students/misbehaving.py``: one drives well, the others
+raise, call ``sys.exit(3)``, ``os._exit(7)``, segfault, loop forever or allocate without end."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from test_batch import ROOT, batch, rows, write_sweep
+
+SWEEP = """
+    worlds: [{map: create/example.map}]
+    controllers:
+      - students.misbehaving:Driver
+      - students.misbehaving:Raises
+      - students.misbehaving:Quits
+      - students.misbehaving:Exits
+      - students.misbehaving:Crashes
+      - students.misbehaving:Hangs
+      - students.misbehaving:Hogs
+    poses: [[0.0, 0.0, 0.0]]
+    duration_s: 1
+    time_limit_s: 6
+    memory_limit_mb: 450
+"""
+#: What each student's row says (a worker uses about 250 MB by itself: 450 MB leaves room).
+REASONS = {
+    "Raises": "ValueError: the student's bug (at misbehaving.py:",
+    "Quits": "SystemExit: the controller called sys.exit(3) (at misbehaving.py:",
+    "Exits": "the episode's process exited with code 7",
+    "Crashes": "the episode's process was killed by SIGSEGV",
+    "Hangs": "time limit 6.0 s: the episode was stopped",
+    "Hogs": "memory limit 450 MB: the episode was stopped",
+}
+
+
+def _sweep_folder(folder: Path) -> Path:
+    shutil.copytree(ROOT / "examples" / "students", folder / "students")
+    return write_sweep(folder, "sweep.yaml", SWEEP)
+
+
+@pytest.fixture(scope="module")
+def one_worker(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
+    folder = tmp_path_factory.mktemp("one_worker")
+    done = batch(str(_sweep_folder(folder)), "--workers", "1", "--out", "out", "--no-plots", cwd=folder, timeout=120)
+    return folder / "out", done
+
+
+def test_every_way_a_controller_fails_becomes_its_error_row_and_the_sweep_goes_on(one_worker) -> None:
+    out, done = one_worker
+    assert done.returncode == 0, done.stderr
+    table = {r["controller"].split(":")[1]: r for r in rows(out / "episodes.csv")}
+    assert len(table) == 7
+    assert table["Driver"]["status"] == "ok" and float(table["Driver"]["distance_m"]) > 0.1
+    for student, reason in REASONS.items():
+        row = table[student]
+        assert row["status"] == "error" and row["error"].startswith(reason), (student, row["error"])
+        assert row["error"].endswith(f"[log: logs/{row['key']}.log]")
+
+
+def test_episode_logs_hold_what_the_controllers_printed_and_the_terminal_only_the_progress(one_worker) -> None:
+    out, done = one_worker
+    table = {r["controller"].split(":")[1]: r for r in rows(out / "episodes.csv")}
+    log = {student: (out / "logs" / f"{row['key']}.log").read_text() for student, row in table.items()}
+    assert "[create_world]" in log["Driver"]  # the world's start-up line: in its log, not the terminal
+    assert "giving up" in log["Quits"]  # the student's print before sys.exit
+    assert "Segmentation fault" in log["Crashes"] and "misbehaving.py" in log["Crashes"]  # the crash's stack
+    terminal = done.stdout + done.stderr
+    assert "[INFO]" not in terminal and "giving up" not in terminal and "Traceback" not in terminal
+
+
+def test_two_workers_interrupted_and_resumed_give_the_table_of_one_worker(tmp_path: Path, one_worker) -> None:
+    sweep = _sweep_folder(tmp_path)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    command = [sys.executable, "-m", "sim_runtime.batch.cli", str(sweep), "--workers", "2", "--out", "out"]
+    run = subprocess.Popen(
+        [*command, "--no-plots"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    log = tmp_path / "out" / "episodes.jsonl"
+    deadline = time.monotonic() + 90
+    while not (log.exists() and len(log.read_text().splitlines()) >= 2) and time.monotonic() < deadline:
+        assert run.poll() is None, run.stderr.read() if run.stderr else ""
+        time.sleep(0.05)
+    workers = subprocess.run(["pgrep", "-P", str(run.pid)], capture_output=True, text=True).stdout.split()
+    os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in the terminal: the whole foreground group
+    _, err = run.communicate(timeout=30)
+    assert run.returncode == 130 and "run the same command to resume" in err
+    assert workers and not [pid for pid in workers if Path(f"/proc/{pid}").exists()]
+    again = batch(str(sweep), "--workers", "2", "--out", "out", "--no-plots", cwd=tmp_path, timeout=120)
+    assert again.returncode == 0, again.stderr
+    assert "already done" in again.stderr and "7 episodes (0 already done)" not in again.stderr
+    one, _ = one_worker
+    assert (tmp_path / "out" / "episodes.csv").read_text() == (one / "episodes.csv").read_text()
+
+
+def test_on_ray_a_failing_controller_is_an_error_row_too_and_the_table_is_the_same(tmp_path: Path, one_worker) -> None:
+    sweep = _sweep_folder(tmp_path)
+    short = Path("/tmp") / f"ray{os.getpid()}"  # Ray's socket paths must stay short
+    env = {"RAY_AUTH_MODE": "disabled", "RAY_TMPDIR": str(short)}
+    done = batch(str(sweep), "--ray", "--workers", "2", "--out", "ray", "--no-plots", cwd=tmp_path, extra_env=env)
+    assert done.returncode == 0, done.stderr
+    one, _ = one_worker
+    assert (tmp_path / "ray" / "episodes.csv").read_text() == (one / "episodes.csv").read_text()
+    quits = next(r for r in rows(tmp_path / "ray" / "episodes.csv") if r["controller"].endswith("Quits"))
+    assert "giving up" in (tmp_path / "ray" / "logs" / f"{quits['key']}.log").read_text()  # sent back from the node
