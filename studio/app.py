@@ -76,6 +76,19 @@ class Studio:
         owners = [ns for topic, ns in (self.graph_worlds() if graph is None else graph) if topic == CLOCK]
         return owners[0] if owners else None
 
+    def clock_of(self, ns: str) -> str:
+        """The clock topic of the world in ``ns`` (started here or elsewhere; ``/clock`` if unknown):
+        what a controller started for it follows."""
+        child = self.world_children().get(ns)
+        if child is not None:
+            return child.clock
+        own = [
+            topic
+            for topic, node_ns in self.graph_worlds()
+            if topic != CLOCK and world_namespaces([(topic, node_ns)]) == {ns}
+        ]
+        return own[0] if own else CLOCK
+
     def free_namespace(self, stem: str) -> str:
         """``/<stem>1``, ``/<stem>2``, …: the first namespace no world uses (a new world's default)."""
         taken = set(self.world_children()) | world_namespaces(self.graph_worlds())

@@ -57,6 +57,15 @@ def command_steps(command: tuple[float, float]) -> list[int]:
     return [round(command[0] / LINEAR_STEP), round(command[1] / ANGULAR_STEP)]
 
 
+def initial_pose(x: float | None, y: float | None, theta: float | None) -> tuple[float, float, float]:
+    """The New world pose fields as numbers; InputError naming an empty (or not numeric) one, which
+    the browser hands over as None (it used to start the world at 0)."""
+    for name, value in (("x", x), ("y", y), ("θ", theta)):
+        if value is None:
+            raise InputError(f"initial pose {name}: a number is needed")
+    return float(x), float(y), float(theta)  # type: ignore[arg-type]
+
+
 def fit_due(fitted_map_seq: int | None, map_seq: int) -> bool:
     """Whether the view fits (again): the robot is shown for the first time (``fitted_map_seq``
     None), or it was fitted before its map arrived (a fit to the robot alone is ±1 m around it)."""
@@ -514,7 +523,7 @@ class SimulatorPage(ZoomableView):
         try:
             map_file = str(ws.path(self.world_map.value)) if (self.world_map.value or "").strip() else ""
             config_file = str(ws.path(self.world_config.value)) if (self.world_config.value or "").strip() else ""
-            pose = tuple(float(v.value or 0.0) for v in (self.world_x, self.world_y, self.world_theta))
+            pose = initial_pose(self.world_x.value, self.world_y.value, self.world_theta.value)
         except InputError as err:
             self.world_label.set_text(f"error: {err}")
             return
@@ -567,9 +576,8 @@ class SimulatorPage(ZoomableView):
             return
         name = self.controller_select.value
         target = self.studio.controllers[name]
-        world = self.studio.world_children().get(ns)
         # The controller follows its world's clock (a world that does not own /clock publishes <ns>/clock).
-        ros_args = namespace_args(ns, owns_clock=world is None or world.clock == "/clock")
+        ros_args = namespace_args(ns, owns_clock=self.studio.clock_of(ns) == "/clock")
         self.studio.running_controllers[ns] = Child(
             name, controller_command(target, ros_args), cwd=self.studio.workspace.root
         )

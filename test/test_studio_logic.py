@@ -332,6 +332,7 @@ def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refu
     assert "a world in / would publish a second one" in studio.namespace_refusal("")
     assert studio.namespace_refusal("/create2") is None
     assert studio.clock_owner() == "/create1"
+    assert (studio.clock_of("/create1"), studio.clock_of("/arm1")) == ("/clock", "/arm1/clock")  # for controllers
     studio.ros = FakeGraph([])
     started = sleeper(tmp_path, "create_world /mine", 0.0, clock="/clock")
     studio.worlds["/mine"] = started  # started a moment ago: not on the graph yet
@@ -424,3 +425,11 @@ def test_a_number_below_its_minimum_is_flagged_not_clamped():
 
     ((message, ok),) = at_least(0.0).items()
     assert message == "must be ≥ 0" and ok(0.0) and ok(None) and not ok(-1.0)
+
+
+def test_an_empty_or_non_numeric_pose_field_is_an_error_not_zero():
+    from studio.sim_page import initial_pose
+
+    assert initial_pose(1.0, -0.5, 0.25) == (1.0, -0.5, 0.25)
+    with pytest.raises(InputError, match="initial pose y: a number is needed"):
+        initial_pose(1.0, None, 0.0)
