@@ -147,7 +147,9 @@ def screenshots(viewer: HeadlessViewer, rrd: Path, name: str) -> list[Path]:
 
     written = []
     opening = client.get_blueprint()  # the layout as the recording opens, restored at the end
+    # the map first, then each robot's view by name
     spatial = [v for v in state.views if v.view_class in ("2D", "3D")]
+    spatial.sort(key=lambda v: (not v.name.startswith("Map"), v.name))
     rows = []
     for view in spatial:
         _show_tab(viewer, view.view_id)

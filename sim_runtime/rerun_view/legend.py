@@ -41,6 +41,7 @@ def mobile(topics: dict[str, str], robots: list[str]) -> str:
     kinds = set(topics.values())
     leaves = {t.rstrip("/").rpartition("/")[2] for t in topics}
     bumpers = any("/bump/" in f"/{t.strip('/')}/" for t in topics)
+    grid_under_lines = "nav_msgs/msg/OccupancyGrid" in kinds and "map_markers" in leaves
     notes = ["label below each", "#n: its obstacle number" if "obstacle" in leaves else ""]
     notes.append("*off*: powered off, *crashed*: stopped by a collision" if "crashed" in leaves else "")
     lines = [
@@ -51,6 +52,7 @@ def mobile(topics: dict[str, str], robots: list[str]) -> str:
     optional = [
         ("map_markers" in leaves, "- blue lines: painted lines; coloured dots: beacons with their id"),
         ("map_markers" in leaves, "- pale green: virtual walls (halo and field, cut at the outer walls)"),
+        (grid_under_lines, "- light grey cells under the walls: the grid map (`map`) a planner sees"),
         ("sensor_msgs/msg/LaserScan" in kinds, "- violet dots: LIDAR hits (blue: another robot); faint rays"),
         ("sensor_msgs/msg/Range" in kinds, "- grey fan: a sonar's cone; teal arc or ray: its echo"),
         (bumpers, "- red dot: bumper pressed; orange dot: cliff, IR wall seen"),
