@@ -1,23 +1,34 @@
-"""A user's first ``robot_sims create_world``: time to the first /scan with numba's cache cold vs after
-``python -m sim_runtime.warmup`` (what ``make venv`` runs).
+"""A user's first start after ``pip install``: each world's time to "ready" with numba's cache cold
+(a fresh install) and warm (the next start), and whether a subscriber joining it later stalls it.
 
-Run:  ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST .venv/bin/python bench/first_start.py
+Run:  .venv/bin/python bench/first_start.py [--keep DIR] [--worlds create_world simrobot_world]
 
-Deletes the numba cache of this checkout (``__pycache__/*.nbi``, ``*.nbc``) twice: before the cold
-start, and before the warm-up (so the warm-up's own time is from cold too). The world runs as a user
-starts it, ``robot_sims create_world`` in its own process; the time is from launching it to this
-process receiving its first LaserScan. ``compiled at start`` counts the kernels the world had to
-compile itself (numba's ``NUMBA_DEBUG_CACHE`` "data saved" lines): 0 means the warm-up covered it.
+This checkout (its tracked files as they are now) is copied and pip-installed into a temporary
+prefix (``--ignore-installed --no-deps``: the venv's own editable install is left alone), so numba's
+cache starts empty as after any ``pip install`` or ``colcon build``. Each world runs as a user runs
+it, ``robot_sims <world>`` in its own process from that prefix; times are from launching it to its
+"ready" log line, with the CPU time the world's process had used by then (what a loaded machine
+stretches into more wall time). Once it is ready this process listens to ``/clock`` for 2 s, then
+subscribes to a sensor: "first reading" is the time from subscribing to its first message, "clock gap" the longest
+wait between two ``/clock`` messages in the 3 s after subscribing (the stall a joining RViz or
+recorder would cause), next to the longest before. "compiling" says whether the world logged that it
+compiled kernels. The machine's load is printed with each start.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import sysconfig
+import tempfile
+import threading
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -26,83 +37,168 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 
 import rclpy  # noqa: E402
-from sensor_msgs.msg import LaserScan  # noqa: E402
+from rclpy.qos import qos_profile_sensor_data  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import LaserScan, Range  # noqa: E402
 
-from sim_runtime.cli import executable_command  # noqa: E402
-from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS  # noqa: E402
+from sim_runtime.qos import CLOCK_QOS  # noqa: E402
 from sim_runtime.run import make_executor  # noqa: E402
+from sim_runtime.warmup import COMPILING_NOTICE  # noqa: E402
 
-PACKAGES = ("create_sim", "simrobot_sim", "arm_sim", "sim_runtime")
-NAMESPACE = "/first_start_bench"
+#: world -> (its arguments, the sensor topic subscribed once it is ready, that topic's type)
+WORLDS = {
+    "create_world": (["-r", "__ns:=/first_start"], "/first_start/scan", LaserScan),
+    # 20 steps a second, so that /clock is frequent enough to show a stall
+    "simrobot_world": (["-p", "world_file:=simrobot/demo.yaml", "-p", "real_time_factor:=20.0"], "/r1/sens1", Range),
+}
+READY_TIMEOUT_S = 900.0
 
 
-def clear_numba_cache() -> int:
-    """Delete this checkout's numba cache files; returns how many."""
-    files = [p for pkg in PACKAGES for p in (ROOT / pkg).rglob("__pycache__/*") if p.suffix in (".nbi", ".nbc")]
-    for path in files:
-        path.unlink()
-    return len(files)
+@dataclass
+class Start:
+    """One start of a world: its times (s) and what it logged."""
+
+    ready_s: float = float("nan")
+    ready_cpu_s: float = float("nan")
+    compiling: bool = False
+    first_reading_s: float = float("nan")
+    gap_before_s: float = float("nan")
+    gap_after_s: float = float("nan")
+    log: list[str] = field(default_factory=list)
 
 
 def load() -> str:
-    return "load {:.2f} {:.2f} {:.2f}".format(*os.getloadavg())
+    return "load {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
 
 
-def time_to_first_scan(executor, node) -> tuple[float, int]:
-    """(wall seconds from launching create_world to its first /scan here, kernels it compiled)."""
-    scans: list[LaserScan] = []
-    subscription = node.create_subscription(LaserScan, f"{NAMESPACE}/scan", scans.append, SENSOR_SUBSCRIBER_QOS)
-    env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_DEBUG_CACHE="1")
-    start = time.monotonic()
-    world = subprocess.Popen(
-        executable_command("create_world", ["--ros-args", "-r", f"__ns:={NAMESPACE}"]),
-        env=env,
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
+def install_copy(work: Path) -> tuple[Path, Path]:
+    """pip-install a copy of this checkout's tracked files into ``work/prefix``: (prefix, site-packages)."""
+    tree = work / "tree"
+    files = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    for name in files.decode().split("\0"):
+        if name and (ROOT / name).is_file():
+            (tree / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / name, tree / name)
+    prefix = work / "prefix"
+    pip = [sys.executable, "-m", "pip", "install", "--quiet", "--prefix", str(prefix)]
+    subprocess.run([*pip, "--ignore-installed", "--no-deps", str(tree)], check=True)
+    purelib = sysconfig.get_path("purelib", vars={"base": str(prefix), "platbase": str(prefix)})
+    return prefix, Path(purelib)
+
+
+def launch(prefix: Path, site: Path, world: str, args: list[str]) -> subprocess.Popen:
+    env = dict(
+        os.environ,
+        PYTHONPATH=str(site),  # ahead of the venv's editable install
+        AMENT_PREFIX_PATH=os.pathsep.join([str(prefix), os.environ.get("AMENT_PREFIX_PATH", "")]),
     )
+    command = [sys.executable, str(prefix / "bin" / "robot_sims"), world, "--ros-args", *args]
+    return subprocess.Popen(
+        command, cwd=prefix, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1
+    )
+
+
+def read_log(process: subprocess.Popen, start: Start, ready: threading.Event, t0: float) -> None:
+    assert process.stdout is not None
+    for line in process.stdout:
+        start.log.append(line.rstrip())
+        if COMPILING_NOTICE in line:
+            start.compiling = True
+        if "ready:" in line and not ready.is_set():
+            start.ready_s = time.monotonic() - t0
+            start.ready_cpu_s = cpu_seconds(process.pid)
+            ready.set()
+    ready.set()
+
+
+def cpu_seconds(pid: int) -> float:
+    """CPU time (user + system) the process has used so far (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def longest_gap(times: list[float], since: float, until: float) -> float:
+    """Longest time without a message between ``since`` and ``until`` (the whole window if none came)."""
+    window = [since, *(t for t in times if since <= t <= until), until]
+    return max(b - a for a, b in itertools.pairwise(window))
+
+
+def spin_for(executor, seconds: float, until=lambda: False) -> None:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline and not until():
+        executor.spin_once(timeout_sec=0.005)
+
+
+def one_start(node, executor, prefix: Path, site: Path, world: str) -> Start:
+    args, topic, msg_type = WORLDS[world]
+    start = Start()
+    clock: list[float] = []
+    clock_sub = node.create_subscription(Clock, "/clock", lambda _m: clock.append(time.monotonic()), CLOCK_QOS)
+    ready = threading.Event()
+    t0 = time.monotonic()
+    process = launch(prefix, site, world, args)
+    threading.Thread(target=read_log, args=(process, start, ready, t0), daemon=True).start()
     try:
-        while not scans:
-            if world.poll() is not None:
-                raise RuntimeError(f"create_world ended: {world.communicate()[1]}")
-            if time.monotonic() - start > 600:
-                raise RuntimeError("no /scan within 600 s")
-            executor.spin_once(timeout_sec=0.01)
-        elapsed = time.monotonic() - start
+        spin_for(executor, READY_TIMEOUT_S, ready.is_set)
+        if process.poll() is not None or start.ready_s != start.ready_s:
+            raise RuntimeError(f"{world} did not get ready:\n" + "\n".join(start.log[-20:]))
+        spin_for(executor, 2.0)
+        joined = time.monotonic()
+        readings: list[float] = []
+        sub = node.create_subscription(
+            msg_type, topic, lambda _m: readings.append(time.monotonic()), qos_profile_sensor_data
+        )
+        spin_for(executor, 3.0)
+        spin_for(executor, 30.0, lambda: bool(readings))
+        start.first_reading_s = readings[0] - joined if readings else float("nan")
+        start.gap_before_s = longest_gap(clock, joined - 2.0, joined)
+        start.gap_after_s = longest_gap(clock, joined, joined + 3.0)
+        node.destroy_subscription(sub)
     finally:
-        world.send_signal(signal.SIGINT)
-        out, _err = world.communicate(timeout=60)
-        node.destroy_subscription(subscription)
-    return elapsed, out.count("data saved to")
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        node.destroy_subscription(clock_sub)
+    return start
+
+
+def report(world: str, label: str, start: Start) -> None:
+    print(
+        f"  {world:15s} {label:5s} ready {start.ready_s:6.1f} s ({start.ready_cpu_s:5.1f} s CPU)"
+        f"  compiling logged: {'yes' if start.compiling else 'no'}"
+        f"   first reading {start.first_reading_s:5.2f} s after subscribing"
+        f"   clock gap {start.gap_after_s:5.3f} s (before joining {start.gap_before_s:5.3f} s)"
+    )
 
 
 def main() -> int:
-    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--keep", type=Path, help="install into this folder and keep it (default: a temporary one)")
+    parser.add_argument("--worlds", nargs="+", choices=list(WORLDS), default=list(WORLDS), help="default: all")
+    opts = parser.parse_args()
+    work = opts.keep or Path(tempfile.mkdtemp(prefix="first_start_"))
     rclpy.init()
     node = rclpy.create_node("first_start_bench")
     executor = make_executor()
     executor.add_node(node)
     try:
-        cleared = clear_numba_cache()
-        print(f"cold cache ({cleared} numba cache files deleted), {load()}")
-        cold, cold_compiled = time_to_first_scan(executor, node)
-        print(f"  create_world first start to first /scan: {cold:6.1f} s   compiled at start: {cold_compiled}")
-
-        clear_numba_cache()
-        print(f"warm-up from a cold cache, {load()}")
-        start = time.monotonic()
-        subprocess.run([sys.executable, "-m", "sim_runtime.warmup"], cwd=ROOT, env=dict(os.environ), check=True)
-        warmup = time.monotonic() - start
-        print(f"  python -m sim_runtime.warmup: {warmup:6.1f} s")
-        print(f"after the warm-up, {load()}")
-        warm, warm_compiled = time_to_first_scan(executor, node)
-        print(f"  create_world first start to first /scan: {warm:6.1f} s   compiled at start: {warm_compiled}")
-        print(f"cold / after warm-up: {cold / warm:.1f}x ({cold:.1f} s vs {warm:.1f} s)")
+        print(f"pip install of a copy of this checkout into {work}, {load()}")
+        t = time.monotonic()
+        prefix, site = install_copy(work)
+        print(f"  installed in {time.monotonic() - t:.0f} s; numba caches next to the installed sources")
+        for world in opts.worlds:
+            for label in ("cold", "warm"):
+                print(f"{world}, {label} numba cache, {load()}")
+                report(world, label, one_start(node, executor, prefix, site, world))
     finally:
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown()
+        if opts.keep is None:
+            shutil.rmtree(work, ignore_errors=True)
     return 0
 
 
