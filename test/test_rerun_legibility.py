@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import rerun as rr
 from geometry_msgs.msg import Point
+from nav_msgs.msg import OccupancyGrid
 from rerun_test_helpers import (
     blueprint_views,
     column,
@@ -170,3 +171,13 @@ def test_every_grid_label_is_inside_the_opening_view_when_the_map_ends_between_w
     assert column(labels, "Points2D:labels")[0][:2] == ["-2 m", "-1 m"]
     for x, y in column(labels, "Points2D:positions")[0]:  # the view draws the map mirrored: -y
         assert bounds["x_range"][0] < x < bounds["x_range"][1] and bounds["y_range"][0] < -y < bounds["y_range"][1]
+
+
+def test_the_grid_labels_the_last_metre_of_a_map_whose_float32_resolution_falls_short_of_it(tmp_path):
+    grid = OccupancyGrid()
+    grid.header.frame_id = "map"
+    grid.info.resolution, grid.info.width, grid.info.height = 0.01, 500, 100  # 0.01 as float32: 0.0099999998
+    grid.data = [0] * (500 * 100)
+    ents = _convert(tmp_path, [("/map", grid, 0.0), *simrobot_messages()[1:]])
+    labels = column(ents["/top/map/grid/labels"], "Points2D:labels")[0]
+    assert labels == ["0 m", "1 m", "2 m", "3 m", "4 m", "5 m", "0 m", "1 m"]

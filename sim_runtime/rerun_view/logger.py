@@ -556,7 +556,8 @@ class RerunLogger:
         if not np.all(np.isfinite(self._map_lo)):
             return
         lo, hi = self._map_lo, self._map_hi
-        xs, ys = np.arange(np.ceil(lo[0]), hi[0] + 1e-9), np.arange(np.ceil(lo[1]), hi[1] + 1e-9)
+        # a millimetre of slack: 500 cells of a float32 0.01 m end at 4.9999999 m, not before 5 m
+        xs, ys = (np.arange(np.ceil(lo[i] - 1e-3) + 0.0, hi[i] + 1e-3) for i in (0, 1))  # + 0.0: no "-0 m"
         lines = [np.array([[x, lo[1]], [x, hi[1]]]) for x in xs] + [np.array([[lo[0], y], [hi[0], y]]) for y in ys]
         self.rec.log(
             f"{MAP}/grid",
