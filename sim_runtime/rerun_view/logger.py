@@ -21,8 +21,8 @@ entity                                  what
 ``top/map/robots/<robot>/<sensor>``     sensor frames at their mount (TF, else the known mounts):
                                         scan points, sonar beam cone and hit, lit detectors
 ``top/map/tracks/<robot>/{truth,odom}``  tracks in the robot's colour (strips of segments)
-``top/map/marks/<robot>/{contacts,crashes}``  where a bumper was pressed or the robot crashed
-                                        (labelled with the time), kept for the rest of the run
+``top/map/marks/<robot>/{contacts,crashes}``  crosses where a bumper was pressed or the robot
+                                        crashed, unlabelled (Events has the times), kept
 ``world``                               3-D frame of arms: meshes, axes, target pose,
                                         ``paths/<topic>`` end-effector path
 ``plots/<tab>/<robot>/<series>``        scalars, one time-series tab per quantity
