@@ -196,6 +196,8 @@ def test_a_key_press_steps_from_the_worlds_last_command_whoever_sent_it(browser,
     ActionChains(browser).send_keys("w").send_keys("w").perform()
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(0.2), timeout=15.0)
     other_tab = executor.get_nodes()[0].create_publisher(Twist, f"{NS}/cmd_vel", COMMAND_PUBLISHER_QOS)
+    # Published once both the world and the studio hear this publisher (a first message before that is lost).
+    assert spin_until(executor, lambda: other_tab.get_subscription_count() >= 2, timeout=15.0)
     other_tab.publish(Twist())  # another tab, teleop or controller stops the robot
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
     wait(browser, lambda d: "v 0.00 m/s" in find(d, "body").text)
