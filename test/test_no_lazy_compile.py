@@ -14,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sim_runtime.warmup import COMPILING_NOTICE, announce_compiling
@@ -106,3 +107,37 @@ def test_the_compiling_notice_comes_only_when_numba_really_compiles():
 
 if __name__ == "__main__":
     print(json.dumps(probe(sys.argv[1])))
+
+
+def small_world():
+    from simrobot_sim.model import SimrobotWorld
+    from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
+
+    walls = np.zeros((60, 60), dtype=bool)
+    walls[0, :] = walls[-1, :] = walls[:, 0] = walls[:, -1] = True
+    sonar = SensorSpec("s", "ultrasonic", beamwidth=0.5, range=0.2, rays=5)
+    return SimrobotWorld(WorldSpec(walls=walls, robots=(RobotSpec("a", (0.3, 0.3), sensors=(sonar,)),)))
+
+
+def test_a_cold_simrobot_world_has_its_sensing_compiled_by_a_helper_process_meanwhile(monkeypatch):
+    import numba
+
+    from simrobot_sim import model
+
+    world = small_world()
+    world.step()  # its kernels now in this process, whatever the cache held
+    started: list[subprocess.Popen] = []
+    real_start = model._start_sensing_helper
+
+    def start(pickled: bytes) -> subprocess.Popen:
+        started.append(helper := real_start(pickled))
+        return helper
+
+    monkeypatch.setattr(model, "_start_sensing_helper", start)
+    with model._sensing_compiled_aside(world):
+        world.step()  # nothing to compile: no helper
+    assert started == []
+    with model._sensing_compiled_aside(world):
+        numba.njit(lambda x: x * 2)(3)  # a kernel numba really compiles: the cache is cold
+    assert len(started) == 1
+    assert started[0].returncode == 0  # waited for; the helper unpickled the world and sensed it
