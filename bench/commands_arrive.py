@@ -1,6 +1,6 @@
 """One-shot commands from fresh processes reach a running Create world, on a loaded machine.
 
-    .venv/bin/python bench/commands_arrive.py [--tries 100] [--busy 3] [--cli '/path/to/ros2']
+    .venv/bin/python bench/commands_arrive.py [--tries 100] [--busy 3] [--cli /work/ros2cli_env]
 
 A Create world runs at real_time_factor 1 in its own process while ``--busy`` CPU-bound loops
 load the machine. Each try starts a fresh process that does what ``ros2 topic pub --once
@@ -8,7 +8,8 @@ load the machine. Each try starts a fresh process that does what ``ros2 topic pu
 until it matches a subscription, publish, stay 0.1 s, exit), with a new W each time (turning on
 the spot: the robot never reaches a wall); the try counts as applied once the world's /odom
 reports angular.z = W. Goal: every command applied.
-``--cli`` runs the real ``ros2`` executable instead (``ros2 topic pub --once``);
+``--cli`` runs the real ``ros2`` executable instead (``ros2 topic pub --once``) from a folder
+holding ``pip install --target`` of ros2cli; ``--keep-alive`` is ros2topic's option of that name;
 ``--world-args`` adds ``-p`` rules to the world (e.g. a QoS override).
 """
 
@@ -34,9 +35,10 @@ from record_worlds import exe, stop  # noqa: E402
 BUSY_LOOP = "while 1: pass"
 
 
-def publish_once(topic: str, turn: float, reliability: str) -> None:
-    """What ``ros2 topic pub --once`` does (Jazzy's ros2topic): a publisher with the default
-    profile, wait until a subscription matches, publish, keep the process 0.1 s, exit."""
+def publish_once(topic: str, turn: float, reliability: str, keep_alive: float) -> None:
+    """What ``ros2 topic pub --once`` does (Jazzy's ros2topic 0.32): a publisher with the default
+    profile (reliable, volatile, depth 10), wait until a subscription matches, publish, keep the
+    process ``--keep-alive`` seconds (default 0.1), exit."""
     import rclpy
     from geometry_msgs.msg import Twist
     from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -50,18 +52,20 @@ def publish_once(topic: str, turn: float, reliability: str) -> None:
     msg = Twist()
     msg.angular.z = turn
     publisher.publish(msg)
-    time.sleep(0.1)
+    time.sleep(keep_alive)
     node.destroy_node()
     rclpy.shutdown()
 
 
-def once_command(topic: str, turn: float, cli: str | None, reliability: str) -> list[str]:
+def once_command(topic: str, turn: float, opts: argparse.Namespace) -> list[str]:
     """argv of one fresh publishing process."""
-    if cli:
+    keep = ["--keep-alive", str(opts.keep_alive), "--reliability", opts.reliability]
+    if opts.cli:
         yaml = f"{{angular: {{z: {turn}}}}}"
-        extra = [] if reliability == "reliable" else ["--qos-reliability", reliability]
-        return [*shlex.split(cli), "topic", "pub", "--once", *extra, topic, "geometry_msgs/msg/Twist", yaml]
-    return [sys.executable, __file__, "--publish-once", str(turn), "--topic", topic, "--reliability", reliability]
+        extra = ["--keep-alive", str(opts.keep_alive), "--qos-reliability", opts.reliability]
+        ros2 = [sys.executable, str(Path(opts.cli) / "bin" / "ros2")]
+        return [*ros2, "topic", "pub", "--once", *extra, topic, "geometry_msgs/msg/Twist", yaml]
+    return [sys.executable, __file__, "--publish-once", str(turn), "--topic", topic, *keep]
 
 
 class OdomWatcher:
@@ -119,7 +123,9 @@ def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
         for i in range(opts.tries):
             speed = round(0.5 + 0.001 * (i + 1), 6) * (1 if i % 2 else -1)
             begin = time.monotonic()
-            subprocess.run(once_command("/cmd_vel", speed, opts.cli, opts.reliability), check=True, timeout=60)
+            env = dict(os.environ, PYTHONPATH=opts.cli) if opts.cli else None
+            command = once_command("/cmd_vel", speed, opts)
+            subprocess.run(command, check=True, timeout=60, env=env, stdout=subprocess.DEVNULL)
             ok = watcher.wait_for_speed(speed, opts.settle)
             durations.append(time.monotonic() - begin)
             applied += ok
@@ -140,16 +146,20 @@ def main() -> None:
     parser.add_argument("--tries", type=int, default=100, help="fresh publishing processes (default 100)")
     parser.add_argument("--busy", type=int, default=3, help="CPU-bound loops loading the machine (default 3)")
     parser.add_argument("--settle", type=float, default=5.0, help="seconds a command may take to show in /odom")
-    parser.add_argument("--cli", help="the ros2 executable to publish with (e.g. 'python /path/bin/ros2')")
+    parser.add_argument("--cli", help="publish with the real ros2 CLI: a folder holding a pip --target install of it")
     parser.add_argument("--reliability", default="reliable", choices=("reliable", "best_effort"))
+    parser.add_argument("--keep-alive", type=float, default=0.1, help="seconds a publisher stays after publishing")
     parser.add_argument("--world-args", default="", help="extra ROS arguments of the world ('-p name:=value')")
     parser.add_argument("--publish-once", type=float, help=argparse.SUPPRESS)
     parser.add_argument("--topic", default="/cmd_vel", help=argparse.SUPPRESS)
     opts = parser.parse_args()
     if opts.publish_once is not None:
-        publish_once(opts.topic, opts.publish_once, opts.reliability)
+        publish_once(opts.topic, opts.publish_once, opts.reliability, opts.keep_alive)
         return
-    print(f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}, {opts.busy} busy loops, {opts.tries} tries")
+    print(
+        f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}, {opts.busy} busy loops, {opts.tries} tries, "
+        f"keep-alive {opts.keep_alive:g} s, world args {opts.world_args!r}"
+    )
     tries, applied, durations = run(opts)
     durations.sort()
     print(

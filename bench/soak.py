@@ -8,6 +8,8 @@ Per world it reports the world process's RSS after warm-up (10 % of the run) and
 after warm-up (goal: no drift: end/start ≥ 0.8), and the bag's completeness (periodic topics with
 no gap in their header stamps). The flood reports whether the world held real time at
 real_time_factor 1 (sim/wall ≥ 0.95) and its RSS growth. Load average printed with each figure.
+``--busy N`` runs N CPU-bound loops beside the worlds (killed afterwards): the recorder must still
+miss nothing, as the world waits for it (sim_runtime.flow_control).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import argparse
 import math
 import os
 import random
+import subprocess
 import sys
 import tempfile
 import threading
@@ -100,7 +103,7 @@ def run_world(name: str, args: list[str], sim_seconds: float, wall_limit: float,
                 last_drive = watcher.sim
             if watcher.sim >= sim_seconds:
                 break
-            time.sleep(0.25)
+            time.sleep(0.05)  # a SIMROBOT hour at 1 Hz takes seconds
         log = stop(world)
         time.sleep(1.0)
         stop(recorder)
@@ -185,8 +188,9 @@ def main() -> None:
     parser.add_argument("--wall-limit", type=float, default=3600.0, help="wall seconds at most per world")
     parser.add_argument("--flood-seconds", type=float, default=30.0, help="length of the cmd_vel flood")
     parser.add_argument("--worlds", default="create_world,simrobot_world,arm", help="comma-separated worlds")
+    parser.add_argument("--busy", type=int, default=0, help="CPU-bound loops loading the machine meanwhile")
     opts = parser.parse_args()
-    print(f"{os.cpu_count()} CPUs, {load()}; sim time per world {opts.sim_seconds:g} s")
+    print(f"{os.cpu_count()} CPUs, {load()}; sim time per world {opts.sim_seconds:g} s; {opts.busy} busy loops")
     watcher = Watcher()
     demo = ROOT / "config/simrobot/demo.yaml"
     endless = tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False)  # noqa: SIM115 - a world reads it
@@ -197,6 +201,7 @@ def main() -> None:
         .replace("lockstep: true", "lockstep: false")
     )
     endless.close()
+    busy = [subprocess.Popen([sys.executable, "-c", "while 1: pass"]) for _ in range(opts.busy)]
     try:
         from sensor_msgs.msg import JointState
 
@@ -249,6 +254,9 @@ def main() -> None:
             f"RSS {f['rss_before_mb']:.1f} → {f['rss_after_mb']:.1f} MB, alive {f['alive']}   {load()}"
         )
     finally:
+        for process in busy:
+            process.kill()
+            process.wait()
         os.unlink(endless.name)
         watcher.close()
 

@@ -26,8 +26,8 @@ ROOT = Path(__file__).resolve().parent.parent
 RELIABLE, BEST_EFFORT = ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT
 
 #: What Jazzy's ``ros2 topic pub --once /cmd_vel geometry_msgs/msg/Twist "{linear: {x: V}}"`` does:
-#: a publisher with the default profile (reliable, volatile, 10), wait until it matches a
-#: subscription, publish once, keep the process 0.1 s, exit.
+#: a publisher with ros2topic's default profile (reliable, volatile, depth 10), wait until it
+#: matches a subscription, publish once, keep the process 0.1 s (``--keep-alive``), exit.
 PUBLISH_ONCE = """
 import sys, time, rclpy
 from geometry_msgs.msg import Twist
