@@ -188,7 +188,13 @@ class Supervisor:
             ep = queue.popleft()
             log = log_path(ep)
             log.parent.mkdir(parents=True, exist_ok=True)
-            idle.pop().send(ep, log, limits)
+            worker = idle.pop()
+            try:
+                worker.send(ep, log, limits)
+            except OSError:  # it died while idle: the episode waits for another (its EOF is read next)
+                worker.take()
+                queue.appendleft(ep)
+                continue
             busy += 1
         wanted = min(self.size + self.spare, busy + len(queue))
         while queue and len(self.workers) < wanted:
