@@ -7,12 +7,13 @@ This checkout (its tracked files as they are now) is copied and pip-installed in
 prefix (``--ignore-installed --no-deps``: the venv's own editable install is left alone), so numba's
 cache starts empty as after any ``pip install`` or ``colcon build``. Each world runs as a user runs
 it, ``robot_sims <world>`` in its own process from that prefix; times are from launching it to its
-"ready" log line, with the CPU time the world's process had used by then (what a loaded machine
-stretches into more wall time). Once it is ready this process listens to ``/clock`` for 2 s, then
-subscribes to a sensor: "first reading" is the time from subscribing to its first message, "clock gap" the longest
-wait between two ``/clock`` messages in the 3 s after subscribing (the stall a joining RViz or
-recorder would cause), next to the longest before. "compiling" says whether the world logged that it
-compiled kernels. The machine's load is printed with each start.
+"ready" log line, with the CPU time the world's process (and a helper it started) had used by then
+(what a loaded machine stretches into more wall time). Once it is ready this process listens to
+``/clock`` for 2 s, then subscribes to a sensor: "first reading" is the time from subscribing to its
+first message, "clock gap" the longest wait between two ``/clock`` messages in the 3 s after
+subscribing (the stall a joining RViz or recorder would cause), next to the longest in the 2 s
+before. "compiling" says whether the world logged that it compiled kernels. The machine's load is
+printed with each start.
 """
 
 from __future__ import annotations
@@ -112,9 +113,9 @@ def read_log(process: subprocess.Popen, start: Start, ready: threading.Event, t0
 
 
 def cpu_seconds(pid: int) -> float:
-    """CPU time (user + system) the process has used so far (Linux /proc)."""
+    """CPU time (user + system) the process and the helpers it waited for have used so far (Linux /proc)."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return sum(int(v) for v in fields[11:15]) / os.sysconf("SC_CLK_TCK")
 
 
 def longest_gap(times: list[float], since: float, until: float) -> float:
