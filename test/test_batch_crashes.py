@@ -112,3 +112,15 @@ def test_on_ray_a_failing_controller_is_an_error_row_too_and_the_table_is_the_sa
     assert (tmp_path / "ray" / "episodes.csv").read_text() == (one / "episodes.csv").read_text()
     quits = next(r for r in rows(tmp_path / "ray" / "episodes.csv") if r["controller"].endswith("Quits"))
     assert "giving up" in (tmp_path / "ray" / "logs" / f"{quits['key']}.log").read_text()  # sent back from the node
+
+
+@pytest.mark.parametrize(
+    ("limit", "field"), [("time_limit_s: 0", "time_limit_s"), ("memory_limit_mb: lots", "memory_limit_mb")]
+)
+def test_a_bad_limit_is_one_line_naming_the_field(tmp_path: Path, limit: str, field: str) -> None:
+    body = f"worlds: [{{map: create/example.map}}]\ncontrollers: [create_bump_turn]\nduration_s: 1\n{limit}\n"
+    sweep = write_sweep(tmp_path, "bad.yaml", body)
+    done = batch(str(sweep), cwd=tmp_path, timeout=60)
+    assert done.returncode == 2
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert done.stderr.startswith(f"error: {sweep}: field '{field}'")
