@@ -81,6 +81,9 @@ def test_each_robot_has_one_label_below_its_body_with_its_obstacle_number(tmp_pa
     assert x == 0.0 and y == pytest.approx(LABEL_OFFSET_M["simrobot"]) and y > outline
     body = [e for e in ents if e.startswith("/top/map/robots/r1/body")]
     assert body and not [e for e in body if column(ents[e], "Points2D:labels")]  # no name on the body
+    # the heading reaches 12 cm: ~17 px on a 5 m map 700 px wide, out of the 10 px dot and the outline
+    heading = column(ents["/top/map/robots/r1/body/heading"], "Arrows2D:vectors")[-1][0]
+    assert heading == pytest.approx([0.12, 0.0]) and heading[0] > 2.5 * outline
 
 
 def test_the_legend_names_each_robots_colour_and_what_the_marks_mean(tmp_path):
