@@ -9,12 +9,17 @@ cached per argument types, so the calls below pass what the nodes pass.
 
 from __future__ import annotations
 
+import os
+import pickle
+import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -51,6 +56,55 @@ def announce_compiling(say: Callable[[str], None]) -> Iterator[None]:
     if notice.compiled:
         seconds = time.monotonic() - notice.started
         say(f"compiled {notice.compiled} kernels in {seconds:.1f} s (numba caches them for the next start)")
+
+
+@contextmanager
+def compiled_aside(obj: Any, method: str, enabled: bool = True) -> Iterator[None]:
+    """Within the block, the first time numba starts compiling (a cold cache), start a process that
+    calls ``method`` of a copy of ``obj`` (pickled now, before the block changes it): numba compiles
+    one kernel at a time per process, so that method's kernels are compiled, into numba's cache,
+    beside whatever the block compiles; call it after the block and it loads them. At the end of
+    the block, wait for the helper. Nothing starts when everything is cached or on a single core."""
+    from numba.core import event
+
+    pickled = pickle.dumps(obj) if enabled and (os.cpu_count() or 1) > 1 else b""
+    helpers: list[subprocess.Popen] = []
+
+    class StartHelper(event.Listener):
+        def on_start(self, _event: event.Event) -> None:
+            if pickled and not helpers:
+                helpers.append(_start_helper(pickled, method))
+
+        def on_end(self, _event: event.Event) -> None:
+            pass
+
+    with event.install_listener("numba:compile", StartHelper()):
+        yield
+    for helper in helpers:
+        helper.wait()  # its outcome does not matter: anything it did not cache is compiled afterwards
+
+
+def _start_helper(pickled: bytes, method: str) -> subprocess.Popen:
+    """A process that unpickles an object from its stdin and calls its ``method``."""
+    # the same modules from the same files (numba's cache is per file), nothing on the terminal
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    helper = subprocess.Popen(
+        # -P: not the current directory first
+        [sys.executable, "-P", "-c", f"import pickle, sys; pickle.load(sys.stdin.buffer).{method}()"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
+    stdin = helper.stdin
+    assert stdin is not None
+
+    def feed() -> None:  # in a thread: the pipe fills until the helper has imported numba
+        with stdin:
+            stdin.write(pickled)
+
+    threading.Thread(target=feed, daemon=True).start()
+    return helper
 
 
 def warm_create() -> None:

@@ -14,12 +14,6 @@ from __future__ import annotations
 import copy
 import math
 import os
-import pickle
-import subprocess
-import sys
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -28,6 +22,7 @@ import numpy as np
 
 from sim_runtime.angles import wrap_angle, wrap_angle_jit
 from sim_runtime.errors import InputError
+from sim_runtime.warmup import compiled_aside
 from simrobot_sim import raycast
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
@@ -520,57 +515,6 @@ def _nearest(first_ray, rays, nearest):
         nearest.value[s] = value
 
 
-#: Run by :func:`_sensing_compiled_aside`'s helper: a pickled world on stdin, sensed once.
-_SENSE_PICKLED_WORLD = "import pickle, sys; pickle.load(sys.stdin.buffer).sense()"
-
-
-@contextmanager
-def _sensing_compiled_aside(world: SimrobotWorld) -> Iterator[None]:
-    """Within the block, the first time numba starts compiling (a cold cache), start a process that
-    senses a copy of ``world``: numba compiles one kernel at a time per process, so the sensing
-    kernels (the larger half) are then compiled beside whatever the block compiles, into numba's
-    cache. At the end of the block, wait for it. Nothing starts when everything is cached, on a
-    single core, or for a world without sensors."""
-    from numba.core import event
-
-    pickled = pickle.dumps(world) if len(world.sensors) and (os.cpu_count() or 1) > 1 else b""
-    helpers: list[subprocess.Popen] = []
-
-    class StartHelper(event.Listener):
-        def on_start(self, _event: event.Event) -> None:
-            if pickled and not helpers:
-                helpers.append(_start_sensing_helper(pickled))
-
-        def on_end(self, _event: event.Event) -> None:
-            pass
-
-    with event.install_listener("numba:compile", StartHelper()):
-        yield
-    for helper in helpers:
-        helper.wait()  # its outcome does not matter: anything it did not cache is compiled here
-
-
-def _start_sensing_helper(pickled: bytes) -> subprocess.Popen:
-    # the same modules from the same files (numba's cache is per file), nothing on the terminal
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-    helper = subprocess.Popen(
-        [sys.executable, "-P", "-c", _SENSE_PICKLED_WORLD],  # -P: not the current directory first
-        stdin=subprocess.PIPE,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        env=env,
-    )
-    stdin = helper.stdin
-    assert stdin is not None
-
-    def feed() -> None:  # in a thread: the pipe fills until the helper has imported numba
-        with stdin:
-            stdin.write(pickled)
-
-    threading.Thread(target=feed, daemon=True).start()
-    return helper
-
-
 def ray_offsets(beamwidth: float, rays: int, sensor_model: str = "exact") -> np.ndarray:
     """Ray angles relative to the sensor axis, counter-clockwise from the rightmost ray. Exact
     model: evenly from -beamwidth/2 to +beamwidth/2 inclusive (one ray: along the axis). The
@@ -922,7 +866,7 @@ class SimrobotWorld:
         sensing kernels are compiled by a second process while this one compiles the motion's,
         and then loaded from the cache: about half the wait on two cores or more."""
         twin = copy.deepcopy(self)
-        with _sensing_compiled_aside(twin):
+        with compiled_aside(twin, "sense", enabled=len(self.sensors) > 0):
             twin.step()
         twin.sense()
 

@@ -122,22 +122,22 @@ def small_world():
 def test_a_cold_simrobot_world_has_its_sensing_compiled_by_a_helper_process_meanwhile(monkeypatch):
     import numba
 
-    from simrobot_sim import model
+    from sim_runtime import warmup
 
     world = small_world()
     world.step()  # its kernels now in this process, whatever the cache held
     started: list[subprocess.Popen] = []
-    real_start = model._start_sensing_helper
+    real_start = warmup._start_helper
 
-    def start(pickled: bytes) -> subprocess.Popen:
-        started.append(helper := real_start(pickled))
+    def start(pickled: bytes, method: str) -> subprocess.Popen:
+        started.append(helper := real_start(pickled, method))
         return helper
 
-    monkeypatch.setattr(model, "_start_sensing_helper", start)
-    with model._sensing_compiled_aside(world):
+    monkeypatch.setattr(warmup, "_start_helper", start)
+    with warmup.compiled_aside(world, "sense"):
         world.step()  # nothing to compile: no helper
     assert started == []
-    with model._sensing_compiled_aside(world):
+    with warmup.compiled_aside(world, "sense"):
         numba.njit(lambda x: x * 2)(3)  # a kernel numba really compiles: the cache is cold
     assert len(started) == 1
     assert started[0].returncode == 0  # waited for; the helper unpickled the world and sensed it
