@@ -5,6 +5,10 @@ node does, on small inputs: the Create's step and every sensor, a SIMROBOT world
 types, an arm's forward/inverse kinematics and dynamics, the STL readers (binary and ASCII) and the
 rotation kernel, the bag index. Without it the first start of a world spends ~30 s compiling. Each kernel is
 cached per argument types, so the calls below pass what the nodes pass.
+
+The worlds themselves compile every kernel they can use before they are ready (their models'
+``compile_kernels``), with :func:`announce_compiling` saying so only when numba really compiles and
+:func:`compiled_aside` sharing the work with a second process on a cold cache.
 """
 
 from __future__ import annotations
