@@ -88,25 +88,6 @@ def _relative_to(path: Path, folder: Path) -> Path | None:
         return None
 
 
-def kernels_cached(module: str) -> bool:
-    """Whether numba's on-disk cache holds kernels of ``module`` (e.g. ``create_sim.geometry``).
-
-    numba writes one ``<file>.<function>-<line>.py<ver>.nbi`` index per cached kernel beside the
-    source (``__pycache__``) or under ``NUMBA_CACHE_DIR``."""
-    import importlib.util
-    import os
-
-    spec = importlib.util.find_spec(module)
-    if spec is None or spec.origin is None:
-        return False
-    source = Path(spec.origin)
-    folders = [source.parent / "__pycache__"]
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        cache_root = Path(os.environ["NUMBA_CACHE_DIR"])
-        folders.append(cache_root / source.parent.relative_to(source.anchor))
-    return any(any(folder.glob(f"{source.stem}.*.nbi")) for folder in folders if folder.is_dir())
-
-
 def resolve_input_file(value: str, parameter: str) -> Path:
     """Where a file parameter points: an absolute path; else relative to the current directory;
     else relative to the shipped ``config/`` (so ``world_file:=simrobot/demo.yaml`` works from

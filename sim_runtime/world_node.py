@@ -18,7 +18,6 @@ from sim_runtime.errors import InputError
 from sim_runtime.flow_control import RecorderGate
 from sim_runtime.msgs import time_msg
 from sim_runtime.params import CheckedNode
-from sim_runtime.paths import kernels_cached
 from sim_runtime.qos import CLOCK_QOS
 
 #: How many physics steps one wall-timer tick may run to catch up before the world
@@ -144,12 +143,6 @@ class SimWorldNode(CheckedNode):
         if self.real_time_factor == 1.0:
             return f"{rate}, real time"
         return f"{rate}, {self.real_time_factor:g} x real time"
-
-    def note_compiling(self, *modules: str) -> None:
-        """Log a line before numba compiles ``modules``' kernels for the first time (tens of seconds
-        with no other sign of life); later starts load them from the cache."""
-        if not all(kernels_cached(module) for module in modules):
-            self.get_logger().info("compiling kernels (first run only, ~30 s) ...")
 
     def stamp(self):
         """Current sim time as a ``builtin_interfaces/Time``."""
