@@ -11,7 +11,6 @@ orders them.
 
 from __future__ import annotations
 
-import atexit
 import dataclasses
 import logging
 import os
@@ -203,8 +202,7 @@ def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> d
     if ship is not None:
         ep = _localize(ep, *ship)
     if _ray_supervisor is None:
-        _ray_supervisor = Supervisor(1, Path(tempfile.mkdtemp(prefix="robot_sims_batch_")) / "worker.log")
-        atexit.register(shutil.rmtree, _ray_supervisor.output.parent, ignore_errors=True)
+        _ray_supervisor = Supervisor(1, _ray_scratch() / "worker.log")
     here = _ray_supervisor.output.parent
     results: list[dict[str, Any]] = []
     log = here / "episode.log"
@@ -214,7 +212,30 @@ def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> d
     with log.open("rb") as f:
         f.seek(max(0, log.stat().st_size - RAY_LOG_BYTES))
         result["log"] = f.read()
+    log.unlink()
     return result
+
+
+def _ray_scratch() -> Path:
+    """This Ray worker's folder for its episodes' output; those of Ray workers now gone (Ray ends
+    them without running their exit handlers) are removed."""
+    root = Path(tempfile.gettempdir()) / f"robot_sims_batch_{os.getuid()}"
+    for old in root.glob("*"):
+        if old.name.isdigit() and not _alive(int(old.name)):
+            shutil.rmtree(old, ignore_errors=True)
+    here = root / str(os.getpid())
+    here.mkdir(parents=True, exist_ok=True)
+    return here
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _localize(ep: Episode, sweep_dir: str, config_root: str) -> Episode:
