@@ -124,3 +124,51 @@ def test_a_bad_limit_is_one_line_naming_the_field(tmp_path: Path, limit: str, fi
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1
     assert done.stderr.startswith(f"error: {sweep}: field '{field}'")
+
+
+CONSTRUCTORS = """
+import os
+from rclpy.node import Node
+
+
+class ExitsWhenBuilt(Node):
+    def __init__(self, **kwargs):
+        super().__init__("exits_when_built", **kwargs)
+        print("building", flush=True)
+        os._exit(5)
+
+
+class HangsWhenBuilt(Node):
+    def __init__(self, **kwargs):
+        super().__init__("hangs_when_built", **kwargs)
+        while True:
+            pass
+"""
+
+
+def _constructor_sweep(folder: Path, student: str) -> Path:
+    (folder / "builders.py").write_text(CONSTRUCTORS, encoding="utf-8")
+    body = f"worlds: [{{map: create/example.map}}]\ncontrollers: [builders:{student}]\nduration_s: 1\n"
+    return write_sweep(folder, "sweep.yaml", body)
+
+
+def test_a_controller_that_calls_os_exit_while_it_is_built_is_one_error_not_the_end_of_the_cli(
+    tmp_path: Path,
+) -> None:
+    sweep = _constructor_sweep(tmp_path, "ExitsWhenBuilt")
+    done = batch(str(sweep), "--out", "out", cwd=tmp_path, timeout=120)
+    assert done.returncode == 2, done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: {sweep}: checking the sweep") and "exited with code 5" in line
+    assert "building" in line  # its last output is quoted
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_controller_whose_constructor_never_returns_is_stopped_at_the_checks_time_limit(tmp_path: Path) -> None:
+    from sim_runtime.batch.isolated_load import load_sweep_isolated
+    from sim_runtime.errors import InputError
+
+    sweep = _constructor_sweep(tmp_path, "HangsWhenBuilt")
+    with pytest.raises(InputError, match="did not finish in 20 s"):
+        load_sweep_isolated(str(sweep), out=str(tmp_path / "out"), timeout_s=20)
+    assert not (tmp_path / "out").exists()

@@ -54,11 +54,11 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     """Run the sweep the arguments describe; returns paths and counts (the tests' entry point)."""
     from sim_runtime.batch import engines, output
+    from sim_runtime.batch.isolated_load import load_sweep_isolated
     from sim_runtime.batch.supervisor import Limits
-    from sim_runtime.batch.sweep import load_sweep
 
     args = parse_args(argv)
-    sweep = load_sweep(args.sweep, out=args.out)
+    sweep = load_sweep_isolated(args.sweep, out=args.out)
     episodes = sweep.episodes[: args.limit] if args.limit else sweep.episodes
     folder = sweep.out
     log = output.ResultLog(folder)

@@ -92,14 +92,22 @@ def _resident_mb(pid: int) -> float:
         return 0.0
 
 
+def worker_environment() -> dict[str, str]:
+    """The environment of a process that runs students' code: unbuffered (a crash loses no
+    print), our package importable, and one hash seed, so that iterating a set of strings goes
+    in the same order in every worker and every run."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONHASHSEED="0")
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (_PACKAGE_ROOT, env.get("PYTHONPATH")) if p)
+    return env
+
+
 # ----------------------------------------------------------------------------- supervisor side
 class _Worker:
     """One worker process, its socket, and the episode it runs (if any)."""
 
     def __init__(self, output: Path, warm: Any) -> None:
         ours, theirs = socket.socketpair()
-        env = dict(os.environ, PYTHONUNBUFFERED="1")  # a crash loses no print
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (_PACKAGE_ROOT, env.get("PYTHONPATH")) if p)
+        env = worker_environment()
         command = [sys.executable, "-m", "sim_runtime.batch.supervisor", str(theirs.fileno()), str(os.getpid())]
         output.parent.mkdir(parents=True, exist_ok=True)
         with output.open("ab") as log:
