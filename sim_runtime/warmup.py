@@ -35,7 +35,7 @@ COMPILING_NOTICE = "compiling kernels (first run only, ~30 s) ..."
 def announce_compiling(say: Callable[[str], None]) -> Iterator[None]:
     """Within the block, ``say`` :data:`COMPILING_NOTICE` once when numba starts compiling a kernel
     (a cache miss: nothing when every kernel comes from numba's cache, wherever that is), and when
-    the block ends how many kernels were compiled in how long."""
+    the block ends how long it took."""
     from numba.core import event
 
     class Notice(event.Listener):
@@ -59,7 +59,7 @@ def announce_compiling(say: Callable[[str], None]) -> Iterator[None]:
         yield
     if notice.compiled:
         seconds = time.monotonic() - notice.started
-        say(f"compiled {notice.compiled} kernels in {seconds:.1f} s (numba caches them for the next start)")
+        say(f"kernels compiled in {seconds:.1f} s (numba caches them for the next start)")
 
 
 @contextmanager
