@@ -99,7 +99,9 @@ class SimWorldNode(CheckedNode):
         self._scheduled: list[_Scheduled] = []
         self._last_warning: dict[str, float] = {}
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
-        self._recorders = RecorderGate(self, self.physics_dt)
+        # Recorders report the /clock they follow: a world whose clock is remapped (a second world
+        # in a namespace) is not theirs to wait for.
+        self._recorders = RecorderGate(self, self.physics_dt) if self._clock_pub.topic_name == "/clock" else None
         self._pacer: Timer | None = None
         self._paced = False  # stepped by a wall timer (run_nodes), not only by calls to step()
 
@@ -113,7 +115,8 @@ class SimWorldNode(CheckedNode):
         lockstep worlds also wait for their controllers."""
         if self.finished or self.paused:
             return False
-        return self.real_time_factor != 0.0 or not (self._recorders.attached and self._recorders.holds(self.sim_time))
+        gate = self._recorders
+        return self.real_time_factor != 0.0 or not (gate is not None and gate.attached and gate.holds(self.sim_time))
 
     def _on_step(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """One physics step by hand, while paused (the SimulatorGUI's step button)."""

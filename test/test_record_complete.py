@@ -154,3 +154,21 @@ def test_a_recorder_that_falls_behind_at_real_time_counts_its_lost_messages_in_i
     info = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     lost = {k: int(v) for k, v in (info["custom_data"] or {}).items() if k.startswith(LOST_KEY)}
     assert sum(lost.values()) > 0 and f"{LOST_KEY}./clock" in lost
+
+
+def test_a_world_whose_clock_is_remapped_does_not_wait_for_recorders_of_the_root_clock(ros):
+    from rclpy.parameter import Parameter
+
+    from sim_runtime.world_node import SimWorldNode
+
+    rtf0 = [Parameter("real_time_factor", value=0.0)]
+    second = SimWorldNode(
+        "w2", physics_rate=100.0, parameter_overrides=rtf0, cli_args=["--ros-args", "-r", "/clock:=/w2/clock"]
+    )
+    first = SimWorldNode("w1", physics_rate=100.0, parameter_overrides=rtf0)
+    try:
+        assert second._recorders is None and first._recorders is not None
+        assert second.ready_to_step() and first.ready_to_step()
+    finally:
+        second.destroy_node()
+        first.destroy_node()
