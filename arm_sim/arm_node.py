@@ -334,6 +334,7 @@ class ArmNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
+            self.parameters_declared()
             self.tf = TfBroadcaster(self)
             self._add_arms()
         except InputError:

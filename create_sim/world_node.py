@@ -86,6 +86,7 @@ class CreateWorldNode(SimWorldNode):
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
+            self.parameters_declared()
             with announce_compiling(self.get_logger().info):
                 self.model = self._make_model()
                 # every sensor's kernels now: compiling one when it is first subscribed would stall the world

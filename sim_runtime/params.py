@@ -78,6 +78,10 @@ def _descriptor(default: Any, description: str, live: bool, bounds: tuple[float,
     return descriptor
 
 
+class ParametersDescribed(Exception):
+    """Ends a describe-only node's constructor once its parameters are declared."""
+
+
 class CheckedNode(Node):
     """A node whose parameters are declared with :meth:`declare_checked`."""
 
@@ -144,6 +148,12 @@ class CheckedNode(Node):
         declared = self.declare_parameter(name, default, _descriptor(default, description, live, bounds))
         self._checked[name] = spec
         return like(default, declared.value)
+
+    def parameters_declared(self) -> None:
+        """A node calls this once it has declared every parameter: a describe-only node (``--help``)
+        stops here, before it loads files, builds its model or compiles kernels."""
+        if self.describe_only:
+            raise ParametersDescribed
 
     @staticmethod
     def _passes(spec: _Spec, value: Any) -> bool:

@@ -121,6 +121,7 @@ class SimrobotWorldNode(SimWorldNode):
             "with the world file's sensor_model: original, a sensor sees its own robot too (reading 0 where "
             "it lies on its outline), as the original's",
         )
+        self.parameters_declared()
         with announce_compiling(self.get_logger().info):
             self.model = SimrobotWorld(spec, outline_bodies=outline_bodies, see_own_robot=see_own_robot)
             self.model.compile_kernels()  # now: not at the first step after "ready"

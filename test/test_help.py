@@ -89,6 +89,28 @@ def test_a_nodes_help_starts_no_ros_context():
     assert done.returncode == 0, done.stderr
 
 
+@pytest.mark.parametrize(
+    ("executable", "builder"),
+    [
+        ("create_world", "create_sim.world_node:CreateWorldNode._make_model"),
+        ("simrobot_world", "simrobot_sim.world_node:SimrobotWorld.compile_kernels"),
+        ("arm", "arm_sim.arm_node:ArmNode._add_arms"),
+    ],
+)
+def test_a_worlds_help_stops_after_its_declarations_before_it_builds_or_compiles_its_model(
+    monkeypatch, executable, builder
+):
+    import importlib
+
+    module, attribute = builder.split(":")
+    owner_name, method = attribute.split(".")
+    owner = getattr(importlib.import_module(module), owner_name)
+    built: list[str] = []
+    monkeypatch.setattr(owner, method, lambda *_args, **_kwargs: built.append(method))
+    assert declared_parameters(executable)
+    assert built == []  # on a cold numba cache building the model would compile for half a minute
+
+
 def test_help_after_ros_args_is_a_ros_argument_not_ours():
     from sim_runtime.node_help import wants_help
 
