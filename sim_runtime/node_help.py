@@ -3,7 +3,9 @@
 The parameters come from where each node declares them (:meth:`CheckedNode.declare_checked`): the
 node's class is built in describe mode (:func:`describing`), where no rcl node exists and every
 method of rclpy's ``Node`` does nothing, so the constructor runs through its declarations without
-a ROS context, a topic, or a simulation step.
+a ROS context, a topic, or a simulation step; a world's constructor stops at
+:meth:`CheckedNode.parameters_declared`, before it builds its model (compiling kernels on a cold
+numba cache) or loads meshes.
 """
 
 from __future__ import annotations
