@@ -334,3 +334,11 @@ def test_a_sweep_whose_parameters_files_or_controllers_cannot_work_is_one_error_
     assert len(lines) == 1 and lines[0].startswith(f"error: {sweep}: field '{field}'"), done.stderr
     assert says in lines[0]
     assert not (tmp_path / "out").exists()  # nothing ran
+
+
+def test_checking_a_sweep_in_this_process_leaves_its_discovery_settings_as_they_were(tmp_path: Path) -> None:
+    from sim_runtime.batch.sweep import load_sweep
+
+    before = {k: os.environ.get(k) for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS")}
+    load_sweep(sweep_in(tmp_path, CREATE + "controllers: [students:Arc]\n"))
+    assert {k: os.environ.get(k) for k in before} == before  # later child processes still find each other

@@ -11,13 +11,14 @@ run side by side. All of an episode's nodes live in this process, where matching
 
 from __future__ import annotations
 
+import functools
 import os
 import random
 import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -27,6 +28,7 @@ from sim_runtime.errors import InputError
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
+_T = TypeVar("_T")
 #: Wall seconds to wait for an episode's publishers and subscriptions to match.
 MATCH_TIMEOUT = 10.0
 
@@ -238,8 +240,33 @@ def seed_globals(seed: int) -> None:
 WORLD_NAMES = {"create": "create_world", "simrobot": "simrobot_world", "arm": "arm"}
 #: Wall seconds a ``main`` may take to spin its node when probed for its parameters.
 PROBE_TIMEOUT = 5.0
+#: What :func:`isolate_process` changes in the environment.
+_DISCOVERY_KEYS = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS")
 
 
+def _discovery_off_meanwhile(probe: Callable[[Episode], _T]) -> Callable[[Episode], _T]:
+    """``probe`` with discovery off for the contexts it makes, and the caller's environment back
+    afterwards: a probe also runs in the caller's own process (a test, the fuzzer, a notebook's
+    ``load_sweep``), whose later child processes must still find each other."""
+
+    @functools.wraps(probe)
+    def wrapper(ep: Episode) -> _T:
+        saved = {key: os.environ.get(key) for key in _DISCOVERY_KEYS}
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+        os.environ.pop("ROS_STATIC_PEERS", None)
+        try:
+            return probe(ep)
+        finally:
+            for key, value in saved.items():
+                if value is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = value
+
+    return wrapper
+
+
+@_discovery_off_meanwhile
 def probe_controller(ep: Episode) -> dict[str, Any] | None:
     """The parameters (name: rclpy type) the controller of ``ep`` declares, from building its
     node once with ``ep``'s parameters in a context of its own, without a world; None when that
@@ -278,6 +305,7 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
         episode_context.close()
 
 
+@_discovery_off_meanwhile
 def probe_world(ep: Episode) -> set[str]:
     """The names of the parameters the world of ``ep`` declares (built once, never stepped)."""
     import rclpy.logging
