@@ -403,9 +403,10 @@ class CreateRobot:
     def _confirm_first_command(self, v: float, w: float) -> None:
         """Repeat the first command until the robot's odometry shows it (at most 1 s).
 
-        The world's command subscription is best effort: just after discovery our publisher may
-        see the world before the world sees it, and the world then drops what we send. A ported
-        MATLAB program commands once and waits, so that first command must arrive.
+        Just after discovery our publisher may see the world before the world sees it, and the
+        world then drops what we send (a reliable subscription asks for it again only while we
+        are alive; one overridden to best effort never does). A ported MATLAB program commands
+        once and waits, so that first command must arrive.
         """
         deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
         while time.monotonic() < deadline:

@@ -243,7 +243,10 @@ def test_first_command_of_a_fresh_client_reaches_a_world_in_another_process(tmp_
         assert robot.set_fwd_vel_ang_vel(0.3, 0.0) == (0.3, 0.0)
         robot.pause(1.0)
         x, y, _ = robot.overhead_localization()
-        assert x == pytest.approx(0.3, abs=0.05) and y == pytest.approx(0.0, abs=1e-6)
+        # The command arrived: the robot drove straight for at least the second paused. How much
+        # longer depends on how soon this process read the pose (one full-suite run read it
+        # 0.76 s late, x = 0.528), not on the command.
+        assert x >= 0.3 - 0.05 and y == pytest.approx(0.0, abs=1e-6)
     finally:
         robot.close()
         world.send_signal(signal.SIGINT)
