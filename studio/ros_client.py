@@ -37,7 +37,7 @@ from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
 from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
-from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
+from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
 from sim_runtime.run import make_executor
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
@@ -186,7 +186,9 @@ class _Robot:
             )
         # Every tab, teleop and controller commands the same world: the speed steps start from
         # its last command, whoever sent it.
-        self.subs.append(sub(Twist, s.topic("cmd_vel"), self._on_command, q))  # best effort: hears any publisher
+        # Reliable, as the world listens: a best-effort reader loses a one-shot command from a
+        # publisher it has not matched yet (the world would hear a stop the label never shows).
+        self.subs.append(sub(Twist, s.topic("cmd_vel"), self._on_command, COMMAND_SUBSCRIBER_QOS))
         self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
         self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
         self.reset = node.create_client(Trigger, s.topic("reset"))
