@@ -82,11 +82,7 @@ class Studio:
         child = self.world_children().get(ns)
         if child is not None:
             return child.clock
-        own = [
-            topic
-            for topic, node_ns in self.graph_worlds()
-            if topic != CLOCK and world_namespaces([(topic, node_ns)]) == {ns}
-        ]
+        own = [topic for topic, _node_ns in self.graph_worlds() if topic != CLOCK and topic.removesuffix(CLOCK) == ns]
         return own[0] if own else CLOCK
 
     def free_namespace(self, stem: str) -> str:
@@ -237,7 +233,6 @@ def main(argv: list[str] | None = None) -> int:
     # machine: Ctrl-C must end the studio within a few seconds.
     sys.stderr.flush()
     os._exit(0)
-    return 0  # not reached
 
 
 def stop_started_world(worlds: dict, key: str) -> None:
