@@ -6,9 +6,6 @@ from __future__ import annotations
 
 import io
 import math
-import os
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -16,13 +13,13 @@ from typing import Any
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from test_batch import batch
 
 from sim_runtime.batch import output
 from sim_runtime.batch.metrics import EpisodeData, create_min_clearance_m
 from sim_runtime.batch.sweep import load_sweep
 from sim_runtime.errors import InputError
 
-ROOT = Path(__file__).resolve().parent.parent
 NAN = math.nan
 
 
@@ -292,14 +289,7 @@ def test_a_short_sweep_writes_the_reached_share_in_its_summary_table_and_plots(t
             """
         )
     )
-    done = subprocess.run(
-        [sys.executable, "-m", "sim_runtime.batch.cli", str(sweep), "--workers", "1", "--out", "out", "--quiet"],
-        cwd=tmp_path,
-        env=dict(os.environ, PYTHONPATH=str(ROOT)),
-        text=True,
-        capture_output=True,
-        timeout=120,
-    )
+    done = batch(str(sweep), "--workers", "1", "--out", "out", "--quiet", cwd=tmp_path, timeout=120)
     assert done.returncode == 0, done.stderr
     table = pq.read_table(tmp_path / "out" / "episodes.parquet").to_pylist()
     by = {(r["param.turn"], r["param.speed"]): r for r in table}
