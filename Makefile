@@ -19,17 +19,17 @@ $(STAMP): setup.py interfaces/build_tf2_msgs.py interfaces/tf2_msgs/pyproject.to
 	$(PY) -m pip install --quiet -e '.[test]'
 	# After the project: tf2_msgs' build finds the ROS wheels (fastrtps_cmake_module, ...) in the venv.
 	$(PY) interfaces/build_tf2_msgs.py
-	$(PY) -m sim_runtime.warmup
+	$(PY) -m sim_tools.warmup
 	touch $@
 
 lint: venv
-	$(PY) -m ruff check . && $(PY) -m ruff format --check . && $(PY) -m mypy
+	$(PY) -m ruff check . && $(PY) -m ruff format --check . && $(PY) -m mypy && $(VENV)/bin/lint-imports
 
 test: venv lint
 	$(PY) -m pytest -q
 
 demo: venv
-	$(PY) -m sim_runtime.demo
+	$(PY) -m sim_tools.demo
 
 # docs/rerun_*.png from fresh demo runs, taken by a headless Rerun viewer (needs mesa-vulkan-drivers).
 screenshots: venv
@@ -42,7 +42,7 @@ bench: venv
 # Mutation fuzzer over every input format: 100,000 inputs or 15 minutes on 2 worker processes;
 # defects (with their inputs) under out/fuzz/defects, counts in out/fuzz/summary.json.
 fuzz: venv
-	$(PY) -m sim_runtime.fuzz --inputs 100000 --seconds 900 --workers 2 --out out/fuzz
+	$(PY) -m sim_tools.fuzz --inputs 100000 --seconds 900 --workers 2 --out out/fuzz
 
 # Soak: each world for an hour of sim time at real_time_factor 0, recorder on; a cmd_vel flood.
 soak: venv

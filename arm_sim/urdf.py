@@ -32,9 +32,7 @@ as 0 (RViz, robot_state_publisher and MoveIt do not use it).
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,10 +42,8 @@ from xml.sax.saxutils import quoteattr
 import numba
 import numpy as np
 
-from arm_sim.robot_config import RobotConfig, load_robot_config
-from sim_runtime.errors import InputError
-from sim_runtime.inputfile import file_problem
-from sim_runtime.paths import config_path, mesh_uri
+from arm_sim.robot_config import RobotConfig
+from sim_runtime.paths import mesh_uri
 
 WORLD_FRAME = "world"
 BASE_LINK = "base_link"
@@ -302,44 +298,3 @@ def arm_urdf(
         lines += _joint_xml(tree, joint)
     lines.append("</robot>")
     return "\n".join(lines) + "\n"
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``robot_sims urdf <robot_config.yaml | create> [--prefix P]``: print the URDF on stdout.
-
-    A robot config is looked up as given, else among the shipped configs (``arm/irb120.yaml``).
-    Bad input: one line on stderr naming the file, exit status 2.
-    """
-    parser = argparse.ArgumentParser(
-        prog="robot_sims urdf", description="Print the URDF of an arm's robot config, or of the Create."
-    )
-    parser.add_argument("robot", help="robot config YAML (a path, or shipped like arm/irb120.yaml), or 'create'")
-    parser.add_argument("--prefix", default="", help="prefix of every link name, e.g. arm2/ or robot1/")
-    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
-    try:
-        if args.robot == "create":
-            from create_sim.urdf import create_urdf  # only this path needs the Create
-
-            text = create_urdf(args.prefix)
-        else:
-            text = arm_urdf(load_robot_config(_config_file(args.robot)), args.prefix)
-    except InputError as exc:
-        one_line = " ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-        print(f"robot_sims urdf: {one_line}", file=sys.stderr)
-        return 2
-    sys.stdout.write(text)
-    return 0
-
-
-def _config_file(value: str) -> Path:
-    path = Path(value).expanduser()
-    if file_problem(path) != "not found" or path.is_absolute():  # loading it says what is wrong
-        return path
-    shipped = config_path(value)
-    if shipped.is_file():
-        return shipped
-    raise InputError(f"{value}: no such file (looked as a path and in {config_path('')})")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -50,7 +50,7 @@ def run(label: str, sweep: Path, episodes: int, out: Path, *extra: str) -> dict:
         [
             sys.executable,
             "-m",
-            "sim_runtime.batch.cli",
+            "sim_tools.batch.cli",
             str(sweep),
             "--limit",
             str(episodes),

@@ -42,9 +42,9 @@ from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import LaserScan, Range  # noqa: E402
 
+from sim_runtime.kernels import COMPILING_NOTICE  # noqa: E402
 from sim_runtime.qos import CLOCK_QOS  # noqa: E402
 from sim_runtime.run import make_executor  # noqa: E402
-from sim_runtime.warmup import COMPILING_NOTICE  # noqa: E402
 
 #: world -> (its arguments, the sensor topic subscribed once it is ready, that topic's type)
 WORLDS = {

@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 
-from sim_runtime.cli import executable_command  # noqa: E402
+from sim_tools.cli import executable_command  # noqa: E402
 
 WORLDS = {
     "create_world": ["-p", "config_file:=" + str(ROOT / "config/create/example_config.txt")],

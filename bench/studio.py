@@ -30,7 +30,7 @@ from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, use_
 
 use_local_ros()
 
-from sim_runtime.cli import executable_command  # noqa: E402
+from sim_tools.cli import executable_command  # noqa: E402
 
 GOAL_FPS = 10.0
 GOAL_DELAY_MS = 100.0

@@ -186,7 +186,7 @@ def main() -> int:
             except OSError:
                 time.sleep(0.1)
         for name, config in worlds.items():
-            code = "import sys; from sim_runtime.cli import run; sys.exit(run('arm', sys.argv[1:]))"
+            code = "import sys; from sim_tools.cli import run; sys.exit(run('arm', sys.argv[1:]))"
             world = subprocess.Popen(
                 [sys.executable, "-c", code, "--ros-args", "-p", f"robot_config_file:={config}"],
                 cwd=ROOT,

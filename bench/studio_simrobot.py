@@ -64,8 +64,8 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
-    from sim_runtime.cli import executable_command
     from sim_runtime.qos import COMMAND_PUBLISHER_QOS
+    from sim_tools.cli import executable_command
 
     folder = Path(tempfile.mkdtemp(prefix="studio_simrobot_bench_"))
     world_file = write_world(folder, robots)

@@ -32,7 +32,7 @@ from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance
 from create_sim.sensing import bumper_hits, camera_view, range_fan, virtual_wall_seen
 from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
-from sim_runtime.warmup import compiled_aside
+from sim_runtime.kernels import compiled_aside
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
 _OCCLUSION_TOL = 1e-4

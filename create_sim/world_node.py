@@ -39,6 +39,7 @@ from create_sim.model import BeaconSighting, CreateModel
 from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
 from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
+from sim_runtime.kernels import announce_compiling
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
     all_finite,
@@ -54,7 +55,6 @@ from sim_runtime.paths import config_path, resolve_input_file
 from sim_runtime.qos import LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_command_subscription, create_sensor_publisher
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
-from sim_runtime.warmup import announce_compiling
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 PHYSICS_RATE = 100.0

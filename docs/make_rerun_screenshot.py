@@ -30,8 +30,8 @@ from pathlib import Path
 
 from PIL import Image, ImageDraw
 
-from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
-from sim_runtime.rerun_view.convert import bag_to_rerun
+from sim_tools.rerun_view.analytics import private_rerun_env, rerun_cli
+from sim_tools.rerun_view.convert import bag_to_rerun
 
 DOCS = Path(__file__).resolve().parent
 DEMOS = ("create", "simrobot", "arm")
@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> None:
         if args:
             demo_dir = Path(args[0])
         else:
-            from sim_runtime.demo import main as run_demos
+            from sim_tools.demo import main as run_demos
 
             run_demos(["-o", tmp])
             demo_dir = next(p for p in Path(tmp).iterdir() if p.is_dir())

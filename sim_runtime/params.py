@@ -58,7 +58,7 @@ class _Spec(NamedTuple):
 
 
 class ParameterInfo(NamedTuple):
-    """A declared parameter as ``--help`` shows it (see :mod:`sim_runtime.node_help`)."""
+    """A declared parameter as ``--help`` shows it (see :mod:`sim_tools.node_help`)."""
 
     name: str
     default: Any
@@ -85,7 +85,7 @@ class ParametersDescribed(Exception):
 class CheckedNode(Node):
     """A node whose parameters are declared with :meth:`declare_checked`."""
 
-    #: True in a class made by :func:`sim_runtime.node_help.describing`: no rcl node is created and
+    #: True in a class made by :func:`sim_tools.node_help.describing`: no rcl node is created and
     #: each declaration is recorded in ``described`` (``--help`` lists them without starting ROS).
     describe_only = False
     described: list[ParameterInfo]

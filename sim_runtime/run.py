@@ -19,6 +19,11 @@ from rclpy.signals import SignalHandlerOptions
 from sim_runtime.errors import InputError
 from sim_runtime.world_node import SimWorldNode
 
+#: What shows a world started with ``-p rerun:=true``: the tools layer registers its live Rerun
+#: view here (:func:`sim_tools.cli.run`, the way every executable starts), so the base runs
+#: without Rerun and imports no tool.
+live_viewers: list[Callable[[SimWorldNode], object]] = []
+
 
 def make_executor(context: Context | None = None) -> Executor:
     """The executor every process and test uses (on ``context``, default rclpy's global one).
@@ -136,6 +141,13 @@ def init_ros(args: Sequence[str] | None = None) -> StopSignal:
     return stop
 
 
+def _attach_live_view(world: SimWorldNode) -> None:
+    if not live_viewers:
+        world.get_logger().error("rerun:=true: no live view here; start the world as `robot_sims <world>`")
+    for attach in live_viewers:
+        attach(world)
+
+
 def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None = None) -> int:
     """Initialise rclpy, build the nodes, spin them in one executor until shutdown.
 
@@ -161,9 +173,7 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
         worlds = [node for node in nodes if isinstance(node, SimWorldNode)]
         for world in worlds:
             if world.live_view:
-                from sim_runtime.rerun_view.live import attach_live_view
-
-                attach_live_view(world)
+                _attach_live_view(world)
         for world in worlds:
             world.start_pacing()  # no-op at real_time_factor 0
             world.get_logger().info(f"ready: {world.pace_text()}")

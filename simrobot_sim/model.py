@@ -22,7 +22,7 @@ import numpy as np
 
 from sim_runtime.angles import wrap_angle, wrap_angle_jit
 from sim_runtime.errors import InputError
-from sim_runtime.warmup import compiled_aside
+from sim_runtime.kernels import compiled_aside
 from simrobot_sim import raycast
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 

@@ -36,6 +36,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.errors import InputError
+from sim_runtime.kernels import announce_compiling
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
     color_msg,
@@ -50,7 +51,6 @@ from sim_runtime.paths import resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
-from sim_runtime.warmup import announce_compiling
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount

@@ -21,9 +21,9 @@ from nicegui import app, ui
 
 from arm_sim.robot_config import transform_from_xyz_rpy
 from arm_sim.trajectory_file import load_trajectory
-from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path, mesh_path
+from sim_tools.cli import executable_command
 from studio.app import Studio, nav, stop_started_world
 from studio.arm_ros import ArmRos, ArmState, Group
 from studio.arm_scene import MESH_ROUTE, MESHES, ArmScene, rotations

@@ -20,8 +20,8 @@ import threading
 import time
 from pathlib import Path
 
-from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
+from sim_tools.cli import executable_command
 
 RUN_FUNCTION = (
     "import importlib, sys; module, function = sys.argv[1].split(':'); sys.argv = sys.argv[1:]; "

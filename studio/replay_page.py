@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 from nicegui import run, ui
 
-from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
+from sim_tools.cli import executable_command
 from studio import draw
 from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
 from studio.arm_scene import ArmScene
@@ -372,7 +372,7 @@ class ReplayPage(ZoomableView):
     async def export_rerun(self) -> None:
         """``robot_sims bag_to_rerun`` on the open bag, in a process of its own: Rerun keeps some
         threads of every recording a process makes, which the studio would gather export by export."""
-        from sim_runtime.rerun_view.convert import default_output
+        from sim_tools.rerun_view.convert import default_output
 
         if self.replay is None:
             self.output_label.set_text("open a bag first")
@@ -391,8 +391,8 @@ class ReplayPage(ZoomableView):
         self.output_label.set_text(f"wrote {self.studio.workspace.relative(out)} (open it with: rerun {out.name})")
 
     async def draw_tracks(self) -> None:
-        from sim_runtime.rerun_view.tracks import tracks_from_bag
         from sim_runtime.track_plot import draw_tracks
+        from sim_tools.rerun_view.tracks import tracks_from_bag
 
         if self.replay is None:
             self.output_label.set_text("open a bag first")

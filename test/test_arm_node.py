@@ -22,11 +22,11 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.arm import Arm
 from arm_sim.arm_node import ArmNode
-from sim_runtime.cli import executable_command
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.paths import config_path, mesh_uri
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS, TF_QOS
 from sim_runtime.testing import Collector, TfBuffer, drain, spin_until, wait_for_match
+from sim_tools.cli import executable_command
 
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 

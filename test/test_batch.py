@@ -72,7 +72,7 @@ def batch(
     """``robot_sims batch args...`` in its own process."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), **(extra_env or {}))
     return subprocess.run(
-        [sys.executable, "-m", "sim_runtime.batch.cli", *args],
+        [sys.executable, "-m", "sim_tools.batch.cli", *args],
         cwd=cwd,
         env=env,
         text=True,
@@ -264,7 +264,7 @@ RAY_CLUSTER = """
 import sys
 from ray.cluster_utils import Cluster
 
-from sim_runtime.batch.cli import main
+from sim_tools.batch.cli import main
 
 store = 80 * 2**20
 cluster = Cluster(

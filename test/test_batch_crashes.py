@@ -81,7 +81,7 @@ def test_episode_logs_hold_what_the_controllers_printed_and_the_terminal_only_th
 def test_two_workers_interrupted_and_resumed_give_the_table_of_one_worker(tmp_path: Path, one_worker) -> None:
     sweep = _sweep_folder(tmp_path)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-m", "sim_runtime.batch.cli", str(sweep), "--workers", "2", "--out", "out"]
+    command = [sys.executable, "-m", "sim_tools.batch.cli", str(sweep), "--workers", "2", "--out", "out"]
     run = subprocess.Popen(
         [*command, "--no-plots"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True
     )
@@ -165,8 +165,8 @@ def test_a_controller_that_calls_os_exit_while_it_is_built_is_one_error_not_the_
 
 
 def test_a_controller_whose_constructor_never_returns_is_stopped_at_the_checks_time_limit(tmp_path: Path) -> None:
-    from sim_runtime.batch.isolated_load import load_sweep_isolated
     from sim_runtime.errors import InputError
+    from sim_tools.batch.isolated_load import load_sweep_isolated
 
     sweep = _constructor_sweep(tmp_path, "HangsWhenBuilt")
     with pytest.raises(InputError, match="did not finish in 20 s"):

@@ -163,7 +163,7 @@ def batch(*args: str, cwd: Path, timeout: float = 180) -> subprocess.CompletedPr
     """``robot_sims batch args...`` in its own process."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.run(
-        [sys.executable, "-m", "sim_runtime.batch.cli", *args, "--no-plots", "--quiet"],
+        [sys.executable, "-m", "sim_tools.batch.cli", *args, "--no-plots", "--quiet"],
         cwd=cwd,
         env=env,
         text=True,
@@ -337,7 +337,7 @@ def test_a_sweep_whose_parameters_files_or_controllers_cannot_work_is_one_error_
 
 
 def test_checking_a_sweep_in_this_process_leaves_its_discovery_settings_as_they_were(tmp_path: Path) -> None:
-    from sim_runtime.batch.sweep import load_sweep
+    from sim_tools.batch.sweep import load_sweep
 
     before = {k: os.environ.get(k) for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS")}
     load_sweep(sweep_in(tmp_path, CREATE + "controllers: [students:Arc]\n"))

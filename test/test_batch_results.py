@@ -15,10 +15,10 @@ import pyarrow.parquet as pq
 import pytest
 from test_batch import batch
 
-from sim_runtime.batch import output
-from sim_runtime.batch.metrics import EpisodeData, create_min_clearance_m
-from sim_runtime.batch.sweep import load_sweep
 from sim_runtime.errors import InputError
+from sim_tools.batch import output
+from sim_tools.batch.metrics import EpisodeData, create_min_clearance_m
+from sim_tools.batch.sweep import load_sweep
 
 NAN = math.nan
 

@@ -18,11 +18,11 @@ from test_create_node import Rig, make_world
 
 from create_sim.client import AllSensors, CreateRobot
 from create_sim.world_node import CreateWorldNode
-from sim_runtime.cli import executable_command
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.paths import config_path
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until, wait_for_match
+from sim_tools.cli import executable_command
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -19,11 +19,11 @@ from visualization_msgs.msg import MarkerArray
 
 from create_sim.bump_turn import BumpTurnNode, demo
 from create_sim.world_node import CreateWorldNode
-from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import pose_msg, time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
+from sim_tools.cli import executable_command
 
 # A 4 m x 4 m room around the origin, a floor line at x = 1, a beacon ahead, a virtual wall.
 ROOM = """\

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 from sim_runtime.bag.reader import open_bag
-from sim_runtime.demo import _Recording
+from sim_tools.demo import _Recording
 
 ROOTS = ("map", "world")
 

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 from rosgraph_msgs.msg import Clock
 
-from sim_runtime.cli import executable_command
-from sim_runtime.executables import EXECUTABLES
 from sim_runtime.testing import Collector, spin_until
+from sim_tools.cli import executable_command
+from sim_tools.executables import EXECUTABLES
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -8,8 +8,8 @@ import subprocess
 import sys
 import warnings
 
-from sim_runtime.fuzz.campaign import run_campaign
-from sim_runtime.fuzz.targets import TARGETS
+from sim_tools.fuzz.campaign import run_campaign
+from sim_tools.fuzz.targets import TARGETS
 
 
 def test_two_thousand_mutated_inputs_of_every_format_load_or_raise_input_error(tmp_path):
@@ -27,7 +27,7 @@ def test_a_worker_killed_by_a_segfault_or_a_hang_is_counted_its_input_saved_and_
     options = ["--inputs", "40", "--seconds", "120", "--hang-seconds", "3", "--seed", "31", "--out", str(tmp_path)]
     options += ["--batch", "5", "--recycle-after", "10"]
     run = subprocess.run(
-        [sys.executable, "-m", "sim_runtime.fuzz", *options],
+        [sys.executable, "-m", "sim_tools.fuzz", *options],
         env=env,
         capture_output=True,
         text=True,

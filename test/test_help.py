@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 from rclpy.parameter import Parameter
 
-from sim_runtime.cli import executable_command
-from sim_runtime.executables import EXECUTABLES
-from sim_runtime.node_help import NODE_EXECUTABLES, declared_parameters
+from sim_tools.cli import executable_command
+from sim_tools.executables import EXECUTABLES
+from sim_tools.node_help import NODE_EXECUTABLES, declared_parameters
 
 ROOT = Path(__file__).resolve().parent.parent
 BENCHMARKS = sorted(p for p in (ROOT / "bench").glob("*.py") if not p.name.startswith("_"))
@@ -50,7 +50,7 @@ def test_every_executable_answers_help_with_its_usage_and_exit_0(executable_help
 def _real_node(executable: str):
     import numpy as np
 
-    from sim_runtime.node_help import node_class
+    from sim_tools.node_help import node_class
     from simrobot_sim.world_file import RobotSpec, WorldSpec
 
     cls = node_class(executable)
@@ -80,7 +80,7 @@ def test_a_nodes_help_lists_every_parameter_the_node_declares_with_type_default_
 
 def test_a_nodes_help_starts_no_ros_context():
     code = (
-        "import rclpy\nfrom sim_runtime.cli import run\n"
+        "import rclpy\nfrom sim_tools.cli import run\n"
         f"for name in {list(NODE_EXECUTABLES)!r}:\n"
         "    assert run(name, ['-h']) == 0\n"
         "    assert not rclpy.ok(), name\n"
@@ -112,7 +112,7 @@ def test_a_worlds_help_stops_after_its_declarations_before_it_builds_or_compiles
 
 
 def test_help_after_ros_args_is_a_ros_argument_not_ours():
-    from sim_runtime.node_help import wants_help
+    from sim_tools.node_help import wants_help
 
     assert wants_help(["--help"]) and wants_help(["-h", "--ros-args", "-p", "a:=1"])
     assert not wants_help(["--ros-args", "-p", "help:=1", "--help"])

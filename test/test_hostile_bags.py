@@ -13,7 +13,7 @@ from sim_runtime.bag.reader import BagWarning, CorruptMessage, UnknownMessageTyp
 from sim_runtime.bag.replay import Player, _parse_remaps
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.errors import InputError
-from sim_runtime.rerun_view.tracks import tracks_from_bag
+from sim_tools.rerun_view.tracks import tracks_from_bag
 
 
 def pose_bag(folder, payloads):

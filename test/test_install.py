@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from sim_runtime.executables import EXECUTABLES as DECLARED
+from sim_tools.executables import EXECUTABLES as DECLARED
 
 ROOT = Path(__file__).resolve().parent.parent
-EXECUTABLES = list(DECLARED)  # declared once, in sim_runtime/executables.py
+EXECUTABLES = list(DECLARED)  # declared once, in sim_tools/executables.py
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def test_ament_index_and_share_files_are_installed(prefix):
 
 def test_umbrella_command_lists_the_executables():
     out = subprocess.run(
-        [sys.executable, "-c", "import sys; from sim_runtime import cli; sys.argv=['rs', '--help']; cli.main()"],
+        [sys.executable, "-c", "import sys; from sim_tools import cli; sys.argv=['rs', '--help']; cli.main()"],
         capture_output=True,
         text=True,
         check=True,
@@ -61,7 +61,7 @@ def test_umbrella_command_lists_the_executables():
     for name in EXECUTABLES:
         assert name in out
     bad = subprocess.run(
-        [sys.executable, "-c", "import sys; from sim_runtime.cli import run; sys.exit(run('no_such_exe', []))"],
+        [sys.executable, "-c", "import sys; from sim_tools.cli import run; sys.exit(run('no_such_exe', []))"],
         capture_output=True,
         text=True,
         cwd=ROOT,

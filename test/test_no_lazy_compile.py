@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim_runtime.warmup import COMPILING_NOTICE, announce_compiling
+from sim_runtime.kernels import COMPILING_NOTICE, announce_compiling
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -122,22 +122,22 @@ def small_world():
 def test_a_cold_simrobot_world_has_its_sensing_compiled_by_a_helper_process_meanwhile(monkeypatch):
     import numba
 
-    from sim_runtime import warmup
+    from sim_runtime import kernels
 
     world = small_world()
     world.step()  # its kernels now in this process, whatever the cache held
     started: list[subprocess.Popen] = []
-    real_start = warmup._start_helper
+    real_start = kernels._start_helper
 
     def start(pickled: bytes, method: str) -> subprocess.Popen:
         started.append(helper := real_start(pickled, method))
         return helper
 
-    monkeypatch.setattr(warmup, "_start_helper", start)
-    with warmup.compiled_aside(world, "sense"):
+    monkeypatch.setattr(kernels, "_start_helper", start)
+    with kernels.compiled_aside(world, "sense"):
         world.step()  # nothing to compile: no helper
     assert started == []
-    with warmup.compiled_aside(world, "sense"):
+    with kernels.compiled_aside(world, "sense"):
         numba.njit(lambda x: x * 2)(3)  # a kernel numba really compiles: the cache is cold
     assert len(started) == 1
     assert started[0].returncode == 0  # waited for; the helper unpickled the world and sensed it

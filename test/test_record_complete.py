@@ -18,9 +18,9 @@ from sim_runtime.bag import record
 from sim_runtime.bag.reader import open_bag
 from sim_runtime.bag.record import LOST_KEY, Recorder
 from sim_runtime.bag.writer import BagWriter
-from sim_runtime.cli import executable_command
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.testing import spin_until
+from sim_tools.cli import executable_command
 
 ROOT = Path(__file__).resolve().parent.parent
 NOT_RECORDED = "/rosout|/parameter_events"

@@ -25,8 +25,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sim_runtime.rerun_view.convert import bag_to_rerun
-from sim_runtime.rerun_view.logger import LABEL_OFFSET_M, RerunLogger
+from sim_tools.rerun_view.convert import bag_to_rerun
+from sim_tools.rerun_view.logger import LABEL_OFFSET_M, RerunLogger
 
 RED = (1.0, 0.0, 0.0)
 
@@ -134,7 +134,7 @@ def test_a_live_series_and_the_legend_take_the_robots_colour_when_its_outline_ar
 
 
 def test_the_simrobot_demo_recording_shows_r5_crash_and_every_robot_apart(tmp_path):
-    from sim_runtime.demo import _Recording
+    from sim_tools.demo import _Recording
     from simrobot_sim.demo import CRASH_ROBOT, demo_world, run_demo
 
     recording = _Recording(tmp_path / "bag")

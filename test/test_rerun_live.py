@@ -13,9 +13,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.msgs import float32_array, pose_msg
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
-from sim_runtime.rerun_view.live import attach_live_view
 from sim_runtime.testing import spin_until, wait_for_match
 from sim_runtime.world_node import SimWorldNode
+from sim_tools.rerun_view.live import attach_live_view
 
 
 class ToyWorld(SimWorldNode):

@@ -9,8 +9,8 @@ import pytest
 from PIL import Image
 from rerun_test_helpers import create_messages, simrobot_messages, write_bag
 
-from sim_runtime.rerun_view.logger import ROBOT_COLORS
-from sim_runtime.rerun_view.tracks import main, tracks_from_bag
+from sim_tools.rerun_view.logger import ROBOT_COLORS
+from sim_tools.rerun_view.tracks import main, tracks_from_bag
 
 
 def test_create_bag_gives_wall_raster_and_truth_track(tmp_path):

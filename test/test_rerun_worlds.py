@@ -21,13 +21,13 @@ from create_sim import world_node as create_world
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
-from sim_runtime.rerun_view.analytics import private_rerun_env, rerun_cli
-from sim_runtime.rerun_view.convert import bag_to_rerun
-from sim_runtime.rerun_view.live import attach_live_view
-from sim_runtime.rerun_view.logger import OCCUPIED_UNDER_LINES, type_name
-from sim_runtime.rerun_view.tracks import tracks_from_bag
 from sim_runtime.run import drain
 from sim_runtime.testing import spin_until, wait_for_match
+from sim_tools.rerun_view.analytics import private_rerun_env, rerun_cli
+from sim_tools.rerun_view.convert import bag_to_rerun
+from sim_tools.rerun_view.live import attach_live_view
+from sim_tools.rerun_view.logger import OCCUPIED_UNDER_LINES, type_name
+from sim_tools.rerun_view.tracks import tracks_from_bag
 from simrobot_sim import world_node as simrobot
 
 

@@ -24,11 +24,11 @@ from create_sim.configfile import load_config
 from create_sim.mapfile import load_map
 from sim_runtime.bag.reader import open_bag
 from sim_runtime.bag.writer import BagWriter
-from sim_runtime.batch.sweep import load_sweep
-from sim_runtime.cli import executable_command
 from sim_runtime.errors import InputError
-from sim_runtime.fuzz.targets import SPECIAL_PATHS, special_path
 from sim_runtime.paths import config_path, resolve_input_file
+from sim_tools.batch.sweep import load_sweep
+from sim_tools.cli import executable_command
+from sim_tools.fuzz.targets import SPECIAL_PATHS, special_path
 from simrobot_sim.world_file import load_bitmap, load_world
 
 ROOT = Path(__file__).resolve().parent.parent

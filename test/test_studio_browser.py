@@ -50,10 +50,10 @@ from visualization_msgs.msg import MarkerArray
 
 from create_sim.configfile import load_config
 from create_sim.mapfile import load_map
-from sim_runtime.cli import executable_command
 from sim_runtime.msgs import yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
 from sim_runtime.testing import Collector, spin_until
+from sim_tools.cli import executable_command
 
 SCALE = 60.0  # the pages' initial px per metre, view centred on (0, 0)
 NS = "/box"

@@ -115,7 +115,7 @@ def test_the_bag_list_names_bag_folders_and_lone_mcap_files(create_bag, tmp_path
 def test_a_recorded_demo_run_replays_with_its_controller_commands(tmp_path):
     """A real recording (world, controller and recorder in one process), not a written one."""
     from create_sim.bump_turn import demo
-    from sim_runtime.demo import _Recording
+    from sim_tools.demo import _Recording
 
     recording = _Recording(tmp_path / "demo")
     demo(1.0, extra_nodes=recording)
@@ -149,8 +149,8 @@ def test_an_empty_bag_and_a_type_that_is_not_installed_replay_without_failing(tm
 def test_a_recorded_arm_run_is_drawn_with_its_meshes_posed_as_the_bag_has_them(tmp_path):
     """The arm demo recorded for real: each frame gives the Arm page's 3D view what it draws live."""
     from arm_sim.demo import run_demo
-    from sim_runtime.demo import _Recording
     from sim_runtime.paths import mesh_path
+    from sim_tools.demo import _Recording
     from studio.arm_ros import drawables
 
     recording = _Recording(tmp_path / "arm")

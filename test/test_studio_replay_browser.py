@@ -28,7 +28,7 @@ from studio_browser_support import (
 from create_sim.synthetic_run import write_create_run
 from sim_runtime.bag.reader import open_bag
 from sim_runtime.msgs import yaw_from_quaternion
-from sim_runtime.rerun_view.convert import default_output
+from sim_tools.rerun_view.convert import default_output
 
 ROOT = Path(__file__).resolve().parent.parent
 STUDIO_DOMAIN = studio_domain(52)
@@ -41,7 +41,7 @@ DURATION_S = 10.0  # the robot meets a wall and turns after ~7.5 s
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
     from arm_sim.demo import run_demo
-    from sim_runtime.demo import _Recording
+    from sim_tools.demo import _Recording
 
     ws = tmp_path_factory.mktemp("replay_ws")
     write_create_run(ws / BAG, DURATION_S, start_s=START_S)

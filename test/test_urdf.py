@@ -220,7 +220,7 @@ def test_rpy_rebuilds_every_rotation_even_at_gimbal_lock():
 def urdf_command(*args: str) -> subprocess.CompletedProcess:
     """``robot_sims urdf ...`` (the executable's own main, from this checkout)."""
     return subprocess.run(
-        [sys.executable, "-m", "arm_sim.urdf", *args], cwd=ROOT, capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "sim_tools.urdf_cli", *args], cwd=ROOT, capture_output=True, text=True, timeout=120
     )
 
 

@@ -13,9 +13,9 @@ import pytest
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState, LaserScan
 
-from sim_runtime.cli import executable_command
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until
+from sim_tools.cli import executable_command
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -23,9 +23,9 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 @pytest.fixture(scope="module")
 def warmed_up():
-    """``python -m sim_runtime.warmup`` as ``make venv`` runs it (fast when the cache is warm already)."""
+    """``python -m sim_tools.warmup`` as ``make venv`` runs it (fast when the cache is warm already)."""
     done = subprocess.run(
-        [sys.executable, "-m", "sim_runtime.warmup"], cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=900
+        [sys.executable, "-m", "sim_tools.warmup"], cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=900
     )
     assert done.returncode == 0, done.stderr
     assert "failed" not in done.stdout, done.stdout  # every simulator warmed without error

@@ -3,7 +3,7 @@
 :func:`attach_live_view` subscribes, inside the node's own process, to every topic the node
 publishes (with the publisher's own QoS, so latched maps arrive) and, every few seconds, to other
 topics of drawable types that appear in the graph (a controller's ``cmd_vel``…), and feeds each
-message to the same :class:`~sim_runtime.rerun_view.logger.RerunLogger` that ``bag_to_rerun`` uses.
+message to the same :class:`~sim_tools.rerun_view.logger.RerunLogger` that ``bag_to_rerun`` uses.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ import rerun as rr
 from rclpy.node import Node
 
 from sim_runtime.qos import ANY_PUBLISHER_QOS
-from sim_runtime.rerun_view.convert import APPLICATION_ID
-from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, type_name
+from sim_tools.rerun_view.convert import APPLICATION_ID
+from sim_tools.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, type_name
 
 SUBSCRIPTION_DEPTH = 100
 DISCOVERY_PERIOD = 2.0

@@ -1,4 +1,4 @@
-"""Mutation fuzzer over every input format (``make fuzz``; ``python -m sim_runtime.fuzz --help``).
+"""Mutation fuzzer over every input format (``make fuzz``; ``python -m sim_tools.fuzz --help``).
 
 Seeds are the shipped files in ``config/`` plus small generated bitmaps, meshes and bags (written
 by the project's own bag writer); inputs are text, YAML-tree and byte mutations of them. Each

@@ -21,8 +21,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from sim_runtime.batch.supervisor import START_TIMEOUT_S, Limits, Supervisor, error_result
-from sim_runtime.batch.sweep import Episode
+from sim_tools.batch.supervisor import START_TIMEOUT_S, Limits, Supervisor, error_result
+from sim_tools.batch.sweep import Episode
 
 OnResult = Callable[[dict[str, Any]], None]
 

@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sim_runtime.fuzz.mutate import dump_yaml, mutate_bytes, mutate_text, mutate_tree
-from sim_runtime.node_help import NODE_EXECUTABLES
 from sim_runtime.paths import config_path
+from sim_tools.fuzz.mutate import dump_yaml, mutate_bytes, mutate_text, mutate_tree
+from sim_tools.node_help import NODE_EXECUTABLES
 
 
 class Defect(AssertionError):
@@ -396,8 +396,8 @@ def bag_reader_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
 
 
 def _draw_tracks(path: Path, out: Path, draw: bool) -> None:
-    from sim_runtime.rerun_view.tracks import tracks_from_bag
     from sim_runtime.track_plot import draw_tracks
+    from sim_tools.rerun_view.tracks import tracks_from_bag
 
     data = tracks_from_bag(path)
     for track in data.tracks.values():
@@ -414,7 +414,7 @@ def draw_tracks_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
 
 
 def bag_to_rerun_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
-    from sim_runtime.rerun_view.convert import bag_to_rerun
+    from sim_tools.rerun_view.convert import bag_to_rerun
 
     path = _mutated_bag(rng, seeds, folder)
     return Case(folder, lambda: bag_to_rerun(path, folder / "out.rrd", progress=False))
@@ -635,7 +635,7 @@ def _field_cases(rng: random.Random, seeds: Seeds, folder: Path, special: Path) 
 
 
 def _load_sweep(path: Path) -> None:
-    from sim_runtime.batch.sweep import load_sweep
+    from sim_tools.batch.sweep import load_sweep
 
     load_sweep(path, out=str(path.parent / "sweep_out"))
 

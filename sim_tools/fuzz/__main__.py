@@ -1,15 +1,15 @@
-"""``python -m sim_runtime.fuzz``: run a fuzz campaign (``make fuzz``) or replay one input."""
+"""``python -m sim_tools.fuzz``: run a fuzz campaign (``make fuzz``) or replay one input."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from sim_runtime.fuzz.campaign import replay, run_campaign
+from sim_tools.fuzz.campaign import replay, run_campaign
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sim_runtime.fuzz", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m sim_tools.fuzz", description=__doc__)
     parser.add_argument("--inputs", type=int, default=100_000, help="inputs to run (default 100000)")
     parser.add_argument("--seconds", type=float, default=900.0, help="time budget (default 900)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")

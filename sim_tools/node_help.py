@@ -15,7 +15,7 @@ import importlib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
-from sim_runtime.executables import EXECUTABLES
+from sim_tools.executables import EXECUTABLES
 
 if TYPE_CHECKING:  # rclpy is imported only to describe a node: `robot_sims urdf` runs without ROS
     from sim_runtime.params import CheckedNode, ParameterInfo

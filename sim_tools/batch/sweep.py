@@ -47,7 +47,7 @@ from sim_runtime.yamlfile import load_yaml
 EXECUTABLE_CONTROLLERS = {
     "create_bump_turn": ("create", "create_sim.bump_turn:BumpTurnNode"),
     "simrobot_avoid": ("simrobot", "simrobot_sim.avoid:AvoidNode"),
-    "arm_targets": ("arm", "sim_runtime.batch.arm_targets:ArmTargetsNode"),
+    "arm_targets": ("arm", "sim_tools.batch.arm_targets:ArmTargetsNode"),
 }
 #: Which key of a world entry names which simulator.
 WORLD_KEYS = {"map": "create", "world_file": "simrobot", "robot_config": "arm"}
@@ -241,7 +241,7 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
 
 def _importable(r: _Reader, target: str, where: str) -> None:
     """Import a user's ``module:name`` now, so that a typo fails the sweep, not every episode."""
-    from sim_runtime.batch.metrics import load_callable
+    from sim_tools.batch.metrics import load_callable
 
     try:
         load_callable(target, str(r.source.resolve().parent))
@@ -326,7 +326,7 @@ def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
 
 def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     """Read and expand the sweep file ``path`` (``out`` overrides its output folder)."""
-    from sim_runtime.batch.metrics import check_metrics
+    from sim_tools.batch.metrics import check_metrics
 
     source = Path(path)
     data = load_yaml(source, "sweep file")
@@ -367,7 +367,7 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
-    from sim_runtime.batch.precheck import check_sweep  # builds nodes: after the cheap checks
+    from sim_tools.batch.precheck import check_sweep  # builds nodes: after the cheap checks
 
     search = str(source.resolve().parent)
     grid_values = check_sweep(r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search)

@@ -53,9 +53,9 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
 
 def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     """Run the sweep the arguments describe; returns paths and counts (the tests' entry point)."""
-    from sim_runtime.batch import engines, output
-    from sim_runtime.batch.isolated_load import load_sweep_isolated
-    from sim_runtime.batch.supervisor import Limits
+    from sim_tools.batch import engines, output
+    from sim_tools.batch.isolated_load import load_sweep_isolated
+    from sim_tools.batch.supervisor import Limits
 
     args = parse_args(argv)
     sweep = load_sweep_isolated(args.sweep, out=args.out)
@@ -116,7 +116,7 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
 def _record_failures(failed: list[Any], bags: Path, limits: Any, folder: Path) -> None:
     """Run each failed episode again with a recorder (episodes are deterministic: it fails the
     same way), in a worker process like the first time, and keep its bag (logs/<key>.bag.log)."""
-    from sim_runtime.batch.engines import run_local
+    from sim_tools.batch.engines import run_local
 
     recorded = [
         dataclasses.replace(ep, record_bag=True, bag_dir=str(bags / f"episode_{ep.index:05d}")) for ep in failed
@@ -128,7 +128,7 @@ def _record_failures(failed: list[Any], bags: Path, limits: Any, folder: Path) -
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point ``batch``."""
-    from sim_runtime.batch.supervisor import WorkerStartError
+    from sim_tools.batch.supervisor import WorkerStartError
 
     argv = sys.argv[1:] if args is None else list(args)
     try:

@@ -1,11 +1,11 @@
-"""What :func:`sim_runtime.batch.sweep.load_sweep` checks before any episode runs, beyond the
+"""What :func:`sim_tools.batch.sweep.load_sweep` checks before any episode runs, beyond the
 sweep file's own fields: each world's files parsed by their real parsers, each user controller's
 form, and each parameter the sweep sets declared by a controller or the world (a parameter nobody
 reads would give rows that differ only in its column). A mistake is one error naming the sweep
 file and the field, not an error row per episode.
 
 A controller's parameters are learnt by building its node once, with the sweep's first values, in
-a context of its own and without a world (:func:`sim_runtime.batch.episode.probe_controller`);
+a context of its own and without a world (:func:`sim_tools.batch.episode.probe_controller`);
 the world's by building the first world once, only when a parameter is not a controller's.
 """
 
@@ -91,7 +91,7 @@ def _probe(fail: Fail, k: int, ep: Any) -> dict[str, Any] | None:
     float parameter would be refused before it is widened), else with the sweep's values."""
     import dataclasses
 
-    from sim_runtime.batch.episode import probe_controller
+    from sim_tools.batch.episode import probe_controller
 
     bare = dataclasses.replace(ep, params={}, controller={**ep.controller, "parameters": {}})
     try:
@@ -120,7 +120,7 @@ class _WorldParameters:
 
     def has(self, name: str) -> bool:
         if self.names is None:
-            from sim_runtime.batch.episode import probe_world
+            from sim_tools.batch.episode import probe_world
 
             self.names = probe_world(self.ep)
         return name in self.names
@@ -169,9 +169,9 @@ def check_sweep(
     seed: int,
     search_path: str,
 ) -> list[list[Any]]:
-    """Everything above, for :func:`sim_runtime.batch.sweep.load_sweep`; returns the grid values
+    """Everything above, for :func:`sim_tools.batch.sweep.load_sweep`; returns the grid values
     (see :func:`check_parameters`)."""
-    from sim_runtime.batch.sweep import Episode
+    from sim_tools.batch.sweep import Episode
 
     check_world_files(fail, worlds)
     keys, values = grid

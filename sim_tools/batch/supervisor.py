@@ -1,8 +1,8 @@
 """Episodes in worker processes that cannot take the sweep down, whatever a controller does.
 
-A :class:`Supervisor` keeps up to N worker processes (``python -m sim_runtime.batch.supervisor``),
+A :class:`Supervisor` keeps up to N worker processes (``python -m sim_tools.batch.supervisor``),
 each talking to it over its own socket pair (pickled messages), and hands each idle worker the next
-episode. A worker runs episodes one after another (:func:`sim_runtime.batch.episode.run_episode`),
+episode. A worker runs episodes one after another (:func:`sim_tools.batch.episode.run_episode`),
 so start-up (imports, numba's cache) is paid once per worker, not per episode, and writes each
 episode's stdout and stderr (the world's, the controller's, rclpy's log lines, a crash's Python
 stack) to that episode's log file.
@@ -77,7 +77,7 @@ def exit_reason(returncode: int) -> str:
 
 def error_result(ep: Any, error: str, pid: int, seconds: float) -> dict[str, Any]:
     """The result of an episode that ended without a result of its own."""
-    from sim_runtime.batch.episode import base_row
+    from sim_tools.batch.episode import base_row
 
     row = base_row(ep)
     row.update(status="error", error=error)
@@ -108,7 +108,7 @@ class _Worker:
     def __init__(self, output: Path, warm: Any) -> None:
         ours, theirs = socket.socketpair()
         env = worker_environment()
-        command = [sys.executable, "-m", "sim_runtime.batch.supervisor", str(theirs.fileno()), str(os.getpid())]
+        command = [sys.executable, "-m", "sim_tools.batch.supervisor", str(theirs.fileno()), str(os.getpid())]
         output.parent.mkdir(parents=True, exist_ok=True)
         with output.open("ab") as log:
             self.process = subprocess.Popen(
@@ -299,7 +299,7 @@ def _exit_result(ep: Any, exc: BaseException, seconds: float) -> dict[str, Any]:
 def _run_logged(ep: Any, log: str, base_fd: int) -> tuple[dict[str, Any], bool]:
     """Run ``ep`` with fds 1 and 2 on its log file; returns its result and whether this process
     can run another episode."""
-    from sim_runtime.batch.episode import run_episode
+    from sim_tools.batch.episode import run_episode
 
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
     os.dup2(fd, 1)
@@ -322,10 +322,10 @@ def _warm_up(ep: Any) -> None:
     unstepped, so that imports, compiling and the first context are start-up, not the first
     episode's set-up: that counts against its time limit (a first run compiles for ~30 s), and a
     replaced worker would be slow to take over."""
-    from sim_runtime.warmup import WARMERS
+    from sim_tools.warmup import WARMERS
 
     try:
-        from sim_runtime.batch.episode import probe_world
+        from sim_tools.batch.episode import probe_world
 
         if ep is not None:
             WARMERS[ep.simulator]()
@@ -342,7 +342,7 @@ def worker_main(fd: int, parent: int) -> None:
     conn = Connection(fd)
     _watch_parent(parent)
     faulthandler.enable()  # a segfault writes the Python stack to fd 2: the episode's log
-    from sim_runtime.batch.episode import isolate_process
+    from sim_tools.batch.episode import isolate_process
 
     isolate_process()
     _warm_up(conn.recv())

@@ -22,9 +22,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from sim_runtime.batch.metrics import EpisodeData, compute, load_callable
-from sim_runtime.batch.sweep import Episode
 from sim_runtime.errors import InputError
+from sim_tools.batch.metrics import EpisodeData, compute, load_callable
+from sim_tools.batch.sweep import Episode
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
@@ -104,9 +104,9 @@ def run_episode(ep: Episode) -> dict[str, Any]:
 
 # -------------------------------------------------------------------------------- simulation
 def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
-    from sim_runtime.batch.bus import DirectBus, direct_eligible
-    from sim_runtime.batch.forms import EpisodeContext, MainRunner
     from sim_runtime.run import drain, make_executor
+    from sim_tools.batch.bus import DirectBus, direct_eligible
+    from sim_tools.batch.forms import EpisodeContext, MainRunner
 
     t0 = time.perf_counter()
     controller = ep.controller
@@ -197,8 +197,8 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
 
 
 def controller_form(ep: Episode, obj: Any) -> str:
-    """``node``, ``main`` or ``model`` (:func:`sim_runtime.batch.forms.classify`); ours are nodes."""
-    from sim_runtime.batch.forms import classify, node_kwargs
+    """``node``, ``main`` or ``model`` (:func:`sim_tools.batch.forms.classify`); ours are nodes."""
+    from sim_tools.batch.forms import classify, node_kwargs
 
     form = "node" if ep.controller["kind"] == "ours" else classify(obj, ep.controller["target"])
     if form == "node" and ep.simulator == "simrobot" and "namespace" not in node_kwargs(obj, {"namespace": ""}):
@@ -224,7 +224,7 @@ def controller_args(ep: Episode, params: dict[str, Any]) -> list[str]:
     """The episode context's command line: the controller parameters for every node that reads
     them from there (a class without ``**kwargs``, the nodes of a ``main``); ours take them as
     ``parameter_overrides``."""
-    from sim_runtime.batch.forms import ros_args
+    from sim_tools.batch.forms import ros_args
 
     return ros_args(controller_parameters(ep, params) if ep.controller["kind"] == "user" else {})
 
@@ -272,8 +272,8 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
     node once with ``ep``'s parameters in a context of its own, without a world; None when that
     cannot tell (a model function, or a ``main`` that waits for something before it spins).
     Raises what building it raises."""
-    from sim_runtime.batch.arm_targets import ArmTargetsNode
-    from sim_runtime.batch.forms import EpisodeContext, MainRunner, NotSpinning, declared
+    from sim_tools.batch.arm_targets import ArmTargetsNode
+    from sim_tools.batch.forms import EpisodeContext, MainRunner, NotSpinning, declared
 
     if _domain_id is None:
         isolate_process()
@@ -408,7 +408,7 @@ def _make_world(ep: Episode, context: Any, params: dict[str, Any]) -> Any:
 def _make_controller_nodes(ep: Episode, cls: type, world: Any, params: dict[str, Any], context: Any) -> list[Any]:
     """The controller node(s): one for the Create or the arm, one per robot with an ultrasonic
     sensor (namespaced ``/<robot>``) for SIMROBOT."""
-    from sim_runtime.batch.arm_targets import ArmTargetsNode
+    from sim_tools.batch.arm_targets import ArmTargetsNode
 
     if ep.simulator == "arm" and cls is ArmTargetsNode:
         return [ArmTargetsNode(_target_poses(ep, world), ep.world["hold_s"], context=context, **LEAN_NODE)]
@@ -425,7 +425,7 @@ def _controller_node(
     without ``**kwargs``) it finds in the episode context's arguments, rclpy's default context."""
     from rclpy.parameter import Parameter
 
-    from sim_runtime.batch.forms import node_kwargs
+    from sim_tools.batch.forms import node_kwargs
 
     overrides = [Parameter(k, value=v) for k, v in controller_parameters(ep, params).items()]
     wanted: dict[str, Any] = {"parameter_overrides": overrides, "context": context}
@@ -537,6 +537,6 @@ def _make_probe(ep: Episode, world: Any) -> Any:
 
 # --------------------------------------------------------------------------------------- arm
 def _target_poses(ep: Episode, world: Any) -> np.ndarray:
-    from sim_runtime.batch.arm_targets import target_poses
+    from sim_tools.batch.arm_targets import target_poses
 
     return target_poses(world.arms[0].arm, ep.world["targets"])

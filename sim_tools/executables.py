@@ -14,9 +14,9 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "arm": ("arm_sim.arm_node:main", "serial arm(s) from a DH robot config: joints, trajectories, meshes"),
     "record": ("sim_runtime.bag.record:main", "record topics into an MCAP bag (rosbag2-compatible)"),
     "replay": ("sim_runtime.bag.replay:main", "play a bag back with its original timing"),
-    "bag_to_rerun": ("sim_runtime.rerun_view.convert:main", "convert a bag into a Rerun recording (.rrd)"),
-    "draw_tracks": ("sim_runtime.rerun_view.tracks:main", "draw the map and every robot's track from a bag (PNG)"),
-    "urdf": ("arm_sim.urdf:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
+    "bag_to_rerun": ("sim_tools.rerun_view.convert:main", "convert a bag into a Rerun recording (.rrd)"),
+    "draw_tracks": ("sim_tools.rerun_view.tracks:main", "draw the map and every robot's track from a bag (PNG)"),
+    "urdf": ("sim_tools.urdf_cli:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
     "studio": ("studio.app:main", "web app: Create simulator view and controls, map maker, config maker"),
-    "batch": ("sim_runtime.batch.cli:main", "run a sweep of isolated episodes (locally or on Ray): table and plots"),
+    "batch": ("sim_tools.batch.cli:main", "run a sweep of isolated episodes (locally or on Ray): table and plots"),
 }

@@ -54,9 +54,9 @@ from create_sim import mounts as create_mounts
 from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 from sim_runtime.paths import mesh_path
-from sim_runtime.rerun_view import legend as legend_text
-from sim_runtime.rerun_view import shapes
-from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
+from sim_tools.rerun_view import legend as legend_text
+from sim_tools.rerun_view import shapes
+from sim_tools.rerun_view.tf import TF_MESSAGE_TYPE, FrameTree, Mount
 
 TIMELINE = "sim_time"
 TOP = "top"

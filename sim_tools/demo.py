@@ -26,7 +26,7 @@ from rclpy.node import Node
 
 from sim_runtime.bag.record import Recorder
 from sim_runtime.bag.writer import BagWriter
-from sim_runtime.rerun_view.convert import bag_to_rerun
+from sim_tools.rerun_view.convert import bag_to_rerun
 
 
 class _Recording:
@@ -97,7 +97,7 @@ DEMOS = {
 
 def main(argv: list[str] | None = None) -> int:
     """Run the demos named on the command line (default all) and print how to view them."""
-    parser = argparse.ArgumentParser(prog="python -m sim_runtime.demo", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m sim_tools.demo", description=__doc__.splitlines()[0])
     parser.add_argument("demos", nargs="*", choices=[*DEMOS, []], help="which demos (default: all)")
     parser.add_argument("-o", "--out", default="out/demo", help="parent folder of the run's output")
     options = parser.parse_args(argv)

@@ -95,7 +95,7 @@ class Report:
 def _signature(name: str, exc: BaseException) -> str:
     """Target, exception type and the innermost frame of our code: one line per distinct defect."""
     frames = traceback.extract_tb(exc.__traceback__)
-    ours = [f for f in frames if "/sim_runtime/fuzz/" not in f.filename] or frames
+    ours = [f for f in frames if "/sim_tools/fuzz/" not in f.filename] or frames
     where = f"{Path(ours[-1].filename).name}:{ours[-1].lineno}" if ours else "?"
     return f"{name}: {type(exc).__name__} at {where}"
 
@@ -114,7 +114,7 @@ def _worker(
     warnings.simplefilter("ignore")
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     from sim_runtime.errors import InputError
-    from sim_runtime.fuzz.targets import Seeds, make_case, target_of, warm_up
+    from sim_tools.fuzz.targets import Seeds, make_case, target_of, warm_up
 
     seeds = Seeds.load(Path(seed_folder))
     scratch = Path(tempfile.mkdtemp(prefix="fuzz-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None))
@@ -166,7 +166,7 @@ def _save(out: Path, name: str, index: int, seed: int, folder: Path, outcome: st
     dest.mkdir(parents=True, exist_ok=True)
     (dest / "defect.txt").write_text(
         f"target {name}, input {index} of seed {seed}: {outcome}\n"
-        f"replay: python -m sim_runtime.fuzz --replay {index} --seed {seed}\n\n{detail}\n",
+        f"replay: python -m sim_tools.fuzz --replay {index} --seed {seed}\n\n{detail}\n",
         encoding="utf-8",
     )
 
@@ -259,7 +259,7 @@ def run_campaign(
     A worker process is replaced by a fresh one after ``recycle_after`` inputs (at the end of a
     batch): what the libraries under test keep between inputs (Rerun keeps threads of every
     recording made) must not pile up over a long campaign and slow or stall the later inputs."""
-    from sim_runtime.fuzz.targets import Seeds, make_case, prepare_seeds
+    from sim_tools.fuzz.targets import Seeds, make_case, prepare_seeds
 
     out = Path(out)
     shutil.rmtree(out / "defects", ignore_errors=True)
@@ -381,7 +381,7 @@ def run_campaign(
 
 def replay(index: int, seed: int, out: str | Path = "out/fuzz") -> None:
     """Run one input of a campaign in this process, with its traceback (for debugging a defect)."""
-    from sim_runtime.fuzz.targets import Seeds, make_case, prepare_seeds
+    from sim_tools.fuzz.targets import Seeds, make_case, prepare_seeds
 
     out = Path(out)
     if not (out / "seeds").is_dir():

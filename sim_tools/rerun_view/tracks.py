@@ -17,8 +17,8 @@ import numpy as np
 
 from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
-from sim_runtime.rerun_view.logger import TRUTH_POSE_TOPICS, Outline, outline_at, robot_color, robot_outlines
 from sim_runtime.track_plot import draw_tracks
+from sim_tools.rerun_view.logger import TRUTH_POSE_TOPICS, Outline, outline_at, robot_color, robot_outlines
 
 RASTER_RESOLUTION = 0.01
 """m per pixel when walls (line segments) are rasterised into an occupancy image."""

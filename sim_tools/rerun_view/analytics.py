@@ -82,7 +82,7 @@ def analytics_disabled(env: dict[str, str]) -> bool:
 
 
 def main(args: list[str] | None = None) -> int:
-    """``python -m sim_runtime.rerun_view.analytics RERUN_ARGS…``: run the rerun CLI (or viewer)
+    """``python -m sim_tools.rerun_view.analytics RERUN_ARGS…``: run the rerun CLI (or viewer)
     with a fresh private config home where analytics are disabled; for make targets and CI."""
     argv = sys.argv[1:] if args is None else list(args)
     with tempfile.TemporaryDirectory(prefix="rerun_home_") as home:

@@ -1,6 +1,6 @@
 """``bag_to_rerun BAG [-o OUT.rrd]``: a bag drawn as a Rerun recording on the sim-time timeline.
 
-Every message goes through :class:`~sim_runtime.rerun_view.logger.RerunLogger` (the same drawing
+Every message goes through :class:`~sim_tools.rerun_view.logger.RerunLogger` (the same drawing
 as the live ``rerun`` view). Topics of types it does not draw, or whose message package is not
 installed, are skipped with a warning. Writes the ``.rrd`` (no viewer is started) and prints the
 command that opens it.
@@ -20,8 +20,8 @@ import rerun as rr
 
 from sim_runtime.bag.reader import UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
-from sim_runtime.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
-from sim_runtime.rerun_view.tf import TF_MESSAGE_TYPE, decode_tf_message
+from sim_tools.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
+from sim_tools.rerun_view.tf import TF_MESSAGE_TYPE, decode_tf_message
 
 APPLICATION_ID = "robot_sims"
 ROS_INTERNAL_TOPICS = frozenset({"/parameter_events", "/rosout"})

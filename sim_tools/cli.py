@@ -6,16 +6,16 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from sim_runtime.executables import EXECUTABLES
 from sim_runtime.inputfile import shown
-from sim_runtime.node_help import NODE_EXECUTABLES, wants_help
-from sim_runtime.node_help import help_text as node_help_text
+from sim_tools.executables import EXECUTABLES
+from sim_tools.node_help import NODE_EXECUTABLES, wants_help
+from sim_tools.node_help import help_text as node_help_text
 
 USAGE = "usage: robot_sims <executable> [arguments] [--ros-args -p name:=value ...]"
 
 
 def executables() -> dict[str, str]:
-    """Executable name → ``module:function``, as declared once in :mod:`sim_runtime.executables`."""
+    """Executable name → ``module:function``, as declared once in :mod:`sim_tools.executables`."""
     return {name: target for name, (target, _what) in EXECUTABLES.items()}
 
 
@@ -40,6 +40,8 @@ def run(name: str, argv: list[str]) -> int:
     if name in NODE_EXECUTABLES and wants_help(argv):  # rclpy ignores --help: the node would start
         print(node_help_text(name))
         return 0
+    if name in NODE_EXECUTABLES:
+        _offer_live_view()
     module, function = EXECUTABLES[name][0].split(":")
     main = getattr(importlib.import_module(module), function)
     # Nodes read sys.argv (rclpy.init, argparse): make it look like a direct call.
@@ -53,7 +55,19 @@ def run(name: str, argv: list[str]) -> int:
     return int(result or 0)
 
 
-RUN_EXECUTABLE = "import sys; from sim_runtime.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
+def _offer_live_view() -> None:
+    """Worlds started with ``-p rerun:=true`` show themselves in Rerun (imported only then)."""
+    from sim_runtime.run import live_viewers  # a node: rclpy is loaded anyway
+
+    def attach(world):
+        from sim_tools.rerun_view.live import attach_live_view
+
+        return attach_live_view(world)
+
+    live_viewers[:] = [attach]
+
+
+RUN_EXECUTABLE = "import sys; from sim_tools.cli import run; sys.exit(run(sys.argv[1], sys.argv[2:]))"
 
 
 def executable_command(name: str, args: Sequence[str] = ()) -> list[str]:

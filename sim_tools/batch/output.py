@@ -18,7 +18,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from sim_runtime.batch.metrics import reached_column, split_unit, unit_of
+from sim_tools.batch.metrics import reached_column, split_unit, unit_of
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -1,7 +1,7 @@
-""":func:`sim_runtime.batch.sweep.load_sweep` in a child process.
+""":func:`sim_tools.batch.sweep.load_sweep` in a child process.
 
 Checking a sweep imports the students' modules and builds each controller once
-(:mod:`sim_runtime.batch.precheck`). A module or constructor that calls ``os._exit``, segfaults or
+(:mod:`sim_tools.batch.precheck`). A module or constructor that calls ``os._exit``, segfaults or
 never returns must end that check with one error naming the sweep, not end or hang
 ``robot_sims batch`` itself. The child writes the parsed sweep (or its :class:`InputError`) to a
 file, not to stdout, which the students' code may print on.
@@ -27,7 +27,7 @@ OUTPUT_TAIL = 600
 
 
 def load_sweep_isolated(path: str, out: str | None = None, timeout_s: float = CHECK_TIMEOUT_S) -> Any:
-    """The :class:`~sim_runtime.batch.sweep.Sweep` of ``path``, read and checked in a child
+    """The :class:`~sim_tools.batch.sweep.Sweep` of ``path``, read and checked in a child
     process; an InputError when the sweep is bad or the child died or hung while checking it."""
     with tempfile.TemporaryDirectory(prefix="robot_sims-sweep-") as tmp:
         result, log = Path(tmp) / "sweep.pickle", Path(tmp) / "output.log"
@@ -36,7 +36,7 @@ def load_sweep_isolated(path: str, out: str | None = None, timeout_s: float = CH
             hung = f"did not finish in {timeout_s:.0f} s (a module or constructor that never returns?)"
             raise _failed(path, hung, log)
         if not result.exists():
-            from sim_runtime.batch.supervisor import exit_reason
+            from sim_tools.batch.supervisor import exit_reason
 
             raise _failed(path, f"ended: {exit_reason(code)}", log)
         value = pickle.loads(result.read_bytes())
@@ -48,7 +48,7 @@ def load_sweep_isolated(path: str, out: str | None = None, timeout_s: float = CH
 def _run_child(args: list[str], log: Path, timeout_s: float) -> int | None:
     """Run this module on ``args`` with its output in ``log``; its exit status, None on timeout
     (then it and anything it started are killed)."""
-    from sim_runtime.batch.supervisor import worker_environment
+    from sim_tools.batch.supervisor import worker_environment
 
     with log.open("wb") as sink:
         child = subprocess.Popen(
@@ -80,7 +80,7 @@ def _failed(path: str, what: str, log: Path) -> InputError:
 
 
 def _child(path: str, result: str, out: str | None) -> None:
-    from sim_runtime.batch.sweep import load_sweep
+    from sim_tools.batch.sweep import load_sweep
 
     try:
         value: Any = load_sweep(path, out=out)

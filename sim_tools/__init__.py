@@ -1,0 +1,1 @@
+"""Tools over the simulators: batch sweeps, fuzzing, Rerun views, the demo, the warm-up, the CLI."""
