@@ -24,7 +24,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from create_sim import mounts
+from create_sim import spec as mounts
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap

@@ -22,7 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from create_sim.mapfile import CreateMap, parse_map
 from create_sim.model import CreateModel
-from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from create_sim.world_node import map_markers
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.msgs import float32_array, pose_msg, set_planar_pose

@@ -2,7 +2,7 @@
 
 Pure (no rclpy). The sensor links are named exactly as the world node names its frames
 (``<prefix><sensor>``, e.g. ``robot1/laser``) and sit at their mounts from
-:mod:`create_sim.mounts`, so robot_state_publisher fed this URDF publishes the same
+:mod:`create_sim.spec`, so robot_state_publisher fed this URDF publishes the same
 ``/tf_static`` as the world node. ``base_link`` is on the floor at the centre of the disc
 (the mounts' heights are measured from it).
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from create_sim.mounts import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
+from create_sim.spec import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
 
 BODY_RGBA = (0.85, 0.85, 0.85, 1.0)
 

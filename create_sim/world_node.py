@@ -36,7 +36,7 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
-from create_sim.mounts import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
 from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import announce_compiling

@@ -16,7 +16,7 @@ import numpy as np
 
 from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
-from create_sim.mounts import CLIFF_NAMES, RADIUS_M, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, RADIUS_M, SENSOR_MOUNTS, SONAR_NAMES
 
 WALL_COLOUR = "#222"
 LINE_COLOUR = "#2a4fd8"

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from create_sim.mapfile import CreateMap
-from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType

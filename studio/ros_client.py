@@ -35,7 +35,7 @@ from visualization_msgs.msg import MarkerArray
 
 from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
-from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
 from sim_runtime.run import make_executor

@@ -11,7 +11,7 @@ from html import escape
 import numpy as np
 from nicegui import ui
 
-from create_sim.mounts import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio import draw

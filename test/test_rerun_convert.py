@@ -29,7 +29,7 @@ from rerun_test_helpers import (
 from sensor_msgs.msg import Range
 from std_msgs.msg import Bool, String
 
-from create_sim import mounts
+from create_sim import spec as mounts
 from sim_runtime.bag.reader import BagWarning
 from sim_runtime.errors import InputError
 from sim_tools.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli

@@ -16,7 +16,7 @@ from rclpy.qos import DurabilityPolicy
 from rerun_test_helpers import column, load_entities, world_file_colors
 
 from arm_sim import arm_node
-from create_sim import mounts
+from create_sim import spec as mounts
 from create_sim import world_node as create_world
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.paths import config_path

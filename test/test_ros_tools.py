@@ -16,7 +16,7 @@ from std_msgs.msg import UInt8
 from visualization_msgs.msg import MarkerArray
 
 from arm_sim.arm_node import ArmNode
-from create_sim.mounts import SENSOR_MOUNTS
+from create_sim.spec import SENSOR_MOUNTS
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS

@@ -16,7 +16,7 @@ import yourdfpy
 from arm_sim.arm import Arm
 from arm_sim.robot_config import RobotConfig, load_robot_config, transform_from_xyz_rpy
 from arm_sim.urdf import arm_tree, arm_urdf, joint_transforms, link_poses, rpy_from_matrix
-from create_sim.mounts import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
+from create_sim.spec import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
 from create_sim.urdf import create_urdf
 from sim_runtime.paths import config_path
 

@@ -33,7 +33,7 @@ entity                                  what
 
 Robots are named by their namespace (``robot`` for the root namespace); sensor frames
 ``<ns>/<sensor>`` belong to robot ``<ns>``. A sensor's mount comes from the bag's ``/tf_static``
-(``<ns>/base_link`` → sensor) when it has one, else from :data:`create_sim.mounts.SENSOR_MOUNTS`
+(``<ns>/base_link`` → sensor) when it has one, else from :data:`create_sim.spec.SENSOR_MOUNTS`
 for a Create, else the robot's centre.
 """
 
@@ -50,7 +50,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from create_sim import mounts as create_mounts
+from create_sim import spec as create_mounts
 from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import quaternion_from_yaw, yaw_from_quaternion
 from sim_runtime.paths import mesh_path
