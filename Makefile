@@ -9,7 +9,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/config/fastdds_localhost.xml
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
-.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck
+.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck architecture
 
 venv: $(STAMP)
 
@@ -34,6 +34,10 @@ demo: venv
 # docs/rerun_*.png from fresh demo runs, taken by a headless Rerun viewer (needs mesa-vulkan-drivers).
 screenshots: venv
 	$(PY) docs/make_rerun_screenshot.py
+
+# docs/architecture.md's import graph and facts table, regenerated from the code (test_architecture_doc checks them).
+architecture: venv
+	$(PY) docs/make_architecture.py
 
 bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"
