@@ -7,7 +7,7 @@ zstd chunks closed every half second as the recorder does), written once into
 ``out/bench/replay_seek_<minutes>min`` and reused. Measured, at random instants:
 
 - ``index``: :meth:`BagIndex.state_at` (the latest message of every topic, as bytes);
-- ``page frame``: :meth:`studio.replay.Replay.frame`, everything the replay page shows (every topic
+- ``page frame``: :meth:`studio.replay.frames.Replay.frame`, everything the replay page shows (every topic
   decoded, the map, the track up to the instant, the commands sent);
 - ``rescan``: the baseline, reading the bag from its start up to the instant and keeping each topic's
   latest message (what a player without an index does).
@@ -61,7 +61,7 @@ def main() -> int:
     from create_sim.synthetic_run import write_create_run
     from sim_runtime.bag.index import BagIndex
     from sim_runtime.bag.reader import open_bag
-    from studio.replay import Replay
+    from studio.replay.frames import Replay
 
     folder = ROOT / "out" / "bench" / f"replay_seek_{options.minutes:g}min"
     if not (folder / "metadata.yaml").exists():

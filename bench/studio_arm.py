@@ -43,7 +43,7 @@ from _studio_support import CHROMEDRIVER, CHROMIUM, free_port, use_local_ros  # 
 
 use_local_ros()
 
-from studio.meshes import DISPLAY_FACES, binary_stl  # noqa: E402
+from studio.arm.meshes import DISPLAY_FACES, binary_stl  # noqa: E402
 
 GOAL_FIRST_DRAW_S = 2.0
 DENSE_FACES = 756_290

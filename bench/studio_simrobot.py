@@ -41,7 +41,7 @@ def write_world(folder: Path, robots: int) -> Path:
     import math
     from dataclasses import replace
 
-    from studio.simrobot_doc import WorldDraft, blank_walls, map_image, new_sensor
+    from studio.simrobot.doc import WorldDraft, blank_walls, map_image, new_sensor
 
     side = math.ceil(math.sqrt(robots))
     size = side * SPACING_M + 0.4

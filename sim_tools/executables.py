@@ -17,6 +17,6 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "bag_to_rerun": ("sim_tools.rerun_view.convert:main", "convert a bag into a Rerun recording (.rrd)"),
     "draw_tracks": ("sim_tools.rerun_view.tracks:main", "draw the map and every robot's track from a bag (PNG)"),
     "urdf": ("sim_tools.urdf_cli:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
-    "studio": ("studio.app:main", "web app: Create simulator view and controls, map maker, config maker"),
+    "studio": ("studio.main:main", "web app: Create simulator view and controls, map maker, config maker"),
     "batch": ("sim_tools.batch.cli:main", "run a sweep of isolated episodes (locally or on Ray): table and plots"),
 }

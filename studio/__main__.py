@@ -1,5 +1,5 @@
 import sys
 
-from studio.app import main
+from studio.main import main
 
 sys.exit(main())

@@ -14,8 +14,8 @@ from arm_sim.trajectory_file import load_trajectory
 from arm_sim.urdf import arm_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
-from studio.arm_ros import joint_limits
-from studio.meshes import MeshCache, binary_stl, decimate
+from studio.arm.meshes import MeshCache, binary_stl, decimate
+from studio.arm.ros_client import joint_limits
 
 
 def bumpy_sphere(rows: int, cols: int, radius: float = 0.1) -> np.ndarray:
@@ -140,7 +140,7 @@ def test_element_poses_turn_into_the_same_rotations_as_the_messages_helpers():
     from geometry_msgs.msg import Quaternion
 
     from sim_runtime.msgs import matrix_from_quaternion
-    from studio.arm_scene import rotations
+    from studio.arm.scene import rotations
 
     rng = np.random.default_rng(3)
     q = rng.normal(size=(20, 4))
@@ -149,9 +149,9 @@ def test_element_poses_turn_into_the_same_rotations_as_the_messages_helpers():
 
 
 def test_a_world_file_typed_in_the_arm_page_stays_in_the_workspace_or_the_shipped_configs(tmp_path):
-    from studio.app import Studio
-    from studio.arm_page import arm_world_ros_args, resolve_config
-    from studio.workspace import Workspace
+    from studio.arm.page import arm_world_ros_args, resolve_config
+    from studio.shell.app import Studio
+    from studio.shell.workspace import Workspace
 
     studio = Studio(workspace=Workspace(tmp_path), controllers={})
     (tmp_path / "mine.yaml").write_text("name: x\n")

@@ -18,12 +18,13 @@ from create_sim.mapfile import CreateMap, load_map, parse_map
 from create_sim.world_node import map_markers
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
-from studio import draw
-from studio.app import host_warning, parse_args
-from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
-from studio.processes import controller_command, parse_controller, world_ros_args
-from studio.ros_client import map_from_markers
-from studio.workspace import MAX_UPLOAD_BYTES, Workspace
+from studio.create import draw
+from studio.create.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
+from studio.create.ros_client import map_from_markers
+from studio.shell.app import host_warning, parse_args
+from studio.shell.processes import controller_command, parse_controller, world_ros_args
+from studio.shell.svg import View, hex_rgb, rgb_hex
+from studio.shell.workspace import MAX_UPLOAD_BYTES, Workspace
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -209,7 +210,7 @@ def test_a_world_started_by_the_studio_gets_its_files_and_pose_verbatim():
 
 
 def test_a_scan_is_drawn_as_one_polyline_of_every_beam():
-    view = draw.View()
+    view = View()
     readings = draw.Readings(pose=(0.0, 0.0, 0.0), scan=(-2.0, 4.0 / 680, np.full(681, 1.0, dtype=np.float32)))
     svg = draw.sensors_svg(view, readings, {"lidar"})
     assert svg.count("<polyline") == 1
@@ -219,15 +220,15 @@ def test_a_scan_is_drawn_as_one_polyline_of_every_beam():
 
 def test_beacon_ids_are_escaped_in_the_drawing():
     world = parse_map("beacon 0 0 [1 0 0] <script>alert(1)</script>")
-    svg = draw.map_svg(draw.View(), world)
+    svg = draw.map_svg(View(), world)
     assert "<script>" not in svg and "&lt;script&gt;" in svg
 
 
 def test_the_view_maps_pixels_back_to_the_same_world_point():
-    view = draw.View(centre_x=1.5, centre_y=-2.0, scale=73.0)
+    view = View(centre_x=1.5, centre_y=-2.0, scale=73.0)
     px, py = view.to_px(0.3, 0.7)
     assert view.to_world(float(px), float(py)) == (pytest.approx(0.3), pytest.approx(0.7))
-    assert draw.hex_rgb(draw.rgb_hex((1.0, 0.5, 0.0))) == (1.0, 0.502, 0.0)
+    assert hex_rgb(rgb_hex((1.0, 0.5, 0.0))) == (1.0, 0.502, 0.0)
 
 
 def test_a_taken_port_is_one_error_line_and_status_2(tmp_path):
@@ -246,7 +247,7 @@ def test_a_taken_port_is_one_error_line_and_status_2(tmp_path):
 
 
 def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
-    view = draw.View(centre_x=1.0, centre_y=2.0, scale=50.0)
+    view = View(centre_x=1.0, centre_y=2.0, scale=50.0)
     before = view.to_world(620.0, 130.0)
     view.zoom_at(620.0, 130.0, 1.2)
     assert view.scale == 60.0
@@ -254,7 +255,7 @@ def test_zooming_at_a_pixel_keeps_the_world_point_under_it():
 
 
 def test_dragging_the_view_keeps_the_grabbed_world_point_under_the_mouse():
-    view = draw.View(centre_x=1.0, centre_y=2.0, scale=50.0)
+    view = View(centre_x=1.0, centre_y=2.0, scale=50.0)
     grabbed = view.to_world(300.0, 200.0)
     view.pan((1.0, 2.0), 40.0, -25.0)  # the mouse went 40 px right and 25 px up
     assert view.to_world(340.0, 175.0) == (pytest.approx(grabbed[0]), pytest.approx(grabbed[1]))
@@ -265,12 +266,13 @@ def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
     for ``_NODE_NAME_UNKNOWN_`` would never reach the world, so the studio waits for the name."""
     from rclpy.topic_endpoint_info import TopicEndpointInfo
 
-    from studio.ros_client import POSE_TYPE, UNKNOWN_NODE_NAME, StudioRos
+    from studio.create.ros_client import POSE_TYPE, CreateRos
+    from studio.shell.ros import UNKNOWN_NODE_NAME
 
     def endpoint(name: str, namespace: str) -> TopicEndpointInfo:
         return TopicEndpointInfo(node_name=name, node_namespace=namespace, topic_type=POSE_TYPE)
 
-    ros = StudioRos()
+    ros = CreateRos()
     try:
         for timer in list(ros.node.timers):  # this test runs the discovery rounds itself
             ros.node.destroy_timer(timer)
@@ -303,7 +305,7 @@ class FakeGraph:
 
 def sleeper(tmp_path: Path, label: str, exit_after_s: float, clock: str = ""):
     """A child that takes ``exit_after_s`` to finish after SIGINT (a world closing down)."""
-    from studio.processes import Child
+    from studio.shell.processes import Child
 
     code = (
         "import signal, sys, time\n"
@@ -320,7 +322,7 @@ def sleeper(tmp_path: Path, label: str, exit_after_s: float, clock: str = ""):
 
 
 def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refused_with_the_reason(tmp_path):
-    from studio.app import Studio
+    from studio.shell.app import Studio
 
     studio = Studio(workspace=Workspace(tmp_path), controllers={})
     studio.ros = FakeGraph([("/clock", "/create1"), ("/arm1/clock", "/arm1")])  # one world owns /clock
@@ -345,7 +347,7 @@ def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refu
 
 
 def test_only_a_world_owning_the_clock_publishes_clock_the_others_and_their_controllers_use_theirs():
-    from studio.processes import clock_topic, namespace_args
+    from studio.shell.processes import clock_topic, namespace_args
 
     assert namespace_args("/create1", owns_clock=True) == ["-r", "__ns:=/create1"]
     assert namespace_args("/arm1") == ["-r", "__ns:=/arm1", "-r", "/clock:=/arm1/clock"]
@@ -358,7 +360,7 @@ def test_only_a_world_owning_the_clock_publishes_clock_the_others_and_their_cont
 
 
 def test_a_recording_of_one_world_is_on_its_sim_time_and_of_several_on_wall_time():
-    from studio.app import recording_clock, world_namespaces
+    from studio.shell.app import recording_clock, world_namespaces
 
     one = [("/clock", "/create1")]
     assert recording_clock(one) == ("sim", "sim time of the world in /create1")
@@ -371,7 +373,7 @@ def test_a_recording_of_one_world_is_on_its_sim_time_and_of_several_on_wall_time
 
 
 def test_children_are_stopped_together_within_one_timeout(tmp_path):
-    from studio.processes import stop_all
+    from studio.shell.processes import stop_all
 
     children = [sleeper(tmp_path, f"world {i}", 1.0) for i in range(5)]
     started = time.monotonic()
@@ -382,7 +384,7 @@ def test_children_are_stopped_together_within_one_timeout(tmp_path):
 
 
 def test_a_stuck_child_is_killed_when_the_timeout_runs_out(tmp_path):
-    from studio.processes import stop_all
+    from studio.shell.processes import stop_all
 
     stuck = sleeper(tmp_path, "stuck", 60.0)
     started = time.monotonic()
@@ -392,7 +394,7 @@ def test_a_stuck_child_is_killed_when_the_timeout_runs_out(tmp_path):
 
 def test_key_presses_step_from_the_worlds_last_command_whoever_sent_it():
     from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP
-    from studio.sim_page import command_steps
+    from studio.create.sim_page import command_steps
 
     assert command_steps((0.0, 0.0)) == [0, 0]
     assert command_steps((3 * LINEAR_STEP, -2 * ANGULAR_STEP)) == [3, -2]
@@ -400,7 +402,7 @@ def test_key_presses_step_from_the_worlds_last_command_whoever_sent_it():
 
 
 def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
-    from studio.sim_page import fit_due
+    from studio.create.sim_page import fit_due
 
     assert fit_due(None, 0)  # first shown, no map yet: fit to the robot
     assert fit_due(0, 1)  # then its map arrives: fit to the map
@@ -409,7 +411,7 @@ def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
 
 
 def test_an_upload_that_is_not_text_or_too_large_is_an_error_naming_the_file():
-    from studio.workspace import upload_text
+    from studio.shell.workspace import upload_text
 
     assert upload_text("lab.map", "wall 0 0 1 1 % é\n".encode(), "map") == "wall 0 0 1 1 % é\n"
     with pytest.raises(InputError, match=r"photo.png: not a text file \(byte 0 is not UTF-8\)"):
@@ -421,14 +423,14 @@ def test_an_upload_that_is_not_text_or_too_large_is_an_error_naming_the_file():
 
 
 def test_a_number_below_its_minimum_is_flagged_not_clamped():
-    from studio.app import at_least
+    from studio.shell.kit import at_least
 
     ((message, ok),) = at_least(0.0).items()
     assert message == "must be ≥ 0" and ok(0.0) and ok(None) and not ok(-1.0)
 
 
 def test_an_empty_or_non_numeric_pose_field_is_an_error_not_zero():
-    from studio.sim_page import initial_pose
+    from studio.create.sim_page import initial_pose
 
     assert initial_pose(1.0, -0.5, 0.25) == (1.0, -0.5, 0.25)
     with pytest.raises(InputError, match="initial pose y: a number is needed"):

@@ -1,4 +1,4 @@
-"""What the replay page shows at an instant (studio.replay, no browser): the bag's own values."""
+"""What the replay page shows at an instant (studio.replay.frames, no browser): the bag's own values."""
 
 from __future__ import annotations
 
@@ -17,10 +17,10 @@ from create_sim.synthetic_run import write_create_run
 from sim_runtime.bag.reader import open_bag
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.msgs import pose_msg, yaw_from_quaternion
-from studio import draw
-from studio.replay import Replay
-from studio.replay_page import bag_names, grid_image_svg, panel_html
-from studio.workspace import Workspace
+from studio.replay.frames import Replay
+from studio.replay.page import bag_names, grid_image_svg, panel_html
+from studio.shell.svg import View
+from studio.shell.workspace import Workspace
 
 S = 1_000_000_000
 
@@ -99,7 +99,7 @@ def test_simrobot_robots_and_arm_joints_are_found_and_read(tmp_path):
     assert before.robots[0].pose == pytest.approx((0.2, 0.0, 0.2)) and not before.robots[0].crashed
     assert after.robots[0].crashed and after.joints["/arm"] == [("j1", 1.5)]
     assert [c[1] for c in before.commands] == ["/r1/cmd_vel"]
-    svg = grid_image_svg(draw.View(800, 600, scale=100.0), after.grid)
+    svg = grid_image_svg(View(800, 600, scale=100.0), after.grid)
     assert 'x="400.0" y="200.0" width="200.0" height="100.0"' in svg  # 2 m × 1 m from (0, 0), y up
 
 
@@ -151,7 +151,7 @@ def test_a_recorded_arm_run_is_drawn_with_its_meshes_posed_as_the_bag_has_them(t
     from arm_sim.demo import run_demo
     from sim_runtime.paths import mesh_path
     from sim_tools.demo import _Recording
-    from studio.arm_ros import drawables
+    from studio.arm.ros_client import drawables
 
     recording = _Recording(tmp_path / "arm")
     summary = run_demo(None, extra_nodes=recording)

@@ -194,7 +194,7 @@ def test_an_arm_bag_is_drawn_in_3d_with_each_link_where_the_bag_has_it(browser, 
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
-    from studio.arm_ros import drawables
+    from studio.arm.ros_client import drawables
 
     bag = open_bag(workspace / ARM_BAG)
     markers = {}  # log time (ns) → marker key → position, as recorded

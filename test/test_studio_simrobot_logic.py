@@ -11,7 +11,7 @@ import pytest
 
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import load_bitmap, load_world
-from studio.simrobot_doc import WorldDraft, blank_walls, map_image, new_sensor, paint_disc, parse_vertices
+from studio.simrobot.doc import WorldDraft, blank_walls, map_image, new_sensor, paint_disc, parse_vertices
 
 
 def test_a_saved_bitmap_loads_back_as_the_same_obstacles(tmp_path):

@@ -14,9 +14,18 @@ from nicegui import ui
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
-from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, recording_clock, stop_started_world, view_image
-from studio.processes import Child, clock_topic, controller_command, executable_command, namespace_args, world_ros_args
+from studio.create import draw
+from studio.shell import svg
+from studio.shell.app import Studio, recording_clock
+from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, stop_started_world, view_image
+from studio.shell.processes import (
+    Child,
+    clock_topic,
+    controller_command,
+    executable_command,
+    namespace_args,
+    world_ros_args,
+)
 
 FRAME_PERIOD_S = 0.04
 """The view is redrawn at most this often (25 frames/s), and only when a new reading came in."""
@@ -124,7 +133,7 @@ class SimulatorPage(ZoomableView):
 
     def __init__(self, studio: Studio) -> None:
         self.studio = studio
-        self.view = draw.View(*VIEW_SIZE, scale=60.0)
+        self.view = svg.View(*VIEW_SIZE, scale=60.0)
         self.selected: str | None = None
         self.layers = set(LAYERS)
         self.centred = False
@@ -311,7 +320,7 @@ class SimulatorPage(ZoomableView):
             self.view_dirty = True
         if self.view_dirty or self.drawn_map != (self.selected, st.map_seq):
             self.drawn_map = (self.selected, st.map_seq)
-            base = draw.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
+            base = svg.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
             self.image.set_content(base + draw.map_svg(self.view, st.map, fields="fields" in self.layers))
         if self.view_dirty or st.seq != self.drawn_seq:
             self.drawn_seq = st.seq

@@ -26,7 +26,7 @@ from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
 from sim_runtime.msgs import yaw_from_quaternion
-from studio.arm_ros import Group, drawables
+from studio.arm.ros_client import Group, drawables
 
 POSE = "geometry_msgs/msg/PoseStamped"
 ODOM = "nav_msgs/msg/Odometry"
@@ -345,7 +345,7 @@ class Replay:
         return found
 
     def _create_map(self, m: BagMessage, msg) -> CreateMap | None:
-        from studio.ros_client import map_from_markers
+        from studio.create.ros_client import map_from_markers
 
         key = f"{m.topic}@{m.log_time_ns}"
         if key not in self._maps and msg is not None:

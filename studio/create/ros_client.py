@@ -1,4 +1,4 @@
-"""The studio's ROS side: one rclpy node in its own context, spun by an executor in a daemon thread.
+"""The studio's Create side of ROS, on the studio's node (:class:`studio.shell.ros.StudioRos`).
 
 Like RViz it is only a client: it finds Create worlds by their ``overhead_pose`` topics (any
 namespace, started by the studio or not) and talks to them through topics, services and
@@ -9,26 +9,17 @@ Every ROS entity is created in the executor thread; the pages publish and call s
 
 from __future__ import annotations
 
-import asyncio
-import itertools
 import math
-import os
-import threading
 import time
 from collections import deque
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import GetParameters, SetParameters
-from rclpy.context import Context
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
-from rclpy.topic_endpoint_info import TopicEndpointInfo
 from sensor_msgs.msg import Illuminance, LaserScan, Range
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
@@ -38,12 +29,9 @@ from create_sim.model import CreateModel
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
-from sim_runtime.run import make_executor
+from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
-CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
-#: The node name rmw reports for an endpoint whose participant is not fully discovered yet.
-UNKNOWN_NODE_NAME = "_NODE_NAME_UNKNOWN_"
 TRACK_POINTS = 2000
 TRACK_MIN_STEP_M = 0.01
 
@@ -118,46 +106,6 @@ def map_from_markers(msg: MarkerArray) -> CreateMap:
         beacon_ids=[b[3] for b in beacons],
         virtwalls=np.array(vwalls, dtype=np.float64).reshape(-1, 4),
     )
-
-
-def parameter(name: str, value: bool | float | str | list[float]) -> Parameter:
-    """An rcl_interfaces Parameter of a bool, double, string or double array."""
-    if isinstance(value, bool):
-        pv = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=value)
-    elif isinstance(value, str):
-        pv = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=value)
-    elif isinstance(value, list):
-        pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY, double_array_value=[float(v) for v in value])
-    else:
-        pv = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=float(value))
-    return Parameter(name=name, value=pv)
-
-
-def _settle(done: asyncio.Future, future) -> None:
-    """Hand a service response to the awaiting page, unless it has stopped waiting."""
-    if not done.done():
-        done.set_result(future.result())
-
-
-def new_worlds(node: Node, suffix: str, type_name: str, known) -> Iterator[tuple[str, TopicEndpointInfo]]:
-    """``(prefix, publisher)`` of every topic ``<prefix>/<suffix>`` of ``type_name`` whose prefix is
-    not in ``known``, once DDS knows the name of the node publishing it: a topic can be seen before
-    its node's name, and parameter clients made for ``_NODE_NAME_UNKNOWN_`` never reach the world."""
-    tail = "/" + suffix
-    for topic, types in node.get_topic_names_and_types():
-        if not topic.endswith(tail) or type_name not in types:
-            continue
-        prefix = topic[: -len(tail)]
-        if prefix in known:
-            continue
-        publishers = node.get_publishers_info_by_topic(topic)
-        if publishers and publishers[0].node_name != UNKNOWN_NODE_NAME:
-            yield prefix, publishers[0]
-
-
-def node_full_name(info: TopicEndpointInfo) -> str:
-    """``/ns/name`` of a topic's publishing node (its parameter services live under it)."""
-    return info.node_namespace.rstrip("/") + "/" + info.node_name
 
 
 class _Robot:
@@ -242,38 +190,13 @@ class _Robot:
         self.state.seq += 1
 
 
-class StudioRos:
-    """The studio's node and executor thread; ``robots`` maps namespace → :class:`RobotState`."""
-
-    _ids = itertools.count()
+class CreateRos(StudioRos):
+    """The studio's ROS client for Create worlds; ``robots`` maps namespace → :class:`RobotState`."""
 
     def __init__(self) -> None:
-        self.context = Context()
-        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = Node(f"studio_{os.getpid()}_{next(self._ids)}", context=self.context)
-        self.executor = make_executor(self.context)
-        self.executor.add_node(self.node)
         self._robots: dict[str, _Robot] = {}
         self.robots: dict[str, RobotState] = {}
-        self.node.create_timer(0.5, self._discover_while_open)
-        self._thread = threading.Thread(target=self._spin, name="studio-ros", daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        try:
-            while self.context.ok():
-                self.executor.spin_once(timeout_sec=0.1)
-        except Exception:
-            if self.context.ok():
-                raise
-
-    def _discover_while_open(self) -> None:
-        """A discovery round; one cut short by the studio shutting down its context is no error."""
-        try:
-            self._discover()
-        except Exception:
-            if self.context.ok():
-                raise
+        super().__init__()
 
     def _discover(self) -> None:
         """Follow every namespace with a Create world (an ``overhead_pose`` PoseStamped topic);
@@ -298,35 +221,6 @@ class StudioRos:
     def namespaces(self) -> list[str]:
         return sorted(self.robots)
 
-    def clock_publishers(self) -> list[tuple[str, str]]:
-        """``(clock topic, publishing node's namespace, '' for the root)`` of every world on the domain."""
-        found = []
-        for topic, types in self.node.get_topic_names_and_types():
-            if CLOCK_TYPE in types and topic.endswith("/clock"):
-                found += [(topic, p.node_namespace.rstrip("/")) for p in self.node.get_publishers_info_by_topic(topic)]
-        return found
-
-    def published_topics(self) -> list[str]:
-        """Every topic with a publisher now, but hidden ones (a part starting with ``_``): what a
-        recorder of everything must subscribe to."""
-        node = self.node
-        return [
-            topic
-            for topic, _types in node.get_topic_names_and_types()
-            if node.count_publishers(topic) and not any(part.startswith("_") for part in topic.split("/"))
-        ]
-
-    def not_subscribed(self, topics: list[str], node_name: str) -> list[str]:
-        """Of ``topics``, those that still have a publisher (other than ``node_name``) but no
-        subscription of node ``node_name``: a recorder started a moment ago is not recording them yet."""
-        node, waiting = self.node, []
-        for topic in topics:
-            if not any(p.node_name != node_name for p in node.get_publishers_info_by_topic(topic)):
-                continue
-            if not any(s.node_name == node_name for s in node.get_subscriptions_info_by_topic(topic)):
-                waiting.append(topic)
-        return waiting
-
     # ---------------------------------------------------------------- commands (from the pages)
     def drive(self, ns: str, v: float, w: float) -> None:
         """Publish ``cmd_vel`` (m/s, rad/s) to the Create in ``ns``."""
@@ -342,25 +236,6 @@ class StudioRos:
         msg.header.frame_id = "map"
         msg.pose = pose_msg(x, y, theta)
         self._robots[ns].set_pose.publish(msg)
-
-    async def _call(self, client, request, timeout: float = 15.0):
-        if not client.wait_for_service(timeout_sec=0.0):
-            deadline = time.monotonic() + timeout
-            while not client.service_is_ready():
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"service {client.srv_name} is not available")
-                await asyncio.sleep(0.05)
-        loop = asyncio.get_running_loop()
-        done: asyncio.Future = loop.create_future()
-        future = client.call_async(request)
-        future.add_done_callback(lambda f: loop.call_soon_threadsafe(_settle, done, f))
-        try:
-            return await asyncio.wait_for(done, timeout)
-        except TimeoutError:
-            client.remove_pending_request(future)
-            message = f"service {client.srv_name} did not answer within {timeout:g} s"
-            print(f"studio: {message}", flush=True)
-            raise TimeoutError(message) from None
 
     async def reset(self, ns: str) -> str:
         response = await self._call(self._robots[ns].reset, Trigger.Request())
@@ -397,10 +272,3 @@ class StudioRos:
             ParameterType.PARAMETER_STRING: v.string_value,
             ParameterType.PARAMETER_BOOL: v.bool_value,
         }.get(v.type)
-
-    def shutdown(self) -> None:
-        if self.context.ok():
-            rclpy.shutdown(context=self.context)
-        self._thread.join(timeout=2.0)
-        self.executor.shutdown()
-        self.node.destroy_node()

@@ -10,11 +10,13 @@ from nicegui import ui
 
 from create_sim.mapfile import parse_map
 from sim_runtime.errors import InputError
-from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
-from studio.file_page import FilePage
-from studio.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
-from studio.workspace import MAX_UPLOAD_BYTES, upload_text
+from studio.create import draw
+from studio.create.file_page import FilePage
+from studio.create.mapedit import Beacon, MapDocument, Segment, VirtualWall, moved, polyline, rectangle, snap
+from studio.shell import svg
+from studio.shell.app import Studio
+from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, view_image
+from studio.shell.workspace import MAX_UPLOAD_BYTES, upload_text
 
 TOOLS = {
     "select": "Select/move",
@@ -49,7 +51,7 @@ class MapMakerPage(FilePage, ZoomableView):
     def __init__(self, studio: Studio) -> None:
         super().__init__(studio)
         self.doc = MapDocument()
-        self.view = draw.View(*VIEW_SIZE, scale=60.0)
+        self.view = svg.View(*VIEW_SIZE, scale=60.0)
         self.tool = "wall"
         self.grid = 0.1
         self.pending: list[tuple[float, float]] = []  # clicked points of the element being drawn
@@ -114,7 +116,7 @@ class MapMakerPage(FilePage, ZoomableView):
     # ---------------------------------------------------------------- drawing
     def redraw(self) -> None:
         world = self.doc.to_map()
-        parts = [draw.grid_svg(self.view, self.grid or 0.5), draw.map_svg(self.view, world)]
+        parts = [svg.grid_svg(self.view, self.grid or 0.5), draw.map_svg(self.view, world)]
         if self.selected is not None and self.selected < len(self.doc.elements):
             parts.append(self.highlight(self.doc.elements[self.selected]))
         self.image.set_content("".join(parts))
@@ -236,7 +238,7 @@ class MapMakerPage(FilePage, ZoomableView):
             if len(beacon_id.split()) != 1 or "%" in beacon_id:
                 self.say(f"beacon id {beacon_id!r} must be one word without '%'", error=True)
                 return
-            self.doc.add(Beacon(p[0], p[1], draw.hex_rgb(self.beacon_colour.value or "#ff8000"), beacon_id))
+            self.doc.add(Beacon(p[0], p[1], svg.hex_rgb(self.beacon_colour.value or "#ff8000"), beacon_id))
             self.beacon_id.set_value("")
             self.redraw()
             return
@@ -312,7 +314,7 @@ class MapMakerPage(FilePage, ZoomableView):
         except (InputError, UserWarning) as err:
             self.say(str(err), error=True)
             return
-        from studio.mapedit import elements_from_map
+        from studio.create.mapedit import elements_from_map
 
         (new,) = elements_from_map(parsed)
         self.doc.replace(self.selected, new)

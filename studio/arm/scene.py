@@ -1,6 +1,6 @@
 """The 3D view of arms and scene objects, shared by the Arm page (live) and the Replay page (a bag).
 
-Both draw the same thing: groups of :class:`~studio.arm_ros.Drawable` (mesh, colour, scale) with
+Both draw the same thing: groups of :class:`~studio.arm.ros_client.Drawable` (mesh, colour, scale) with
 one pose each, as an arm's ``robot_markers`` and a world's ``scene_markers`` describe them, plus
 each arm's end-effector frame. :class:`ArmScene` owns a NiceGUI ``ui.scene`` and keeps it in step
 with the groups it is given: a mesh is read and reduced once per studio (:data:`MESHES`, served from
@@ -17,8 +17,8 @@ from nicegui import background_tasks, ui
 
 from sim_runtime.errors import InputError
 from sim_runtime.paths import mesh_path
-from studio.arm_ros import Drawable, Group
-from studio.meshes import DISPLAY_FACES, MeshCache
+from studio.arm.meshes import DISPLAY_FACES, MeshCache
+from studio.arm.ros_client import Drawable, Group
 
 MESHES = MeshCache()
 """Every page's meshes: a file is read and reduced once per studio."""

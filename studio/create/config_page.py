@@ -8,8 +8,9 @@ from nicegui import ui
 
 from create_sim.configfile import SENSORS, NoiseConfig, parse_config
 from sim_runtime.errors import InputError
-from studio.app import Studio, checked_number, nav
-from studio.file_page import FilePage
+from studio.create.file_page import FilePage
+from studio.shell.app import Studio
+from studio.shell.kit import checked_number, nav
 
 MEANINGS = {
     "wall": "offset of the IR range (m)",

@@ -28,8 +28,9 @@ from sim_runtime.errors import InputError
 from sim_runtime.qos import ANY_PUBLISHER_QOS
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
 from simrobot_sim.world_node import ROBOT_STATE_FIELDS
-from studio.processes import Child, stop_all
-from studio.ros_client import StudioRos, new_worlds, node_full_name, parameter
+from studio.shell.app import Studio
+from studio.shell.processes import Child, stop_all
+from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
 STATES_TYPE = "std_msgs/msg/Float64MultiArray"
 TRACK_POINTS = 1000
@@ -238,15 +239,16 @@ class SimrobotSide:
             self.ros.shutdown()
 
 
-def side(studio) -> SimrobotSide:
+def side(studio: Studio) -> SimrobotSide:
     """The studio's SIMROBOT side, made (and hooked to the app's start and stop) on first use."""
-    existing = getattr(studio, "simrobot", None)
-    if existing is not None:
+    existing = studio.families.get("simrobot")
+    if isinstance(existing, SimrobotSide):
         return existing
     from nicegui import app
 
     made = SimrobotSide()
-    studio.simrobot = made
+    studio.families["simrobot"] = made
+    studio.family_worlds.append(made.worlds)  # the studio's namespace checks and Ctrl-C see them
 
     def startup() -> None:
         made.ros = SimrobotRos()

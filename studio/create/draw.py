@@ -1,14 +1,11 @@
-"""SVG drawing of maps, robots and sensor readings in image pixels (no GUI, no ROS here).
-
-A :class:`View` maps world metres (x right, y up) to image pixels (x right, y down). Everything
-is drawn in pixels so strokes and text keep their size at any zoom; a 681-beam scan is one
-polyline (one element for the browser to lay out, not 681).
+"""SVG drawing of the Create's maps, robot and sensor readings in image pixels, on a
+:class:`studio.shell.svg.View` (no GUI, no ROS here): a 681-beam scan is one polyline (one element
+for the browser to lay out, not 681).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass, fields
 from html import escape
 
@@ -17,72 +14,13 @@ import numpy as np
 from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
 from create_sim.spec import CLIFF_NAMES, RADIUS_M, SENSOR_MOUNTS, SONAR_NAMES
+from studio.shell.svg import View, fmt, points, rgb_hex
 
 WALL_COLOUR = "#222"
 LINE_COLOUR = "#2a4fd8"
 VWALL_COLOUR = "#12a012"
 CLIFF_ACTIVE_BELOW = 0.5 * (CreateModel.CLIFF_FLOOR + CreateModel.CLIFF_LINE)
 """A cliff signal under this (%, halfway between floor and line) means the sensor sees a line."""
-
-
-@dataclass
-class View:
-    """World → pixel transform: ``centre`` (m) is drawn at the image centre, ``scale`` px per metre."""
-
-    width_px: int = 800
-    height_px: int = 600
-    centre_x: float = 0.0
-    centre_y: float = 0.0
-    scale: float = 80.0
-
-    def to_px(self, x, y):
-        """Pixel coordinates of world points (scalars or arrays)."""
-        return (
-            (np.asarray(x) - self.centre_x) * self.scale + self.width_px / 2,
-            self.height_px / 2 - (np.asarray(y) - self.centre_y) * self.scale,
-        )
-
-    def to_world(self, px: float, py: float) -> tuple[float, float]:
-        """World coordinates of an image pixel."""
-        return (
-            self.centre_x + (px - self.width_px / 2) / self.scale,
-            self.centre_y - (py - self.height_px / 2) / self.scale,
-        )
-
-    def zoom(self, factor: float) -> None:
-        """Zoom about the image centre, within 5..2000 px/m."""
-        self.scale = min(max(self.scale * factor, 5.0), 2000.0)
-
-    def zoom_at(self, px: float, py: float, factor: float) -> None:
-        """Zoom keeping the world point under pixel (px, py) where it is (the mouse wheel)."""
-        x, y = self.to_world(px, py)
-        self.zoom(factor)
-        self.centre_x = x - (px - self.width_px / 2) / self.scale
-        self.centre_y = y + (py - self.height_px / 2) / self.scale
-
-    def pan(self, centre_at_press: tuple[float, float], dx_px: float, dy_px: float) -> None:
-        """Follow a drag of (dx_px, dy_px) pixels begun with the view centred on ``centre_at_press``:
-        the world moves with the mouse (image y grows downwards, world y upwards)."""
-        self.centre_x = centre_at_press[0] - dx_px / self.scale
-        self.centre_y = centre_at_press[1] + dy_px / self.scale
-
-    def fit(self, xs: np.ndarray, ys: np.ndarray, margin_m: float = 0.5) -> None:
-        """Centre and scale so that the points (plus a margin) fill the image."""
-        if len(xs) == 0:
-            return
-        lo_x, hi_x, lo_y, hi_y = xs.min() - margin_m, xs.max() + margin_m, ys.min() - margin_m, ys.max() + margin_m
-        self.centre_x, self.centre_y = float(lo_x + hi_x) / 2, float(lo_y + hi_y) / 2
-        self.scale = float(min(max(min(self.width_px / (hi_x - lo_x), self.height_px / (hi_y - lo_y)), 5.0), 2000.0))
-
-
-def _f(v: float) -> str:
-    return f"{v:.1f}"
-
-
-def _points(px: np.ndarray, py: np.ndarray) -> str:
-    """ "x,y x,y …" with one decimal (a tenth of a pixel is plenty), formatted by numpy in one call."""
-    pts = np.column_stack([px, py]).round(1)
-    return " ".join(f"{a:g},{b:g}" for a, b in pts.tolist())
 
 
 def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra: str = "") -> str:
@@ -94,17 +32,6 @@ def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra
     return f'<path d="{d}" stroke="{colour}" stroke-width="{width}" stroke-linecap="round" fill="none" {extra}/>'
 
 
-def rgb_hex(rgb: Iterable[float]) -> str:
-    """``#rrggbb`` of an rgb triple in 0..1."""
-    return "#" + "".join(f"{round(min(max(float(c), 0.0), 1.0) * 255):02x}" for c in rgb)
-
-
-def hex_rgb(colour: str) -> tuple[float, float, float]:
-    """rgb triple in 0..1 (3 decimals) of ``#rrggbb``."""
-    colour = colour.lstrip("#")
-    return tuple(round(int(colour[i : i + 2], 16) / 255, 3) for i in (0, 2, 4))
-
-
 def virtual_wall_shapes(x: float, y: float, theta: float, setting: int) -> tuple[float, np.ndarray]:
     """Halo radius and field triangle (3, 2) of an emitter, from the model's constants."""
     length, angle = CreateModel.VWALL_FIELDS[int(setting)]
@@ -112,40 +39,6 @@ def virtual_wall_shapes(x: float, y: float, theta: float, setting: int) -> tuple
         (x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2)) for s in (1, -1)
     ]
     return CreateModel.VWALL_HALO, np.array(tri)
-
-
-def grid_svg(view: View, step_m: float) -> str:
-    """Light grid lines every ``step_m`` metres, a darker line every metre, and a scale bar."""
-    if step_m <= 0 or step_m * view.scale < 4:
-        step_m = 1.0
-    x0, y1 = view.to_world(0, 0)
-    x1, y0 = view.to_world(view.width_px, view.height_px)
-    parts = []
-    for lo, hi, vertical in ((x0, x1, True), (y0, y1, False)):
-        first = math.ceil(lo / step_m)
-        for k in range(first, first + int((hi - lo) / step_m) + 1):
-            v = k * step_m
-            major = abs(v - round(v)) < 1e-9
-            colour, width = ("#c8c8c8", 1) if major else ("#ececec", 0.7)
-            if vertical:
-                p, _ = view.to_px(v, 0.0)
-                parts.append(
-                    f'<line x1="{_f(p)}" y1="0" x2="{_f(p)}" y2="{view.height_px}" '
-                    f'stroke="{colour}" stroke-width="{width}"/>'
-                )
-            else:
-                _, p = view.to_px(0.0, v)
-                parts.append(
-                    f'<line x1="0" y1="{_f(p)}" x2="{view.width_px}" y2="{_f(p)}" '
-                    f'stroke="{colour}" stroke-width="{width}"/>'
-                )
-    bar = view.scale  # one metre
-    y = view.height_px - 12
-    parts.append(
-        f'<line x1="10" y1="{y}" x2="{_f(10 + bar)}" y2="{y}" stroke="#000" stroke-width="3"/>'
-        f'<text x="12" y="{y - 5}" font-size="12" fill="#000">1 m</text>'
-    )
-    return "".join(parts)
 
 
 def map_svg(view: View, world: CreateMap, *, fields: bool = True) -> str:
@@ -158,21 +51,21 @@ def map_svg(view: View, world: CreateMap, *, fields: bool = True) -> str:
         px, py = view.to_px(bx, by)
         r = max(0.05 * view.scale, 3)
         parts.append(
-            f'<circle cx="{_f(px)}" cy="{_f(py)}" r="{_f(r)}" fill="{rgb_hex(rgb)}" stroke="#000" stroke-width="1"/>'
-            f'<text x="{_f(px + r + 2)}" y="{_f(py - r)}" font-size="12" fill="#000">{escape(beacon_id)}</text>'
+            f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(r)}" fill="{rgb_hex(rgb)}" stroke="#000" stroke-width="1"/>'
+            f'<text x="{fmt(px + r + 2)}" y="{fmt(py - r)}" font-size="12" fill="#000">{escape(beacon_id)}</text>'
         )
     for vx, vy, theta, setting in world.virtwalls:
         halo, tri = virtual_wall_shapes(vx, vy, theta, int(setting))
         px, py = view.to_px(vx, vy)
         parts.append(
-            f'<text x="{_f(px)}" y="{_f(py + 6)}" font-size="18" text-anchor="middle" fill="{VWALL_COLOUR}">*</text>'
+            f'<text x="{fmt(px)}" y="{fmt(py + 6)}" font-size="18" text-anchor="middle" fill="{VWALL_COLOUR}">*</text>'
         )
         if fields:
             tx, ty = view.to_px(tri[:, 0], tri[:, 1])
             parts.append(
-                f'<circle cx="{_f(px)}" cy="{_f(py)}" r="{_f(halo * view.scale)}" fill="none" '
+                f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(halo * view.scale)}" fill="none" '
                 f'stroke="{VWALL_COLOUR}" stroke-dasharray="4 3"/>'
-                f'<polygon points="{_points(tx, ty)}" fill="{VWALL_COLOUR}" fill-opacity="0.06" '
+                f'<polygon points="{points(tx, ty)}" fill="{VWALL_COLOUR}" fill-opacity="0.06" '
                 f'stroke="{VWALL_COLOUR}" stroke-dasharray="4 3"/>'
             )
     return "".join(parts)
@@ -190,7 +83,9 @@ def _ray(view: View, start: tuple[float, float, float], length: float, colour: s
     x, y, yaw = start
     ax, ay = view.to_px(x, y)
     bx, by = view.to_px(x + length * math.cos(yaw), y + length * math.sin(yaw))
-    return f'<line x1="{_f(ax)}" y1="{_f(ay)}" x2="{_f(bx)}" y2="{_f(by)}" stroke="{colour}" stroke-width="{width}"/>'
+    return (
+        f'<line x1="{fmt(ax)}" y1="{fmt(ay)}" x2="{fmt(bx)}" y2="{fmt(by)}" stroke="{colour}" stroke-width="{width}"/>'
+    )
 
 
 def robot_svg(view: View, pose: tuple[float, float, float], *, selected: bool, label: str = "") -> str:
@@ -200,15 +95,15 @@ def robot_svg(view: View, pose: tuple[float, float, float], *, selected: bool, l
     hx, hy = view.to_px(x + RADIUS_M * math.cos(theta), y + RADIUS_M * math.sin(theta))
     fill = "#f0c419" if selected else "#d9d9d9"
     text = (
-        f'<text x="{_f(px)}" y="{_f(py - RADIUS_M * view.scale - 4)}" font-size="12" text-anchor="middle">'
+        f'<text x="{fmt(px)}" y="{fmt(py - RADIUS_M * view.scale - 4)}" font-size="12" text-anchor="middle">'
         f"{escape(label)}</text>"
         if label
         else ""
     )
     return (
-        f'<circle cx="{_f(px)}" cy="{_f(py)}" r="{_f(RADIUS_M * view.scale)}" fill="{fill}" fill-opacity="0.85" '
+        f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(RADIUS_M * view.scale)}" fill="{fill}" fill-opacity="0.85" '
         f'stroke="#000" stroke-width="1.5"/>'
-        f'<line x1="{_f(px)}" y1="{_f(py)}" x2="{_f(hx)}" y2="{_f(hy)}" stroke="#000" stroke-width="2"/>{text}'
+        f'<line x1="{fmt(px)}" y1="{fmt(py)}" x2="{fmt(hx)}" y2="{fmt(hy)}" stroke="#000" stroke-width="2"/>{text}'
     )
 
 
@@ -239,7 +134,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
     parts = []
     if "track" in layers and r.track is not None and len(r.track) > 1:
         tx, ty = view.to_px(r.track[:, 0], r.track[:, 1])
-        parts.append(f'<polyline points="{_points(tx, ty)}" fill="none" stroke="#8e44ad" stroke-width="1.5"/>')
+        parts.append(f'<polyline points="{points(tx, ty)}" fill="none" stroke="#8e44ad" stroke-width="1.5"/>')
     if "camera" in layers:
         cx, cy, cyaw = _mount_world(r.pose, "camera")
         rng, half = CreateModel.CAMERA_RANGE, CreateModel.CAMERA_HALF_FOV
@@ -248,7 +143,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
             [cy, cy + rng * math.sin(cyaw + half), cy + rng * math.sin(cyaw - half)],
         )
         parts.append(
-            f'<polygon points="{_points(fx, fy)}" fill="#f39c12" fill-opacity="0.06" '
+            f'<polygon points="{points(fx, fy)}" fill="#f39c12" fill-opacity="0.06" '
             'stroke="#f39c12" stroke-opacity="0.5"/>'
         )
         for sx, sy, _id in r.sightings or []:
@@ -256,7 +151,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
             wy = cy + sx * math.sin(cyaw) + sy * math.cos(cyaw)
             px, py = view.to_px(wx, wy)
             parts.append(
-                f'<circle cx="{_f(px)}" cy="{_f(py)}" r="{_f(max(0.12 * view.scale, 6))}" '
+                f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(max(0.12 * view.scale, 6))}" '
                 'fill="none" stroke="#f39c12" stroke-width="3"/>'
             )
     if "lidar" in layers and r.scan is not None:
@@ -267,7 +162,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
         d = np.where(finite, ranges, CreateModel.LIDAR_RANGE[1])
         px, py = view.to_px(lx + d * np.cos(angles), ly + d * np.sin(angles))
         parts.append(
-            f'<polyline class="lidar" data-stamp="{r.scan_stamp:.9f}" points="{_points(px, py)}" fill="none" '
+            f'<polyline class="lidar" data-stamp="{r.scan_stamp:.9f}" points="{points(px, py)}" fill="none" '
             'stroke="#ff1a1a" stroke-width="2" stroke-opacity="0.9"/>'
         )
     if "sonar" in layers and r.sonar:
@@ -289,7 +184,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
                 x, y, _ = _mount_world(r.pose, f"cliff_{name}")
                 px, py = view.to_px(x, y)
                 parts.append(
-                    f'<text x="{_f(px)}" y="{_f(py + 7)}" font-size="20" text-anchor="middle" fill="#0050ff">*</text>'
+                    f'<text x="{fmt(px)}" y="{fmt(py + 7)}" font-size="20" text-anchor="middle" fill="#0050ff">*</text>'
                 )
     return "".join(parts)
 
@@ -300,4 +195,4 @@ def _arc(view: View, pose: tuple[float, float, float], bearing: float, colour: s
     a = theta + bearing + np.linspace(-math.pi / 4, math.pi / 4, 9)
     r = RADIUS_M * 1.08
     px, py = view.to_px(x + r * np.cos(a), y + r * np.sin(a))
-    return f'<polyline class="bump" points="{_points(px, py)}" fill="none" stroke="{colour}" stroke-width="5"/>'
+    return f'<polyline class="bump" points="{points(px, py)}" fill="none" stroke="{colour}" stroke-width="5"/>'

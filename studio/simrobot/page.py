@@ -16,10 +16,11 @@ import numpy as np
 from nicegui import ui
 
 from sim_runtime.track_plot import draw_tracks
-from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, stop_started_world, view_image
-from studio.simrobot_client import WorldState, side
-from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
+from studio.shell import svg
+from studio.shell.app import Studio
+from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, stop_started_world, view_image
+from studio.simrobot.draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
+from studio.simrobot.ros_client import WorldState, side
 
 FRAME_PERIOD_S = 0.05
 """How often the page looks for a new step (it redraws only when one came). Looking every 25 ms
@@ -84,7 +85,7 @@ class SimrobotPage(ZoomableView):
     def __init__(self, studio: Studio) -> None:
         self.studio = studio
         self.side = side(studio)
-        self.view = draw.View(*VIEW_SIZE, scale=200.0)
+        self.view = svg.View(*VIEW_SIZE, scale=200.0)
         self.ns: str | None = None
         self.layers = set(LAYERS)
         self.robot: int | None = None

@@ -2,7 +2,7 @@
 
 A Create or SIMROBOT run is drawn on the map view as the simulator pages draw it; an arm run in 3D
 with its meshes, scene objects and end-effector frames, by the Arm page's own view
-(:class:`~studio.arm_scene.ArmScene`).
+(:class:`~studio.arm.scene.ArmScene`).
 
 Play, pause, stop, ¼ speed forwards and backwards, a timeline, the arrow keys (left/up one frame back,
 right/down one forward; held, they repeat). The side panel shows the time, each robot's pose, the
@@ -26,11 +26,13 @@ from nicegui import run, ui
 
 from sim_runtime.errors import InputError
 from sim_tools.cli import executable_command
-from studio import draw
-from studio.app import VIEW_SIZE, Studio, ZoomableView, nav, view_image
-from studio.arm_scene import ArmScene
-from studio.replay import Frame, Replay, RobotFrame, planar
-from studio.workspace import Workspace
+from studio.arm.scene import ArmScene
+from studio.create import draw
+from studio.replay.frames import Frame, Replay, RobotFrame, planar
+from studio.shell import svg
+from studio.shell.app import Studio
+from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, view_image
+from studio.shell.workspace import Workspace
 
 FRAME_PERIOD_S = 0.04
 """Playback redraws at most this often (25 frames/s)."""
@@ -88,7 +90,7 @@ def open_replay(path: Path) -> tuple[Replay, list[str]]:
     return replay, list(dict.fromkeys(str(w.message) for w in caught))
 
 
-def grid_image_svg(view: draw.View, grid) -> str:
+def grid_image_svg(view: svg.View, grid) -> str:
     """A SIMROBOT OccupancyGrid as an embedded PNG placed in the view (walls black, unknown grey)."""
     from PIL import Image
 
@@ -114,7 +116,7 @@ def drawn_track(track: np.ndarray | None) -> np.ndarray | None:
     return track[np.linspace(0, len(track) - 1, TRACK_POINTS_DRAWN).round().astype(int)]
 
 
-def markers_svg(view: draw.View, markers) -> str:
+def markers_svg(view: svg.View, markers) -> str:
     """Line and point markers (SIMROBOT's ``/robots`` outlines) in their colours, on the map."""
     parts = []
     for m in markers.markers:
@@ -125,12 +127,12 @@ def markers_svg(view: draw.View, markers) -> str:
         c, s = math.cos(yaw), math.sin(yaw)
         px, py = view.to_px(x0 + c * local[:, 0] - s * local[:, 1], y0 + s * local[:, 0] + c * local[:, 1])
         pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px.tolist(), py.tolist(), strict=True))
-        colour = draw.rgb_hex((m.color.r, m.color.g, m.color.b))
+        colour = svg.rgb_hex((m.color.r, m.color.g, m.color.b))
         parts.append(f'<polyline class="outline" points="{pts}" fill="none" stroke="{colour}" stroke-width="2"/>')
     return "".join(parts)
 
 
-def small_robot_svg(view: draw.View, rf: RobotFrame, radius_m: float = 0.05) -> str:
+def small_robot_svg(view: svg.View, rf: RobotFrame, radius_m: float = 0.05) -> str:
     """A SIMROBOT (or any non-Create) robot: disc, heading, name, its track; red when crashed."""
     parts = []
     track = drawn_track(rf.track)
@@ -238,7 +240,7 @@ class ReplayPage(ZoomableView):
 
     def __init__(self, studio: Studio) -> None:
         self.studio = studio
-        self.view = draw.View(*VIEW_SIZE, scale=60.0)
+        self.view = svg.View(*VIEW_SIZE, scale=60.0)
         self.layers = set(LAYERS)
         self.replay: Replay | None = None
         self.t_ns = 0
@@ -476,7 +478,7 @@ class ReplayPage(ZoomableView):
         frame = replay.frame(self.t_ns)
         if self.base_dirty:
             self.base_dirty = False
-            base = draw.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
+            base = svg.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
             if frame.map is not None:
                 base += draw.map_svg(self.view, frame.map, fields="fields" in self.layers)
             if frame.grid is not None:

@@ -3,7 +3,7 @@ target pose, readouts, stored trajectories.
 
 What is drawn comes from each arm's ``robot_markers`` (mesh, colour, scale, pose per element) and
 its world's ``scene_markers``, so any arm world works, started here or elsewhere. Meshes go to the
-browser once, reduced for display (:mod:`studio.meshes`), from the route ``/studio/mesh/<key>.stl``
+browser once, reduced for display (:mod:`studio.arm.meshes`), from the route ``/studio/mesh/<key>.stl``
 that serves only meshes an arm named. Angles are shown in degrees; everything sent is in radians.
 """
 
@@ -24,11 +24,12 @@ from arm_sim.trajectory_file import load_trajectory
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path, mesh_path
 from sim_tools.cli import executable_command
-from studio.app import Studio, nav, stop_started_world
-from studio.arm_ros import ArmRos, ArmState, Group
-from studio.arm_scene import MESH_ROUTE, MESHES, ArmScene, rotations
-from studio.meshes import DISPLAY_FACES
-from studio.processes import Child, clock_topic, namespace_args, yaml_string
+from studio.arm.meshes import DISPLAY_FACES
+from studio.arm.ros_client import ArmRos, ArmState, Group
+from studio.arm.scene import MESH_ROUTE, MESHES, ArmScene, rotations
+from studio.shell.app import Studio
+from studio.shell.kit import nav, stop_started_world
+from studio.shell.processes import Child, clock_topic, namespace_args, yaml_string
 
 FRAME_PERIOD_S = 0.05
 VIEW_SIZE = (820, 620)
@@ -43,16 +44,18 @@ REACHED_M, REACHED_RAD = 2e-3, 2e-2
 TARGET_TIMEOUT_S = 30.0
 
 
-def _holder(studio: Studio) -> dict:
-    return studio.arm
+def _made_arm_ros(studio: Studio) -> ArmRos | None:
+    """The studio's arm client if it has been made."""
+    made = studio.families.get("arm")
+    return made if isinstance(made, ArmRos) else None
 
 
 def arm_ros(studio: Studio) -> ArmRos | None:
     """The studio's arm client (made on first use, once the studio's ROS node runs)."""
-    holder = _holder(studio)
-    if "ros" not in holder and studio.ros is not None:
-        holder["ros"] = ArmRos(studio.ros)
-    return holder.get("ros")
+    made = _made_arm_ros(studio)
+    if made is None and studio.ros is not None:
+        made = studio.families["arm"] = ArmRos(studio.ros)
+    return made
 
 
 def prefetch(studio: Studio) -> None:
@@ -61,7 +64,7 @@ def prefetch(studio: Studio) -> None:
     failed: set[str] = set()
     while True:
         time.sleep(0.5)
-        ros = _holder(studio).get("ros")
+        ros = _made_arm_ros(studio)
         if ros is None:
             continue
         looks = [s.look for s in ros.arms.values()] + [s.look for s in ros.scenes.values()]

@@ -1,4 +1,5 @@
-"""``robot_sims studio``: start the web app (pages in sim_page, map_page, config_page)."""
+"""The studio's shell: what every page shares (:class:`Studio`) and the web app that serves the
+pages the entry point (:mod:`studio.main`) hands it. It imports no page."""
 
 from __future__ import annotations
 
@@ -7,17 +8,19 @@ import ipaddress
 import os
 import socket
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
-from studio.processes import CLOCK, Child, parse_controller, stop_all
-from studio.workspace import Workspace
+from studio.shell.processes import CLOCK, Child, parse_controller, stop_all
+from studio.shell.workspace import Workspace
+
+if TYPE_CHECKING:  # rclpy loads once the arguments are checked (a mistyped option answers at once)
+    from studio.shell.ros import StudioRos
 
 DEFAULT_CONTROLLERS = {"create_bump_turn": "create_bump_turn"}
-WHEEL_JS = "(e) => emit({dy: e.deltaY, x: e.offsetX, y: e.offsetY, w: e.target.clientWidth, h: e.target.clientHeight})"
-"""A view's wheel events, reduced to what zooming needs (pixel position, scroll direction)."""
 
 
 @dataclass
@@ -26,12 +29,15 @@ class Studio:
 
     workspace: Workspace
     controllers: dict[str, str]
-    ros: object = None  # studio.ros_client.StudioRos once the app has started
+    ros: StudioRos | None = None  # the studio's ROS client (the entry point's kind) once the app has started
     worlds: dict[str, Child] = field(default_factory=dict)  # namespace → world the studio started
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
     selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
-    arm: dict = field(default_factory=dict)  # the arm page's shared client and mesh cache
+    # A family's shared state (its client, its worlds), made on first use; the family's accessor
+    # knows its type (the shell knows no family).
+    families: dict[str, object] = field(default_factory=dict)
+    family_worlds: list[dict[str, Child]] = field(default_factory=list)  # tables of worlds beside ``worlds``
     recording_to: str = ""
     recording_status: str = ""  # the Save Data line every tab shows: starting, recording to, saved
 
@@ -44,14 +50,14 @@ class Studio:
 
     def world_children(self) -> dict[str, Child]:
         """namespace → running world the studio started, of every kind (Create, arm, SIMROBOT)."""
-        simrobot = getattr(self, "simrobot", None)
-        started = {**self.worlds, **(simrobot.worlds if simrobot is not None else {})}
+        started = dict(self.worlds)
+        for table in self.family_worlds:
+            started.update(table)
         return {key.removeprefix("arm:"): child for key, child in started.items() if child.running}
 
     def graph_worlds(self) -> list[tuple[str, str]]:
         """``(clock topic, namespace)`` of every world on the domain, started here or not."""
-        clocks = getattr(self.ros, "clock_publishers", None)
-        return clocks() if clocks is not None else []
+        return self.ros.clock_publishers() if self.ros is not None else []
 
     def namespace_refusal(self, ns: str) -> str | None:
         """Why a new world may not start in ``ns`` (None: it may): a world already runs there, or
@@ -95,12 +101,11 @@ class Studio:
 
     def stop_children(self) -> None:
         """Stop the recorder, controllers and worlds together (Ctrl-C must not wait for each in turn)."""
-        simrobot = getattr(self, "simrobot", None)
         children = [
             self.recorder,
             *self.running_controllers.values(),
             *self.worlds.values(),
-            *(simrobot.worlds.values() if simrobot is not None else ()),
+            *(child for table in self.family_worlds for child in table.values()),
         ]
         stop_all([child for child in children if child is not None], patient=self.recorder)
 
@@ -162,8 +167,18 @@ def host_warning(host: str) -> str | None:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point ``studio``."""
+@dataclass
+class Pages:
+    """What the entry point hands the shell: how to make the studio's ROS client, and each family's
+    ``register(studio)`` (its routes and start-up hooks)."""
+
+    make_ros: Callable[[], StudioRos]
+    register: list[Callable[[Studio], None]]
+
+
+def prepare(argv: list[str] | None) -> tuple[argparse.Namespace, Studio] | int:
+    """The options and the studio they describe, or the exit status after a one-line error (a bad
+    workspace or controller, a taken port or unknown address: not uvicorn's traceback)."""
     args, _ros_args = split_ros_args(sys.argv if argv is None else ["studio", *argv])
     options = parse_args(args)
     try:
@@ -173,7 +188,7 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    try:  # a taken port or unknown address: one line, not uvicorn's traceback
+    try:
         with socket.create_server((options.host, options.port)):
             pass
     except OSError as err:
@@ -182,16 +197,21 @@ def main(argv: list[str] | None = None) -> int:
     warning = host_warning(options.host)
     if warning:
         print(warning, file=sys.stderr)
+    return options, Studio(workspace=workspace, controllers=controllers)
 
+
+def run(argv: list[str] | None, load_pages: Callable[[], Pages]) -> int:
+    """Serve the pages ``load_pages()`` returns (loaded once the options are checked) until Ctrl-C."""
+    prepared = prepare(argv)
+    if isinstance(prepared, int):
+        return prepared
+    options, studio = prepared
     from nicegui import app, ui
 
-    from studio import arm_page, config_page, map_page, replay_page, sim_page, simrobot_editor_page, simrobot_page
-    from studio.ros_client import StudioRos
-
-    studio = Studio(workspace=workspace, controllers=controllers)
+    pages = load_pages()
 
     def startup() -> None:
-        studio.ros = StudioRos()
+        studio.ros = pages.make_ros()
 
     def shutdown() -> None:
         if studio.ros is None:
@@ -203,14 +223,10 @@ def main(argv: list[str] | None = None) -> int:
 
     app.on_startup(startup)
     app.on_shutdown(shutdown)
-    sim_page.register(studio)
-    map_page.register(studio)
-    config_page.register(studio)
-    arm_page.register(studio)
-    replay_page.register(studio)
-    simrobot_page.register(studio)
-    simrobot_editor_page.register(studio)
-    print(f"robot_sims studio: open http://{options.host}:{options.port}/ (workspace {workspace.root})", flush=True)
+    for register in pages.register:
+        register(studio)
+    where = f"http://{options.host}:{options.port}/ (workspace {studio.workspace.root})"
+    print(f"robot_sims studio: open {where}", flush=True)
     try:
         ui.run(
             host=options.host,
@@ -233,141 +249,3 @@ def main(argv: list[str] | None = None) -> int:
     # machine: Ctrl-C must end the studio within a few seconds.
     sys.stderr.flush()
     os._exit(0)
-
-
-def stop_started_world(worlds: dict, key: str) -> None:
-    """Stop the world the studio started under ``key`` in ``worlds``, or say it cannot (a world
-    started in another terminal is stopped there)."""
-    from nicegui import ui
-
-    child = worlds.pop(key, None)
-    if child is None:
-        ui.notify("this world was not started by the studio (stop it where it runs)", type="warning")
-        return
-    child.stop()
-    ui.notify(f"{child.label} stopped")
-
-
-UNSAVED_GUARD = (
-    "<script>window.addEventListener('beforeunload', (e) => {"
-    " if (window.studioUnsaved) { e.preventDefault(); e.returnValue = ''; } });</script>"
-)
-"""The browser asks before a reload or a closed tab drops a draft the page has marked unsaved."""
-
-
-class DraftGuard:
-    """A page whose draft (a map, a config, a world) can be unsaved: it says what its draft is
-    (:meth:`draft`); :meth:`note_draft` after each edit tells the browser whether leaving the page
-    would lose it, :meth:`draft_saved` after a load or save."""
-
-    saved_draft: object = None
-    unsaved = False
-
-    def draft(self) -> object:
-        raise NotImplementedError
-
-    def guard_drafts(self) -> None:
-        """On building the page: the browser's warning, and the draft as it starts (nothing to lose)."""
-        from nicegui import ui
-
-        ui.add_body_html(UNSAVED_GUARD)
-        self.saved_draft = self.draft()
-
-    def note_draft(self) -> None:
-        unsaved = self.draft() != self.saved_draft
-        if unsaved != self.unsaved:
-            from nicegui import ui
-
-            self.unsaved = unsaved
-            ui.run_javascript(f"window.studioUnsaved = {'true' if unsaved else 'false'}")
-
-    def draft_saved(self) -> None:
-        self.saved_draft = self.draft()
-        self.note_draft()
-
-
-def checked_number(label: str | None = None, *, minimum: float, **kwargs: Any):
-    """A number field that keeps a value below ``minimum`` and marks it (:func:`at_least`); no
-    space is kept under it for the message until there is one (fields in a row stay aligned)."""
-    from nicegui import ui
-
-    return ui.number(label, validation=at_least(minimum), **kwargs).props("hide-bottom-space")
-
-
-def at_least(minimum: float) -> dict:
-    """A number field's ``validation``: a value below ``minimum`` stays in the field, in red with
-    this message, and the page's check refuses it (a ``min`` would silently clamp it, and that
-    clamped value would be saved)."""
-    return {f"must be ≥ {minimum:g}": lambda value: value is None or value >= minimum}
-
-
-VIEW_SIZE = (800, 600)
-"""Pixels of the simulator's and the map maker's drawing area."""
-
-
-def view_image(on_mouse, on_wheel, css_class: str, background: str):
-    """The pan/zoom SVG drawing area both the simulator and the map maker draw on."""
-    from nicegui import ui
-
-    image = (
-        ui.interactive_image(
-            size=VIEW_SIZE, events=["mousedown", "mousemove", "mouseup"], on_mouse=on_mouse, sanitize=False
-        )
-        .classes(css_class)
-        .style(f"width:{VIEW_SIZE[0]}px;height:{VIEW_SIZE[1]}px;background:{background};outline:1px solid #bbb")
-    )
-    image.on("wheel.prevent", on_wheel, js_handler=WHEEL_JS, throttle=0.05)
-    return image
-
-
-def wheel_zoom(view, args: dict) -> bool:
-    """Zoom ``view`` about the pixel under the mouse for a wheel event from :func:`view_image`
-    (its ``args``: the pointer and the image's drawn size); False when the event had no size."""
-    if not (args.get("w") and args.get("h")):
-        return False
-    px, py = args["x"] * VIEW_SIZE[0] / args["w"], args["y"] * VIEW_SIZE[1] / args["h"]
-    view.zoom_at(px, py, 1 / 1.2 if args["dy"] > 0 else 1.2)
-    return True
-
-
-class ZoomableView:
-    """Zoom buttons, the mouse wheel and layer checkboxes of a page that draws ``view`` on
-    :func:`view_image`; the page says how it redraws in :meth:`view_changed`."""
-
-    view: Any
-    layers: set[str]
-
-    def view_changed(self) -> None:
-        raise NotImplementedError
-
-    def zoom(self, factor: float) -> None:
-        self.view.zoom(factor)
-        self.view_changed()
-
-    def on_wheel(self, e) -> None:
-        if wheel_zoom(self.view, e.args):
-            self.view_changed()
-
-    def toggle_layer(self, key: str, on: bool) -> None:
-        (self.layers.add if on else self.layers.discard)(key)
-        self.view_changed()
-
-
-def nav(current: str) -> None:
-    """The links between the pages (the originals' windows)."""
-    from nicegui import ui
-
-    with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
-        ui.label("robot_sims studio").classes("text-lg font-bold")
-        for target, text in (
-            ("/", "Simulator"),
-            ("/map", "Map maker"),
-            ("/config", "Config maker"),
-            ("/simrobot", "SIMROBOT"),
-            ("/simrobot/editor", "SIMROBOT editor"),
-            ("/arm", "Arm"),
-            ("/replay", "Replay"),
-        ):
-            link = ui.link(text, target).classes("text-base")
-            if target == current:
-                link.classes("font-bold no-underline")

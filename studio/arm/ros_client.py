@@ -7,7 +7,7 @@ a namespace with an ``end_effector_pose`` PoseStamped topic. Per arm it reads ``
 latched ``scene_markers``; and ``/rosout``, where the arm node says that a target pose is
 unreachable. It publishes ``joint_command``, ``target_pose`` and ``joint_trajectory``.
 
-It shares the studio's node and executor (:class:`studio.ros_client.StudioRos`): subscriptions
+It shares the studio's node and executor (:class:`studio.shell.ros.StudioRos`): subscriptions
 are made by its discovery timer, in the executor thread; callbacks only replace attributes of an
 :class:`ArmState`, which the page reads from NiceGUI's event loop.
 """
@@ -33,7 +33,7 @@ from arm_sim.robot_config import transform_from_xyz_rpy
 from arm_sim.urdf import rpy_from_matrix
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
-from studio.ros_client import new_worlds, node_full_name
+from studio.shell.ros import new_worlds, node_full_name
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
 UNREACHABLE = "target_pose unreachable"

@@ -15,8 +15,8 @@ import numpy as np
 
 from simrobot_sim.model import ray_offsets
 from simrobot_sim.world_file import RobotSpec, SensorSpec, sensor_mount
-from studio.draw import View, rgb_hex
-from studio.simrobot_doc import png_bytes
+from studio.shell.svg import View, rgb_hex
+from studio.simrobot.doc import png_bytes
 
 BEAM_COLOUR = "#16a34a"
 HIT_COLOUR = "#dc2626"

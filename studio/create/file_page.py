@@ -6,7 +6,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from sim_runtime.errors import InputError
-from studio.app import DraftGuard, Studio
+from studio.shell.app import Studio
+from studio.shell.kit import DraftGuard
 
 
 class FilePage(DraftGuard):

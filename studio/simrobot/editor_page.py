@@ -1,6 +1,6 @@
 """The SIMROBOT editor page (the seed's Editor window): bitmap, robots, sensors, world file, run.
 
-The world in memory is a :class:`studio.simrobot_doc.WorldDraft`; validation and "Run it" go
+The world in memory is a :class:`studio.simrobot.doc.WorldDraft`; validation and "Run it" go
 through ``simrobot_world``'s own loader and placement, so the page says what the command line says.
 """
 
@@ -17,12 +17,13 @@ from nicegui import ui
 
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
-from studio import draw
-from studio.app import VIEW_SIZE, DraftGuard, Studio, ZoomableView, checked_number, nav, view_image
-from studio.processes import Child, clock_topic, executable_command, namespace_args, yaml_string
-from studio.simrobot_client import side
-from studio.simrobot_doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
-from studio.simrobot_draw import beams_svg, map_data_url, map_svg, robot_svg
+from studio.shell import svg
+from studio.shell.app import Studio
+from studio.shell.kit import VIEW_SIZE, DraftGuard, ZoomableView, checked_number, nav, view_image
+from studio.shell.processes import Child, clock_topic, executable_command, namespace_args, yaml_string
+from studio.simrobot.doc import WorldDraft, blank_walls, new_sensor, parse_vertices, png_bytes, vertices_text
+from studio.simrobot.draw import beams_svg, map_data_url, map_svg, robot_svg
+from studio.simrobot.ros_client import side
 
 TOOLS = {
     "select": "Select/move",
@@ -48,7 +49,7 @@ class EditorPage(ZoomableView, DraftGuard):
         self.studio = studio
         self.side = side(studio)
         self.doc = WorldDraft()
-        self.view = draw.View(*VIEW_SIZE, scale=200.0)
+        self.view = svg.View(*VIEW_SIZE, scale=200.0)
         self.tool = "select"
         self.brush_m = 0.03
         self.selected: int | None = None
@@ -334,7 +335,7 @@ class EditorPage(ZoomableView, DraftGuard):
             self.robot_form.set_visibility(r is not None)
             if r is not None:
                 self.f_name.set_value(r.name)
-                self.f_colour.set_value(draw.rgb_hex(r.color))
+                self.f_colour.set_value(svg.rgb_hex(r.color))
                 self.f_power.set_value(r.power)
                 self.f_x.set_value(r.position[0])
                 self.f_y.set_value(r.position[1])
@@ -378,7 +379,7 @@ class EditorPage(ZoomableView, DraftGuard):
             r = replace(
                 r,
                 name=name,
-                color=draw.hex_rgb(self.f_colour.value) if (self.f_colour.value or "").startswith("#") else r.color,
+                color=svg.hex_rgb(self.f_colour.value) if (self.f_colour.value or "").startswith("#") else r.color,
                 power=bool(self.f_power.value),
                 position=(float(self.f_x.value), float(self.f_y.value)),
                 heading=math.radians(float(self.f_heading.value)),
