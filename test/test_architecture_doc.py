@@ -6,6 +6,8 @@ import importlib.util
 from pathlib import Path
 from types import ModuleType
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "architecture.md"
 
@@ -25,21 +27,20 @@ def between(text: str, markers: tuple[str, str]) -> str:
 
 def written_by_hand(text: str, make: ModuleType) -> str:
     """The page without its generated parts (they name every package whatever the prose says)."""
-    for markers in (make.GRAPH_MARKERS, make.FACTS_MARKERS):
+    for markers in (make.CONTRACTS_MARKERS, make.GRAPH_MARKERS, make.FACTS_MARKERS):
         text = text.replace(between(text, markers), "\n")
     return text
 
 
-def test_the_import_graph_on_the_page_is_the_one_the_code_has_now():
+@pytest.mark.parametrize(
+    ("markers", "make_part"),
+    [("CONTRACTS_MARKERS", "contracts_block"), ("GRAPH_MARKERS", "graph_block"), ("FACTS_MARKERS", "facts_block")],
+    ids=["import-linter contracts", "import graph", "facts of each spec"],
+)
+def test_each_generated_part_of_the_page_is_what_the_code_makes_now(markers, make_part):
     make = generator()
-    on_page = between(DOC.read_text(), make.GRAPH_MARKERS).strip()
-    assert on_page == make.graph_block().strip(), "docs/architecture.md's import graph is stale: run make architecture"
-
-
-def test_the_facts_table_on_the_page_lists_what_the_spec_modules_hold_now():
-    make = generator()
-    on_page = between(DOC.read_text(), make.FACTS_MARKERS).strip()
-    assert on_page == make.facts_block().strip(), "docs/architecture.md's facts table is stale: run make architecture"
+    on_page = between(DOC.read_text(), getattr(make, markers)).strip()
+    assert on_page == getattr(make, make_part)().strip(), "docs/architecture.md is stale: run make architecture"
 
 
 def test_every_top_level_package_is_described_in_the_pages_own_words():
