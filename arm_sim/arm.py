@@ -99,18 +99,21 @@ class Arm:
         self.name = config.name
         self.n = config.dof
         self.joint_names = config.joint_names
-        self.dh = kin.pack_dh(config.theta, config.d, config.a, config.alpha, [t == "p" for t in config.joint_types])
-        self.modified = bool(config.modified_dh)
-        self.base = np.array(config.base if base is None else base, dtype=float)
+        dh = kin.pack_dh(config.theta, config.d, config.a, config.alpha, [t == "p" for t in config.joint_types])
+        #: The kernels' named tables: geometry, joint limits, link dynamics (:mod:`arm_sim.kinematics`).
+        self.chain = kin.Chain(
+            dh, np.array(config.base if base is None else base, dtype=float), bool(config.modified_dh)
+        )
         self.qlim = np.ascontiguousarray(config.position_limits, dtype=float)
-        self.lower = np.ascontiguousarray(self.qlim[:, 0])
-        self.upper = np.ascontiguousarray(self.qlim[:, 1])
+        self.limits = kin.Limits(np.ascontiguousarray(self.qlim[:, 0]), np.ascontiguousarray(self.qlim[:, 1]))
         self.velocity_limits = np.array(config.velocity_limits, dtype=float)
         dyn = config.dynamics
-        self.mass = np.ascontiguousarray(dyn.mass, dtype=float)
-        self.cog = np.ascontiguousarray(dyn.cog, dtype=float)
-        self.inertia_links = np.ascontiguousarray(dyn.inertia, dtype=float)
-        self.gravity = np.ascontiguousarray(dyn.gravity, dtype=float)
+        self.dynamics = kin.Dynamics(
+            np.ascontiguousarray(dyn.mass, dtype=float),
+            np.ascontiguousarray(dyn.cog, dtype=float),
+            np.ascontiguousarray(dyn.inertia, dtype=float),
+            np.ascontiguousarray(dyn.gravity, dtype=float),
+        )
         self.elements: list[LoadedElement] = []
         if load_meshes:
             self.elements = load_elements(config, skip_missing_meshes)
@@ -121,26 +124,46 @@ class Arm:
         """Load a robot config file and build the arm (keyword arguments as the constructor)."""
         return cls(load_robot_config(path), **kwargs)
 
+    @property
+    def base(self) -> np.ndarray:
+        """World-from-frame-0 transform (4x4)."""
+        return self.chain.base
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower joint position limits (n,)."""
+        return self.limits.lower
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint position limits (n,)."""
+        return self.limits.upper
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """The config's world gravity vector (m/s^2)."""
+        return self.dynamics.gravity
+
     # --- kinematics -------------------------------------------------------------------------
     def fkine(self, q) -> np.ndarray:
         """World pose (4x4) of the flange (last DH frame) at joint coordinates q."""
-        return kin.fk(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+        return kin.fk(np.asarray(q, dtype=float), self.chain)
 
     def fkine_all(self, q) -> np.ndarray:
         """World poses (n+1, 4, 4) of frames 0 (base) .. n (flange)."""
-        return kin.fk_all(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+        return kin.fk_all(np.asarray(q, dtype=float), self.chain)
 
     def fkine_batch(self, Q) -> np.ndarray:
         """Flange poses (m, 4, 4) for configurations Q (m, n)."""
-        return kin.fk_batch(np.ascontiguousarray(Q, dtype=float), self.dh, self.base, self.modified)
+        return kin.fk_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
 
     def jacob0(self, q) -> np.ndarray:
         """Geometric Jacobian (6, n) of the flange in the world frame (v then omega)."""
-        return kin.jacob0(np.asarray(q, dtype=float), self.dh, self.base, self.modified)
+        return kin.jacob0(np.asarray(q, dtype=float), self.chain)
 
     def jacob0_batch(self, Q) -> np.ndarray:
         """Jacobians (m, 6, n) for configurations Q (m, n)."""
-        return kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.dh, self.base, self.modified)
+        return kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
 
     def ikine(self, T, q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100, seed: int = 0) -> IKResult:
         """Joint coordinates reaching world pose T (4x4), within joint limits.
@@ -151,9 +174,8 @@ class Arm:
         """
         T = np.ascontiguousarray(T, dtype=float)
         q0 = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
-        q, ok, res, searches = kin.ikine_lm(
-            T, q0, self.dh, self.base, self.modified, self.lower, self.upper, tol, ilimit, slimit, seed
-        )
+        search = kin.IKSearch(float(tol), int(ilimit), int(slimit), int(seed))
+        q, ok, res, searches = kin.ikine_lm(T, q0, self.chain, self.limits, search)
         return IKResult(q=q, success=bool(ok), residual=float(res), searches=int(searches))
 
     def ikine_batch(
@@ -163,19 +185,8 @@ class Arm:
         Ts = np.ascontiguousarray(Ts, dtype=float)
         if Q0 is None:
             Q0 = np.tile(self.mid_range(), (len(Ts), 1))
-        return kin.ikine_lm_batch(
-            Ts,
-            np.ascontiguousarray(Q0, dtype=float),
-            self.dh,
-            self.base,
-            self.modified,
-            self.lower,
-            self.upper,
-            tol,
-            ilimit,
-            slimit,
-            seed,
-        )
+        search = kin.IKSearch(float(tol), int(ilimit), int(slimit), int(seed))
+        return kin.ikine_lm_batch(Ts, np.ascontiguousarray(Q0, dtype=float), self.chain, self.limits, search)
 
     def mid_range(self) -> np.ndarray:
         """Middle of every joint's range."""
@@ -187,38 +198,28 @@ class Arm:
         return bool(np.all((q >= self.lower) & (q <= self.upper)))
 
     # --- dynamics ---------------------------------------------------------------------------
+    def _dynamics(self, gravity) -> kin.Dynamics:
+        # the config's table, or the same links under another gravity vector
+        if gravity is None:
+            return self.dynamics
+        return self.dynamics._replace(gravity=np.asarray(gravity, dtype=float))
+
     def rne(self, q, qd, qdd, gravity=None) -> np.ndarray:
         """Joint torques/forces (n,) for positions, velocities, accelerations (Newton–Euler)."""
-        g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
+        as_array = np.asarray
         return kin.rne(
-            np.asarray(q, dtype=float),
-            np.asarray(qd, dtype=float),
-            np.asarray(qdd, dtype=float),
-            self.dh,
-            self.base,
-            self.modified,
-            self.mass,
-            self.cog,
-            self.inertia_links,
-            g,
+            as_array(q, dtype=float),
+            as_array(qd, dtype=float),
+            as_array(qdd, dtype=float),
+            self.chain,
+            self._dynamics(gravity),
         )
 
     def rne_batch(self, Q, QD, QDD, gravity=None) -> np.ndarray:
         """Inverse dynamics (m, n) for states Q, QD, QDD (m, n)."""
-        g = self.gravity if gravity is None else np.asarray(gravity, dtype=float)
         as_array = np.ascontiguousarray
-        return kin.rne_batch(
-            as_array(Q, dtype=float),
-            as_array(QD, dtype=float),
-            as_array(QDD, dtype=float),
-            self.dh,
-            self.base,
-            self.modified,
-            self.mass,
-            self.cog,
-            self.inertia_links,
-            g,
-        )
+        Q, QD, QDD = (as_array(X, dtype=float) for X in (Q, QD, QDD))
+        return kin.rne_batch(Q, QD, QDD, self.chain, self._dynamics(gravity))
 
     def gravload(self, q) -> np.ndarray:
         """Joint torques (n,) that hold the arm still against gravity at q."""

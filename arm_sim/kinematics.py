@@ -1,15 +1,17 @@
 """Numba kernels for serial-arm kinematics and dynamics from Denavit–Hartenberg parameters.
 
 Pure numpy/numba (no rclpy). The public, friendlier API is :class:`arm_sim.arm.Arm`; these kernels
-take the packed arrays it builds:
+take the named tables it builds (NamedTuples of arrays and numbers, as the SIMROBOT kernels'):
 
-- ``dh``: float64 array (n, 7), one row per joint: ``theta`` offset, ``d``, ``a``, ``alpha``,
-  ``prismatic`` (0.0 revolute, 1.0 prismatic), cos(alpha), sin(alpha) (precomputed: trigonometry
-  is most of an FK's cost). A revolute joint adds q to ``theta``, a prismatic joint adds q to ``d``.
-  Build it with :func:`pack_dh`.
-- ``modified``: False for standard DH (link transform Rz(theta) Tz(d) Tx(a) Rx(alpha)), True for
-  modified/Craig DH (Rx(alpha) Tx(a) Rz(theta) Tz(d), with alpha and a of the previous link).
-- ``base``: 4x4 world-from-frame-0 transform.
+- :class:`Chain`, the geometry: ``dh``, a float64 array (n, 7), one row per joint: ``theta``
+  offset, ``d``, ``a``, ``alpha``, ``prismatic`` (0.0 revolute, 1.0 prismatic), cos(alpha),
+  sin(alpha) (precomputed: trigonometry is most of an FK's cost); a revolute joint adds q to
+  ``theta``, a prismatic joint adds q to ``d`` (build it with :func:`pack_dh`). ``base``, the 4x4
+  world-from-frame-0 transform. ``modified``: False for standard DH (link transform Rz(theta)
+  Tz(d) Tx(a) Rx(alpha)), True for modified/Craig DH (Rx(alpha) Tx(a) Rz(theta) Tz(d), with alpha
+  and a of the previous link).
+- :class:`Limits`, the joint position limits; :class:`IKSearch`, the inverse kinematics' settings.
+- :class:`Dynamics`, every link's mass, centre of gravity and inertia, and the gravity vector.
 
 Frame k (k = 0..n) is the frame of link k: frame 0 is the base (after ``base``), frame n the flange.
 Standard DH moves joint i (1-based) about/along z of frame i-1, modified DH about/along z of frame i.
@@ -21,11 +23,50 @@ correct entry (used here) is ``s_alpha * s_theta``.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 PRISMATIC = 4  # column of ``dh`` flagging a prismatic joint
+
+
+class Chain(NamedTuple):
+    """An arm's geometry: the (n, 7) ``dh`` table (:func:`pack_dh`), the 4x4 ``base`` transform
+    (world from frame 0) and the DH convention (``modified``: Craig's, else standard)."""
+
+    dh: np.ndarray
+    base: np.ndarray
+    modified: bool
+
+
+class Limits(NamedTuple):
+    """Joint position limits (n,) each: metres for a prismatic joint, radians for a revolute one."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+
+
+class IKSearch(NamedTuple):
+    """Inverse kinematics settings: success when the pose error norm is below ``tol``; each
+    search runs ``ilimit`` iterations (up to 4 * ``ilimit`` while it keeps converging), at most
+    ``slimit`` searches; ``seed`` seeds the random restarts."""
+
+    tol: float
+    ilimit: int
+    slimit: int
+    seed: int
+
+
+class Dynamics(NamedTuple):
+    """Link i (1-based) has ``mass[i-1]`` (kg), centre of gravity ``cog[i-1]`` (m) and inertia
+    ``inertia[i-1]`` (kg m^2, about the centre of gravity), both in frame i; ``gravity`` is the
+    world gravity vector (m/s^2)."""
+
+    mass: np.ndarray
+    cog: np.ndarray
+    inertia: np.ndarray
+    gravity: np.ndarray
 
 
 def pack_dh(theta, d, a, alpha, prismatic) -> np.ndarray:
@@ -98,32 +139,37 @@ def _mul_affine(out, A, B):
 
 
 @numba.njit(cache=True)
-def _fk_frames(frames, q, dh, base, modified, A):
-    frames[0, :, :] = base
+def _fk_frames(frames, q, chain, A):
+    # fields are read once, outside the loops: each read of an array field is a reference count
+    dh = chain.dh
+    modified = chain.modified
+    frames[0, :, :] = chain.base
     for i in range(dh.shape[0]):
         _joint_matrix(A, q[i], dh[i], modified)
         _mul_affine(frames[i + 1], frames[i], A)
 
 
 @numba.njit(cache=True)
-def fk_all_into(frames, q, dh, base, modified):
+def fk_all_into(frames, q, chain):
     """Write the world pose of every link frame 0..n into ``frames`` (n+1, 4, 4)."""
-    _fk_frames(frames, q, dh, base, modified, np.empty((4, 4)))
+    _fk_frames(frames, q, chain, np.empty((4, 4)))
 
 
 @numba.njit(cache=True)
-def fk_all(q, dh, base, modified):
+def fk_all(q, chain):
     """World poses of every link frame 0..n, shape (n+1, 4, 4)."""
-    frames = np.empty((dh.shape[0] + 1, 4, 4))
-    fk_all_into(frames, q, dh, base, modified)
+    frames = np.empty((chain.dh.shape[0] + 1, 4, 4))
+    fk_all_into(frames, q, chain)
     return frames
 
 
 @numba.njit(cache=True)
-def fk(q, dh, base, modified):
+def fk(q, chain):
     """World pose (4x4) of the last frame (the flange)."""
+    dh = chain.dh
+    modified = chain.modified
     A = np.empty((4, 4))
-    T = base.copy()
+    T = chain.base.copy()
     tmp = np.empty((4, 4))
     for i in range(dh.shape[0]):
         _joint_matrix(A, q[i], dh[i], modified)
@@ -133,17 +179,19 @@ def fk(q, dh, base, modified):
 
 
 @numba.njit(cache=True)
-def fk_batch(Q, dh, base, modified):
+def fk_batch(Q, chain):
     """Flange poses for many configurations: Q (m, n) -> (m, 4, 4)."""
     m = Q.shape[0]
     out = np.empty((m, 4, 4))
     for k in range(m):
-        out[k] = fk(Q[k], dh, base, modified)
+        out[k] = fk(Q[k], chain)
     return out
 
 
 @numba.njit(cache=True)
-def _jacobian_from_frames(J, frames, dh, modified):
+def _jacobian_from_frames(J, frames, chain):
+    dh = chain.dh
+    modified = chain.modified
     n = dh.shape[0]
     pe = frames[n, :3, 3]
     for i in range(n):
@@ -171,24 +219,24 @@ def _jacobian_from_frames(J, frames, dh, modified):
 
 
 @numba.njit(cache=True)
-def jacob0(q, dh, base, modified):
+def jacob0(q, chain):
     """Geometric Jacobian (6, n) of the flange in the world frame: rows vx vy vz wx wy wz."""
-    frames = fk_all(q, dh, base, modified)
-    J = np.empty((6, dh.shape[0]))
-    _jacobian_from_frames(J, frames, dh, modified)
+    frames = fk_all(q, chain)
+    J = np.empty((6, chain.dh.shape[0]))
+    _jacobian_from_frames(J, frames, chain)
     return J
 
 
 @numba.njit(cache=True)
-def jacob0_batch(Q, dh, base, modified):
+def jacob0_batch(Q, chain):
     """Jacobians for many configurations: Q (m, n) -> (m, 6, n)."""
     m = Q.shape[0]
-    n = dh.shape[0]
+    n = chain.dh.shape[0]
     out = np.empty((m, 6, n))
     frames = np.empty((n + 1, 4, 4))
     for k in range(m):
-        fk_all_into(frames, Q[k], dh, base, modified)
-        _jacobian_from_frames(out[k], frames, dh, modified)
+        fk_all_into(frames, Q[k], chain)
+        _jacobian_from_frames(out[k], frames, chain)
     return out
 
 
@@ -262,82 +310,127 @@ def _solve_spd(A, b, L, x):
         x[i] = s / L[i, i]
 
 
+class _IKScratch(NamedTuple):
+    """Working memory of one inverse kinematics call: frames, Jacobian, pose error, the damped
+    normal equations (matrix, right-hand side, Cholesky factor, step) and a 4x4 buffer."""
+
+    frames: np.ndarray
+    J: np.ndarray
+    e: np.ndarray
+    A: np.ndarray
+    g: np.ndarray
+    L: np.ndarray
+    dq: np.ndarray
+    work: np.ndarray
+
+
+@numba.njit(cache=True, inline="always")
+def _ik_scratch(n):
+    return _IKScratch(
+        np.empty((n + 1, 4, 4)),
+        np.empty((6, n)),
+        np.empty(6),
+        np.empty((n, n)),
+        np.empty(n),
+        np.zeros((n, n)),
+        np.empty(n),
+        np.empty((4, 4)),
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def _normal_equations(A, g, J, e, damping):
+    """A = J^T J + damping * identity and g = J^T e (Levenberg–Marquardt's damped step)."""
+    n = A.shape[0]
+    for r in range(n):
+        s = 0.0
+        for k in range(6):
+            s += J[k, r] * e[k]
+        g[r] = s
+        for c in range(r, n):
+            s = 0.0
+            for k in range(6):
+                s += J[k, r] * J[k, c]
+            A[r, c] = s
+            A[c, r] = s
+        A[r, r] += damping
+
+
+@numba.njit(cache=True, inline="always")
+def _lm_search(q, Tgoal, chain, limits, search, best_q, best_res, ws):
+    """One Levenberg–Marquardt search from ``q`` (updated in place), keeping the best
+    configuration in ``best_q``. Returns (best residual so far, converged)."""
+    n = q.shape[0]
+    ilimit = search.ilimit
+    tol = search.tol
+    lower, upper = limits
+    frames, J, e, A, g, L, dq, work = ws
+    prev_res = np.inf
+    # a search that is still converging (near a singularity convergence turns linear) may run
+    # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit. The
+    # extra pass checks the last step's result.
+    for it in range(4 * ilimit + 1):
+        _fk_frames(frames, q, chain, work)
+        _pose_error(e, Tgoal, frames[n])
+        res = _norm(e)
+        if res < best_res:
+            best_res = res
+            best_q[:] = q
+        if res < tol:
+            return best_res, True
+        if it == 4 * ilimit or (it >= ilimit and (res > 1e-2 or res > 0.95 * prev_res)):
+            break
+        prev_res = res
+        _jacobian_from_frames(J, frames, chain)
+        _normal_equations(A, g, J, e, 0.5 * res * res + 1e-12)
+        _solve_spd(A, g, L, dq)
+        for i in range(n):
+            q[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
+    return best_res, False
+
+
 @numba.njit(cache=True)
-def ikine_lm(Tgoal, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, seed):
-    """Levenberg–Marquardt IK (Sugihara's damping) within joint limits, with random restarts.
+def ikine_lm(Tgoal, q0, chain, limits, search):
+    """Levenberg–Marquardt IK (Sugihara's damping) within joint :class:`Limits`, with random restarts.
 
     Starts from ``q0`` (clipped to the limits), then from uniform random configurations within
-    the limits. Each search runs ``ilimit`` iterations (up to 4 * ``ilimit`` while it keeps
-    converging); at most ``slimit`` searches.
+    the limits (:class:`IKSearch` says how long and how often).
     Returns (q, success, residual, searches): ``residual`` is the norm of the 6-vector pose error
     (metres and radians mixed, as the tolerance); on failure ``q`` is the best found, never
     presented as a solution.
     """
-    n = dh.shape[0]
-    np.random.seed(seed)
+    n = chain.dh.shape[0]
+    lower = limits.lower
+    upper = limits.upper
+    np.random.seed(search.seed)
     q = np.empty(n)
     for i in range(n):
         q[i] = min(max(q0[i], lower[i]), upper[i])
     best_q = q.copy()
     best_res = np.inf
-    frames = np.empty((n + 1, 4, 4))
-    J = np.empty((6, n))
-    e = np.empty(6)
-    A = np.empty((n, n))
-    g = np.empty(n)
-    L = np.zeros((n, n))
-    dq = np.empty(n)
-    work = np.empty((4, 4))
-    for search in range(slimit):
-        if search > 0:
+    ws = _ik_scratch(n)
+    for attempt in range(search.slimit):
+        if attempt > 0:
             for i in range(n):
                 q[i] = lower[i] + np.random.random() * (upper[i] - lower[i])
-        prev_res = np.inf
-        # a search that is still converging (near a singularity convergence turns linear) may run
-        # up to 4 * ilimit iterations; one that stalls or is still far ends after ilimit. The
-        # extra pass checks the last step's result.
-        for it in range(4 * ilimit + 1):
-            _fk_frames(frames, q, dh, base, modified, work)
-            _pose_error(e, Tgoal, frames[n])
-            res = _norm(e)
-            if res < best_res:
-                best_res = res
-                best_q[:] = q
-            if res < tol:
-                return best_q, True, best_res, search + 1
-            if it == 4 * ilimit or (it >= ilimit and (res > 1e-2 or res > 0.95 * prev_res)):
-                break
-            prev_res = res
-            _jacobian_from_frames(J, frames, dh, modified)
-            damping = 0.5 * res * res + 1e-12
-            for r in range(n):
-                s = 0.0
-                for k in range(6):
-                    s += J[k, r] * e[k]
-                g[r] = s
-                for c in range(r, n):
-                    s = 0.0
-                    for k in range(6):
-                        s += J[k, r] * J[k, c]
-                    A[r, c] = s
-                    A[c, r] = s
-                A[r, r] += damping
-            _solve_spd(A, g, L, dq)
-            for i in range(n):
-                q[i] = min(max(q[i] + dq[i], lower[i]), upper[i])
-    return best_q, False, best_res, slimit
+        best_res, converged = _lm_search(q, Tgoal, chain, limits, search, best_q, best_res, ws)
+        if converged:
+            return best_q, True, best_res, attempt + 1
+    return best_q, False, best_res, search.slimit
 
 
 @numba.njit(cache=True)
-def ikine_lm_batch(Tgoals, Q0, dh, base, modified, lower, upper, tol, ilimit, slimit, seed):
-    """IK for many targets: Tgoals (m, 4, 4), Q0 (m, n) -> (Q, success, residual)."""
+def ikine_lm_batch(Tgoals, Q0, chain, limits, search):
+    """IK for many targets: Tgoals (m, 4, 4), Q0 (m, n) -> (Q, success, residual); target k's
+    restarts are seeded with ``search.seed + k``."""
     m = Tgoals.shape[0]
-    n = dh.shape[0]
+    n = chain.dh.shape[0]
     Q = np.empty((m, n))
     ok = np.empty(m, dtype=np.bool_)
     res = np.empty(m)
     for k in range(m):
-        q, s, r, _ = ikine_lm(Tgoals[k], Q0[k], dh, base, modified, lower, upper, tol, ilimit, slimit, seed + k)
+        one = IKSearch(search.tol, search.ilimit, search.slimit, search.seed + k)
+        q, s, r, _ = ikine_lm(Tgoals[k], Q0[k], chain, limits, one)
         Q[k] = q
         ok[k] = s
         res[k] = r
@@ -351,32 +444,59 @@ def _cross(out, a, b):
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@numba.njit(cache=True)
-def rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity):
-    """Recursive Newton–Euler inverse dynamics, written in world coordinates.
+@numba.njit(cache=True, inline="always")
+def _carried(tmp, tmp2, w, wd, d):
+    """A rigid body's acceleration terms from a point to another ``d`` away: tmp = wd x d
+    (tangential) and tmp2 = w x (w x d) (centripetal)."""
+    _cross(tmp, w, d)
+    _cross(tmp2, w, tmp)
+    _cross(tmp, wd, d)
 
-    ``frames`` from :func:`fk_all` at q. Link i (1-based) has ``mass[i-1]``, centre of gravity
-    ``cog[i-1]`` and inertia ``inertia[i-1]`` (about the centre of gravity) in frame i. ``gravity``
-    is the world gravity vector. Writes the joint torques/forces into ``tau``.
-    One code path serves both DH conventions: every joint acts about a point on its axis that is
-    fixed in the parent link (frame i-1's origin for standard DH, frame i's for modified DH).
-    """
-    n = dh.shape[0]
+
+class _LinkWrenches(NamedTuple):
+    """The outward pass's results, per link, world coordinates: joint axis ``z``, the axis point
+    ``p`` the joint acts about, centre of gravity ``c``, and the force ``F`` and moment ``N``
+    (about ``c``) its motion needs."""
+
+    z: np.ndarray
+    p: np.ndarray
+    c: np.ndarray
+    F: np.ndarray
+    N: np.ndarray
+
+
+@numba.njit(cache=True, inline="always")
+def _inertial_moment(N_i, Rf, inertia_i, w, wd, Iw, tmp, tmp2):
+    """N = Iw wd + w x (Iw w), with the world inertia Iw = R I R^T of a link at rotation Rf."""
+    for r in range(3):
+        for k in range(3):
+            tmp[k] = Rf[r, 0] * inertia_i[0, k] + Rf[r, 1] * inertia_i[1, k] + Rf[r, 2] * inertia_i[2, k]
+        for cc in range(3):
+            Iw[r, cc] = tmp[0] * Rf[cc, 0] + tmp[1] * Rf[cc, 1] + tmp[2] * Rf[cc, 2]
+    for r in range(3):
+        tmp2[r] = Iw[r, 0] * w[0] + Iw[r, 1] * w[1] + Iw[r, 2] * w[2]
+    _cross(tmp, w, tmp2)
+    for r in range(3):
+        N_i[r] = Iw[r, 0] * wd[0] + Iw[r, 1] * wd[1] + Iw[r, 2] * wd[2] + tmp[r]
+
+
+@numba.njit(cache=True, inline="always")
+def _rne_outward(links, frames, qd, qdd, chain, dyn):
+    """Newton–Euler's outward pass, base to flange: fills ``links`` (:class:`_LinkWrenches`)."""
+    z, p, c, F, N = links
+    mass, cog, inertia, gravity = dyn
+    dh = chain.dh
+    modified = chain.modified
     w = np.zeros(3)  # angular velocity of the current link
     wd = np.zeros(3)
     # linear acceleration of the previous axis point (base: -gravity stands in for gravity)
     ap = -gravity.copy()
     prev_p = frames[0, :3, 3].copy()
-    z = np.empty((n, 3))
-    p = np.empty((n, 3))  # axis points
-    c = np.empty((n, 3))  # centres of gravity (world)
-    F = np.empty((n, 3))
-    N = np.empty((n, 3))
     tmp = np.empty(3)
     tmp2 = np.empty(3)
     d = np.empty(3)
     Iw = np.empty((3, 3))
-    for i in range(n):
+    for i in range(dh.shape[0]):
         af = i + 1 if modified else i
         for r in range(3):
             z[i, r] = frames[af, r, 2]
@@ -384,9 +504,7 @@ def rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity)
         # acceleration of the new axis point, carried by the parent link
         for r in range(3):
             d[r] = p[i, r] - prev_p[r]
-        _cross(tmp, w, d)
-        _cross(tmp2, w, tmp)
-        _cross(tmp, wd, d)
+        _carried(tmp, tmp2, w, wd, d)
         for r in range(3):
             ap[r] += tmp[r] + tmp2[r]
         zi = z[i]
@@ -405,27 +523,23 @@ def rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity)
         for r in range(3):
             c[i, r] = frames[i + 1, r, 3] + Rf[r, 0] * cog[i, 0] + Rf[r, 1] * cog[i, 1] + Rf[r, 2] * cog[i, 2]
             d[r] = c[i, r] - p[i, r]
-        _cross(tmp, w, d)
-        _cross(tmp2, w, tmp)
-        _cross(tmp, wd, d)
+        _carried(tmp, tmp2, w, wd, d)
         for r in range(3):
             F[i, r] = mass[i] * (ap[r] + tmp[r] + tmp2[r])
-        # world inertia Iw = R I R^T; N = Iw wd + w x (Iw w)
-        for r in range(3):
-            for k in range(3):
-                tmp[k] = Rf[r, 0] * inertia[i, 0, k] + Rf[r, 1] * inertia[i, 1, k] + Rf[r, 2] * inertia[i, 2, k]
-            for cc in range(3):
-                Iw[r, cc] = tmp[0] * Rf[cc, 0] + tmp[1] * Rf[cc, 1] + tmp[2] * Rf[cc, 2]
-        for r in range(3):
-            tmp2[r] = Iw[r, 0] * w[0] + Iw[r, 1] * w[1] + Iw[r, 2] * w[2]
-        _cross(tmp, w, tmp2)
-        for r in range(3):
-            N[i, r] = Iw[r, 0] * wd[0] + Iw[r, 1] * wd[1] + Iw[r, 2] * wd[2] + tmp[r]
+        _inertial_moment(N[i], Rf, inertia[i], w, wd, Iw, tmp, tmp2)
         prev_p[:] = p[i]
+
+
+@numba.njit(cache=True, inline="always")
+def _rne_inward(tau, links, dh):
+    """Newton–Euler's inward pass, flange to base: each joint's torque (force) from the wrenches."""
+    z, p, c, F, N = links
     f = np.zeros(3)
     nn = np.zeros(3)  # moment about the next axis point
     next_p = np.zeros(3)
-    for i in range(n - 1, -1, -1):
+    tmp = np.empty(3)
+    d = np.empty(3)
+    for i in range(dh.shape[0] - 1, -1, -1):
         # moment about p[i]: own wrench + child's wrench moved from next_p
         for r in range(3):
             d[r] = next_p[r] - p[i, r]
@@ -446,22 +560,38 @@ def rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity)
 
 
 @numba.njit(cache=True)
-def rne(q, qd, qdd, dh, base, modified, mass, cog, inertia, gravity):
-    """Joint torques/forces (n,) for motion (q, qd, qdd) under ``gravity`` (world vector)."""
-    frames = fk_all(q, dh, base, modified)
-    tau = np.empty(dh.shape[0])
-    rne_into(tau, frames, q, qd, qdd, dh, modified, mass, cog, inertia, gravity)
+def rne_into(tau, frames, qd, qdd, chain, dyn):
+    """Recursive Newton–Euler inverse dynamics, written in world coordinates.
+
+    ``frames`` from :func:`fk_all` at the joint positions; ``qd``, ``qdd`` the joint velocities
+    and accelerations; ``dyn`` the links' :class:`Dynamics` and gravity. Writes the joint
+    torques/forces into ``tau``.
+    One code path serves both DH conventions: every joint acts about a point on its axis that is
+    fixed in the parent link (frame i-1's origin for standard DH, frame i's for modified DH).
+    """
+    n = chain.dh.shape[0]
+    links = _LinkWrenches(np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)))
+    _rne_outward(links, frames, qd, qdd, chain, dyn)
+    _rne_inward(tau, links, chain.dh)
+
+
+@numba.njit(cache=True)
+def rne(q, qd, qdd, chain, dyn):
+    """Joint torques/forces (n,) for motion (q, qd, qdd) of the arm ``chain`` with :class:`Dynamics` ``dyn``."""
+    frames = fk_all(q, chain)
+    tau = np.empty(chain.dh.shape[0])
+    rne_into(tau, frames, qd, qdd, chain, dyn)
     return tau
 
 
 @numba.njit(cache=True)
-def rne_batch(Q, QD, QDD, dh, base, modified, mass, cog, inertia, gravity):
+def rne_batch(Q, QD, QDD, chain, dyn):
     """Inverse dynamics for many states: Q, QD, QDD (m, n) -> (m, n)."""
     m = Q.shape[0]
-    n = dh.shape[0]
+    n = chain.dh.shape[0]
     out = np.empty((m, n))
     frames = np.empty((n + 1, 4, 4))
     for k in range(m):
-        fk_all_into(frames, Q[k], dh, base, modified)
-        rne_into(out[k], frames, Q[k], QD[k], QDD[k], dh, modified, mass, cog, inertia, gravity)
+        fk_all_into(frames, Q[k], chain)
+        rne_into(out[k], frames, QD[k], QDD[k], chain, dyn)
     return out
