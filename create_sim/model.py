@@ -24,7 +24,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from create_sim import spec as mounts
+from create_sim import spec
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
@@ -51,8 +51,8 @@ class BeaconSighting:
 class CreateModel:
     """Kinematics, wall physics and every sensor of one Create in a map."""
 
-    RADIUS = mounts.RADIUS_M
-    WHEEL_BASE = mounts.WHEEL_BASE_M
+    RADIUS = spec.RADIUS_M
+    WHEEL_BASE = spec.WHEEL_BASE_M
     MAX_WHEEL_SPEED = 0.5
     FRICTION = 0.35  # kinetic friction μ against walls
     MAX_STEP_S = 3600.0  # longest physics step (bounds the work of one step)
@@ -62,17 +62,17 @@ class CreateModel:
     SONAR_RANGE = (0.02, 3.0)
     CAMERA_RANGE = 6.0
     CAMERA_HALF_FOV = math.radians(60.0)
-    CAMERA_OFFSET = mounts.CAMERA_OFFSET_M
+    CAMERA_OFFSET = spec.CAMERA_OFFSET_M
     IR_RANGE = 0.1
-    IR_MOUNT_ANGLE = mounts.IR_MOUNT_ANGLE_RAD  # on the perimeter, looking straight right
-    VWALL_HALO = 0.45
+    IR_MOUNT_ANGLE = spec.IR_MOUNT_ANGLE_RAD  # on the perimeter, looking straight right
+    VWALL_HALO = spec.VWALL_HALO_M
     # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
-    VWALL_FIELDS: ClassVar[dict[int, tuple[float, float]]] = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
-    BUMP_FRONT_HALF = mounts.BUMP_FRONT_HALF_RAD
-    CLIFF_FLOOR = 21.5
-    CLIFF_LINE = 1.5
+    VWALL_FIELDS: ClassVar[dict[int, tuple[float, float]]] = spec.VWALL_FIELDS
+    BUMP_FRONT_HALF = spec.BUMP_FRONT_HALF_RAD
+    CLIFF_FLOOR = spec.CLIFF_FLOOR_SIGNAL
+    CLIFF_LINE = spec.CLIFF_LINE_SIGNAL
     # Cliff sensor windows on the perimeter, relative to the heading, order [L, FL, FR, R].
-    CLIFF_WINDOWS = np.array(mounts.CLIFF_WINDOWS_RAD)
+    CLIFF_WINDOWS = np.array(spec.CLIFF_WINDOWS_RAD)
     BATTERY_VOLTAGE = 17.2
     BATTERY_CURRENT = -3.0
     BATTERY_CHARGE = 3.0  # Ah
@@ -107,7 +107,7 @@ class CreateModel:
         self._crossing_buf = np.empty(max(2 * self._lines.shape[0], 1))
         lidar = np.linspace(-0.5 * self.LIDAR_FOV, 0.5 * self.LIDAR_FOV, self.LIDAR_BEAMS)
         self._lidar_fan = (np.cos(lidar), np.sin(lidar))
-        sonar = np.array(mounts.SONAR_BEARINGS_RAD)
+        sonar = np.array(spec.SONAR_BEARINGS_RAD)
         self._sonar_fan = (np.round(np.cos(sonar), 15), np.round(np.sin(sonar), 15))
         self._ir_fan = (np.array([0.0]), np.array([-1.0]))  # looking straight right
         self._normals = np.empty(0)

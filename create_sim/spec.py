@@ -1,8 +1,10 @@
-"""Where each of the Create's sensors sits on the robot: the one table every user imports.
+"""The Create's spec: every fact about the robot that more than one part of the project reads.
 
-The model measures from these points, the world node names its frames after them, ``/tf_static``
-and the URDF publish them, and the Rerun views draw beams from them. Poses are on ``base_link``
-(REP-103: x forward, y left, z up), in metres and radians.
+Where each sensor sits (the model measures from these points, the world node names its frames
+after them, ``/tf_static`` and the URDF publish them, the Rerun views and the studio draw from
+them), the cliff signals and when a cliff counts as seen, the publication rates, the virtual
+walls' halo and fields, and the names and colours of the map's markers. Poses are on
+``base_link`` (REP-103: x forward, y left, z up), in metres and radians.
 
 >>> SENSOR_MOUNTS["laser"].x_m
 0.16
@@ -15,6 +17,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
+
+# ------------------------------------------------------------------------------ body and sensor mounts
 RADIUS_M = 0.16
 """Body radius: the Create is a disc."""
 BODY_HEIGHT_M = 0.07
@@ -35,7 +40,9 @@ CLIFF_WINDOWS_RAD = (
 )
 """Arcs of the perimeter each cliff sensor watches, order left, front-left, front-right, right."""
 CLIFF_NAMES = ("left", "front_left", "front_right", "right")
+"""The cliff sensors, in the order of the model's readings (topics ``cliff/<name>``)."""
 SONAR_NAMES = ("front", "left", "back", "right")
+"""The sonars, in the order of the model's readings (topics ``sonar/<name>``)."""
 SONAR_BEARINGS_RAD = (0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi)
 """Sonars look outward from the body's edge, so their ranges start there."""
 
@@ -60,8 +67,9 @@ def _sensor_mounts() -> dict[str, Mount]:
         "laser": Mount(RADIUS_M, 0.0, BODY_HEIGHT_M + 0.03, 0.0),
         "camera": Mount(CAMERA_OFFSET_M, 0.0, BODY_HEIGHT_M + 0.03, 0.0),
         "wall_ir": _on_edge(IR_MOUNT_ANGLE_RAD, 0.03, -0.5 * math.pi),
-        # The virtual-wall receiver is omnidirectional, on top of the body.
-        "virtual_wall_ir": Mount(0.0, 0.0, BODY_HEIGHT_M, 0.0),
+        # The virtual-wall receiver is omnidirectional, on top of the body at its front edge: where
+        # the model tests the halo and the fields.
+        "virtual_wall_ir": Mount(RADIUS_M, 0.0, BODY_HEIGHT_M, 0.0),
         "bump_left": _on_edge(0.25 * math.pi, 0.03),
         "bump_right": _on_edge(-0.25 * math.pi, 0.03),
     }
@@ -74,3 +82,81 @@ def _sensor_mounts() -> dict[str, Mount]:
 
 SENSOR_MOUNTS: dict[str, Mount] = _sensor_mounts()
 """Sensor frame name (without the robot's prefix) → its mount on ``base_link``."""
+
+
+# ------------------------------------------------------------------------------ rates
+PHYSICS_RATE = 100.0
+"""Fixed physics rate (Hz) of ``create_world``, independent of ``real_time_factor``."""
+DEFAULT_RATES: dict[str, float] = {
+    "bump": 50.0,
+    "cliff": 50.0,
+    "wall": 50.0,
+    "virtual_wall": 50.0,
+    "odom": 50.0,
+    "overhead_pose": 50.0,
+    "sonar": 20.0,
+    "scan": 10.0,
+    "camera": 10.0,
+    "buttons": 10.0,
+    "battery": 1.0,
+}
+"""Default publication rate (Hz) per ``rate.<name>`` parameter."""
+
+# ------------------------------------------------------------------------------ cliff sensors
+CLIFF_FLOOR_SIGNAL = 21.5
+"""Cliff signal strength (%) over bare floor, before noise (the original's 20·1 + 1.5)."""
+CLIFF_LINE_SIGNAL = 1.5
+"""Cliff signal strength (%) over a painted line, before noise."""
+CLIFF_ACTIVE_AT_OR_BELOW = 5.4
+"""A cliff signal (%) at or below this means the sensor sees a line: the original's GUI marks the
+sensor then. It lies between the line's 1.5 and the floor's 21.5, nearer the line, so a noisy
+floor reading is rarely shown as a line (with the example config's cliff noise, 3 ± 6.9, a floor
+reads 24.5 ± 6.9: at or below 5.4 in about 3 readings in 1000)."""
+
+
+def cliff_active(signal: float) -> bool:
+    """Whether a cliff signal (%) means a line under the sensor, as the original's GUI shows it."""
+    return signal <= CLIFF_ACTIVE_AT_OR_BELOW
+
+
+# ------------------------------------------------------------------------------ virtual walls
+VWALL_HALO_M = 0.45
+"""Radius of the halo around each virtual-wall emitter."""
+VWALL_FIELDS: dict[int, tuple[float, float]] = {1: (2.13, 0.33), 2: (5.56, 0.49), 3: (8.08, 0.61)}
+"""Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad)."""
+
+
+def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.ndarray:
+    """Triangle (3, 2) of a virtual wall's main field: emitter, then the two far corners (left,
+    then right of the emitter's axis)."""
+    length, angle = VWALL_FIELDS[int(setting)]  # the map parser admits only 1, 2, 3
+    corners = [
+        (x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2)) for s in (1, -1)
+    ]
+    return np.array([(x, y), *corners])
+
+
+def virtual_wall_setting(field_length_m: float) -> int:
+    """The setting whose field is nearest ``field_length_m`` long (a field drawn back to its setting)."""
+    return min(VWALL_FIELDS, key=lambda s: abs(VWALL_FIELDS[s][0] - field_length_m))
+
+
+# ------------------------------------------------------------------------------ map markers
+WALLS_NS = "walls"
+"""``map_markers`` namespace of the walls (one LINE_LIST)."""
+LINES_NS = "lines"
+"""``map_markers`` namespace of the painted lines (one LINE_LIST)."""
+BEACONS_NS = "beacons"
+"""Namespace of a beacon's SPHERE, in ``map_markers`` and in ``camera/beacons``."""
+BEACON_IDS_NS = "beacon_ids"
+"""``map_markers`` namespace of the beacons' labels (TEXT_VIEW_FACING, text = id)."""
+VIRTUAL_WALL_HALOS_NS = "virtual_wall_halos"
+"""``map_markers`` namespace of the virtual walls' halos (a LINE_STRIP circle each)."""
+VIRTUAL_WALL_FIELDS_NS = "virtual_wall_fields"
+"""``map_markers`` namespace of the virtual walls' fields (a closed LINE_STRIP triangle each)."""
+WALL_RGB = (0.1, 0.1, 0.1)
+"""Colour (rgb 0..1) of the walls' markers."""
+LINE_RGB = (0.2, 0.2, 0.9)
+"""Colour (rgb 0..1) of the painted lines' markers."""
+VIRTUAL_WALL_RGBA = (0.0, 0.7, 0.0, 0.8)
+"""Colour (rgba 0..1) of the virtual walls' halo and field markers."""

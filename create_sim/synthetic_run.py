@@ -9,6 +9,7 @@ the world's message types (log time = sim time, as the demos record), plus the c
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -22,14 +23,21 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from create_sim.mapfile import CreateMap, parse_map
 from create_sim.model import CreateModel
-from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import BEACONS_NS, CLIFF_NAMES, DEFAULT_RATES, PHYSICS_RATE, SONAR_NAMES
 from create_sim.world_node import map_markers
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.msgs import float32_array, pose_msg, set_planar_pose
 
-PHYSICS_HZ = 100
-RATES_HZ = {"state": 50, "sonar": 20, "scan": 10, "camera": 10, "buttons": 10, "battery": 1, "clock": 100}
+PHYSICS_HZ = round(PHYSICS_RATE)
+STEP_NS = 1_000_000_000 // PHYSICS_HZ
+RATES_HZ = {
+    "state": DEFAULT_RATES["odom"],
+    **{name: DEFAULT_RATES[name] for name in ("sonar", "scan", "camera", "buttons", "battery")},
+    "clock": PHYSICS_RATE,
+}
 """The world's default publication rates (bumpers, cliffs, wall, odometry and pose share ``state``)."""
+EVERY = {name: round(PHYSICS_RATE / hz) for name, hz in RATES_HZ.items()}
+"""Physics steps between two messages of each rate."""
 BOX_MAP = """\
 wall -2.5 2 2.5 2
 wall 2.5 2 2.5 -2
@@ -43,6 +51,9 @@ virtwall -2.3 1.8 -0.8 1
 FORWARD_M_S = 0.3
 TURN_RAD_S = 1.5
 
+Put = Callable[[str, int, object], None]
+"""Writes one message: topic, log time (ns), message."""
+
 
 def _stamp(t_ns: int) -> Time:
     return Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)
@@ -55,19 +66,11 @@ def _detector(t_ns: int, frame: str, on: bool, kind: int = Range.INFRARED) -> Ra
     return msg
 
 
-def write_create_run(
-    folder: str | Path, duration_s: float, *, world: CreateMap | None = None, seed: int = 0, start_s: float = 0.0
-) -> Path:
-    """Write ``duration_s`` seconds of a Create run into the new bag folder ``folder``; returns it.
-
-    The controller drives forward, and after a bump turns for a random 0.3–1.5 s (``seed``).
-    ``start_s`` offsets every time (a bag need not start at zero)."""
-    world = world if world is not None else parse_map(BOX_MAP, "box.map")
-    model = CreateModel(world, pose=(-1.5, 0.0, 0.3))
-    rng = np.random.default_rng(seed)
+def _topics() -> dict[str, tuple[str, str]]:
+    """Topic → (type, offered QoS) of everything a run writes."""
     latched = qos_profiles_yaml([{"history": "keep_last", "depth": 1, "durability": "transient_local"}])
     qos = qos_profiles_yaml([{}])
-    topics = {
+    return {
         "/map_markers": ("visualization_msgs/msg/MarkerArray", latched),
         "/cmd_vel": ("geometry_msgs/msg/Twist", qos),
         "/clock": ("rosgraph_msgs/msg/Clock", qos),
@@ -84,68 +87,108 @@ def write_create_run(
         "/buttons": ("sensor_msgs/msg/Joy", qos),
         "/battery_state": ("sensor_msgs/msg/BatteryState", qos),
     }
-    step_ns = 1_000_000_000 // PHYSICS_HZ
-    every = {name: PHYSICS_HZ // hz for name, hz in RATES_HZ.items()}
+
+
+class _BumpTurn:
+    """The run's controller: forward, and after a bump a turn for a random 0.3–1.5 s."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+        self.command = (FORWARD_M_S, 0.0)
+        self.turn_until = -1  # physics step the current turn ends at
+
+    def update(self, bumps: tuple[bool, bool], k: int) -> tuple[float, float]:
+        """The command after step ``k``'s bumper reading."""
+        if any(bumps) and k >= self.turn_until:  # the controller sees the bump: back off turning
+            self.turn_until = k + int(self.rng.uniform(0.3, 1.5) * PHYSICS_HZ)
+            self.command = (0.0, TURN_RAD_S if bumps[1] else -TURN_RAD_S)
+        elif k >= self.turn_until and self.command[0] == 0.0:
+            self.command = (FORWARD_M_S, 0.0)
+        return self.command
+
+
+def write_create_run(
+    folder: str | Path, duration_s: float, *, world: CreateMap | None = None, seed: int = 0, start_s: float = 0.0
+) -> Path:
+    """Write ``duration_s`` seconds of a Create run into the new bag folder ``folder``; returns it.
+
+    The controller drives forward, and after a bump turns for a random 0.3–1.5 s (``seed``).
+    ``start_s`` offsets every time (a bag need not start at zero)."""
+    world = world if world is not None else parse_map(BOX_MAP, "box.map")
+    model = CreateModel(world, pose=(-1.5, 0.0, 0.3))
+    controller = _BumpTurn(np.random.default_rng(seed))
     t0 = round(start_s * 1e9)
     # Chunks close every half second of the run, as the recorder's flush interval does in real time.
     clock = {"now": 0.0}
     with BagWriter(folder, clock=lambda: clock["now"]) as bag:
-        ids = {name: bag.add_topic(name, kind, q) for name, (kind, q) in topics.items()}
+        ids = {name: bag.add_topic(name, kind, q) for name, (kind, q) in _topics().items()}
 
-        def put(topic: str, t_ns: int, msg) -> None:
+        def put(topic: str, t_ns: int, msg: object) -> None:
             bag.write(ids[topic], t_ns, serialize_message(msg))
 
         put("/map_markers", t0, map_markers(world, _stamp(t0)))
-        command, turn_until = (FORWARD_M_S, 0.0), -1
-        model.set_velocity(*command)
-        put("/cmd_vel", t0, _twist(*command))
+        model.set_velocity(*controller.command)
+        put("/cmd_vel", t0, _twist(*controller.command))
         for k in range(round(duration_s * PHYSICS_HZ) + 1):
-            t_ns = t0 + k * step_ns
             clock["now"] = k / PHYSICS_HZ
             if k:
                 model.step(1.0 / PHYSICS_HZ)
-            if k % every["clock"] == 0:
-                put("/clock", t_ns, Clock(clock=_stamp(t_ns)))
-            if k % every["state"] == 0:
-                bumps = model.bumps()
-                if any(bumps) and k >= turn_until:  # the controller sees the bump: back off turning
-                    turn_until = k + int(rng.uniform(0.3, 1.5) * PHYSICS_HZ)
-                    command = (0.0, TURN_RAD_S if bumps[1] else -TURN_RAD_S)
-                elif k >= turn_until and command[0] == 0.0:
-                    command = (FORWARD_M_S, 0.0)
-                if command != model.command:
-                    model.set_velocity(*command)
-                    put("/cmd_vel", t_ns, _twist(*command))
-                _state_messages(put, model, t_ns, bumps)
-            if k % every["sonar"] == 0:
-                for name, value in zip(SONAR_NAMES, model.sonar().tolist(), strict=True):
-                    msg = Range(radiation_type=Range.ULTRASOUND, min_range=0.02, max_range=3.0, range=value)
-                    msg.header.stamp, msg.header.frame_id = _stamp(t_ns), f"sonar_{name}"
-                    put(f"/sonar/{name}", t_ns, msg)
-            if k % every["scan"] == 0:
-                lo, hi = CreateModel.LIDAR_RANGE
-                msg = LaserScan(
-                    angle_min=-CreateModel.LIDAR_FOV / 2,
-                    angle_max=CreateModel.LIDAR_FOV / 2,
-                    angle_increment=CreateModel.LIDAR_FOV / (CreateModel.LIDAR_BEAMS - 1),
-                    range_min=lo,
-                    range_max=hi,
-                    ranges=float32_array(model.lidar()),
-                )
-                msg.header.stamp, msg.header.frame_id = _stamp(t_ns), "laser"
-                put("/scan", t_ns, msg)
-            if k % every["camera"] == 0:
-                markers = []
-                for i, s in enumerate(model.camera()):
-                    m = Marker(ns="beacons", id=i, type=Marker.SPHERE, text=s.id)
-                    m.pose = pose_msg(s.distance * math.cos(s.angle), s.distance * math.sin(s.angle), 0.0)
-                    markers.append(m)
-                put("/camera/beacons", t_ns, MarkerArray(markers=markers))
-            if k % every["buttons"] == 0:
-                put("/buttons", t_ns, Joy(buttons=[0, 0]))
-            if k % every["battery"] == 0:
-                put("/battery_state", t_ns, BatteryState(voltage=CreateModel.BATTERY_VOLTAGE))
+            _write_step(put, model, controller, k, t0 + k * STEP_NS)
     return Path(folder)
+
+
+def _write_step(put: Put, model: CreateModel, controller: _BumpTurn, k: int, t_ns: int) -> None:
+    """Everything due at physics step ``k``, in the world's order."""
+    if k % EVERY["clock"] == 0:
+        put("/clock", t_ns, Clock(clock=_stamp(t_ns)))
+    if k % EVERY["state"] == 0:
+        bumps = model.bumps()
+        command = controller.update(bumps, k)
+        if command != model.command:
+            model.set_velocity(*command)
+            put("/cmd_vel", t_ns, _twist(*command))
+        _state_messages(put, model, t_ns, bumps)
+    if k % EVERY["sonar"] == 0:
+        _sonar_messages(put, model, t_ns)
+    if k % EVERY["scan"] == 0:
+        put("/scan", t_ns, _scan(model, t_ns))
+    if k % EVERY["camera"] == 0:
+        put("/camera/beacons", t_ns, _camera(model))
+    if k % EVERY["buttons"] == 0:
+        put("/buttons", t_ns, Joy(buttons=[0, 0]))
+    if k % EVERY["battery"] == 0:
+        put("/battery_state", t_ns, BatteryState(voltage=CreateModel.BATTERY_VOLTAGE))
+
+
+def _sonar_messages(put: Put, model: CreateModel, t_ns: int) -> None:
+    lo, hi = CreateModel.SONAR_RANGE
+    for name, value in zip(SONAR_NAMES, model.sonar().tolist(), strict=True):
+        msg = Range(radiation_type=Range.ULTRASOUND, min_range=lo, max_range=hi, range=value)
+        msg.header.stamp, msg.header.frame_id = _stamp(t_ns), f"sonar_{name}"
+        put(f"/sonar/{name}", t_ns, msg)
+
+
+def _scan(model: CreateModel, t_ns: int) -> LaserScan:
+    lo, hi = CreateModel.LIDAR_RANGE
+    msg = LaserScan(
+        angle_min=-CreateModel.LIDAR_FOV / 2,
+        angle_max=CreateModel.LIDAR_FOV / 2,
+        angle_increment=CreateModel.LIDAR_FOV / (CreateModel.LIDAR_BEAMS - 1),
+        range_min=lo,
+        range_max=hi,
+        ranges=float32_array(model.lidar()),
+    )
+    msg.header.stamp, msg.header.frame_id = _stamp(t_ns), "laser"
+    return msg
+
+
+def _camera(model: CreateModel) -> MarkerArray:
+    markers = []
+    for i, s in enumerate(model.camera()):
+        m = Marker(ns=BEACONS_NS, id=i, type=Marker.SPHERE, text=s.id)
+        m.pose = pose_msg(s.distance * math.cos(s.angle), s.distance * math.sin(s.angle), 0.0)
+        markers.append(m)
+    return MarkerArray(markers=markers)
 
 
 def _twist(v: float, w: float) -> Twist:
@@ -154,7 +197,7 @@ def _twist(v: float, w: float) -> Twist:
     return msg
 
 
-def _state_messages(put, model: CreateModel, t_ns: int, bumps: tuple[bool, bool]) -> None:
+def _state_messages(put: Put, model: CreateModel, t_ns: int, bumps: tuple[bool, bool]) -> None:
     """The 50 Hz topics: odometry, ground truth, bumpers, wall, virtual wall, cliffs."""
     odom = Odometry(child_frame_id="base_link")
     odom.header.stamp, odom.header.frame_id = _stamp(t_ns), "odom"

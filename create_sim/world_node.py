@@ -36,7 +36,24 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel
-from create_sim.spec import CLIFF_NAMES, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.spec import (
+    BEACON_IDS_NS,
+    BEACONS_NS,
+    CLIFF_NAMES,
+    DEFAULT_RATES,
+    LINE_RGB,
+    LINES_NS,
+    PHYSICS_RATE,
+    SENSOR_MOUNTS,
+    SONAR_NAMES,
+    VIRTUAL_WALL_FIELDS_NS,
+    VIRTUAL_WALL_HALOS_NS,
+    VIRTUAL_WALL_RGBA,
+    VWALL_HALO_M,
+    WALL_RGB,
+    WALLS_NS,
+    virtual_wall_field,
+)
 from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import announce_compiling
@@ -56,25 +73,6 @@ from sim_runtime.qos import LATCHED_QOS, SENSOR_PUBLISHER_QOS, create_command_su
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
-
-PHYSICS_RATE = 100.0
-"""Fixed physics rate (Hz), independent of ``real_time_factor``."""
-
-"""|v| (m/s) or |ω| (rad/s) above this is rejected as garbage instead of clamped."""
-
-DEFAULT_RATES: dict[str, float] = {
-    "bump": 50.0,
-    "cliff": 50.0,
-    "wall": 50.0,
-    "virtual_wall": 50.0,
-    "odom": 50.0,
-    "overhead_pose": 50.0,
-    "sonar": 20.0,
-    "scan": 10.0,
-    "camera": 10.0,
-    "buttons": 10.0,
-    "battery": 1.0,
-}
 
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 
@@ -580,7 +578,7 @@ class CreateWorldNode(SimWorldNode):
         markers = []
         for i, sighting in enumerate(sightings):
             m = Marker(
-                ns="beacons",
+                ns=BEACONS_NS,
                 id=i,
                 type=Marker.SPHERE,
                 action=Marker.ADD,
@@ -707,47 +705,38 @@ def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], w
     return m
 
 
-def virtual_wall_field(x: float, y: float, theta: float, setting: float) -> np.ndarray:
-    """Triangle (3, 2) of a virtual wall's main field: emitter, then the two far corners."""
-    length, angle = CreateModel.VWALL_FIELDS[int(setting)]  # the map parser admits only 1, 2, 3
-    corners = [
-        (x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2)) for s in (1, -1)
-    ]
-    return np.array([(x, y), *corners])
-
-
 def map_markers(create_map: CreateMap, stamp) -> MarkerArray:
     """RViz markers of a map: walls, floor lines, beacons with their ids, virtual-wall halos and fields.
 
-    Namespaces: ``walls`` and ``lines`` (one LINE_LIST each), ``beacons`` (a SPHERE per beacon) and
-    ``beacon_ids`` (a TEXT_VIEW_FACING per beacon, text = id), ``virtual_wall_halos`` and
-    ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids are the row index.
+    Namespaces (named in :mod:`create_sim.spec`): ``walls`` and ``lines`` (one LINE_LIST each),
+    ``beacons`` (a SPHERE per beacon) and ``beacon_ids`` (a TEXT_VIEW_FACING per beacon, text = id),
+    ``virtual_wall_halos`` and ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids
+    are the row index.
     """
     markers = [
-        _line_list("walls", create_map.walls, (0.1, 0.1, 0.1), WALL_THICKNESS_M, stamp),
-        _line_list("lines", create_map.lines, (0.2, 0.2, 0.9), 0.02, stamp),
+        _line_list(WALLS_NS, create_map.walls, WALL_RGB, WALL_THICKNESS_M, stamp),
+        _line_list(LINES_NS, create_map.lines, LINE_RGB, 0.02, stamp),
     ]
     beacons = zip(create_map.beacon_xy, create_map.beacon_rgb, create_map.beacon_ids, strict=True)
     for i, ((bx, by), rgb, beacon_id) in enumerate(beacons):
-        ball = Marker(ns="beacons", id=i, type=Marker.SPHERE, action=Marker.ADD, text=beacon_id)
+        ball = Marker(ns=BEACONS_NS, id=i, type=Marker.SPHERE, action=Marker.ADD, text=beacon_id)
         ball.pose = pose_msg(float(bx), float(by), 0.0)
         ball.scale = Vector3(x=0.1, y=0.1, z=0.1)
         ball.color = color_msg(*(float(c) for c in rgb))
-        label = Marker(ns="beacon_ids", id=i, type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, text=beacon_id)
+        label = Marker(ns=BEACON_IDS_NS, id=i, type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, text=beacon_id)
         label.pose = pose_msg(float(bx), float(by), 0.2)
         label.scale.z = 0.15
         label.color = color_msg(0.0, 0.0, 0.0)
         markers += [ball, label]
     circle = np.linspace(0.0, 2 * math.pi, 33)
     for i, (vx, vy, vtheta, setting) in enumerate(create_map.virtwalls):
-        r = CreateModel.VWALL_HALO
-        halo = np.column_stack([vx + r * np.cos(circle), vy + r * np.sin(circle)])
+        halo = np.column_stack([vx + VWALL_HALO_M * np.cos(circle), vy + VWALL_HALO_M * np.sin(circle)])
         field = virtual_wall_field(vx, vy, vtheta, setting)
-        for ns, points in (("virtual_wall_halos", halo), ("virtual_wall_fields", np.vstack([field, field[:1]]))):
+        for ns, points in ((VIRTUAL_WALL_HALOS_NS, halo), (VIRTUAL_WALL_FIELDS_NS, np.vstack([field, field[:1]]))):
             m = Marker(ns=ns, id=i, type=Marker.LINE_STRIP, action=Marker.ADD, points=_segment_points(points))
             m.pose.orientation.w = 1.0
             m.scale.x = 0.02
-            m.color = color_msg(0.0, 0.7, 0.0, 0.8)
+            m.color = color_msg(*VIRTUAL_WALL_RGBA)
             markers.append(m)
     for m in markers:
         m.header.frame_id = "map"

@@ -24,6 +24,7 @@ from sim_runtime.angles import wrap_angle, wrap_angle_jit
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import compiled_aside
 from simrobot_sim import raycast
+from simrobot_sim.spec import sensor_mount
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
 # Threads that finished their share of a parallel pass sleep instead of spinning: on a machine
@@ -699,9 +700,11 @@ class SimrobotWorld:
         res = self.resolution
         infos: list[SensorInfo] = []
         offsets: list[np.ndarray] = []
+        mounts: list[tuple[float, float, float]] = []
         first = 0
         for i, robot in enumerate(robots):
             for s in robot.sensors:
+                mounts.append(sensor_mount(robot, s))
                 off = ray_offsets(s.beamwidth, s.rays, self.sensor_model)
                 step = 0.0 if s.rays == 1 else s.beamwidth / (s.rays if self.sensor_model == "original" else s.rays - 1)
                 infos.append(
@@ -724,16 +727,13 @@ class SimrobotWorld:
                 first += s.rays
         self.sensors = infos
         self.sensor_index = {(self.names[s.robot], s.name): k for k, s in enumerate(infos)}
-        scale = {i: r.scale for i, r in enumerate(robots)}
         first_ray = np.zeros(len(infos) + 1, dtype=np.int64)
         first_ray[1:] = np.cumsum([s.rays for s in infos])
         ray_offset = np.concatenate(offsets) if offsets else np.zeros(0)
         self._sensors = SensorTable(
             robot=np.array([s.robot for s in infos], dtype=np.int64),
             # the sensor sits on the body, so it scales with the robot; its range does not (seed)
-            position=np.array(
-                [[s.position[0] * scale[s.robot] / res, s.position[1] * scale[s.robot] / res] for s in infos]
-            ).reshape(-1, 2),
+            position=np.array([[x / res, y / res] for x, y, _axis in mounts]).reshape(-1, 2),
             axis=np.array([s.axis for s in infos], dtype=float),
             max_range=np.array([s.range / res for s in infos], dtype=float),
             first_ray=first_ray,

@@ -389,9 +389,3 @@ def load_world(path: str | Path) -> WorldSpec:
     """
     path = Path(path)
     return parse_world(load_yaml(path, "world file"), str(path), path.parent)
-
-
-def sensor_mount(robot: RobotSpec, sensor: SensorSpec) -> tuple[float, float, float]:
-    """Where ``sensor`` sits on ``robot``'s base_link: x, y (m) and axis (rad). The position is on
-    the body, so it scales with the robot (its range does not)."""
-    return sensor.position[0] * robot.scale, sensor.position[1] * robot.scale, sensor.axis

@@ -53,12 +53,19 @@ from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from simrobot_sim.model import SimrobotWorld
-from simrobot_sim.world_file import WorldSpec, load_world, sensor_mount
+from simrobot_sim.spec import (
+    OBSTACLE_SUFFIX,
+    ROBOT_STATE_FIELDS,
+    ROBOT_STATES_TOPIC,
+    ROBOTS_NS,
+    ROBOTS_TOPIC,
+    frame_name,
+    sensor_mount,
+)
+from simrobot_sim.world_file import WorldSpec, load_world
 
 #: Wall seconds between re-publications of a step's data while lockstep waits.
 REPUBLISH_PERIOD = 0.5
-#: Numbers per robot in ``robot_states``: x, y, heading, crashed, power.
-ROBOT_STATE_FIELDS = 5
 
 
 class _RobotIO:
@@ -134,9 +141,9 @@ class SimrobotWorldNode(SimWorldNode):
         self._io = [self._make_robot_io(i) for i in range(n)]
         self._map_pub = self.create_publisher(OccupancyGrid, "map", LATCHED_QOS)
         self._map_pub.publish(self._map_msg())
-        self._robots_pub = self.create_publisher(MarkerArray, "robots", SENSOR_PUBLISHER_QOS)
+        self._robots_pub = self.create_publisher(MarkerArray, ROBOTS_TOPIC, SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
-        self._states_pub = self.create_publisher(Float64MultiArray, "robot_states", SENSOR_PUBLISHER_QOS)
+        self._states_pub = self.create_publisher(Float64MultiArray, ROBOT_STATES_TOPIC, SENSOR_PUBLISHER_QOS)
         self._states = self._states_msg()
         for i in range(n):
             self._io[i].crashed_pub.publish(Bool(data=False))
@@ -165,7 +172,7 @@ class SimrobotWorldNode(SimWorldNode):
         for k, s in enumerate(model.sensors):
             if s.robot != i:
                 continue
-            frame = f"{self.prefix}{name}/{s.name}"
+            frame = frame_name(self.prefix, name, s.name)
             if s.kind == "laser":
                 msg = LaserScan()
                 msg.header.frame_id = frame
@@ -186,13 +193,13 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.min_range = 0.0
                 msg.max_range = float(s.range)
                 pub = self.create_publisher(Range, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
-                obst_pub = self.create_publisher(UInt8, f"{name}/{s.name}/obstacle", SENSOR_PUBLISHER_QOS)
+                obst_pub = self.create_publisher(UInt8, f"{name}/{s.name}/{OBSTACLE_SUFFIX}", SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "ultrasonic", pub, obst_pub))
                 io.msgs.append((msg, UInt8()))
         io.odom_pub = self.create_publisher(Odometry, f"{name}/odom", SENSOR_PUBLISHER_QOS)
         io.odom = Odometry()
-        io.odom.header.frame_id = f"{self.prefix}{name}/odom"
-        io.odom.child_frame_id = f"{self.prefix}{name}/base_link"
+        io.odom.header.frame_id = frame_name(self.prefix, name, "odom")
+        io.odom.child_frame_id = frame_name(self.prefix, name, "base_link")
         io.pose_pub = self.create_publisher(PoseStamped, f"{name}/pose", SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
@@ -217,7 +224,7 @@ class SimrobotWorldNode(SimWorldNode):
 
     def robot_frame(self, i: int, name: str) -> str:
         """Frame ``name`` of robot ``i``, e.g. ``r1/base_link`` (with the world's prefix in front)."""
-        return f"{self.prefix}{self.model.names[i]}/{name}"
+        return frame_name(self.prefix, self.model.names[i], name)
 
     def _static_transforms(self) -> list:
         """``map → <robot>/odom`` (odometry starts at the start pose) and ``<robot>/base_link →
@@ -243,7 +250,7 @@ class SimrobotWorldNode(SimWorldNode):
         for i in range(len(model.names)):
             m = Marker()
             m.header.frame_id = "map"
-            m.ns = "robots"
+            m.ns = ROBOTS_NS
             m.id = i
             m.type = Marker.LINE_STRIP
             m.action = Marker.ADD

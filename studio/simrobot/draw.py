@@ -14,7 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from simrobot_sim.model import ray_offsets
-from simrobot_sim.world_file import RobotSpec, SensorSpec, sensor_mount
+from simrobot_sim.spec import sensor_mount
+from simrobot_sim.world_file import RobotSpec, SensorSpec
 from studio.shell.svg import View, rgb_hex
 from studio.simrobot.doc import png_bytes
 
