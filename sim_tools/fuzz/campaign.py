@@ -93,9 +93,13 @@ class Report:
 
 
 def _signature(name: str, exc: BaseException) -> str:
-    """Target, exception type and the innermost frame of our code: one line per distinct defect."""
+    """Target, exception type and the innermost frame of the code under test (not the fuzzer's,
+    the fuzz kit's or a simulator's fuzz part): one line per distinct defect."""
+    from sim_tools.fuzz.targets import harness_files
+
+    harness = harness_files()
     frames = traceback.extract_tb(exc.__traceback__)
-    ours = [f for f in frames if "/sim_tools/fuzz/" not in f.filename] or frames
+    ours = [f for f in frames if not ("/sim_tools/fuzz" in f.filename or f.filename in harness)] or frames
     where = f"{Path(ours[-1].filename).name}:{ours[-1].lineno}" if ours else "?"
     return f"{name}: {type(exc).__name__} at {where}"
 
@@ -113,41 +117,45 @@ def _worker(
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # the parent asks for our stacks before killing a hang
     warnings.simplefilter("ignore")
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
-    from sim_runtime.errors import InputError
-    from sim_tools.fuzz.targets import Seeds, make_case, target_of, warm_up
+    from sim_tools.fuzz.targets import Seeds, warm_up
 
     seeds = Seeds.load(Path(seed_folder))
     scratch = Path(tempfile.mkdtemp(prefix="fuzz-", dir="/dev/shm" if os.path.isdir("/dev/shm") else None))
     warm_up(seeds, scratch / "warm-up")
     try:
-        while True:
-            task = tasks.get()
-            if task is None:
-                return
+        while (task := tasks.get()) is not None:
             for index in range(*task):
                 started.value = time.monotonic()
                 current.value = index
-                folder = scratch / str(index)
-                name = target_of(index, seed)
-                signature = ""
-                try:
-                    name, case = make_case(index, seed, seeds, folder)
-                    case.run()
-                    outcome = "ok"
-                except InputError:
-                    outcome = "input_error"
-                except BaseException as exc:
-                    if isinstance(exc, KeyboardInterrupt):
-                        raise
-                    outcome = "defect"
-                    signature = _signature(name, exc)
-                    _save(Path(out), name, index, seed, folder, "defect", "".join(traceback.format_exception(exc)))
-                finally:
-                    shutil.rmtree(folder, ignore_errors=True)
+                result = _run_input(index, seed, seeds, scratch / str(index), Path(out))
                 current.value = _IDLE
-                results.send((index, name, outcome, signature))  # synchronous: survives our crash
+                results.send(result)  # synchronous: survives our crash
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _run_input(index: int, seed: int, seeds: Any, folder: Path, out: Path) -> tuple[int, str, str, str]:
+    """Make and run input ``index`` in ``folder``, saving it if it is a defect: (index, target, outcome, signature)."""
+    from sim_runtime.errors import InputError
+    from sim_tools.fuzz.targets import make_case, target_of
+
+    name = target_of(index, seed)
+    signature = ""
+    try:
+        name, case = make_case(index, seed, seeds, folder)
+        case.run()
+        outcome = "ok"
+    except InputError:
+        outcome = "input_error"
+    except BaseException as exc:
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        outcome = "defect"
+        signature = _signature(name, exc)
+        _save(out, name, index, seed, folder, "defect", "".join(traceback.format_exception(exc)))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    return index, name, outcome, signature
 
 
 def _copy_regular_file(source: str, dest: str) -> None:
@@ -242,141 +250,174 @@ class _Slot:
         self.tasks.put(task)
 
 
-def run_campaign(
-    inputs: int,
-    *,
-    seconds: float = 900.0,
-    workers: int = 2,
-    seed: int = 1,
-    out: str | Path = "out/fuzz",
-    batch: int = 50,
-    hang_seconds: float = 30.0,
-    recycle_after: int = 1000,
-    progress: bool = True,
-) -> Report:
-    """Run up to ``inputs`` inputs (fewer if ``seconds`` run out) and report what happened.
+class Campaign:
+    """A campaign's state: its worker slots, the next input to hand out, the report, and the hung
+    inputs being run once more alone. :meth:`run` hands inputs out until they or the time run out.
 
     A worker process is replaced by a fresh one after ``recycle_after`` inputs (at the end of a
     batch): what the libraries under test keep between inputs (Rerun keeps threads of every
     recording made) must not pile up over a long campaign and slow or stall the later inputs."""
-    from sim_tools.fuzz.targets import Seeds, make_case, prepare_seeds
 
-    out = Path(out)
-    shutil.rmtree(out / "defects", ignore_errors=True)
-    out.mkdir(parents=True, exist_ok=True)
-    seed_folder = out / "seeds"
-    shutil.rmtree(seed_folder, ignore_errors=True)
-    prepare_seeds(seed_folder)
-    seeds = Seeds.load(seed_folder)
-    ctx = mp.get_context("spawn")
-    report = Report(seed=seed, workers=workers, out=str(out))
-    begin = time.monotonic()
-    slots = [_Slot(ctx, (str(seed_folder), seed, str(out)), n) for n in range(workers)]
-    next_index = 0
-    finished = 0
-    last_print = begin
+    def __init__(
+        self,
+        inputs: int,
+        *,
+        seconds: float = 900.0,
+        workers: int = 2,
+        seed: int = 1,
+        out: str | Path = "out/fuzz",
+        batch: int = 50,
+        hang_seconds: float = 30.0,
+        recycle_after: int = 1000,
+        progress: bool = True,
+    ) -> None:
+        self.inputs, self.seconds, self.workers, self.seed = inputs, seconds, workers, seed
+        self.out = Path(out)
+        self.batch, self.hang_seconds, self.recycle_after, self.progress = batch, hang_seconds, recycle_after, progress
+        self.report = Report(seed=seed, workers=workers, out=str(self.out))
+        self.next_index = 0
+        self.finished = 0
+        self.confirming: dict[int, str] = {}  # hung input -> the hung worker's stacks, while it runs again alone
+        self.slots: list[_Slot] = []
 
-    confirming: dict[int, str] = {}  # hung input -> the hung worker's stacks, while it runs again alone
+    def run(self) -> Report:
+        """Run up to ``inputs`` inputs (fewer if ``seconds`` run out) and report what happened."""
+        from sim_tools.fuzz.targets import Seeds, prepare_seeds
 
-    def record(index: int, name: str, outcome: str, signature: str = "") -> None:
-        nonlocal finished
-        finished += 1
-        stacks = confirming.pop(index, None)
+        shutil.rmtree(self.out / "defects", ignore_errors=True)
+        self.out.mkdir(parents=True, exist_ok=True)
+        seed_folder = self.out / "seeds"
+        shutil.rmtree(seed_folder, ignore_errors=True)
+        prepare_seeds(seed_folder)
+        self.seeds = Seeds.load(seed_folder)
+        ctx = mp.get_context("spawn")
+        self.begin = self.last_print = time.monotonic()
+        self.slots = [_Slot(ctx, (str(seed_folder), self.seed, str(self.out)), n) for n in range(self.workers)]
+        try:
+            while self._round():
+                pass
+        finally:
+            self._stop_workers()
+        self.report.inputs = self.finished
+        self.report.seconds = time.monotonic() - self.begin
+        (self.out / "summary.json").write_text(json.dumps(self.report.to_json(), indent=1), encoding="utf-8")
+        return self.report
+
+    def _round(self) -> bool:
+        """Hand out work, take in results, deal with dead and hung workers; False when it is over."""
+        self._hand_out(out_of_time=time.monotonic() - self.begin > self.seconds)
+        if all(slot.task is None for slot in self.slots):
+            return False
+        ready = wait([slot.results for slot in self.slots if slot.task is not None], timeout=0.2)
+        for slot in self.slots:
+            if slot.results in ready:
+                slot.receive(self.record)
+        now = time.monotonic()
+        for slot in self.slots:
+            if slot.task is not None:
+                self._check(slot, now)
+        if self.progress and now - self.last_print > 10.0:
+            self.last_print = now
+            elapsed = now - self.begin
+            print(f"fuzz: {self.finished} inputs, {self.report.failures} failures, {elapsed:.0f} s", file=sys.stderr)
+        return now - self.begin <= self.seconds + 2 * self.hang_seconds  # a slow batch must not hold it past its budget
+
+    def _hand_out(self, out_of_time: bool) -> None:
+        """An idle worker is recycled if due, then given the rest of a lost batch or the next batch."""
+        for slot in self.slots:
+            if slot.task is None and slot.inputs_run >= self.recycle_after:
+                slot.recycle()
+                self.report.recycled += 1
+            if slot.task is None and slot.pending is not None:  # the rest of a lost worker's batch
+                slot.give(slot.pending)
+                slot.pending = None
+            if slot.task is None and self.next_index < self.inputs and not out_of_time:
+                task = (self.next_index, min(self.next_index + self.batch, self.inputs))
+                self.next_index = task[1]
+                slot.give(task)
+
+    def _check(self, slot: _Slot, now: float) -> None:
+        """A busy worker that died is a crash (once its last results are in); one too long on an input, a hang."""
+        if not slot.process.is_alive():
+            slot.receive(self.record)
+            if slot.task is not None:
+                self._lost(slot, "crash")
+        elif slot.current.value != _IDLE and now - slot.started.value > self.hang_seconds:
+            self._lost(slot, "hang")
+
+    def _stop_workers(self) -> None:
+        for slot in self.slots:
+            if slot.process.is_alive():
+                slot.tasks.put(None)
+        for slot in self.slots:
+            slot.process.join(timeout=5)
+            if slot.process.is_alive():
+                slot.process.kill()
+
+    def record(self, index: int, name: str, outcome: str, signature: str = "") -> None:
+        """Count one input's outcome; a hung input that ended when run alone is a stall."""
+        self.finished += 1
+        stacks = self.confirming.pop(index, None)
         if stacks is not None and outcome in ("ok", "input_error"):  # it hung only after other inputs
-            report.counts[name][STALL] += 1
-            report.stalls[f"{name}: stall"].append(index)
-            save_lost(index, STALL, f"hung in a worker; run again alone in a fresh one: {outcome}\n\n{stacks}")
+            self.report.counts[name][STALL] += 1
+            self.report.stalls[f"{name}: stall"].append(index)
+            self._save_lost(index, STALL, f"hung in a worker; run again alone in a fresh one: {outcome}\n\n{stacks}")
             return
-        report.counts[name][outcome] += 1
+        self.report.counts[name][outcome] += 1
         if signature:
-            report.defects[signature].append(index)
+            self.report.defects[signature].append(index)
 
-    def save_lost(index: int, outcome: str, detail: str) -> str:
+    def _save_lost(self, index: int, outcome: str, detail: str) -> str:
         """Rebuild the input a lost worker was running and save it; returns its target's name."""
+        from sim_tools.fuzz.targets import make_case
+
         scratch = Path(tempfile.mkdtemp(prefix="fuzz-lost-"))
         try:
-            name, _ = make_case(index, seed, seeds, scratch / "case")
-            _save(out, name, index, seed, scratch / "case", outcome, detail)
+            name, _ = make_case(index, self.seed, self.seeds, scratch / "case")
+            _save(self.out, name, index, self.seed, scratch / "case", outcome, detail)
         finally:
             shutil.rmtree(scratch, ignore_errors=True)
         return name
 
-    def lost(slot: _Slot, outcome: str) -> None:
+    def _lost(self, slot: _Slot, outcome: str) -> None:
         """The worker died or hung on its current input: restart it; record a crash, or run a hung
         input once more, alone, before recording it."""
         index = slot.current.value
         stacks = _stacks_of_hung(slot) if outcome == "hang" else ""
+        exitcode = self._restart(slot, index)
+        if index == _IDLE:
+            return
+        if outcome == "hang" and index not in self.confirming:
+            self.confirming[index] = f"the worker's threads when it was killed:\n{stacks}"
+            slot.give((index, index + 1))
+            return
+        detail = f"exit code {exitcode}"
+        if stacks:
+            detail += f" (it hung when run alone too)\n\nthe worker's threads when it was killed:\n{stacks}"
+        self.confirming.pop(index, None)
+        name = self._save_lost(index, outcome, detail)
+        self.record(index, name, outcome, f"{name}: {outcome} (exit code {exitcode})")
+
+    def _restart(self, slot: _Slot, index: int) -> int | None:
+        """Kill the worker and start a fresh one, to go on after ``index`` with the rest of its
+        batch; returns the old one's exit code."""
         if slot.process.is_alive():
             slot.process.kill()
         slot.process.join()
         exitcode = slot.process.exitcode
-        report.restarts += 1
+        self.report.restarts += 1
         rest = (index + 1 if index != _IDLE else slot.done_upto, slot.task[1]) if slot.task else None
         slot.results.close()
         slot.start()
         slot.task = None
         if rest and rest[0] < rest[1]:
             slot.pending = rest
-        if index == _IDLE:
-            return
-        if outcome == "hang" and index not in confirming:
-            confirming[index] = f"the worker's threads when it was killed:\n{stacks}"
-            slot.give((index, index + 1))
-            return
-        detail = f"exit code {exitcode}"
-        if stacks:
-            detail += f" (it hung when run alone too)\n\nthe worker's threads when it was killed:\n{stacks}"
-        confirming.pop(index, None)
-        name = save_lost(index, outcome, detail)
-        record(index, name, outcome, f"{name}: {outcome} (exit code {exitcode})")
+        return exitcode
 
-    try:
-        while True:
-            out_of_time = time.monotonic() - begin > seconds
-            for slot in slots:
-                if slot.task is None and slot.inputs_run >= recycle_after:
-                    slot.recycle()
-                    report.recycled += 1
-                if slot.task is None and slot.pending is not None:  # the rest of a lost worker's batch
-                    slot.give(slot.pending)
-                    slot.pending = None
-                if slot.task is None and next_index < inputs and not out_of_time:
-                    task = (next_index, min(next_index + batch, inputs))
-                    next_index = task[1]
-                    slot.give(task)
-            if all(slot.task is None for slot in slots):
-                break
-            ready = wait([slot.results for slot in slots if slot.task is not None], timeout=0.2)
-            for slot in slots:
-                if slot.results in ready:
-                    slot.receive(record)
-            now = time.monotonic()
-            for slot in slots:
-                if slot.task is None:
-                    continue
-                if not slot.process.is_alive():
-                    slot.receive(record)
-                    if slot.task is not None:
-                        lost(slot, "crash")
-                elif slot.current.value != _IDLE and now - slot.started.value > hang_seconds:
-                    lost(slot, "hang")
-            if progress and now - last_print > 10.0:
-                last_print = now
-                print(f"fuzz: {finished} inputs, {report.failures} failures, {now - begin:.0f} s", file=sys.stderr)
-            if now - begin > seconds + 2 * hang_seconds:
-                break  # hard stop: a slow batch must not hold the campaign past its budget
-    finally:
-        for slot in slots:
-            if slot.process.is_alive():
-                slot.tasks.put(None)
-        for slot in slots:
-            slot.process.join(timeout=5)
-            if slot.process.is_alive():
-                slot.process.kill()
-    report.inputs = finished
-    report.seconds = time.monotonic() - begin
-    (out / "summary.json").write_text(json.dumps(report.to_json(), indent=1), encoding="utf-8")
-    return report
+
+def run_campaign(inputs: int, **options: Any) -> Report:
+    """Run a :class:`Campaign` of up to ``inputs`` inputs (its keyword options) and report what happened."""
+    return Campaign(inputs, **options).run()
 
 
 def replay(index: int, seed: int, out: str | Path = "out/fuzz") -> None:
