@@ -7,7 +7,7 @@ from typing import Any
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
-from sim_runtime.msgs import command_ok, set_planar_pose
+from sim_runtime.msgs import all_finite, command_ok, set_planar_pose
 from sim_runtime.qos import create_command_subscription, create_sensor_publisher
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 from toy_sim.model import PointRobot
@@ -24,7 +24,7 @@ class ToyWorldNode(SimWorldNode):
     def __init__(self, node_name: str = "toy_world", **node_kwargs: Any) -> None:
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         start = self.declare_checked(
-            "initial_pose", [0.0, 0.0, 0.0], lambda p: len(p) == 3, "x y theta at start (m, m, rad)"
+            "initial_pose", [0.0, 0.0, 0.0], lambda p: len(p) == 3 and all_finite(*p), "x y theta at start (m, m, rad)"
         )
         self.parameters_declared()
         self.model = PointRobot(tuple(float(v) for v in start))
