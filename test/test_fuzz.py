@@ -8,12 +8,12 @@ import subprocess
 import sys
 import warnings
 
-from sim_tools.fuzz.campaign import run_campaign
+from sim_tools.fuzz.campaign import Campaign
 from sim_tools.fuzz.targets import target_table
 
 
 def test_two_thousand_mutated_inputs_of_every_format_load_or_raise_input_error(tmp_path):
-    report = run_campaign(2000, seconds=600, workers=2, seed=20261123, out=tmp_path, progress=False)
+    report = Campaign(2000, seconds=600, workers=2, seed=20261123, out=tmp_path, progress=False).run()
     assert report.inputs == 2000, report.table()
     assert report.failures == 0, report.table()
     if report.stalls:  # not the inputs' doing (they ended when run alone), but worth seeing in the log

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from sim_tools.fuzz.campaign import replay, run_campaign
+from sim_tools.fuzz.campaign import Campaign, replay
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     if opts.replay is not None:
         replay(opts.replay, opts.seed, opts.out)
         return 0
-    report = run_campaign(
+    report = Campaign(
         opts.inputs,
         seconds=opts.seconds,
         workers=opts.workers,
@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
         hang_seconds=opts.hang_seconds,
         batch=opts.batch,
         recycle_after=opts.recycle_after,
-    )
+    ).run()
     print(report.table())
     print(f"defect inputs saved under {opts.out}/defects; summary in {opts.out}/summary.json")
     return 1 if report.failures else 0

@@ -415,11 +415,6 @@ class Campaign:
         return exitcode
 
 
-def run_campaign(inputs: int, **options: Any) -> Report:
-    """Run a :class:`Campaign` of up to ``inputs`` inputs (its keyword options) and report what happened."""
-    return Campaign(inputs, **options).run()
-
-
 def replay(index: int, seed: int, out: str | Path = "out/fuzz") -> None:
     """Run one input of a campaign in this process, with its traceback (for debugging a defect)."""
     from sim_tools.fuzz.targets import Seeds, make_case, prepare_seeds
