@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
@@ -98,6 +99,10 @@ class SimWorldNode(CheckedNode):
         self.finished = False  # a world that ends (a steps limit) sets this; it then never steps
         self._scheduled: list[_Scheduled] = []
         self._last_warning: dict[str, float] = {}
+        #: How often each :meth:`warn_throttled` key was warned about, the throttled times included:
+        #: a tool counts a world's rejected inputs (a batch episode its unreachable arm targets)
+        #: without reading its log.
+        self.warning_counts: Counter[str] = Counter()
         self._clock_pub = self.create_publisher(Clock, "/clock", CLOCK_QOS)
         # Recorders report the /clock they follow: a world whose clock is remapped (a second world
         # in a namespace) is not theirs to wait for.
@@ -153,6 +158,7 @@ class SimWorldNode(CheckedNode):
 
     def warn_throttled(self, key: str, text: str, period: float = 2.0) -> None:
         """Log a warning at most once per ``period`` wall seconds per ``key``."""
+        self.warning_counts[key] += 1
         now = time.monotonic()
         if now - self._last_warning.get(key, -math.inf) >= period:
             self._last_warning[key] = now
@@ -169,6 +175,15 @@ class SimWorldNode(CheckedNode):
             for entry in self._scheduled:
                 if entry.due(self.step_count):
                     entry.callback()
+
+    def republish(self) -> None:
+        """Publish the current step's data again now: every publisher registered with
+        :meth:`every` at the physics rate (or above) runs once more. For subscribers that joined
+        after the step was published: a lockstep world waits for the answers of controllers built
+        after it, and a batch episode or a late controller needs that step's data to answer."""
+        for entry in self._scheduled:
+            if entry.ticks_per_step >= 1.0:
+                entry.callback()
 
     def start_pacing(self) -> None:
         """Step on a steady wall timer at ``real_time_factor`` (> 0); catches up in bursts.

@@ -1,5 +1,7 @@
 """``make demo``: each simulator's demo, recorded into a bag, converted for the Rerun viewer.
 
+The demos are the registered simulators' (their adapter's ``demo``, :mod:`sim_tools.adapters.contract`):
+
 1. Create world + ``create_bump_turn`` for 60 simulated seconds, as fast as the CPU allows;
 2. SIMROBOT: the original's four robots avoiding obstacles and each other, and a fifth that never
    turns and crashes into a wall, 300 lockstep steps, plus the tracks PNG;
@@ -12,7 +14,6 @@ dropped however fast the world runs. Output goes to ``out/demo/<time>/``.
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 import time
 import warnings
@@ -26,6 +27,7 @@ from rclpy.node import Node
 
 from sim_runtime.bag.record import Recorder
 from sim_runtime.bag.writer import BagWriter
+from sim_tools.adapters.contract import world_parts
 from sim_tools.rerun_view.convert import bag_to_rerun
 
 
@@ -62,51 +64,36 @@ def _recorded(name: str, out: Path, run: Callable[[_Recording], dict]) -> dict:
     return {"summary": summary, "bag": recording.folder, "rrd": rrd}
 
 
-def create_demo(out: Path) -> dict:
-    """Create world with the bump-and-turn controller for 60 sim seconds."""
-    from create_sim.bump_turn import demo
+def demos() -> dict[str, Callable[[Path], dict]]:
+    """Every registered simulator's demo by its name: ``demo(out)`` records it and converts the bag."""
+    found: dict[str, Callable[[Path], dict]] = {}
+    for name, part in world_parts().items():
+        if part.demo is not None:
+            found[name] = _recorded_demo(name, part.demo)
+    return found
 
-    return _recorded("create", out, lambda rec: demo(60.0, extra_nodes=rec))
 
-
-def _hosted_demo(name: str, module: str) -> Callable[[Path], dict]:
-    """A demo whose ``module.run_demo(out_dir, extra_nodes=...)`` hosts our recorder."""
-
+def _recorded_demo(name: str, run_demo: Callable[[Path, _Recording], dict]) -> Callable[[Path], dict]:
     def demo(out: Path) -> dict:
-        run_demo = importlib.import_module(module).run_demo
+        return _recorded(name, out, lambda recording: run_demo(out, recording))
 
-        def run(rec: _Recording) -> dict:
-            summary = run_demo(out, extra_nodes=rec)
-            print(f"{name} demo: {summary}")
-            return summary
-
-        return _recorded(name, out, run)
-
-    demo.__doc__ = importlib.import_module(module).run_demo.__doc__
+    demo.__doc__ = run_demo.__doc__
     return demo
-
-
-DEMOS = {
-    "create": create_demo,
-    # The original SIMROBOT demo's four robots and one that crashes, 300 lockstep steps, tracks PNG.
-    "simrobot": _hosted_demo("simrobot", "simrobot_sim.demo"),
-    # IRB120 following a joint trajectory, then a target pose.
-    "arm": _hosted_demo("arm", "arm_sim.demo"),
-}
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the demos named on the command line (default all) and print how to view them."""
+    available = demos()
     parser = argparse.ArgumentParser(prog="python -m sim_tools.demo", description=__doc__.splitlines()[0])
-    parser.add_argument("demos", nargs="*", choices=[*DEMOS, []], help="which demos (default: all)")
+    parser.add_argument("demos", nargs="*", choices=[*available, []], help="which demos (default: all)")
     parser.add_argument("-o", "--out", default="out/demo", help="parent folder of the run's output")
     options = parser.parse_args(argv)
     out = Path(options.out) / time.strftime("%Y%m%d-%H%M%S")
     out.mkdir(parents=True, exist_ok=False)
     results = {}
-    for name in options.demos or list(DEMOS):
+    for name in options.demos or list(available):
         print(f"== {name} demo")
-        results[name] = DEMOS[name](out)
+        results[name] = available[name](out)
     print("\nOpen a recording in the Rerun viewer (to opt out of the viewer's usage analytics first, see")
     print("the README, 'Recording, replaying and viewing a run'):")
     for result in results.values():

@@ -15,20 +15,30 @@ import importlib
 import textwrap
 from typing import TYPE_CHECKING, Any
 
+from sim_tools.adapters.contract import WorldAdapter, world_parts
 from sim_tools.executables import EXECUTABLES
 
 if TYPE_CHECKING:  # rclpy is imported only to describe a node: `robot_sims urdf` runs without ROS
     from sim_runtime.params import CheckedNode, ParameterInfo
 
-#: Node executable → (its node class as ``module:Class``, what follows the name in its usage).
-NODE_EXECUTABLES: dict[str, tuple[str, str]] = {
-    "create_world": ("create_sim.world_node:CreateWorldNode", "[--ros-args -p NAME:=VALUE ...]"),
-    "create_teleop": ("create_sim.teleop:TeleopNode", "[--ros-args -p NAME:=VALUE ...]  (in a terminal)"),
-    "create_bump_turn": ("create_sim.bump_turn:BumpTurnNode", "[--ros-args -r __ns:=/ROBOT -p NAME:=VALUE ...]"),
-    "simrobot_world": ("simrobot_sim.world_node:SimrobotWorldNode", "--ros-args -p world_file:=WORLD.yaml [-p ...]"),
-    "simrobot_avoid": ("simrobot_sim.avoid:AvoidNode", "--ros-args -r __ns:=/ROBOT [-p NAME:=VALUE ...]"),
-    "arm": ("arm_sim.arm_node:ArmNode", "[--ros-args -p NAME:=VALUE ...]"),
-}
+
+def _owners() -> dict[str, WorldAdapter]:
+    """Node executable → the adapter of the simulator that has it (``NODE_EXECUTABLES``)."""
+    return {exe: part for part in world_parts().values() for exe in part.NODE_EXECUTABLES}
+
+
+def node_executables() -> dict[str, tuple[str, str]]:
+    """Node executable → (its node class as ``module:Class``, what follows the name in its usage),
+    from every registered simulator's adapter."""
+    return {exe: part.NODE_EXECUTABLES[exe] for exe, part in _owners().items()}
+
+
+def __getattr__(name: str) -> Any:
+    # NODE_EXECUTABLES is read from the registry when first asked for, not when this is imported:
+    # every `robot_sims` command imports this module.
+    if name == "NODE_EXECUTABLES":
+        return node_executables()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def wants_help(argv: list[str]) -> bool:
@@ -78,23 +88,13 @@ def describing(cls: type[CheckedNode]) -> type[CheckedNode]:
 
 
 def node_class(executable: str) -> type[CheckedNode]:
-    module, name = NODE_EXECUTABLES[executable][0].split(":")
+    module, name = node_executables()[executable][0].split(":")
     return getattr(importlib.import_module(module), name)
-
-
-def _placeholder_world() -> dict[str, Any]:
-    """simrobot_world reads its world file before it declares anything: a one-robot world stands in."""
-    import numpy as np
-
-    from simrobot_sim.world_file import RobotSpec, WorldSpec
-
-    spec = WorldSpec(walls=np.zeros((10, 10), dtype=bool), robots=(RobotSpec("r", (0.05, 0.05)),), source="")
-    return {"spec": spec}
 
 
 def declared_parameters(executable: str) -> list[ParameterInfo]:
     """Every parameter the node of ``executable`` declares, in declaration order."""
-    kwargs = _placeholder_world() if executable == "simrobot_world" else {}
+    kwargs = _owners()[executable].describe_kwargs(executable)  # a stand-in world where one is needed
     cls = describing(node_class(executable))
     node = cls.__new__(cls)
     # What a constructor does after its declarations may need ROS and fail: the declarations stay.
@@ -130,14 +130,14 @@ def _line(info: ParameterInfo) -> str:
 
 def help_text(executable: str) -> str:
     """Usage, what the executable does, and each parameter: name, type, default, description."""
-    usage = NODE_EXECUTABLES[executable][1]
+    usage = node_executables()[executable][1]
     parameters = declared_parameters(executable)
     return "\n".join(
         [
             f"usage: robot_sims {executable} {usage}",
             f"       ros2 run robot_sims {executable} {usage}",
             "",
-            EXECUTABLES[executable][1],
+            EXECUTABLES[executable][1] if executable in EXECUTABLES else f"the {executable} node",
             "",
             "parameters (-p NAME:=VALUE at start; 'live' ones also later with `ros2 param set`):",
             *(_line(info) for info in parameters),

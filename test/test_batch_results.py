@@ -16,8 +16,9 @@ import pytest
 from test_batch import batch
 
 from sim_runtime.errors import InputError
+from sim_tools.adapters.create.world import create_min_clearance_m
 from sim_tools.batch import output
-from sim_tools.batch.metrics import EpisodeData, create_min_clearance_m
+from sim_tools.batch.metrics import EpisodeData
 from sim_tools.batch.sweep import load_sweep
 
 NAN = math.nan

@@ -1,6 +1,14 @@
 """One episode in the calling process: a fresh rclpy context, the world, its controllers, the
 world stepped directly at ``real_time_factor: 0``, the model sampled after every step, metrics.
 
+Nothing here names a simulator: the episode's simulator's ``world`` adapter (its contract, in
+:mod:`sim_tools.adapters.contract`) builds the world from the sweep's world entry
+(``make_world``), places the controller nodes (``controller_nodes``), samples the model after
+every step (``probe``) and computes the metrics (``METRICS``). An episode is set up, run and torn
+down by :class:`_EpisodeRun`; each controller kind (a node class, ours or a user's; a user's
+``main``; a model function) is one small class (:class:`_NodeController`,
+:class:`_MainController`, :class:`_ModelController`).
+
 Isolation: the process sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF`` (:func:`isolate_process`) and
 every episode gets its own context on a domain id above the ones people use interactively, so
 nothing outside the episode sees its topics and two episodes never share a graph, however many
@@ -23,8 +31,9 @@ from typing import Any, TypeVar
 import numpy as np
 
 from sim_runtime.errors import InputError
-from sim_tools.batch.metrics import EpisodeData, compute, load_callable
-from sim_tools.batch.sweep import Episode
+from sim_tools.adapters.contract import EpisodeData, world_part
+from sim_tools.batch.metrics import compute, load_callable
+from sim_tools.batch.plan import Episode
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
@@ -103,97 +112,209 @@ def run_episode(ep: Episode) -> dict[str, Any]:
 
 
 # -------------------------------------------------------------------------------- simulation
-def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, float]]:
-    from sim_runtime.run import drain, make_executor
-    from sim_tools.batch.bus import DirectBus, direct_eligible
-    from sim_tools.batch.forms import EpisodeContext, MainRunner
-
+def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, Any]]:
     t0 = time.perf_counter()
-    controller = ep.controller
-    target = controller["target"]
-    obj = load_callable(target, ep.search_path)
-    form = controller_form(ep, obj)
-    params = {**controller["parameters"], **ep.params}
-    seed_globals(ep.seed)
-    episode_context = EpisodeContext(controller_args(ep, params), _domain_id)
-    context = episode_context.context
-    executor = make_executor(context)
-    nodes: list[Any] = []
-    user_main: MainRunner | None = None
-    recorder = None
+    episode = _EpisodeRun(ep)
     try:
-        world = _make_world(ep, context, params)
-        nodes.append(world)
-        control_step: Callable[[Any, float], None] | None = None
-        if form == "main":
-            user_main = MainRunner(obj, target)
-            nodes += user_main.start(MATCH_TIMEOUT)
-        elif form == "node":
-            nodes += _make_controller_nodes(ep, obj, world, params, context)
-        else:
-            control_step = obj(world.model, dict(params), ep.seed)
-            if not callable(control_step):
-                raise InputError(f"controller {target}: must return a per-step callable control(model, t)")
-        if ep.record_bag:
-            recorder = _make_recorder(ep, context)
-        for node in nodes + ([recorder] if recorder else []):
-            executor.add_node(node)
+        episode.set_up()
+        t1 = time.perf_counter()
+        data = episode.run()
+        t2 = time.perf_counter()
+        sim_time = episode.world.sim_time
+    finally:
+        t3 = time.perf_counter()
+        episode.tear_down()
+    end = time.perf_counter()
+    episode.check_recording()
+    timing = {"setup_s": t1 - t0, "run_s": t2 - t1, "teardown_s": end - t3, "transport": episode.transport}
+    return data, sim_time, timing
 
-        transport = controller["transport"]
+
+class _NodeController:
+    """Node classes (our executables' and users'), placed in the world by its adapter."""
+
+    def __init__(self, ep: Episode, cls: type, params: dict[str, Any], context: Any) -> None:
+        self.ep, self.cls, self.params, self.context = ep, cls, params, context
+        self.nodes: list[Any] = []
+
+    def start(self, world: Any) -> list[Any]:
+        def make(cls: type, **extra: str) -> Any:
+            return _controller_node(self.ep, cls, self.params, self.context, **extra)
+
+        part = world_part(self.ep.simulator)
+        self.nodes = part.controller_nodes(self.cls, world, self.ep.world, make, context=self.context, **LEAN_NODE)
+        return self.nodes
+
+    def auto_transport(self) -> str:
+        """Ours take the direct bus; a user's node class DDS, unless the world placed none."""
+        return "direct" if self.ep.controller["kind"] == "ours" or not self.nodes else "ros"
+
+    def before_step(self, world: Any) -> None:
+        """Nodes act on the messages they receive."""
+
+    def after_step(self, run: _EpisodeRun) -> None:
+        """Nodes act on the messages they receive."""
+
+    def stop(self) -> None:
+        """The episode's executor destroys the nodes."""
+
+
+class _MainController:
+    """A user's ``main()``, in a thread of its own, in turns with the stepping (:class:`MainRunner`)."""
+
+    def __init__(self, main: Any, target: str) -> None:
+        self.main, self.target = main, target
+        self.runner: Any = None
+
+    def start(self, world: Any) -> list[Any]:
+        from sim_tools.batch.forms import MainRunner
+
+        self.runner = MainRunner(self.main, self.target)
+        return self.runner.start(MATCH_TIMEOUT)
+
+    def auto_transport(self) -> str:
+        return "ros"
+
+    def before_step(self, world: Any) -> None:
+        """``main`` takes its turn after the step."""
+
+    def after_step(self, run: _EpisodeRun) -> None:
+        """``main``'s turn: nodes it spun for the first time join the executor, and what it
+        published is delivered."""
+        if self.runner.after_step(run.world.sim_time):
+            for node in self.runner.new_nodes():
+                run.executor.add_node(node)
+            run.deliver()
+
+    def stop(self) -> None:
+        if self.runner is not None:
+            self.runner.stop()  # before shutdown: its thread may still destroy its nodes
+
+
+class _ModelController:
+    """A model function: ``make(model, params, seed)`` returns ``control(model, t)``, called
+    before every step."""
+
+    def __init__(self, ep: Episode, make: Any, params: dict[str, Any]) -> None:
+        self.ep, self.make, self.params = ep, make, params
+        self.control: Any = None
+
+    def start(self, world: Any) -> list[Any]:
+        self.control = self.make(world.model, dict(self.params), self.ep.seed)
+        if not callable(self.control):
+            raise InputError(
+                f"controller {self.ep.controller['target']}: must return a per-step callable control(model, t)"
+            )
+        return []
+
+    def auto_transport(self) -> str:
+        return "direct"
+
+    def before_step(self, world: Any) -> None:
+        self.control(world.model, world.sim_time)
+
+    def after_step(self, run: _EpisodeRun) -> None:
+        """Nothing runs between steps."""
+
+    def stop(self) -> None:
+        """Nothing to stop."""
+
+
+_Controller = _NodeController | _MainController | _ModelController
+
+
+def _controller(form: str, ep: Episode, obj: Any, params: dict[str, Any], context: Any) -> _Controller:
+    """The controller of ``form`` (:func:`controller_form`)."""
+    if form == "main":
+        return _MainController(obj, ep.controller["target"])
+    if form == "node":
+        return _NodeController(ep, obj, params, context)
+    return _ModelController(ep, obj, params)
+
+
+class _EpisodeRun:
+    """One episode's context, executor and nodes: :meth:`set_up`, :meth:`run`, :meth:`tear_down`."""
+
+    def __init__(self, ep: Episode) -> None:
+        from sim_runtime.run import make_executor
+        from sim_tools.batch.forms import EpisodeContext
+
+        self.ep = ep
+        obj = load_callable(ep.controller["target"], ep.search_path)
+        form = controller_form(ep, obj)
+        self.params = {**ep.controller["parameters"], **ep.params}
+        seed_globals(ep.seed)
+        self.episode_context = EpisodeContext(controller_args(ep, self.params), _domain_id)
+        self.context = self.episode_context.context
+        self.controller = _controller(form, ep, obj, self.params, self.context)
+        self.executor = make_executor(self.context)
+        self.recorder: Any = None
+        self.transport = ""
+        self.deliver: Callable[[], Any] = lambda: None
+
+    def set_up(self) -> None:
+        """The world, the controller's nodes and the recorder, matched; the transport chosen."""
+        from sim_runtime.run import drain
+        from sim_tools.batch.bus import DirectBus, direct_eligible
+
+        self.world = _make_world(self.ep, self.context, self.params)
+        nodes = [self.world, *self.controller.start(self.world)]
+        if self.ep.record_bag:
+            self.recorder = _make_recorder(self.ep, self.context)
+        for node in nodes + ([self.recorder] if self.recorder else []):
+            self.executor.add_node(node)
+        transport = self.ep.controller["transport"]
         if transport == "auto":
-            transport = "direct" if controller["kind"] == "ours" or (user_main is None and not nodes[1:]) else "ros"
-        if recorder is not None or not direct_eligible(nodes):
+            transport = self.controller.auto_transport()
+        if self.recorder is not None or not direct_eligible(nodes):
             transport = "ros"
+        self.transport = transport
         bus = DirectBus(nodes)
-        _wait_for_matches(executor, bus, recorder)
-        drain(executor)  # latched messages (maps, markers) reach late subscribers as in any run
+        _wait_for_matches(self.executor, bus, self.recorder)
+        drain(self.executor)  # latched messages (maps, markers) reach late subscribers as in any run
         if transport == "direct":
             bus.attach()
-        deliver: Callable[[], Any] = bus.flush if transport == "direct" else lambda: drain(executor)
-        if not world.ready_to_step() and hasattr(world, "_publish_step"):
-            # A lockstep SIMROBOT world published step 0 before its controllers existed and
-            # waits for their answers: publish it again now, as the world itself does after
-            # half a second of waiting (its re-publication).
-            world._publish_step()
-            deliver()
-        probe = _make_probe(ep, world)
-        steps = round(ep.duration_s * world.physics_rate)
-        t1 = time.perf_counter()
-        for _ in range(steps):
+        self.deliver = bus.flush if transport == "direct" else lambda: drain(self.executor)
+        if not self.world.ready_to_step():
+            # A lockstep world published step 0 before its controllers existed and waits for
+            # their answers: publish it again now, as the world itself does after a while.
+            self.world.republish()
+            self.deliver()
+        self.steps = round(self.ep.duration_s * self.world.physics_rate)
+        self.probe = world_part(self.ep.simulator).probe(self.world, self.ep.world, self.steps)
+
+    def run(self) -> EpisodeData:
+        """Step the world ``duration_s``: the controller's turn, the step, the messages, a sample."""
+        world, controller = self.world, self.controller
+        for _ in range(self.steps):
             if world.finished:
                 break
-            if control_step is not None:
-                control_step(world.model, world.sim_time)
-            if transport == "ros":
+            controller.before_step(world)
+            if self.transport == "ros":
                 while not world.ready_to_step() and not world.finished:
-                    executor.spin_once(timeout_sec=0.01)
+                    self.executor.spin_once(timeout_sec=0.01)
                 if world.finished:
                     break
             world.step()
-            deliver()
-            if user_main is not None and user_main.after_step(world.sim_time):
-                for node in user_main.new_nodes():  # main spun another node in its turn
-                    executor.add_node(node)
-                deliver()  # what main published in its turn
-            probe.sample()
-        t2 = time.perf_counter()
-        data = probe.data(ep)
-        sim_time = world.sim_time
-    finally:
-        t3 = time.perf_counter()
-        if user_main is not None:
-            user_main.stop()  # before shutdown: its thread may still destroy its nodes
-        if recorder is not None:
-            recorder.close()
-        for node in list(executor.get_nodes()):
-            executor.remove_node(node)
+            self.deliver()
+            controller.after_step(self)
+            self.probe.sample()
+        return self.probe.data(self.ep.params, self.ep.seed)
+
+    def tear_down(self) -> None:
+        """Stop the controller, close the bag, destroy every node, shut the context down."""
+        self.controller.stop()
+        if self.recorder is not None:
+            self.recorder.close()
+        for node in list(self.executor.get_nodes()):
+            self.executor.remove_node(node)
             node.destroy_node()
-        executor.shutdown()
-        episode_context.close()
-    end = time.perf_counter()
-    if recorder is not None and recorder.error is not None:
-        raise RuntimeError(f"recording the bag failed: {recorder.error}")
-    return data, sim_time, {"setup_s": t1 - t0, "run_s": t2 - t1, "teardown_s": end - t3, "transport": transport}
+        self.executor.shutdown()
+        self.episode_context.close()
+
+    def check_recording(self) -> None:
+        if self.recorder is not None and self.recorder.error is not None:
+            raise RuntimeError(f"recording the bag failed: {self.recorder.error}")
 
 
 def controller_form(ep: Episode, obj: Any) -> str:
@@ -201,9 +322,10 @@ def controller_form(ep: Episode, obj: Any) -> str:
     from sim_tools.batch.forms import classify, node_kwargs
 
     form = "node" if ep.controller["kind"] == "ours" else classify(obj, ep.controller["target"])
-    if form == "node" and ep.simulator == "simrobot" and "namespace" not in node_kwargs(obj, {"namespace": ""}):
+    part = world_part(ep.simulator)
+    if form == "node" and part.ROBOT_NAMESPACES and "namespace" not in node_kwargs(obj, {"namespace": ""}):
         raise InputError(
-            f"{ep.controller['target']}: a SIMROBOT controller class runs once per robot, each in its "
+            f"{ep.controller['target']}: a {part.LABEL} controller class runs once per robot, each in its "
             "robot's namespace: give its __init__ **kwargs and pass them to super().__init__"
         )
     return form
@@ -236,8 +358,6 @@ def seed_globals(seed: int) -> None:
 
 
 # ------------------------------------------------------------------------------ before a sweep
-#: The world nodes' names (their loggers').
-WORLD_NAMES = {"create": "create_world", "simrobot": "simrobot_world", "arm": "arm"}
 #: Wall seconds a ``main`` may take to spin its node when probed for its parameters.
 PROBE_TIMEOUT = 5.0
 #: What :func:`isolate_process` changes in the environment.
@@ -272,15 +392,17 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
     node once with ``ep``'s parameters in a context of its own, without a world; None when that
     cannot tell (a model function, or a ``main`` that waits for something before it spins).
     Raises what building it raises."""
-    from sim_tools.batch.arm_targets import ArmTargetsNode
     from sim_tools.batch.forms import EpisodeContext, MainRunner, NotSpinning, declared
 
     if _domain_id is None:
         isolate_process()
     obj = load_callable(ep.controller["target"], ep.search_path)
     form = controller_form(ep, obj)
-    if form == "model" or obj is ArmTargetsNode:
-        return None if form == "model" else {}
+    if form == "model":
+        return None
+    extra = world_part(ep.simulator).probe_kwargs(obj) if form == "node" else {}
+    if extra is None:
+        return {}  # the adapter builds it from the world: it declares nothing a sweep sets
     params = {**ep.controller["parameters"], **ep.params}
     seed_globals(ep.seed)
     episode_context = EpisodeContext(controller_args(ep, params), _domain_id)
@@ -294,8 +416,7 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
             except NotSpinning:
                 return None
         else:
-            robot, sonar = ("probe", "sonar") if ep.simulator == "simrobot" else ("", "")
-            nodes = [_controller_node(ep, obj, params, episode_context.context, robot, sonar)]
+            nodes = [_controller_node(ep, obj, params, episode_context.context, **extra)]
         return declared(nodes)
     finally:
         if runner is not None:
@@ -315,7 +436,7 @@ def probe_world(ep: Episode) -> set[str]:
         isolate_process()
     context = Context()
     rclpy.init(args=[], context=context, domain_id=_domain_id)
-    name = WORLD_NAMES[ep.simulator]  # its start-up summary is no news before a sweep
+    name = world_part(ep.simulator).WORLD_NODE_NAME  # its start-up summary is no news before a sweep
     level = rclpy.logging.get_logger_level(name)
     rclpy.logging.set_logger_level(name, rclpy.logging.LoggingSeverity.WARN)
     try:
@@ -358,9 +479,6 @@ def _make_recorder(ep: Episode, context: Any) -> Any:
 
 
 # ------------------------------------------------------------------------------------ worlds
-_world_specs: dict[str, Any] = {}
-
-
 def _make_world(ep: Episode, context: Any, params: dict[str, Any]) -> Any:
     """The world node, with the sweep's parameters that it declares (the others it ignores) and
     none of the context's command line (that is the controller's)."""
@@ -368,72 +486,22 @@ def _make_world(ep: Episode, context: Any, params: dict[str, Any]) -> Any:
 
     overrides = [Parameter(k, value=v) for k, v in params.items()]
     overrides += [Parameter("real_time_factor", value=0.0), Parameter("seed", value=ep.seed)]
-    if ep.simulator == "create":
-        from create_sim.world_node import CreateWorldNode
-
-        overrides += [
-            Parameter("map_file", value=ep.world["map"]),
-            Parameter("config_file", value=ep.world["config"]),
-        ]
-        if ep.pose is not None:
-            overrides.append(Parameter("initial_pose", value=[float(v) for v in ep.pose]))
-        return CreateWorldNode(parameter_overrides=overrides, context=context, **WORLD_NODE)
-    if ep.simulator == "simrobot":
-        from simrobot_sim.world_file import load_world
-        from simrobot_sim.world_node import SimrobotWorldNode
-
-        path = ep.world["world_file"]
-        if path not in _world_specs:  # the bitmap is parsed once per worker
-            _world_specs[path] = load_world(path)
-        return SimrobotWorldNode(_world_specs[path], parameter_overrides=overrides, context=context, **WORLD_NODE)
-    from arm_sim.arm_node import ArmNode
-
-    overrides.append(Parameter("robot_config", value=ep.world["robot_config"]))
-    overrides.append(Parameter("skip_missing_meshes", value=True))
-    # Any: the episode gives this node an ik_failures counter and counts through a wrapped ikine.
-    world: Any = ArmNode(parameter_overrides=overrides, context=context, **WORLD_NODE)
-    world.ik_failures = 0
-    arm = world.arms[0].arm
-    solve = arm.ikine
-
-    def counted_ikine(*args: Any, **kwargs: Any) -> Any:
-        result = solve(*args, **kwargs)
-        world.ik_failures += not result.success
-        return result
-
-    arm.ikine = counted_ikine
-    return world
+    return world_part(ep.simulator).make_world(ep.world, ep.pose, overrides, context=context, **WORLD_NODE)
 
 
-def _make_controller_nodes(ep: Episode, cls: type, world: Any, params: dict[str, Any], context: Any) -> list[Any]:
-    """The controller node(s): one for the Create or the arm, one per robot with an ultrasonic
-    sensor (namespaced ``/<robot>``) for SIMROBOT."""
-    from sim_tools.batch.arm_targets import ArmTargetsNode
-
-    if ep.simulator == "arm" and cls is ArmTargetsNode:
-        return [ArmTargetsNode(_target_poses(ep, world), ep.world["hold_s"], context=context, **LEAN_NODE)]
-    if ep.simulator != "simrobot":
-        return [_controller_node(ep, cls, params, context)]
-    robots = [(r.name, next((s.name for s in r.sensors if s.kind == "ultrasonic"), None)) for r in world.spec.robots]
-    return [_controller_node(ep, cls, params, context, name, sonar) for name, sonar in robots if sonar is not None]
-
-
-def _controller_node(
-    ep: Episode, cls: type, params: dict[str, Any], context: Any, robot: str = "", sonar: str = ""
-) -> Any:
+def _controller_node(ep: Episode, cls: type, params: dict[str, Any], context: Any, **extra: str) -> Any:
     """One node of class ``cls``, given what its ``__init__`` accepts; what it does not (a class
-    without ``**kwargs``) it finds in the episode context's arguments, rclpy's default context."""
+    without ``**kwargs``) it finds in the episode context's arguments, rclpy's default context.
+    ``extra`` is what the world's adapter places the node with (``namespace``, ``sensor``)."""
+    from rclpy.node import Node
     from rclpy.parameter import Parameter
 
     from sim_tools.batch.forms import node_kwargs
 
     overrides = [Parameter(k, value=v) for k, v in controller_parameters(ep, params).items()]
-    wanted: dict[str, Any] = {"parameter_overrides": overrides, "context": context}
-    if robot:
-        wanted.update(namespace=f"/{robot}", sensor=sonar)
-    kwargs = node_kwargs(cls, wanted)
-    if "sensor" in kwargs and "sensor" not in _init_args(cls):
-        del kwargs["sensor"]  # **kwargs go on to Node, which takes no sensor
+    kwargs = node_kwargs(cls, {"parameter_overrides": overrides, "context": context, **extra})
+    for key in set(extra) - _init_args(cls) - _init_args(Node):
+        kwargs.pop(key, None)  # **kwargs go on to Node, which takes no such argument
     if ep.controller["kind"] != "ours":
         return cls(**kwargs)
     node = cls(**kwargs, **LEAN_NODE)
@@ -449,94 +517,3 @@ def _init_args(cls: type) -> set[str]:
         return set(inspect.signature(cls).parameters)
     except (TypeError, ValueError):
         return set()
-
-
-# ------------------------------------------------------------------------------------ probes
-class _CreateProbe:
-    """Pose, bumpers and wall clearance after every step."""
-
-    def __init__(self, world: Any, steps: int) -> None:
-        self.world = world
-        self.model = world.model
-        self.rows = np.empty((steps + 1, 6))
-        self.n = 0
-        self.sample()
-
-    def sample(self) -> None:
-        m = self.model
-        x, y, theta = m.pose
-        left, right = m.bumps()
-        self.rows[self.n] = (self.world.sim_time, x, y, theta, left or right, m.clearance())
-        self.n += 1
-
-    def data(self, ep: Episode) -> EpisodeData:
-        r = self.rows[: self.n]
-        arrays = {"x": r[:, 1], "y": r[:, 2], "theta": r[:, 3], "bump": r[:, 4] > 0, "clearance": r[:, 5]}
-        return EpisodeData(r[:, 0], arrays, {"radius_m": self.model.RADIUS}, ep.params, ep.seed)
-
-
-class _SimrobotProbe:
-    """Every robot's pose and crash flag after every step."""
-
-    def __init__(self, world: Any, steps: int) -> None:
-        self.world = world
-        n = len(world.model.names)
-        self.t = np.empty(steps + 1)
-        self.xy = np.empty((steps + 1, n, 2))
-        self.crashed = np.empty((steps + 1, n), dtype=bool)
-        self.n = 0
-        self.sample()
-
-    def sample(self) -> None:
-        model = self.world.model
-        self.t[self.n] = self.world.sim_time
-        self.xy[self.n] = model.poses()[:, :2]
-        self.crashed[self.n] = model.crashed
-        self.n += 1
-
-    def data(self, ep: Episode) -> EpisodeData:
-        k = self.n
-        arrays = {"x": self.xy[:k, :, 0], "y": self.xy[:k, :, 1], "crashed": self.crashed[:k]}
-        info = {"names": list(self.world.model.names), "dt": self.world.physics_dt}
-        return EpisodeData(self.t[:k], arrays, info, ep.params, ep.seed)
-
-
-class _ArmProbe:
-    """Flange-to-target distance after every step; the target held is the schedule's at that time."""
-
-    def __init__(self, world: Any, steps: int, targets: np.ndarray, hold_s: float) -> None:
-        self.world = world
-        self.instance = world.arms[0]
-        self.targets = targets
-        self.hold_s = hold_s
-        self.rows = np.empty((steps + 1, 3))
-        self.n = 0
-        self.sample()
-
-    def sample(self) -> None:
-        t = self.world.sim_time
-        k = min(int(t / self.hold_s + 1e-9), len(self.targets) - 1)
-        flange = self.instance.arm.fkine(self.instance.motion.q)[:3, 3]
-        self.rows[self.n] = (t, k, float(np.linalg.norm(flange - self.targets[k, :3, 3])))
-        self.n += 1
-
-    def data(self, ep: Episode) -> EpisodeData:
-        r = self.rows[: self.n]
-        arrays = {"target": r[:, 1].astype(np.int64), "error": r[:, 2]}
-        return EpisodeData(r[:, 0], arrays, {"ik_failures": self.world.ik_failures}, ep.params, ep.seed)
-
-
-def _make_probe(ep: Episode, world: Any) -> Any:
-    steps = round(ep.duration_s * world.physics_rate)
-    if ep.simulator == "create":
-        return _CreateProbe(world, steps)
-    if ep.simulator == "simrobot":
-        return _SimrobotProbe(world, steps)
-    return _ArmProbe(world, steps, _target_poses(ep, world), ep.world["hold_s"])
-
-
-# --------------------------------------------------------------------------------------- arm
-def _target_poses(ep: Episode, world: Any) -> np.ndarray:
-    from sim_tools.batch.arm_targets import target_poses
-
-    return target_poses(world.arms[0].arm, ep.world["targets"])

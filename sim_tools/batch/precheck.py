@@ -15,44 +15,33 @@ from collections.abc import Callable
 from typing import Any
 
 from sim_runtime.errors import InputError
+from sim_tools.adapters.contract import world_part, world_parts
+from sim_tools.batch.plan import Episode
 
 Fail = Callable[[str, str], InputError]
 
-#: Parameters the sweep sets itself, and the field that says them.
+#: Parameters every sweep sets itself, and the field that says them (each simulator adds its
+#: world's: its adapter's ``RESERVED``).
 RESERVED = {
     "seed": "the sweep's seeds",
     "real_time_factor": "always 0 in a batch",
-    "map_file": "the world's map",
-    "config_file": "the world's config",
-    "initial_pose": "the sweep's poses",
-    "world_file": "the world's world_file",
-    "robot_config": "the world's robot_config",
-    "robot_config_file": "the world's robot_config",
 }
 #: Parameters every rclpy node declares: not worth listing in an error.
 STANDARD = {"use_sim_time", "start_type_description_service"}
 
 
-def _parsers(simulator: str) -> dict[str, Callable[[str], Any]]:
-    """The world entry's file fields and the parser each is read with."""
-    if simulator == "create":
-        from create_sim.configfile import load_config
-        from create_sim.mapfile import load_map
-
-        return {"map": load_map, "config": load_config}
-    if simulator == "simrobot":
-        from simrobot_sim.world_file import load_world
-
-        return {"world_file": load_world}
-    from arm_sim.robot_config import load_robot_config
-
-    return {"robot_config": load_robot_config}
+def reserved() -> dict[str, str]:
+    """Every parameter a sweep sets itself (:data:`RESERVED` and every simulator's world's)."""
+    out = dict(RESERVED)
+    for part in world_parts().values():
+        out.update(part.RESERVED)
+    return out
 
 
 def check_world_files(fail: Fail, worlds: list[tuple[str, dict[str, Any]]]) -> None:
     """Parse every world's files once: a bad one fails the sweep at its field."""
     for k, (simulator, world) in enumerate(worlds):
-        for key, parse in _parsers(simulator).items():
+        for key, parse in world_part(simulator).WORLD_FILES.items():
             path = world.get(key)
             if not path:
                 continue
@@ -129,8 +118,9 @@ class _WorldParameters:
 def _check_name(
     fail: Fail, where: str, name: str, declared: list[dict[str, Any] | None], targets: list[str], world: Any
 ) -> None:
-    if name in RESERVED:
-        raise fail(where, f"{name!r} is set by {RESERVED[name]}, not by a parameter")
+    sets = reserved()
+    if name in sets:
+        raise fail(where, f"{name!r} is set by {sets[name]}, not by a parameter")
     if any(d is None or name in d for d in declared) or world.has(name):
         return
     said = "; ".join(
@@ -171,8 +161,6 @@ def check_sweep(
 ) -> list[list[Any]]:
     """Everything above, for :func:`sim_tools.batch.sweep.load_sweep`; returns the grid values
     (see :func:`check_parameters`)."""
-    from sim_tools.batch.sweep import Episode
-
     check_world_files(fail, worlds)
     keys, values = grid
     first = {k: v[0] for k, v in zip(keys, values, strict=True)}

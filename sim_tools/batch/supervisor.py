@@ -322,13 +322,12 @@ def _warm_up(ep: Any) -> None:
     unstepped, so that imports, compiling and the first context are start-up, not the first
     episode's set-up: that counts against its time limit (a first run compiles for ~30 s), and a
     replaced worker would be slow to take over."""
-    from sim_tools.warmup import WARMERS
-
     try:
+        from sim_tools.adapters.contract import world_part
         from sim_tools.batch.episode import probe_world
 
         if ep is not None:
-            WARMERS[ep.simulator]()
+            world_part(ep.simulator).warm_up()
             probe_world(ep)
     except Exception:  # the episode itself will say what is wrong
         pass

@@ -13,7 +13,7 @@ controllers:                 # one or more
   # - my_pkg.policies:make_controller           # an in-process model controller
   # - {name: cautious, use: create_bump_turn, parameters: {...}, transport: ros}
 grid: {threshold: [0.1, 0.2]}   # controller parameters, every combination
-poses: {random: 1000, seed: 1, margin_m: 0.05}  # or a list of [x, y, theta] (Create only)
+poses: {random: 1000, seed: 1, margin_m: 0.05}  # or a list of [x, y, theta] (a simulator with random_poses)
 seeds: [0, 1, 2]             # or {count: 5, start: 0}; seeds the world's noise and the controller
 duration_s: 60               # sim time per episode
 time_limit_s: 180            # wall seconds per episode (default max(60, 3 x duration_s))
@@ -29,12 +29,9 @@ raises :class:`InputError` naming the file and the field.
 
 from __future__ import annotations
 
-import hashlib
 import itertools
-import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,15 +39,11 @@ from sim_runtime.errors import InputError
 from sim_runtime.inputfile import file_problem, shown
 from sim_runtime.paths import config_path
 from sim_runtime.yamlfile import load_yaml
+from sim_tools.adapters.contract import world_part, world_parts
+from sim_tools.batch.plan import Episode, Sweep
 
-#: Our executables that can drive an episode, and the node class each one runs.
-EXECUTABLE_CONTROLLERS = {
-    "create_bump_turn": ("create", "create_sim.bump_turn:BumpTurnNode"),
-    "simrobot_avoid": ("simrobot", "simrobot_sim.avoid:AvoidNode"),
-    "arm_targets": ("arm", "sim_tools.batch.arm_targets:ArmTargetsNode"),
-}
-#: Which key of a world entry names which simulator.
-WORLD_KEYS = {"map": "create", "world_file": "simrobot", "robot_config": "arm"}
+__all__ = ["Episode", "Sweep", "default_time_limit", "executable_controllers", "load_sweep", "world_keys"]
+
 TOP_KEYS = {
     "worlds",
     "world",
@@ -70,51 +63,6 @@ TOP_KEYS = {
 KEEP_BAGS = ("none", "all", "failures")
 TOP = "(top level)"
 TRANSPORTS = ("auto", "direct", "ros")
-
-
-@dataclass(frozen=True)
-class Episode:
-    """One run: everything a worker needs, as plain data (pickles and hashes the same anywhere)."""
-
-    index: int
-    simulator: str
-    world: dict[str, Any]
-    controller: dict[str, Any]
-    params: dict[str, Any]
-    pose: tuple[float, float, float] | None
-    seed: int
-    duration_s: float
-    metrics: tuple[Any, ...]
-    search_path: str
-    record_bag: bool = False
-    bag_dir: str = ""
-
-    @property
-    def key(self) -> str:
-        """A digest of what determines the result (not the index): a rerun of an edited sweep
-        redoes exactly the episodes whose definition changed."""
-        what = asdict(self)
-        for volatile in ("index", "record_bag", "bag_dir", "search_path"):
-            what.pop(volatile)
-        what["controller"].pop("transport")  # how messages travel does not change the result
-        if what["controller"]["kind"] == "user":
-            # users' nodes run on sim time with seeded random/numpy since this mark: rows logged
-            # before it (wall-clock timers, unseeded draws) must not be resumed beside new ones
-            what["runs"] = "sim time, seeded"
-        return hashlib.sha1(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-
-@dataclass
-class Sweep:
-    """A parsed sweep file."""
-
-    source: Path
-    episodes: list[Episode]
-    keep_bags: str
-    out: Path
-    grid_keys: list[str] = field(default_factory=list)
-    time_limit_s: float = 60.0
-    memory_limit_mb: float | None = None
 
 
 class _Reader:
@@ -171,37 +119,32 @@ class _Reader:
         raise self.fail(where, f"file {shown(repr(value))} not found ({looked})")
 
 
+def world_keys() -> dict[str, str]:
+    """Which key of a world entry names which simulator (each adapter's ``WORLD_KEY``)."""
+    return {part.WORLD_KEY: name for name, part in world_parts().items()}
+
+
+def executable_controllers() -> dict[str, tuple[str, str]]:
+    """Our executables that can drive an episode: the simulator each drives and its node class."""
+    return {exe: (name, target) for name, part in world_parts().items() for exe, target in part.CONTROLLERS.items()}
+
+
 def _world(r: _Reader, entry: Any, where: str) -> tuple[str, dict[str, Any]]:
-    entry = r.mapping(entry, where, {"map", "config", "world_file", "robot_config", "targets", "hold_s", "name"})
-    kinds = [WORLD_KEYS[k] for k in WORLD_KEYS if k in entry]
+    parts = world_parts()
+    keys = world_keys()
+    options = {key for part in parts.values() for key in part.WORLD_OPTIONS}
+    entry = r.mapping(entry, where, {*keys, *options, "name"})
+    kinds = [keys[k] for k in keys if k in entry]
     if len(kinds) != 1:
-        raise r.fail(where, f"give exactly one of {', '.join(WORLD_KEYS)} (got {sorted(entry)})")
+        raise r.fail(where, f"give exactly one of {', '.join(keys)} (got {sorted(entry)})")
     simulator = kinds[0]
-    world: dict[str, Any] = {}
-    if simulator == "create":
-        world["map"] = r.file(entry["map"], f"{where}.map")
-        world["config"] = r.file(entry.get("config", ""), f"{where}.config")
-        label = entry.get("name") or Path(entry["map"]).stem
-    elif simulator == "simrobot":
-        world["world_file"] = r.file(entry["world_file"], f"{where}.world_file")
-        label = entry.get("name") or Path(entry["world_file"]).stem
-    else:
-        world["robot_config"] = r.file(entry["robot_config"], f"{where}.robot_config")
-        targets = r.listing(entry.get("targets"), f"{where}.targets")
-        checked = []
-        for k, target in enumerate(targets):
-            if not isinstance(target, list) or len(target) != 3:
-                raise r.fail(f"{where}.targets[{k}]", f"{target!r}: expected [x, y, z] (m)")
-            checked.append([r.number(v, f"{where}.targets[{k}]") for v in target])
-        world["targets"] = checked
-        world["hold_s"] = r.number(entry.get("hold_s", 2.0), f"{where}.hold_s", positive=True)
-        label = entry.get("name") or Path(entry["robot_config"]).stem
-    for key in ("config",) if simulator != "create" else ():
-        if key in entry:
-            raise r.fail(f"{where}.{key}", "only Create worlds take a noise config")
-    if simulator != "arm" and ("targets" in entry or "hold_s" in entry):
-        raise r.fail(f"{where}.targets", "only arm worlds take targets")
-    world["label"] = str(label)
+    part = parts[simulator]
+    world = part.read_world(r, entry, where)
+    for other in parts.values():
+        for key, what in other.WORLD_OPTIONS.items():
+            if other is not part and key in entry:
+                raise r.fail(f"{where}.{key}", f"only {other.LABEL} worlds take {what}")
+    world["label"] = str(entry.get("name") or Path(str(entry[part.WORLD_KEY])).stem)
     return simulator, world
 
 
@@ -210,12 +153,11 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         entry = {"use": entry}
     entry = r.mapping(entry, where, {"use", "name", "parameters", "transport"})
     use = entry.get("use")
+    ours = executable_controllers()
     if not isinstance(use, str) or not use:
-        raise r.fail(
-            f"{where}.use", f"{use!r}: expected an executable ({', '.join(EXECUTABLE_CONTROLLERS)}) or module:name"
-        )
-    if use in EXECUTABLE_CONTROLLERS:
-        needs, target = EXECUTABLE_CONTROLLERS[use]
+        raise r.fail(f"{where}.use", f"{use!r}: expected an executable ({', '.join(ours)}) or module:name")
+    if use in ours:
+        needs, target = ours[use]
         if needs != simulator:
             raise r.fail(where, f"{use} drives {needs} worlds, not {simulator} ones")
         kind = "ours"
@@ -223,9 +165,7 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         target, kind = use, "user"
         _importable(r, use, f"{where}.use")
     else:
-        raise r.fail(
-            where, f"{use!r}: not one of our controllers ({', '.join(EXECUTABLE_CONTROLLERS)}) nor module:name"
-        )
+        raise r.fail(where, f"{use!r}: not one of our controllers ({', '.join(ours)}) nor module:name")
     transport = entry.get("transport", "auto")
     if transport not in TRANSPORTS:
         raise r.fail(f"{where}.transport", f"{transport!r}: expected one of {', '.join(TRANSPORTS)}")
@@ -259,11 +199,11 @@ def _seeds(r: _Reader, value: Any) -> list[int]:
 
 
 def _poses(r: _Reader, value: Any, simulator: str) -> list[Any]:
-    """Fixed poses, or ("random", count, seed, margin) resolved per world by the worker-free
-    :func:`random_create_poses` (the same list for every engine)."""
+    """Fixed poses, or ("random", count, seed, margin) resolved per world by the adapter's
+    ``random_poses`` in the driver (the same list for every engine)."""
     if value is None:
         return [None]
-    if simulator != "create":
+    if world_part(simulator).random_poses is None:
         raise r.fail("poses", f"{simulator} episodes start where their world file puts the robots")
     if isinstance(value, dict):
         value = r.mapping(value, "poses", {"random", "seed", "margin_m"})
@@ -276,36 +216,6 @@ def _poses(r: _Reader, value: Any, simulator: str) -> list[Any]:
         if not isinstance(pose, list) or len(pose) != 3:
             raise r.fail(f"poses[{k}]", f"{pose!r}: expected [x, y, theta] (m, m, rad)")
         poses.append(tuple(r.number(v, f"poses[{k}]") for v in pose))
-    return poses
-
-
-def random_create_poses(map_file: str, count: int, seed: int, margin_m: float) -> list[tuple[float, float, float]]:
-    """``count`` poses drawn uniformly in the walls' bounding box, each at least ``margin_m`` clear
-    of every wall (rejection sampling); the same seed gives the same poses on any machine."""
-    import numpy as np
-
-    from create_sim.geometry import nearest_distance
-    from create_sim.mapfile import CreateMap, load_map
-    from create_sim.model import CreateModel
-
-    world = load_map(map_file) if map_file else CreateMap()
-    walls = np.asarray(world.walls, dtype=np.float64).reshape(-1, 4)
-    if len(walls):
-        lo = np.minimum(walls[:, :2].min(axis=0), walls[:, 2:].min(axis=0))
-        hi = np.maximum(walls[:, :2].max(axis=0), walls[:, 2:].max(axis=0))
-    else:
-        lo, hi = np.array([-2.0, -2.0]), np.array([2.0, 2.0])
-    rng = np.random.default_rng(seed)
-    poses: list[tuple[float, float, float]] = []
-    tries = 0
-    while len(poses) < count:
-        tries += 1
-        if tries > 1000 * count:
-            raise InputError(f"{map_file}: no room for a robot {margin_m} m clear of the walls")
-        x, y = rng.uniform(lo, hi)
-        theta = rng.uniform(-math.pi, math.pi)
-        if not len(walls) or nearest_distance(walls, float(x), float(y)) - CreateModel.RADIUS >= margin_m:
-            poses.append((float(x), float(y), float(theta)))
     return poses
 
 
@@ -329,25 +239,12 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     from sim_tools.batch.metrics import check_metrics
 
     source = Path(path)
-    data = load_yaml(source, "sweep file")
     r = _Reader(source)
-    data = r.mapping(data, TOP, TOP_KEYS)
-    for singular in ("world", "controller"):
-        if singular in data and f"{singular}s" in data:
-            raise r.fail(singular, f"give '{singular}' or '{singular}s', not both")
-    worlds_raw = data.get("worlds", data.get("world"))
-    if worlds_raw is None:
-        raise r.fail("worlds", "missing: which world(s) to run")
-    worlds = [_world(r, w, f"worlds[{k}]") for k, w in enumerate(r.listing(worlds_raw, "worlds"))]
-    simulator = worlds[0][0]
-    if any(sim != simulator for sim, _ in worlds):
-        raise r.fail("worlds", "all worlds of a sweep must be of one simulator (their metrics differ)")
-    controllers_raw = data.get("controllers", data.get("controller"))
-    if controllers_raw is None:
-        raise r.fail("controllers", "missing: which controller(s) drive the robot")
+    data = r.mapping(load_yaml(source, "sweep file"), TOP, TOP_KEYS)
+    simulator, worlds = _worlds(r, data)
     controllers = [
         _controller(r, c, f"controllers[{k}]", simulator)
-        for k, c in enumerate(r.listing(controllers_raw, "controllers"))
+        for k, c in enumerate(r.listing(_one_or_many(r, data, "controller"), "controllers"))
     ]
     grid = r.mapping(data.get("grid", {}), "grid")
     grid_keys = [str(k) for k in grid]
@@ -356,7 +253,8 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     pose_specs = _poses(r, data.get("poses"), simulator)
     duration = r.number(data.get("duration_s"), "duration_s", positive=True)
     metrics = _metrics(r, data.get("metrics"))
-    check_metrics(simulator, metrics, lambda where, msg: r.fail(where, msg), str(source.resolve().parent))
+    search = str(source.resolve().parent)
+    check_metrics(simulator, metrics, lambda where, msg: r.fail(where, msg), search)
     for k, entry in enumerate(metrics):
         name = entry if isinstance(entry, str) else next(iter(entry))
         if ":" in name:
@@ -369,46 +267,79 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
     from sim_tools.batch.precheck import check_sweep  # builds nodes: after the cheap checks
 
-    search = str(source.resolve().parent)
     grid_values = check_sweep(r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search)
+    template = Episode(0, simulator, {}, {}, {}, None, seeds[0], duration, metrics, search, keep == "all")
+    episodes = _expand(template, worlds, controllers, (grid_keys, grid_values), pose_specs, seeds)
+    out_dir = _out_dir(source, data, out)
+    return Sweep(source, episodes, keep, out_dir, grid_keys, time_limit_s=time_limit, memory_limit_mb=memory_limit)
+
+
+def _one_or_many(r: _Reader, data: dict[str, Any], singular: str) -> Any:
+    """The value of ``<singular>s`` or ``<singular>`` (missing is an error)."""
+    value = data.get(f"{singular}s", data.get(singular))
+    if value is None:
+        what = "which world(s) to run" if singular == "world" else "which controller(s) drive the robot"
+        raise r.fail(f"{singular}s", f"missing: {what}")
+    return value
+
+
+def _worlds(r: _Reader, data: dict[str, Any]) -> tuple[str, list[tuple[str, dict[str, Any]]]]:
+    """The sweep's simulator and its worlds (all of that simulator)."""
+    for singular in ("world", "controller"):
+        if singular in data and f"{singular}s" in data:
+            raise r.fail(singular, f"give '{singular}' or '{singular}s', not both")
+    raw = _one_or_many(r, data, "world")
+    worlds = [_world(r, w, f"worlds[{k}]") for k, w in enumerate(r.listing(raw, "worlds"))]
+    simulator = worlds[0][0]
+    if any(sim != simulator for sim, _ in worlds):
+        raise r.fail("worlds", "all worlds of a sweep must be of one simulator (their metrics differ)")
+    return simulator, worlds
+
+
+def _out_dir(source: Path, data: dict[str, Any], out: str | None) -> Path:
+    """``out`` if given, else the sweep's ``out`` (relative to the sweep file), else
+    ``out/batch/<sweep file name>``."""
     out_dir = Path(out) if out else Path(data["out"]) if "out" in data else Path("out/batch") / source.stem
     if not out and "out" in data and not out_dir.is_absolute():
         out_dir = source.parent / out_dir
+    return out_dir
 
+
+def _expand(
+    template: Episode,
+    worlds: list[tuple[str, dict[str, Any]]],
+    controllers: list[dict[str, Any]],
+    grid: tuple[list[str], list[list[Any]]],
+    pose_specs: list[Any],
+    seeds: list[int],
+) -> list[Episode]:
+    """Every episode: worlds × controllers × grid × poses × seeds, numbered in that order."""
+    import dataclasses
+
+    random_poses = world_part(template.simulator).random_poses
+    grid_keys, grid_values = grid
     episodes: list[Episode] = []
     for (_, world), controller, combo in itertools.product(worlds, controllers, itertools.product(*grid_values)):
         poses: list[Any] = []
         for spec in pose_specs:
-            if isinstance(spec, tuple) and spec and spec[0] == "random":
+            if isinstance(spec, tuple) and spec and spec[0] == "random" and random_poses is not None:
                 _, count, seed, margin = spec
-                poses += random_create_poses(world["map"], count, seed, margin)
+                poses += random_poses(world, count, seed, margin)
             else:
                 poses.append(spec)
         for pose, seed in itertools.product(poses, seeds):
             episodes.append(
-                Episode(
+                dataclasses.replace(
+                    template,
                     index=len(episodes),
-                    simulator=simulator,
                     world=world,
                     controller=controller,
                     params=dict(zip(grid_keys, combo, strict=True)),
                     pose=pose,
                     seed=seed,
-                    duration_s=duration,
-                    metrics=metrics,
-                    search_path=str(source.resolve().parent),
-                    record_bag=keep == "all",
                 )
             )
-    return Sweep(
-        source=source,
-        episodes=episodes,
-        keep_bags=keep,
-        out=out_dir,
-        grid_keys=grid_keys,
-        time_limit_s=time_limit,
-        memory_limit_mb=memory_limit,
-    )
+    return episodes
 
 
 def default_time_limit(duration_s: float) -> float:
