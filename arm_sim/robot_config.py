@@ -159,13 +159,9 @@ def read_color(reader: FieldReader, value: Any, where: str) -> tuple[float, floa
     return r, g, b, a
 
 
-def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
-    """Read and check a robot configuration file; raises InputError naming file, field and index."""
-    path = resolved(path)
-    raw = load_yaml(path, "robot config")
-    r = FieldReader(path, expressions=True)
-    raw = r.mapping(raw, "<top level>")
-    known = {
+#: The top-level fields of a robot config file.
+KNOWN_FIELDS = frozenset(
+    {
         "name",
         "mesh_folder",
         "dof",
@@ -179,60 +175,30 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
         "links",
         "view",
     }
-    unknown = set(raw) - known
+)
+
+
+def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
+    """Read and check a robot configuration file; raises InputError naming file, field and index."""
+    path = resolved(path)
+    raw = load_yaml(path, "robot config")
+    r = FieldReader(path, expressions=True)
+    raw = r.mapping(raw, "<top level>")
+    unknown = set(raw) - KNOWN_FIELDS
     if unknown:
-        raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(known)}")
+        raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(KNOWN_FIELDS)}")
 
     name = str(r.require(raw, "name"))
     mesh_folder = resolved(path.parent / str(raw.get("mesh_folder", ".")))
     dof = r.integer(r.require(raw, "dof"), "dof", minimum=1, maximum=MAX_JOINTS)
     base = read_transform(r, raw.get("base", {}), "base")
-
-    types = r.require(raw, "joint_types")
-    types = "".join(map(str, types)) if isinstance(types, (list, tuple)) else str(types)
-    if len(types) != dof:
-        raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {types!r}")
-    for i, t in enumerate(types):
-        if t not in "rp":
-            raise r.error(f"joint_types[{i}]", f"unknown joint type {t!r}; use 'r' (revolute) or 'p' (prismatic)")
-
-    names = raw.get("joint_names", [f"joint_{i + 1}" for i in range(dof)])
-    if not isinstance(names, (list, tuple)) or len(names) != dof:
-        raise r.error("joint_names", f"expected {dof} names (dof), got {names!r}")
-    names = tuple(str(n) for n in names)
-    if len(set(names)) != dof:
-        raise r.error("joint_names", f"names must be unique, got {list(names)}")
-
+    types = _read_joint_types(r, r.require(raw, "joint_types"), dof)
+    names = _read_joint_names(r, raw.get("joint_names", [f"joint_{i + 1}" for i in range(dof)]), dof)
     modified = raw.get("modified_dh", False)
     if not isinstance(modified, bool):
         raise r.error("modified_dh", f"expected true or false, got {modified!r}")
-
-    dh = r.mapping(r.require(raw, "dh"), "dh")
-    params = {}
-    for key in ("theta", "d", "a", "alpha"):
-        value = r.require(dh, key, "dh.")
-        if not isinstance(value, (list, tuple)) or len(value) != dof:
-            count = len(value) if isinstance(value, (list, tuple)) else "not a list"
-            raise r.error(f"dh.{key}", f"expected {dof} values (dof), got {count}")
-        params[key] = r.vector(value, f"dh.{key}", dof)
-
-    limits = r.mapping(r.require(raw, "limits"), "limits")
-    position = r.require(limits, "position", "limits.")
-    if not isinstance(position, (list, tuple)) or len(position) != dof:
-        raise r.error("limits.position", f"expected {dof} [min, max] pairs (dof), got {position!r}")
-    position = np.array([r.vector(p, f"limits.position[{i}]", 2) for i, p in enumerate(position)])
-    for i, (lo, hi) in enumerate(position):
-        if not lo < hi:
-            raise r.error(f"limits.position[{i}]", f"min must be below max, got [{lo}, {hi}]")
-        if max(abs(lo), abs(hi)) > MAX_LIMIT:
-            raise r.error(f"limits.position[{i}]", f"beyond ±{MAX_LIMIT:g}, got [{lo}, {hi}]")
-    velocity = r.vector(r.require(limits, "velocity", "limits."), "limits.velocity", dof)
-    for i, v in enumerate(velocity):
-        if v <= 0:
-            raise r.error(f"limits.velocity[{i}]", f"must be > 0, got {v}")
-        if not MIN_VELOCITY <= v <= MAX_LIMIT:  # 1e-320 rad/s makes every move last forever
-            raise r.error(f"limits.velocity[{i}]", f"must be within {MIN_VELOCITY:g}..{MAX_LIMIT:g}, got {v}")
-
+    params = _read_dh(r, r.mapping(r.require(raw, "dh"), "dh"), dof)
+    position, velocity = _read_limits(r, r.mapping(r.require(raw, "limits"), "limits"), dof)
     dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
     links = _read_links(r, r.require(raw, "links"), dof, mesh_folder)
     view = _read_view(r, raw.get("view"))
@@ -255,6 +221,56 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
         links=links,
         view=view,
     )
+
+
+def _read_joint_types(r: FieldReader, raw: Any, dof: int) -> str:
+    types = "".join(map(str, raw)) if isinstance(raw, (list, tuple)) else str(raw)
+    if len(types) != dof:
+        raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {types!r}")
+    for i, t in enumerate(types):
+        if t not in "rp":
+            raise r.error(f"joint_types[{i}]", f"unknown joint type {t!r}; use 'r' (revolute) or 'p' (prismatic)")
+    return types
+
+
+def _read_joint_names(r: FieldReader, raw: Any, dof: int) -> tuple[str, ...]:
+    if not isinstance(raw, (list, tuple)) or len(raw) != dof:
+        raise r.error("joint_names", f"expected {dof} names (dof), got {raw!r}")
+    names = tuple(str(n) for n in raw)
+    if len(set(names)) != dof:
+        raise r.error("joint_names", f"names must be unique, got {list(names)}")
+    return names
+
+
+def _read_dh(r: FieldReader, dh: dict, dof: int) -> dict[str, np.ndarray]:
+    params = {}
+    for key in ("theta", "d", "a", "alpha"):
+        value = r.require(dh, key, "dh.")
+        if not isinstance(value, (list, tuple)) or len(value) != dof:
+            count = len(value) if isinstance(value, (list, tuple)) else "not a list"
+            raise r.error(f"dh.{key}", f"expected {dof} values (dof), got {count}")
+        params[key] = r.vector(value, f"dh.{key}", dof)
+    return params
+
+
+def _read_limits(r: FieldReader, limits: dict, dof: int) -> tuple[np.ndarray, np.ndarray]:
+    """(position (dof, 2) [min, max], velocity (dof,)) limits."""
+    position = r.require(limits, "position", "limits.")
+    if not isinstance(position, (list, tuple)) or len(position) != dof:
+        raise r.error("limits.position", f"expected {dof} [min, max] pairs (dof), got {position!r}")
+    position = np.array([r.vector(p, f"limits.position[{i}]", 2) for i, p in enumerate(position)])
+    for i, (lo, hi) in enumerate(position):
+        if not lo < hi:
+            raise r.error(f"limits.position[{i}]", f"min must be below max, got [{lo}, {hi}]")
+        if max(abs(lo), abs(hi)) > MAX_LIMIT:
+            raise r.error(f"limits.position[{i}]", f"beyond ±{MAX_LIMIT:g}, got [{lo}, {hi}]")
+    velocity = r.vector(r.require(limits, "velocity", "limits."), "limits.velocity", dof)
+    for i, v in enumerate(velocity):
+        if v <= 0:
+            raise r.error(f"limits.velocity[{i}]", f"must be > 0, got {v}")
+        if not MIN_VELOCITY <= v <= MAX_LIMIT:  # 1e-320 rad/s makes every move last forever
+            raise r.error(f"limits.velocity[{i}]", f"must be within {MIN_VELOCITY:g}..{MAX_LIMIT:g}, got {v}")
+    return position, velocity
 
 
 def _read_dynamics(r: FieldReader, raw: Any, dof: int) -> Dynamics:

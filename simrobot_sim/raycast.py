@@ -448,6 +448,52 @@ def _walls_pass(clearance, fan, out_t, out_v, scratch):
                 out_v[i] = 1
 
 
+@numba.njit(inline="always", **_FAST)
+def _robot_window(qx, qy, c2, rad, n, first_angle, angle_step):
+    """Which rays of a fan may meet a robot's bounding circle (centre ``(qx, qy)`` from the
+    sensor, ``c2`` = distance squared minus radius squared): returns (windows, half, centre).
+    One window means every ray: the sensor is inside the circle, the fan has a single ray, or the
+    circle is too wide for the test to pay. Three windows: the rays within ``half`` (radians) of
+    the angle ``centre`` (from the first ray, along the fan, in [0, 2 pi)), tried one turn down
+    and up as well, as the window may wrap."""
+    if c2 > 0.0 and n > 1 and angle_step != 0.0:
+        # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
+        half = rad / math.sqrt(c2) + 1e-9
+        if half < 1.5:
+            two_pi = 2.0 * math.pi
+            centre = (math.atan2(qy, qx) - first_angle) * (1.0 if angle_step > 0.0 else -1.0)
+            centre -= two_pi * math.floor(centre / two_pi)
+            return 3, half, centre
+        return 1, half, 0.0
+    return 1, 0.0, 0.0
+
+
+@numba.njit(inline="always", **_FAST)
+def _window_rays(k, windows, centre, half, step, n):
+    """First and last ray index of window ``k`` of :func:`_robot_window` (first > last: none)."""
+    if windows != 3:
+        return 0, n - 1
+    # the same angle one turn down or up only matters when the window wraps
+    two_pi = 2.0 * math.pi
+    off = centre + (k - 1) * two_pi
+    if off + half < 0.0 or off - half > (n - 1) * step:
+        return 1, 0
+    return max(int(math.ceil((off - half) / step)), 0), min(int(math.floor((off + half) / step)), n - 1)
+
+
+@numba.njit(inline="always", **_FAST)
+def _slab(d, lo, hi, ta, tb):
+    """Clip the ray stretch [ta, tb] to the slab between ``lo`` and ``hi`` (relative to the
+    sensor) along one axis of direction component ``d`` (empty: ta > tb)."""
+    if d != 0.0:
+        u = lo / d
+        w = hi / d
+        return max(ta, min(u, w)), min(tb, max(u, w))
+    if lo > 0.0 or hi < 0.0:
+        return 1.0, 0.0
+    return ta, tb
+
+
 @numba.njit(**_FAST)
 def cast_scan_fast_into(grid, fan, robots, out_t, out_v, scratch):
     """:func:`cast_scan_fast` with the caller's :class:`ScanScratch` (no allocation per scan)."""
@@ -456,13 +502,11 @@ def cast_scan_fast_into(grid, fan, robots, out_t, out_v, scratch):
     # just the rays whose angle can meet its bounding circle. Robots first: a ray that meets one
     # needs the walls only up to it. This pass stays in this function, its arrays taken out of the
     # structures once: as an inlined piece, or as a function of its own, it measured 5-10 % slower
-    # on a whole sensing pass.
+    # on a whole sensing pass (its scalar pieces are inlined helpers).
     matrix = grid.matrix
     ox = fan.origin_x
     oy = fan.origin_y
     directions = fan.directions
-    first_angle = fan.first_angle
-    angle_step = fan.angle_step
     max_range = fan.max_range
     own_id = fan.own_id
     cand_x = robots.x
@@ -473,7 +517,7 @@ def cast_scan_fast_into(grid, fan, robots, out_t, out_v, scratch):
     t_enter = scratch.t_enter
     t_leave = scratch.t_leave
     n = directions.shape[0]
-    two_pi = 2.0 * math.pi
+    step = abs(fan.angle_step)
     for j in range(cand_id.shape[0]):
         robot_id = cand_id[j]
         if robot_id == own_id:
@@ -492,53 +536,17 @@ def cast_scan_fast_into(grid, fan, robots, out_t, out_v, scratch):
         by0 = cand_box[j, 1] - oy
         bx1 = cand_box[j, 2] - ox
         by1 = cand_box[j, 3] - oy
-        # the rays within the circle's half angle of its centre: a window of ray indices, tried
-        # one turn down and up as well when it may wrap; all rays when the sensor is inside the
-        # circle, for a single ray, or when the circle is too wide for the test to pay
-        first = 0
-        last = n - 1
-        windows = 1
-        half = 0.0
-        centre = 0.0
-        if c2 > 0.0 and n > 1 and angle_step != 0.0:
-            # tan(asin(r/d)) = r/sqrt(d^2 - r^2) bounds the circle's half angle from above
-            half = rad / math.sqrt(c2) + 1e-9
-            if half < 1.5:
-                # the circle's centre angle from the first ray, along the fan, in [0, 2 pi)
-                centre = (math.atan2(qy, qx) - first_angle) * (1.0 if angle_step > 0.0 else -1.0)
-                centre -= two_pi * math.floor(centre / two_pi)
-                windows = 3
-        step = abs(angle_step)
+        windows, half, centre = _robot_window(qx, qy, c2, rad, n, fan.first_angle, fan.angle_step)
         for k in range(windows):
-            if windows == 3:
-                # the same angle one turn down or up only matters when the window wraps
-                off = centre + (k - 1) * two_pi
-                if off + half < 0.0 or off - half > (n - 1) * step:
-                    continue
-                first = max(int(math.ceil((off - half) / step)), 0)
-                last = min(int(math.floor((off + half) / step)), n - 1)
+            first, last = _window_rays(k, windows, centre, half, step, n)
             for i in range(first, last + 1):
                 if out_t[i] <= t_near:
                     continue
                 dx = directions[i, 0]
                 dy = directions[i, 1]
                 # ray / box slabs
-                ta = t_enter[i]
-                tb = min(t_leave[i], out_t[i])
-                if dx != 0.0:
-                    u = bx0 / dx
-                    w = bx1 / dx
-                    ta = max(ta, min(u, w))
-                    tb = min(tb, max(u, w))
-                elif bx0 > 0.0 or bx1 < 0.0:
-                    continue
-                if dy != 0.0:
-                    u = by0 / dy
-                    w = by1 / dy
-                    ta = max(ta, min(u, w))
-                    tb = min(tb, max(u, w))
-                elif by0 > 0.0 or by1 < 0.0:
-                    continue
+                ta, tb = _slab(dx, bx0, bx1, t_enter[i], min(t_leave[i], out_t[i]))
+                ta, tb = _slab(dy, by0, by1, ta, tb)
                 if ta > tb:
                     continue
                 t_hit, value = _traverse_fast(matrix, ox, oy, dx, dy, ta, tb, own_id, robot_id)
@@ -702,25 +710,25 @@ def cast_ray_plain_bresenham_python(
     return math.inf, 0
 
 
-@numba.njit(cache=True)
-def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndarray) -> tuple[int, bool]:
-    """Every cell the closed polygon (vertices in cells) overlaps: cells whose centre is inside
-    plus every cell an edge passes through (exact traversal), so nothing thin is missed.
-    Writes flat indices ``x * ny + y`` into ``out`` (must hold the bounding box) and returns
-    (count, outside): ``outside`` is True when part of the polygon lies off the map (those cells
-    are not listed)."""
+@numba.njit(cache=True, inline="always")
+def _sort_small(xs, m):
+    """Insertion sort of ``xs[:m]`` in place: a handful of crossings, and no allocation."""
+    for a in range(1, m):
+        key = xs[a]
+        b = a - 1
+        while b >= 0 and xs[b] > key:
+            xs[b + 1] = xs[b]
+            b -= 1
+        xs[b + 1] = key
+
+
+@numba.njit(cache=True, inline="always")
+def _mark_interior(vx, vy, x_lo, y_lo, y_hi, mark):
+    """Mark the cells whose centre is inside the polygon: crossing-number test, one scanline per
+    column of centres. ``mark`` covers the bounding box from cell ``(x_lo, y_lo)``."""
     n = vx.shape[0]
-    x_lo = int(math.floor(vx.min()))
-    x_hi = int(math.floor(vx.max()))
-    y_lo = int(math.floor(vy.min()))
-    y_hi = int(math.floor(vy.max()))
-    outside = x_lo < 0 or y_lo < 0 or x_hi >= nx or y_hi >= ny
-    w = x_hi - x_lo + 1
-    h = y_hi - y_lo + 1
-    mark = np.zeros((w, h), dtype=np.bool_)
-    # interior: crossing-number test of each cell centre, one scanline per column of centres
     xs = np.empty(n)
-    for i in range(w):
+    for i in range(mark.shape[0]):
         cxp = x_lo + i + 0.5
         m = 0
         for e in range(n):
@@ -731,20 +739,19 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
             if (ax <= cxp) != (bx <= cxp):
                 xs[m] = ay + (cxp - ax) * (by - ay) / (bx - ax)
                 m += 1
-        # insertion sort in place: a handful of crossings, and no allocation per column
-        for a in range(1, m):
-            key = xs[a]
-            b = a - 1
-            while b >= 0 and xs[b] > key:
-                xs[b + 1] = xs[b]
-                b -= 1
-            xs[b + 1] = key
+        _sort_small(xs, m)
         for k in range(0, m - 1, 2):
             j0 = int(math.ceil(xs[k] - 0.5))
             j1 = int(math.floor(xs[k + 1] - 0.5))
             for j in range(max(j0, y_lo), min(j1, y_hi) + 1):
                 mark[i, j - y_lo] = True
-    # boundary: cells crossed by each edge
+
+
+@numba.njit(cache=True, inline="always")
+def _mark_edges(vx, vy, x_lo, y_lo, mark):
+    """Mark every cell an edge of the polygon passes through (exact traversal)."""
+    n = vx.shape[0]
+    w, h = mark.shape
     for e in range(n):
         ax = vx[e]
         ay = vy[e]
@@ -774,6 +781,25 @@ def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndar
                 tmy += tdy
             if 0 <= cx - x_lo < w and 0 <= cy - y_lo < h:  # rounding can step past the last cell
                 mark[cx - x_lo, cy - y_lo] = True
+
+
+@numba.njit(cache=True)
+def polygon_cells(vx: np.ndarray, vy: np.ndarray, nx: int, ny: int, out: np.ndarray) -> tuple[int, bool]:
+    """Every cell the closed polygon (vertices in cells) overlaps: cells whose centre is inside
+    plus every cell an edge passes through (exact traversal), so nothing thin is missed.
+    Writes flat indices ``x * ny + y`` into ``out`` (must hold the bounding box) and returns
+    (count, outside): ``outside`` is True when part of the polygon lies off the map (those cells
+    are not listed)."""
+    x_lo = int(math.floor(vx.min()))
+    x_hi = int(math.floor(vx.max()))
+    y_lo = int(math.floor(vy.min()))
+    y_hi = int(math.floor(vy.max()))
+    outside = x_lo < 0 or y_lo < 0 or x_hi >= nx or y_hi >= ny
+    w = x_hi - x_lo + 1
+    h = y_hi - y_lo + 1
+    mark = np.zeros((w, h), dtype=np.bool_)
+    _mark_interior(vx, vy, x_lo, y_lo, y_hi, mark)
+    _mark_edges(vx, vy, x_lo, y_lo, mark)
     count = 0
     for i in range(w):
         x = x_lo + i
