@@ -69,8 +69,8 @@ def net_displacement(data):
 def batch(
     *args: str, cwd: Path, extra_env: dict[str, str] | None = None, timeout: float = 240
 ) -> subprocess.CompletedProcess:
-    """``robot_sims batch args...`` in its own process."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT), **(extra_env or {}))
+    """``robot_sims batch args...`` in its own process (``extra_env`` may set PYTHONPATH too)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(extra_env or {})}
     return subprocess.run(
         [sys.executable, "-m", "sim_tools.batch.cli", *args],
         cwd=cwd,
