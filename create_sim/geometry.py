@@ -169,6 +169,41 @@ def _build_grid(segs, x0, y0, cell, nx, ny):
     return start, items
 
 
+@numba.njit(cache=True, inline="always")
+def _clip_to_box(ox, oy, dx, dy, x0, y0, x1, y1, max_range):
+    """Ray parameters (t_in, t_out) where a ray from outside the box [x0, x1] × [y0, y1] enters
+    and leaves it within max_range (slab test); t_in > t_out when it misses."""
+    t_in = 0.0
+    t_out = max_range
+    if dx != 0.0:
+        ta = (x0 - ox) / dx
+        tb = (x1 - ox) / dx
+        t_in = max(t_in, min(ta, tb))
+        t_out = min(t_out, max(ta, tb))
+    elif ox < x0 or ox > x1:
+        return np.inf, -np.inf
+    if dy != 0.0:
+        ta = (y0 - oy) / dy
+        tb = (y1 - oy) / dy
+        t_in = max(t_in, min(ta, tb))
+        t_out = min(t_out, max(ta, tb))
+    elif oy < y0 or oy > y1:
+        return np.inf, -np.inf
+    return t_in, t_out
+
+
+@numba.njit(cache=True, inline="always")
+def _first_boundary(o, d, i, origin, cell):
+    """Along one axis, for a ray at ``o`` moving ``d`` per unit in cell ``i``: the cell step (±1,
+    0 if it never crosses), the ray parameter at the next cell boundary and its increment per cell."""
+    if d == 0.0:
+        return 0, np.inf, np.inf
+    inv = 1.0 / d
+    step = 1 if d > 0.0 else -1
+    t_max = (origin + (i + (1 if d > 0.0 else 0)) * cell - o) * inv
+    return step, t_max, abs(cell * inv)
+
+
 @numba.njit(cache=True)
 def grid_cast(grid, mailbox, stamp, ox, oy, dx, dy, max_range) -> float:
     """Nearest hit of one unit ray within max_range (inf if none), walking the grid's cells.
@@ -188,49 +223,17 @@ def grid_cast(grid, mailbox, stamp, ox, oy, dx, dy, max_range) -> float:
     x0 = grid.origin_x_m
     y0 = grid.origin_y_m
     cell = grid.cell_m
-    x1 = x0 + nx * cell
-    y1 = y0 + ny * cell
     t_in = 0.0
     t_out = max_range
-    if not (x0 <= ox <= x1 and y0 <= oy <= y1):
-        # Origin off the grid: clip the ray to the grid's box (slab test).
-        if dx != 0.0:
-            ta = (x0 - ox) / dx
-            tb = (x1 - ox) / dx
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif ox < x0 or ox > x1:
-            return np.inf
-        if dy != 0.0:
-            ta = (y0 - oy) / dy
-            tb = (y1 - oy) / dy
-            t_in = max(t_in, min(ta, tb))
-            t_out = min(t_out, max(ta, tb))
-        elif oy < y0 or oy > y1:
-            return np.inf
+    if not (x0 <= ox <= x0 + nx * cell and y0 <= oy <= y0 + ny * cell):
+        # Origin off the grid: clip the ray to the grid's box.
+        t_in, t_out = _clip_to_box(ox, oy, dx, dy, x0, y0, x0 + nx * cell, y0 + ny * cell, max_range)
         if t_in > t_out:
             return np.inf
     ix = _cell_index(ox + dx * t_in, x0, cell, nx, 0.0)
     iy = _cell_index(oy + dy * t_in, y0, cell, ny, 0.0)
-    # Ray parameter at the next x / y cell boundary, and its increment per cell.
-    if dx != 0.0:
-        inv_dx = 1.0 / dx
-        step_x = 1 if dx > 0.0 else -1
-        t_max_x = (x0 + (ix + (1 if dx > 0.0 else 0)) * cell - ox) * inv_dx
-        t_delta_x = abs(cell * inv_dx)
-    else:
-        step_x = 0
-        t_max_x = np.inf
-        t_delta_x = np.inf
-    if dy != 0.0:
-        inv_dy = 1.0 / dy
-        step_y = 1 if dy > 0.0 else -1
-        t_max_y = (y0 + (iy + (1 if dy > 0.0 else 0)) * cell - oy) * inv_dy
-        t_delta_y = abs(cell * inv_dy)
-    else:
-        step_y = 0
-        t_max_y = np.inf
-        t_delta_y = np.inf
+    step_x, t_max_x, t_delta_x = _first_boundary(ox, dx, ix, x0, cell)
+    step_y, t_max_y, t_delta_y = _first_boundary(oy, dy, iy, y0, cell)
     best = np.inf
     # Each pass moves one cell, so nx + ny passes cross the whole grid (a bound for any input).
     for _ in range(nx + ny):

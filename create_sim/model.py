@@ -29,7 +29,7 @@ from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance
-from create_sim.sensing import bumper_hits, camera_view, range_fan, virtual_wall_seen
+from create_sim.sensing import bumper_hits, camera_view, cliff_windows_crossed, range_fan, virtual_wall_seen
 from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import compiled_aside
@@ -259,11 +259,7 @@ class CreateModel:
         n = circle_crossing_angles(self._lines, x, y, self.RADIUS, self._crossing_buf)
         signals = np.full(4, self.CLIFF_FLOOR)
         if n:
-            rel = (self._crossing_buf[:n] - th + math.pi) % (2.0 * math.pi) - math.pi
-            over = ((rel[None, :] >= self.CLIFF_WINDOWS[:, :1]) & (rel[None, :] <= self.CLIFF_WINDOWS[:, 1:])).any(
-                axis=1
-            )
-            signals[over] = self.CLIFF_LINE
+            signals[cliff_windows_crossed(self._crossing_buf[:n], th, self.CLIFF_WINDOWS)] = self.CLIFF_LINE
         return signals + self._noise("cliff", 4)
 
     def wall_sensor(self) -> bool:
@@ -382,6 +378,7 @@ class CreateModel:
     def _read_every_sensor(self) -> None:
         self.bumps(), self.cliff_signals(), self.wall_sensor(), self.sonar(), self.lidar(), self.clearance()
         self._virtual_wall_seen(), self._camera_view()  # what the sensors skip on a map without them
+        cliff_windows_crossed(self._crossing_buf[:1], 0.0, self.CLIFF_WINDOWS)  # skipped without lines
 
 
 __all__ = ["BeaconSighting", "CreateModel"]

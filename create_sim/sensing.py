@@ -13,6 +13,7 @@ import numba
 import numpy as np
 
 from create_sim.geometry import grid_cast, grid_cast_fan, grid_contacts, new_contacts
+from sim_runtime.angles import wrap_angle_jit as wrap_angle
 
 
 @numba.njit(cache=True)
@@ -45,7 +46,7 @@ def virtual_wall_seen(grid, rx, ry, emitters, halo, field_ranges, field_angles, 
         inside = math.hypot(dx, dy) < halo
         if not inside:
             half = 0.5 * field_angles[setting]
-            off_axis = abs((math.atan2(dy, dx) - beam + math.pi) % (2.0 * math.pi) - math.pi)
+            off_axis = abs(wrap_angle(math.atan2(dy, dx) - beam))
             along = dx * math.cos(beam) + dy * math.sin(beam)
             inside = off_axis <= half and along <= field_ranges[setting] * math.cos(half)
         if inside and not _hidden(grid, mailbox, k, rx, ry, ex, ey, tol):
@@ -69,7 +70,7 @@ def camera_view(grid, cx, cy, heading, targets, max_range, half_fov, tol):
         dx = targets[k, 0] - cx
         dy = targets[k, 1] - cy
         d = math.hypot(dx, dy)
-        b = (math.atan2(dy, dx) - heading + math.pi) % (2.0 * math.pi) - math.pi
+        b = wrap_angle(math.atan2(dy, dx) - heading)
         if d > max_range or abs(b) > half_fov:
             continue
         if _hidden(grid, mailbox, k, cx, cy, targets[k, 0], targets[k, 1], tol):
@@ -115,8 +116,7 @@ def bumper_hits(grid, x, y, heading, reach, front_half):
     left = False
     right = False
     for i in range(n):
-        phi = (math.atan2(contacts.point_y[i] - y, contacts.point_x[i] - x) - heading + math.pi) % (2.0 * math.pi)
-        phi -= math.pi
+        phi = wrap_angle(math.atan2(contacts.point_y[i] - y, contacts.point_x[i] - x) - heading)
         if abs(phi) < front_half:
             return True, True
         if front_half <= phi < 0.5 * math.pi:
@@ -124,3 +124,16 @@ def bumper_hits(grid, x, y, heading, reach, front_half):
         elif -0.5 * math.pi < phi <= -front_half:
             right = True
     return left, right
+
+
+@numba.njit(cache=True)
+def cliff_windows_crossed(crossings, heading, windows):
+    """Which cliff windows (rows [lo, hi] of angles from the heading, inclusive) hold one of the
+    ``crossings`` (world angles where a line crosses the body's edge)."""
+    over = np.zeros(windows.shape[0], dtype=np.bool_)
+    for c in range(crossings.shape[0]):
+        rel = wrap_angle(crossings[c] - heading)
+        for w in range(windows.shape[0]):
+            if windows[w, 0] <= rel <= windows[w, 1]:
+                over[w] = True
+    return over

@@ -445,70 +445,82 @@ class CreateWorldNode(SimWorldNode):
     # ---------------------------------------------------------------- sensors
     def _make_templates(self) -> None:
         """Per publisher, a factory of its message with the fields that never change."""
-        m = CreateModel
+        templates = {**self._detector_templates(), **self._range_templates(), **self._state_templates()}
+        if self.tf.publisher is not None:
+            moving = [(self.frame("odom"), self.frame("base_link"))]
+            if self.publish_map_tf:
+                moving.append(("map", self.frame("odom")))
+            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
+        self._templates: dict[Publisher, Callable[[], Any]] = templates
+        self._reusable: dict[Publisher, Any] = {}
 
-        def stamped(msg_type, frame: str, **fields):
-            def make():
-                msg = msg_type(**fields)
-                msg.header.frame_id = frame
-                return msg
+    def _variance(self, sensor: str) -> float:
+        """The config noise's variance (its std squared): what the readings scatter by."""
+        return self.noise.noise[sensor][1] ** 2
 
-            return make
+    def _detector(self, frame: str, distance: float, fov: float, variance: float = 0.0) -> Callable[[], Range]:
+        # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
+        return _stamped(
+            Range,
+            self.frame(frame),
+            radiation_type=Range.INFRARED,
+            field_of_view=fov,
+            min_range=distance,
+            max_range=distance,
+            variance=variance,
+        )
 
-        def detector(frame: str, distance: float, fov: float, variance: float = 0.0):
-            # REP-117 fixed-distance detector: min == max, -inf = detection, +inf = nothing.
-            return stamped(
-                Range,
-                self.frame(frame),
-                radiation_type=Range.INFRARED,
-                field_of_view=fov,
-                min_range=distance,
-                max_range=distance,
-                variance=variance,
-            )
-
-        def variance(sensor: str) -> float:
-            """The config noise's variance (its std squared): what the readings scatter by."""
-            return self.noise.noise[sensor][1] ** 2
-
-        lo, hi = m.LIDAR_RANGE
-        scan_rate = self.rates["scan"] or 1.0
-        templates = {
-            self.pub_bump[0]: detector("bump_left", 0.0, BUMP_FOV),
-            self.pub_bump[1]: detector("bump_right", 0.0, BUMP_FOV),
-            self.pub_wall: detector("wall_ir", m.IR_RANGE, 0.0, variance("wall")),
-            self.pub_virtual_wall: detector("virtual_wall_ir", 0.0, 2 * math.pi),
+    def _detector_templates(self) -> dict[Publisher, Callable[[], Any]]:
+        """Bumpers, the IR wall sensor, the virtual-wall receiver and the cliff sensors."""
+        return {
+            self.pub_bump[0]: self._detector("bump_left", 0.0, BUMP_FOV),
+            self.pub_bump[1]: self._detector("bump_right", 0.0, BUMP_FOV),
+            self.pub_wall: self._detector("wall_ir", CreateModel.IR_RANGE, 0.0, self._variance("wall")),
+            self.pub_virtual_wall: self._detector("virtual_wall_ir", 0.0, 2 * math.pi),
             **{
-                pub: stamped(Illuminance, self.frame(f"cliff_{name}"), variance=variance("cliff"))
+                pub: _stamped(Illuminance, self.frame(f"cliff_{name}"), variance=self._variance("cliff"))
                 for pub, name in zip(self.pub_cliff, CLIFF_NAMES, strict=True)
             },
-            **{
-                pub: stamped(
-                    Range,
-                    self.frame(f"sonar_{name}"),
-                    radiation_type=Range.ULTRASOUND,
-                    field_of_view=0.0,
-                    variance=variance("sonar"),
-                    min_range=m.SONAR_RANGE[0],
-                    max_range=m.SONAR_RANGE[1],
-                )
-                for pub, name in zip(self.pub_sonar, SONAR_NAMES, strict=True)
-            },
-            self.pub_scan: stamped(
-                LaserScan,
-                self.frame("laser"),
-                angle_min=-m.LIDAR_FOV / 2,
-                angle_max=m.LIDAR_FOV / 2,
-                angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
-                time_increment=0.0,
-                scan_time=1.0 / scan_rate,
-                range_min=lo,
-                range_max=hi,
-            ),
-            self.pub_odom: stamped(Odometry, self.frame("odom"), child_frame_id=self.frame("base_link")),
-            self.pub_overhead: stamped(PoseStamped, "map"),
-            self.pub_buttons: stamped(Joy, self.frame("base_link")),
-            self.pub_battery: stamped(
+        }
+
+    def _range_templates(self) -> dict[Publisher, Callable[[], Any]]:
+        """The sonars and the LIDAR."""
+        m = CreateModel
+        lo, hi = m.LIDAR_RANGE
+        scan_rate = self.rates["scan"] or 1.0
+        templates: dict[Publisher, Callable[[], Any]] = {
+            pub: _stamped(
+                Range,
+                self.frame(f"sonar_{name}"),
+                radiation_type=Range.ULTRASOUND,
+                field_of_view=0.0,
+                variance=self._variance("sonar"),
+                min_range=m.SONAR_RANGE[0],
+                max_range=m.SONAR_RANGE[1],
+            )
+            for pub, name in zip(self.pub_sonar, SONAR_NAMES, strict=True)
+        }
+        templates[self.pub_scan] = _stamped(
+            LaserScan,
+            self.frame("laser"),
+            angle_min=-m.LIDAR_FOV / 2,
+            angle_max=m.LIDAR_FOV / 2,
+            angle_increment=m.LIDAR_FOV / (m.LIDAR_BEAMS - 1),
+            time_increment=0.0,
+            scan_time=1.0 / scan_rate,
+            range_min=lo,
+            range_max=hi,
+        )
+        return templates
+
+    def _state_templates(self) -> dict[Publisher, Callable[[], Any]]:
+        """Odometry, the ground-truth pose, the buttons and the battery."""
+        m = CreateModel
+        return {
+            self.pub_odom: _stamped(Odometry, self.frame("odom"), child_frame_id=self.frame("base_link")),
+            self.pub_overhead: _stamped(PoseStamped, "map"),
+            self.pub_buttons: _stamped(Joy, self.frame("base_link")),
+            self.pub_battery: _stamped(
                 BatteryState,
                 self.frame("base_link"),  # the original's battery readings are constants
                 voltage=m.BATTERY_VOLTAGE,
@@ -524,13 +536,6 @@ class CreateWorldNode(SimWorldNode):
                 power_supply_technology=BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH,
             ),
         }
-        if self.tf.publisher is not None:
-            moving = [(self.frame("odom"), self.frame("base_link"))]
-            if self.publish_map_tf:
-                moving.append(("map", self.frame("odom")))
-            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
-        self._templates: dict[Publisher, Callable[[], Any]] = templates
-        self._reusable: dict[Publisher, Any] = {}
 
     def _publish_detections(self, publishers: list[Publisher], detected) -> None:
         stamp = self.stamp()
@@ -684,6 +689,17 @@ class CreateWorldNode(SimWorldNode):
             )
         origin = (raster.origin_x_m, raster.origin_y_m)
         self.pub_map.publish(occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, stamp))
+
+
+def _stamped(msg_type: Callable[..., Any], frame: str, **fields: Any) -> Callable[[], Any]:
+    """A factory of ``msg_type(**fields)`` with ``header.frame_id = frame``."""
+
+    def make() -> Any:
+        msg = msg_type(**fields)
+        msg.header.frame_id = frame
+        return msg
+
+    return make
 
 
 def _duration(seconds: float) -> Duration:
