@@ -138,7 +138,7 @@ def _mul_affine(out, A, B):
     out[3, 3] = 1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _fk_frames(frames, q, chain, A):
     # fields are read once, outside the loops: each read of an array field is a reference count
     dh = chain.dh
@@ -188,7 +188,7 @@ def fk_batch(Q, chain):
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _jacobian_from_frames(J, frames, chain):
     dh = chain.dh
     modified = chain.modified
