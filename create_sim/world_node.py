@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped, Vector3
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
@@ -650,14 +650,7 @@ class CreateWorldNode(SimWorldNode):
         return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
 
     def _publish_static_transforms(self) -> None:
-        base = self.frame("base_link")
-        self.tf.send_static(
-            [
-                transform_msg(base, self.frame(name), mount.x_m, mount.y_m, mount.z_m, mount.yaw_rad)
-                for name, mount in SENSOR_MOUNTS.items()
-            ],
-            self.stamp(),
-        )
+        self.tf.send_static(sensor_transforms(self.prefix), self.stamp())
 
     def _publish_overhead(self) -> None:
         msg = self._message(self.pub_overhead)
@@ -689,6 +682,16 @@ class CreateWorldNode(SimWorldNode):
             )
         origin = (raster.origin_x_m, raster.origin_y_m)
         self.pub_map.publish(occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, stamp))
+
+
+def sensor_transforms(prefix: str) -> list[TransformStamped]:
+    """What ``/tf_static`` carries: ``<prefix>base_link → <prefix><sensor>`` at every sensor's
+    mount (stamps left zero)."""
+    base = prefix + "base_link"
+    return [
+        transform_msg(base, prefix + name, mount.x_m, mount.y_m, mount.z_m, mount.yaw_rad)
+        for name, mount in SENSOR_MOUNTS.items()
+    ]
 
 
 def _stamped(msg_type: Callable[..., Any], frame: str, **fields: Any) -> Callable[[], Any]:

@@ -23,7 +23,7 @@ import time
 from functools import partial
 
 import numpy as np
-from geometry_msgs.msg import Point, PoseStamped, Twist, TwistStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
@@ -153,7 +153,7 @@ class SimrobotWorldNode(SimWorldNode):
         self._odom_tf = [
             transform_msg(self.robot_frame(i, "odom"), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
         ]
-        self.tf.send_static(self._static_transforms(), self.stamp())
+        self.tf.send_static(static_transforms(self.spec, self.prefix), self.stamp())
         self.every(self.physics_rate, self._publish_step)
         self._publish_step()
         nx, ny = self.model.grid.shape
@@ -225,19 +225,6 @@ class SimrobotWorldNode(SimWorldNode):
     def robot_frame(self, i: int, name: str) -> str:
         """Frame ``name`` of robot ``i``, e.g. ``r1/base_link`` (with the world's prefix in front)."""
         return frame_name(self.prefix, self.model.names[i], name)
-
-    def _static_transforms(self) -> list:
-        """``map → <robot>/odom`` (odometry starts at the start pose) and ``<robot>/base_link →
-        <robot>/<sensor>`` at each sensor's mount."""
-        transforms = []
-        for i, robot in enumerate(self.spec.robots):
-            x, y = robot.position
-            transforms.append(transform_msg("map", self.robot_frame(i, "odom"), x, y, yaw=robot.heading))
-            base = self.robot_frame(i, "base_link")
-            for sensor in robot.sensors:
-                sx, sy, axis = sensor_mount(robot, sensor)
-                transforms.append(transform_msg(base, self.robot_frame(i, sensor.name), sx, sy, yaw=axis))
-        return transforms
 
     def _map_msg(self) -> OccupancyGrid:
         # OccupancyGrid rows run along y: the transpose of grid[x, y]
@@ -473,6 +460,20 @@ def make_nodes() -> list[Node]:
                 )
             nodes.append(AvoidNode(robot=robot.name, sensor=sonar))
     return nodes
+
+
+def static_transforms(spec: WorldSpec, prefix: str) -> list[TransformStamped]:
+    """What ``/tf_static`` carries: ``map → <robot>/odom`` (odometry starts at the start pose) and
+    ``<robot>/base_link → <robot>/<sensor>`` at each sensor's mount (stamps left zero)."""
+    transforms = []
+    for robot in spec.robots:
+        x, y = robot.position
+        transforms.append(transform_msg("map", frame_name(prefix, robot.name, "odom"), x, y, yaw=robot.heading))
+        base = frame_name(prefix, robot.name, "base_link")
+        for sensor in robot.sensors:
+            sx, sy, axis = sensor_mount(robot, sensor)
+            transforms.append(transform_msg(base, frame_name(prefix, robot.name, sensor.name), sx, sy, yaw=axis))
+    return transforms
 
 
 def main(args: list[str] | None = None) -> int:
