@@ -20,7 +20,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Illuminance, JointState, LaserScan, Range
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sim_tools.rerun_view.logger import type_name
+from sim_tools.rerun_kit.ros import type_name
 from simrobot_sim.world_file import DEFAULT_SHAPE
 
 NS = 1_000_000_000

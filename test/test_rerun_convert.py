@@ -35,7 +35,7 @@ from sim_runtime.errors import InputError
 from sim_tools.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli
 from sim_tools.rerun_view.analytics import main as analytics_main
 from sim_tools.rerun_view.convert import bag_to_rerun, main
-from sim_tools.rerun_view.logger import LIDAR_COLOR, TRACK_SEGMENT_POINTS
+from sim_tools.rerun_kit.style import LIDAR_COLOR, TRACK_SEGMENT_POINTS
 
 
 @pytest.fixture(scope="module")

@@ -26,7 +26,8 @@ from std_msgs.msg import Bool, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_tools.rerun_view.convert import bag_to_rerun
-from sim_tools.rerun_view.logger import LABEL_OFFSET_M, RerunLogger
+from sim_tools.rerun_kit.contract import DEFAULT_LOOK
+from sim_tools.rerun_view.logger import RerunLogger
 
 RED = (1.0, 0.0, 0.0)
 
@@ -78,7 +79,7 @@ def test_each_robot_has_one_label_below_its_body_with_its_obstacle_number(tmp_pa
     # in the follow frame (the screen's axes, +y down), straight below the robot, clear of its body
     x, y = column(label, "Points2D:positions")[-1][0]
     outline = max(math.hypot(p.x, p.y) for p in robots_outlines([(0.0, 0.0, RED)]).markers[0].points)
-    assert x == 0.0 and y == pytest.approx(LABEL_OFFSET_M["simrobot"]) and y > outline
+    assert x == 0.0 and y == pytest.approx(DEFAULT_LOOK.label_offset_m) and y > outline
     body = [e for e in ents if e.startswith("/top/map/robots/r1/body")]
     assert body and not [e for e in body if column(ents[e], "Points2D:labels")]  # no name on the body
     # the heading reaches 12 cm: ~17 px on a 5 m map 700 px wide, out of the 10 px dot and the outline

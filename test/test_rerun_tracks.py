@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 from rerun_test_helpers import create_messages, simrobot_messages, write_bag
 
-from sim_tools.rerun_view.logger import ROBOT_COLORS
+from sim_tools.rerun_kit.style import ROBOT_COLORS
 from sim_tools.rerun_view.tracks import main, tracks_from_bag
 
 

@@ -20,16 +20,15 @@ import rerun as rr
 
 from sim_runtime.bag.reader import UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
-from sim_tools.rerun_view.logger import SUPPORTED_TYPES, RerunLogger
-from sim_tools.rerun_view.tf import TF_MESSAGE_TYPE, decode_tf_message
+from sim_tools.rerun_kit.tf import TF_MESSAGE_TYPE, decode_tf_message
+from sim_tools.rerun_view.logger import RerunLogger, quiet_topics, supported_types
 
 APPLICATION_ID = "robot_sims"
 ROS_INTERNAL_TOPICS = frozenset({"/parameter_events", "/rosout"})
 """Skipped without a warning: every node publishes them, nothing to draw."""
-QUIET_TOPIC_NAMES = frozenset({"robot_description", "robot_states"})
+QUIET_TOPIC_NAMES = frozenset({"robot_description"})
 """Last name segments skipped without a warning: a world's URDF (the views draw its links from the
-world's markers and transforms) and SIMROBOT's compact per-step summary of what its other topics
-carry."""
+world's markers and transforms); the simulators' drawings name theirs (``quiet_topics``)."""
 
 
 class Progress:
@@ -88,9 +87,11 @@ def bag_to_rerun(bag_path: str | Path, out: str | Path | None = None, *, progres
         raise InputError(f"output {out_path}: is a folder; give a file name ending in .rrd")
     if not out_path.parent.is_dir():
         raise InputError(f"output {out_path}: folder {out_path.parent} does not exist")
-    skipped = {t: kind for t, kind in bag.topics.items() if kind not in SUPPORTED_TYPES}
+    drawn = supported_types()
+    skipped = {t: kind for t, kind in bag.topics.items() if kind not in drawn}
+    quiet = QUIET_TOPIC_NAMES | quiet_topics()
     for topic, kind in sorted(skipped.items()):
-        if topic in ROS_INTERNAL_TOPICS or topic.rsplit("/", 1)[-1] in QUIET_TOPIC_NAMES:
+        if topic in ROS_INTERNAL_TOPICS or topic.rsplit("/", 1)[-1] in quiet:
             continue
         warnings.warn(f"{bag.path}: topic {topic} of type {kind or '(no schema)'} is not drawn; skipped", stacklevel=2)
     wanted = [t for t in bag.topics if t not in skipped]

@@ -17,8 +17,9 @@ import rerun as rr
 from rclpy.node import Node
 
 from sim_runtime.qos import ANY_PUBLISHER_QOS
+from sim_tools.rerun_kit.ros import type_name
 from sim_tools.rerun_view.convert import APPLICATION_ID
-from sim_tools.rerun_view.logger import SUPPORTED_TYPES, RerunLogger, type_name
+from sim_tools.rerun_view.logger import RerunLogger, supported_types
 
 SUBSCRIPTION_DEPTH = 100
 DISCOVERY_PERIOD = 2.0
@@ -59,8 +60,9 @@ class LiveView:
         self.update_layout()
         from sim_runtime.bag.reader import UnknownMessageType, message_class
 
+        drawn = supported_types()
         for topic, types in self.node.get_topic_names_and_types():
-            if topic in self.subscriptions or len(types) != 1 or types[0] not in SUPPORTED_TYPES:
+            if topic in self.subscriptions or len(types) != 1 or types[0] not in drawn:
                 continue
             try:
                 cls = message_class(types[0], topic)
@@ -106,8 +108,9 @@ def attach_live_view(
         elif spawn:
             recording.spawn()
     view = LiveView(node, recording, RerunLogger(recording))
+    drawn = supported_types()
     for pub in list(node.publishers):
-        if type_name(pub.msg_type) in SUPPORTED_TYPES:
+        if type_name(pub.msg_type) in drawn:
             # The publisher's own QoS (latched maps arrive), with room for the bursts of a world
             # stepped in bulk (node.step(n), real_time_factor 0).
             qos = copy.copy(pub.qos_profile)

@@ -2,7 +2,9 @@
 
 The map is the bag's last ``/map`` (OccupancyGrid, SIMROBOT) or the walls of its ``map_markers``
 (Create) rasterised; tracks are the ground-truth poses (``overhead_pose``/``pose``), or ``odom``
-for a robot without them. Drawn by :func:`sim_runtime.track_plot.draw_tracks` (the original's "draw tracks").
+for a robot without them; colours are the world's outlines' (SIMROBOT). Which topics and marker
+namespaces those are, the simulators' drawings say (:mod:`sim_tools.rerun_view.logger`). Drawn by
+:func:`sim_runtime.track_plot.draw_tracks` (the original's "draw tracks").
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import numpy as np
 from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.track_plot import draw_tracks
-from sim_tools.rerun_view.logger import TRUTH_POSE_TOPICS, Outline, outline_at, robot_color, robot_outlines
+from sim_tools.rerun_kit.contract import Outline, outline_at
+from sim_tools.rerun_kit.style import LINE_LIST, robot_color
+from sim_tools.rerun_view.logger import registered_drawings
 
 RASTER_RESOLUTION = 0.01
 """m per pixel when walls (line segments) are rasterised into an occupancy image."""
@@ -39,55 +43,68 @@ class TrackData:
     colors: dict[str, tuple[float, float, float]] = field(default_factory=dict)
 
 
+POSE_TYPE = "geometry_msgs/msg/PoseStamped"
+MARKERS_TYPE = "visualization_msgs/msg/MarkerArray"
+
+
 def _namespace(topic: str) -> str:
     return topic.strip("/").rpartition("/")[0] or "robot"
+
+
+def _leaf(topic: str) -> str:
+    return topic.rpartition("/")[2]
 
 
 def tracks_from_bag(bag_path: str | Path) -> TrackData:
     """Read the map and the robots' tracks from a bag (folder or .mcap)."""
     bag = open_bag(bag_path)
-    truth = {
-        t
-        for t, kind in bag.topics.items()
-        if t.rpartition("/")[2] in TRUTH_POSE_TOPICS and kind == "geometry_msgs/msg/PoseStamped"
-    }
-    odom = {t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "odom" and kind == "nav_msgs/msg/Odometry"}
+    drawings = registered_drawings()
+    truth_names = {t for d in drawings for t in d.truth_pose_topics}
+    truth = {t for t, kind in bag.topics.items() if _leaf(t) in truth_names and kind == POSE_TYPE}
+    odom = {t for t, kind in bag.topics.items() if _leaf(t) == "odom" and kind == "nav_msgs/msg/Odometry"}
     truth_robots = {_namespace(t) for t in truth}
     odom = {t for t in odom if _namespace(t) not in truth_robots}  # odometry only where no truth
     maps = {t for t, kind in bag.topics.items() if kind == "nav_msgs/msg/OccupancyGrid"}
-    markers = {
-        t
-        for t, kind in bag.topics.items()
-        if t.rpartition("/")[2] == "map_markers" and kind == "visualization_msgs/msg/MarkerArray"
-    }
+    map_names = {t for d in drawings for t in d.map_marker_topics}
+    markers = {t for t, kind in bag.topics.items() if _leaf(t) in map_names and kind == MARKERS_TYPE}
+    outliners = {t: d for d in drawings for t in d.outline_topics}
     outline_topics = {
-        t for t, kind in bag.topics.items() if t.rpartition("/")[2] == "robots" and kind.endswith("/MarkerArray")
+        t: outliners[_leaf(t)]
+        for t, kind in bag.topics.items()
+        if _leaf(t) in outliners and kind.endswith("/MarkerArray")
     }
+    wall_namespaces = {n for d in drawings for n in d.wall_namespaces}
     outlines: list[Outline] = []
+    match_m = 0.0
 
     points: dict[str, list[tuple[float, float]]] = {}
     grid = None
     walls: list[np.ndarray] = []
-    for m in bag.messages(topics=truth | odom | maps | markers | outline_topics):
+    for m in bag.messages(topics=truth | odom | maps | markers | set(outline_topics)):
         try:
             msg = m.msg
         except (UnknownMessageType, CorruptMessage) as err:
             warnings.warn(f"{bag.path}: {err}; skipped", stacklevel=2)
             continue
         if m.topic in outline_topics:
-            outlines = outlines or robot_outlines(msg.markers)  # the first: robots at their start
+            if not outlines:  # the first: robots at their start
+                outlines = outline_topics[m.topic].outlines(msg.markers)
+                match_m = outline_topics[m.topic].outline_match_m
         elif m.topic in maps:
             grid = msg
         elif m.topic in markers:
-            walls = [_marker_segments(mk) for mk in msg.markers if mk.ns == "walls" and mk.type == 5]
+            walls = [_marker_segments(mk) for mk in msg.markers if mk.ns in wall_namespaces and mk.type == LINE_LIST]
         else:
             pose = msg.pose.pose if m.topic in odom else msg.pose
             points.setdefault(_namespace(m.topic), []).append((pose.position.x, pose.position.y))
+    return _track_data(points, outlines, match_m, grid, walls)
 
+
+def _track_data(points, outlines: list[Outline], match_m: float, grid, walls: list[np.ndarray]) -> TrackData:
     names = sorted(points)
     data = TrackData(
         tracks={n: np.array(points[n], dtype=float) for n in names},
-        colors={n: _color(n, names, points[n][0], outlines) for n in names},
+        colors={n: _color(n, names, points[n][0], outlines, match_m) for n in names},
     )
     if grid is not None:
         info = grid.info
@@ -100,10 +117,10 @@ def tracks_from_bag(bag_path: str | Path) -> TrackData:
 
 
 def _color(
-    name: str, names: list[str], start: tuple[float, float], outlines: list[Outline]
+    name: str, names: list[str], start: tuple[float, float], outlines: list[Outline], match_m: float
 ) -> tuple[float, float, float]:
     """The world's colour for the robot (its outline at its start), else the views' palette; rgb 0–1."""
-    outline = outline_at(outlines, *start)
+    outline = outline_at(outlines, *start, match_m)
     r, g, b = outline.color if outline is not None else robot_color(name, names)
     return r / 255, g / 255, b / 255
 
