@@ -52,7 +52,7 @@ def _box(center, extents, rotation=None) -> trimesh.Trimesh:
 def _tube(frames: np.ndarray, arm: Arm, k: int, radius: float) -> trimesh.Trimesh:
     """Link k's body along the DH path: o_{k-1} -> o_{k-1} + d z_{k-1} -> o_k, with rounded joints."""
     o_prev = frames[k - 1, :3, 3]
-    corner = o_prev + arm.dh[k - 1, 1] * frames[k - 1, :3, 2]
+    corner = o_prev + arm.chain.dh[k - 1, 1] * frames[k - 1, :3, 2]
     o_k = frames[k, :3, 3]
     parts = [_cylinder(o_prev, corner, radius), _cylinder(corner, o_k, radius)]
     if np.linalg.norm(corner - o_prev) > 1e-6 and np.linalg.norm(o_k - corner) > 1e-6:

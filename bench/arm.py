@@ -57,7 +57,7 @@ def np_frames(arm: Arm, q):
     T = arm.base
     frames = [T]
     for i in range(arm.n):
-        T = T @ np_dh(arm.dh[i, 0] + q[i], arm.dh[i, 1], arm.dh[i, 2], arm.dh[i, 3])
+        T = T @ np_dh(arm.chain.dh[i, 0] + q[i], arm.chain.dh[i, 1], arm.chain.dh[i, 2], arm.chain.dh[i, 3])
         frames.append(T)
     return frames
 
@@ -90,10 +90,10 @@ def np_rne(arm: Arm, q, qd, qdd):
         wd = wd + z * qdd[i] + np.cross(w, z) * qd[i]
         w = w + z * qd[i]
         R = frames[i + 1][:3, :3]
-        c = frames[i + 1][:3, 3] + R @ arm.cog[i]
+        c = frames[i + 1][:3, 3] + R @ arm.dynamics.cog[i]
         dc = c - p
-        F.append(arm.mass[i] * (acc + np.cross(wd, dc) + np.cross(w, np.cross(w, dc))))
-        Iw = R @ arm.inertia_links[i] @ R.T
+        F.append(arm.dynamics.mass[i] * (acc + np.cross(wd, dc) + np.cross(w, np.cross(w, dc))))
+        Iw = R @ arm.dynamics.inertia[i] @ R.T
         N.append(Iw @ wd + np.cross(w, Iw @ w))
         P.append(p)
         C.append(c)
@@ -139,14 +139,14 @@ def rtb_robot(arm: Arm):
         return None
     links = [
         rtb.RevoluteDH(
-            d=arm.dh[i, 1],
-            a=arm.dh[i, 2],
-            alpha=arm.dh[i, 3],
-            offset=arm.dh[i, 0],
+            d=arm.chain.dh[i, 1],
+            a=arm.chain.dh[i, 2],
+            alpha=arm.chain.dh[i, 3],
+            offset=arm.chain.dh[i, 0],
             qlim=arm.qlim[i],
-            m=arm.mass[i],
-            r=arm.cog[i],
-            I=arm.inertia_links[i],
+            m=arm.dynamics.mass[i],
+            r=arm.dynamics.cog[i],
+            I=arm.dynamics.inertia[i],
             Jm=0,
             G=1,
         )
