@@ -32,6 +32,17 @@ from visualization_msgs.msg import Marker, MarkerArray
 from arm_sim.arm import PLACEHOLDER_SIZE, Arm
 from arm_sim.motion import JointMotion
 from arm_sim.scene import Scene, load_scene
+from arm_sim.spec import (
+    DEFAULT_PUBLISH_RATE,
+    END_EFFECTOR_POSE_TOPIC,
+    JOINT_STATES_TOPIC,
+    PHYSICS_RATE,
+    ROBOT_MARKERS_TOPIC,
+    SCENE_MARKERS_TOPIC,
+    WORLD_AXES_NS,
+    mesh_marker_ns,
+    scene_marker_ns,
+)
 from arm_sim.urdf import arm_tree, arm_urdf, fixed_transforms, joint_transforms
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
@@ -42,7 +53,6 @@ from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, transform_msg
 from sim_runtime.world_node import SimWorldNode
 
-PHYSICS_RATE = 100.0
 AXES_LENGTH = 0.2  # m, RefSystem axes
 
 
@@ -152,9 +162,9 @@ class ArmInstance:
         )
         self.index = {name: i for i, name in enumerate(arm.joint_names)}
         frame = node.frame_id
-        self.joint_pub = create_sensor_publisher(node, JointState, prefix + "joint_states")
-        self.marker_pub = create_sensor_publisher(node, MarkerArray, prefix + "robot_markers")
-        self.pose_pub = create_sensor_publisher(node, PoseStamped, prefix + "end_effector_pose")
+        self.joint_pub = create_sensor_publisher(node, JointState, prefix + JOINT_STATES_TOPIC)
+        self.marker_pub = create_sensor_publisher(node, MarkerArray, prefix + ROBOT_MARKERS_TOPIC)
+        self.pose_pub = create_sensor_publisher(node, PoseStamped, prefix + END_EFFECTOR_POSE_TOPIC)
         self.description_pub = node.create_publisher(String, prefix + "robot_description", LATCHED_QOS)
         create_command_subscription(node, JointTrajectory, prefix + "joint_trajectory", self.on_trajectory)
         create_command_subscription(node, JointState, prefix + "joint_command", self.on_joint_command)
@@ -177,7 +187,7 @@ class ArmInstance:
         """Every element's marker with its static fields; poses are filled at publish time."""
         markers = []
         for k, element in enumerate(self.arm.elements):
-            m = Marker(ns=f"{self.label}/meshes", id=k, action=Marker.ADD)
+            m = Marker(ns=mesh_marker_ns(self.label), id=k, action=Marker.ADD)
             m.header.frame_id = self.node.frame_id
             m.color = _color(element.element.color, alpha)
             if element.placeholder:
@@ -340,7 +350,7 @@ class ArmNode(SimWorldNode):
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
             raise
-        self.scene_pub = self.create_publisher(MarkerArray, "scene_markers", LATCHED_QOS)
+        self.scene_pub = self.create_publisher(MarkerArray, SCENE_MARKERS_TOPIC, LATCHED_QOS)
         self.scene_pub.publish(self._scene_markers())
         self._publish_static_transforms()
         entries = [t for arm in self.arms for t in arm.tf_entries()]
@@ -400,7 +410,7 @@ class ArmNode(SimWorldNode):
         )
         self.publish_rate = declare(
             "publish_rate",
-            50.0,
+            DEFAULT_PUBLISH_RATE,
             math.isfinite,
             f"Hz of joint_states, robot_markers, end_effector_pose and /tf (0 = never, at most the physics "
             f"rate {PHYSICS_RATE:g})",
@@ -449,9 +459,9 @@ class ArmNode(SimWorldNode):
         return namespace + "/" if namespace else ""
 
     def _scene_markers(self) -> MarkerArray:
-        markers = [_axes_marker(self.frame_id, "world_axes", np.eye(4), self.stamp())]
+        markers = [_axes_marker(self.frame_id, WORLD_AXES_NS, np.eye(4), self.stamp())]
         for k, obj in enumerate(self.scene.objects if self.scene else ()):
-            m = Marker(ns=f"scene/{obj.name}", id=k, type=Marker.MESH_RESOURCE, action=Marker.ADD)
+            m = Marker(ns=scene_marker_ns(obj.name), id=k, type=Marker.MESH_RESOURCE, action=Marker.ADD)
             m.header.frame_id = self.frame_id
             m.header.stamp = self.stamp()
             m.mesh_resource = mesh_uri(obj.mesh)

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC
+
 TRAJECTORY = [  # (seconds from start, joint positions in rad)
     (1.0, [0.5, 0.2, -0.3, 0.0, 0.6, 0.0]),
     (2.0, [0.8, 0.4, 0.1, 0.5, -0.4, 1.0]),
@@ -49,8 +51,8 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         for node in nodes:
             executor.add_node(node)
         arm = world.arm("")
-        states = Collector(commander, JointState, "joint_states", SENSOR_SUBSCRIBER_QOS)
-        poses = Collector(commander, PoseStamped, "end_effector_pose", SENSOR_SUBSCRIBER_QOS)
+        states = Collector(commander, JointState, JOINT_STATES_TOPIC, SENSOR_SUBSCRIBER_QOS)
+        poses = Collector(commander, PoseStamped, END_EFFECTOR_POSE_TOPIC, SENSOR_SUBSCRIBER_QOS)
         traj_pub = commander.create_publisher(JointTrajectory, "joint_trajectory", COMMAND_PUBLISHER_QOS)
         pose_pub = commander.create_publisher(PoseStamped, "target_pose", COMMAND_PUBLISHER_QOS)
         for endpoint in (states.subscription, poses.subscription, traj_pub, pose_pub):
