@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import ClassVar
 
+from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC, SCENE_MARKERS_TOPIC
 from sim_tools.rerun_kit.contract import Handler, SimulatorDrawing
 from sim_tools.rerun_kit.drawer import Drawer
 
@@ -25,10 +26,10 @@ def draw_joints(view: Drawer, topic: str, msg) -> None:
 class ArmDrawing(SimulatorDrawing):
     """The arm's part of the views."""
 
-    path_topics = ("end_effector_pose",)
-    static_marker_topics = ("scene_markers",)
+    path_topics = (END_EFFECTOR_POSE_TOPIC,)
+    static_marker_topics = (SCENE_MARKERS_TOPIC,)
     handlers: ClassVar[Mapping[tuple[str | None, str], Handler]] = {
-        ("joint_states", "sensor_msgs/msg/JointState"): draw_joints
+        (JOINT_STATES_TOPIC, "sensor_msgs/msg/JointState"): draw_joints
     }
     legend_3d = LEGEND
 
