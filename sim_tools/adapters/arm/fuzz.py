@@ -36,21 +36,22 @@ class ArmSeeds:
 
 
 def prepare_seeds(folder: Path) -> None:
-    """The shipped robot configs and work cell (their mesh paths made absolute), and STL meshes:
-    a binary and an ASCII tetrahedron, a scene box and an IRB120 link."""
+    """The shipped robot configs (at the top of ``folder``: a scene names them by their path, so
+    that path is part of its mutated text) and work cell, their mesh paths made absolute, and STL
+    meshes: a binary and an ASCII tetrahedron, a scene box and an IRB120 link."""
     from arm_sim.stl import write_stl
 
-    for sub in ("robots", "scenes", "stl"):
+    for sub in ("scenes", "stl"):
         (folder / sub).mkdir(parents=True, exist_ok=True)
     for name in ("irb120.yaml", "csa7.yaml"):
         raw = yaml.safe_load(config_path(f"arm/{name}").read_text())
         raw["mesh_folder"] = str((config_path("arm") / raw.get("mesh_folder", ".")).resolve())
-        (folder / f"robots/{name}").write_text(yaml.safe_dump(raw, sort_keys=False))
+        (folder / name).write_text(yaml.safe_dump(raw, sort_keys=False))
     scene = yaml.safe_load(config_path("arm/workcell.yaml").read_text())
     for obj in scene.get("objects", []):
         obj["mesh"] = str((config_path("arm") / obj["mesh"]).resolve())
     for arm in scene.get("arms", []):
-        arm["config"] = str((folder / "robots" / arm["config"]).resolve())
+        arm["config"] = str((folder / arm["config"]).resolve())
     (folder / "scenes/workcell.yaml").write_text(yaml.safe_dump(scene, sort_keys=False))
     tetra = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float32)
     tris = tetra[np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])]
@@ -65,7 +66,7 @@ def load_seeds(folder: Path) -> ArmSeeds:
         return [yaml.safe_load(p.read_text(encoding="utf-8")) for p in sorted(folder.glob(pattern))]
 
     stls = [p.read_bytes() for p in sorted(folder.glob("stl/*.stl"))]
-    return ArmSeeds(folder=folder, configs=trees("robots/*.yaml"), scenes=trees("scenes/*.yaml"), stls=stls)
+    return ArmSeeds(folder=folder, configs=trees("*.yaml"), scenes=trees("scenes/*.yaml"), stls=stls)
 
 
 def drive(rng: random.Random, path: Path) -> None:
@@ -162,7 +163,7 @@ def field_cases(rng: random.Random, seeds: ArmSeeds, folder: Path, special: Path
 
 
 def warm_up(rng: random.Random, seeds: ArmSeeds, folder: Path) -> None:
-    drive(rng, seeds.folder / "robots/irb120.yaml")
+    drive(rng, seeds.folder / "irb120.yaml")
     load_scene(seeds.folder / "scenes/workcell.yaml")
     for path in sorted((seeds.folder / "stl").glob("*.stl")):
         load_stl(path)
