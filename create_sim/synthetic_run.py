@@ -211,7 +211,7 @@ def _state_messages(put: Put, model: CreateModel, t_ns: int, bumps: tuple[bool, 
     put("/bump/left", t_ns, _detector(t_ns, "bump_left", bumps[0], Range.INFRARED))
     put("/bump/right", t_ns, _detector(t_ns, "bump_right", bumps[1], Range.INFRARED))
     put("/wall", t_ns, _detector(t_ns, "wall_ir", model.wall_sensor()))
-    put("/virtual_wall", t_ns, _detector(t_ns, "virtual_wall", model.virtual_wall()))
+    put("/virtual_wall", t_ns, _detector(t_ns, "virtual_wall_ir", model.virtual_wall()))
     for name, value in zip(CLIFF_NAMES, model.cliff_signals().tolist(), strict=True):
         msg = Illuminance(illuminance=value)
         msg.header.stamp, msg.header.frame_id = _stamp(t_ns), f"cliff_{name}"
