@@ -222,6 +222,13 @@ class ArmPage:
         ros = self.ros()
         return None if ros is None or self.selected is None else ros.arms.get(self.selected)
 
+    def commanded(self) -> tuple[ArmRos, str] | None:
+        """The client and the arm prefix a command goes to (None: no arm selected)."""
+        ros = self.ros()
+        if ros is None or self.selected is None or self.selected not in ros.arms:
+            return None
+        return ros, self.selected
+
     def on_select(self, e) -> None:
         self.selected = e.value
         self.built_joints = ()
@@ -290,7 +297,7 @@ class ArmPage:
             return
         layout = (self.selected, st.joint_names, tuple(sorted(st.limits)))
         if layout != self.built_joints and st.joint_names and st.limits and st.positions is not None:
-            self.build_joints(st)
+            self.build_joints(st, st.positions)
             self.built_joints = layout
         if not self.joint_rows or st.positions is None or len(st.positions) != len(st.joint_names):
             return
@@ -318,7 +325,7 @@ class ArmPage:
                 f"pitch {math.degrees(pitch):.1f}° yaw {math.degrees(yaw):.1f}°"
             )
 
-    def build_joints(self, st: ArmState) -> None:
+    def build_joints(self, st: ArmState, positions: np.ndarray) -> None:
         self.joint_panel.clear()
         self.joint_rows = {}
         with self.joint_panel:
@@ -330,7 +337,7 @@ class ArmPage:
                 lo, hi = (
                     (limit.lower, limit.upper) if prismatic else (math.degrees(limit.lower), math.degrees(limit.upper))
                 )
-                value = float(st.positions[k]) if prismatic else math.degrees(st.positions[k])
+                value = float(positions[k]) if prismatic else math.degrees(positions[k])
                 step = 0.001 if prismatic else 0.1
                 with ui.row().classes(f"items-center gap-2 no-wrap w-full studio-joint-{k + 1}"):
                     ui.label(name).classes("w-16 text-sm")
@@ -372,10 +379,11 @@ class ArmPage:
         self.send_joint(name, prismatic, value)
 
     def send_joint(self, name: str, prismatic: bool, value: float) -> None:
-        if self.arm() is None:
+        to = self.commanded()
+        if to is None:
             return
         self.last_command = time.monotonic()
-        self.ros().joint_command(self.selected, [name], [value if prismatic else math.radians(value)])
+        to[0].joint_command(to[1], [name], [value if prismatic else math.radians(value)])
 
     # ---------------------------------------------------------------- target pose
     def fill_target(self) -> None:
@@ -390,17 +398,18 @@ class ArmPage:
     async def go_to_target(self) -> None:
         """Send the target pose, then say what became of it: reached, or unreachable (the world's
         warning on /rosout, or no motion at all while far from the target)."""
-        st = self.arm()
-        if st is None:
+        st, to = self.arm(), self.commanded()
+        if st is None or to is None:
             ui.notify("no arm selected", type="warning")
             return
         values = [float(f.value or 0.0) for f in self.target]
-        xyz, rpy = tuple(values[:3]), tuple(math.radians(v) for v in values[3:])
+        x, y, z, roll, pitch, yaw = values[0], values[1], values[2], *map(math.radians, values[3:6])
+        xyz, rpy = (x, y, z), (roll, pitch, yaw)
         sent = time.monotonic()
         self.last_command = sent
         self.target_label.set_text("solving IK…")
         self.target_label.classes(remove="text-red-700 text-green-700")
-        self.ros().target_pose(self.selected, xyz, rpy)
+        to[0].target_pose(to[1], xyz, rpy)
         goal = transform_from_xyz_rpy(np.array(xyz), np.array(rpy))
         asked = "x {:.3f} y {:.3f} z {:.3f} m, roll {:.1f}° pitch {:.1f}° yaw {:.1f}°".format(*values)
         start = None if st.positions is None else st.positions.copy()
@@ -412,7 +421,8 @@ class ArmPage:
                 self.target_label.classes(add="text-red-700")
                 return
             # A short move can start and end between two looks: compare the joints with the start.
-            moved = moved or st.moving() or (start is not None and not np.array_equal(st.positions, start))
+            changed = start is not None and st.positions is not None and not np.array_equal(st.positions, start)
+            moved = moved or st.moving() or changed
             if st.end_effector is not None and st.end_effector_quat is not None:
                 here = rotations(np.array([st.end_effector_quat]))[0]
                 position_error = float(np.linalg.norm(np.array(st.end_effector[:3]) - goal[:3, 3]))
@@ -432,8 +442,8 @@ class ArmPage:
 
     # ---------------------------------------------------------------- trajectories
     def play(self) -> None:
-        st = self.arm()
-        if st is None:
+        st, to = self.arm(), self.commanded()
+        if st is None or to is None:
             ui.notify("no arm selected", type="warning")
             return
         name = self.trajectory_file.value or ""
@@ -451,14 +461,14 @@ class ArmPage:
             self.trajectory_label.set_text(f"error: {err}")
             return
         self.last_command = time.monotonic() + float(trajectory.times[-1])
-        self.ros().trajectory(self.selected, names, trajectory.times, trajectory.positions, trajectory.velocities)
+        to[0].trajectory(to[1], names, trajectory.times, trajectory.positions, trajectory.velocities)
         self.trajectory_label.set_text(
             f"playing {escape(name)}: {len(trajectory.times)} points, {trajectory.times[-1]:g} s"
         )
 
     def stop_motion(self) -> None:
-        if self.arm() is not None:
-            self.ros().stop(self.selected)
+        if (to := self.commanded()) is not None:
+            to[0].stop(to[1])
             self.trajectory_label.set_text("stopped")
 
     # ---------------------------------------------------------------- worlds

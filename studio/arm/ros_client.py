@@ -60,7 +60,7 @@ def joint_limits(urdf: str) -> dict[str, JointLimit]:
             lower, upper = -math.pi, math.pi
         else:
             lower, upper = float(limit.get("lower", "0")), float(limit.get("upper", "0"))
-        limits[joint.get("name")] = JointLimit(lower, upper, kind == "prismatic")
+        limits[joint.get("name", "")] = JointLimit(lower, upper, kind == "prismatic")
     return limits
 
 
@@ -183,8 +183,8 @@ class _Arm:
 
     def _on_markers(self, msg: MarkerArray) -> None:
         s = self.state
-        look, poses = drawables(msg)
-        look = tuple(look)
+        items, poses = drawables(msg)
+        look = tuple(items)
         if look != s.look:
             s.look = look
         s.poses = poses

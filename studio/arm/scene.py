@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from nicegui import background_tasks, ui
+from nicegui.elements.scene.scene_object3d import Object3D
 
 from sim_runtime.errors import InputError
 from sim_runtime.paths import mesh_path
@@ -33,7 +34,7 @@ CAMERA = {"x": 0.95, "y": -0.95, "z": 0.8, "look_at_x": 0.15, "look_at_y": 0.0, 
 class Shown:
     """A drawable on the scene: its three.js object, what it looks like, its owner."""
 
-    obj: object | None  # None while its mesh is being prepared
+    obj: Object3D | None  # None while its mesh is being prepared
     drawable: Drawable
     owner: str
     name: str
@@ -86,7 +87,7 @@ class ArmScene:
         self.hidden: set[str] = set()
         self.opacity: dict[str, float] = {}
         self.drawn_seq: dict[str, int] = {}
-        self.axes: dict[str, object] = {}  # arm prefix -> end-effector frame
+        self.axes: dict[str, Object3D] = {}  # arm prefix -> end-effector frame
         self.show_frames = True
         self.fitted = False
         self.last_points: dict[str, np.ndarray] = {}  # owner -> its elements' positions, for the camera
@@ -165,7 +166,7 @@ class ArmScene:
         """Put a drawable on the scene once its mesh is ready (prepared in a worker thread, so a
         huge file never holds up the page or the other meshes)."""
         d = shown.drawable
-        obj = None
+        obj: Object3D | None = None
         if d.mesh_uri:
             path = mesh_path(d.mesh_uri)
             try:
@@ -230,6 +231,8 @@ class ArmScene:
             self.apply_material(key, shown)
 
     def apply_material(self, key: str, shown: Shown) -> None:
+        if shown.obj is None:
+            return  # its mesh is still being prepared: it gets its material once on the scene
         rgba = shown.drawable.rgba
         shown.obj.material(_hex(rgba), opacity=float(rgba[3]) * self.opacity.get(key, 1.0), side="both")
 

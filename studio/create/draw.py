@@ -13,14 +13,20 @@ import numpy as np
 
 from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
-from create_sim.spec import CLIFF_NAMES, RADIUS_M, SENSOR_MOUNTS, SONAR_NAMES
+from create_sim.spec import (
+    CLIFF_NAMES,
+    RADIUS_M,
+    SENSOR_MOUNTS,
+    SONAR_NAMES,
+    VWALL_HALO_M,
+    cliff_active,
+    virtual_wall_field,
+)
 from studio.shell.svg import View, fmt, points, rgb_hex
 
 WALL_COLOUR = "#222"
 LINE_COLOUR = "#2a4fd8"
 VWALL_COLOUR = "#12a012"
-CLIFF_ACTIVE_BELOW = 0.5 * (CreateModel.CLIFF_FLOOR + CreateModel.CLIFF_LINE)
-"""A cliff signal under this (%, halfway between floor and line) means the sensor sees a line."""
 
 
 def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra: str = "") -> str:
@@ -33,12 +39,8 @@ def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra
 
 
 def virtual_wall_shapes(x: float, y: float, theta: float, setting: int) -> tuple[float, np.ndarray]:
-    """Halo radius and field triangle (3, 2) of an emitter, from the model's constants."""
-    length, angle = CreateModel.VWALL_FIELDS[int(setting)]
-    tri = [(x, y)] + [
-        (x + length * math.cos(theta + s * angle / 2), y + length * math.sin(theta + s * angle / 2)) for s in (1, -1)
-    ]
-    return CreateModel.VWALL_HALO, np.array(tri)
+    """Halo radius and field triangle (3, 2) of an emitter, from the Create's spec."""
+    return VWALL_HALO_M, virtual_wall_field(x, y, theta, setting)
 
 
 def map_svg(view: View, world: CreateMap, *, fields: bool = True) -> str:
@@ -180,7 +182,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
     if "cliff" in layers and r.cliffs:
         for name in CLIFF_NAMES:
             signal = r.cliffs.get(name)
-            if signal is not None and signal < CLIFF_ACTIVE_BELOW:
+            if signal is not None and cliff_active(signal):
                 x, y, _ = _mount_world(r.pose, f"cliff_{name}")
                 px, py = view.to_px(x, y)
                 parts.append(

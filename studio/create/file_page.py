@@ -4,8 +4,10 @@ running worlds a saved file can be applied to."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from sim_runtime.errors import InputError
+from studio.create.ros_client import create_ros
 from studio.shell.app import Studio
 from studio.shell.kit import DraftGuard
 
@@ -21,7 +23,16 @@ class FilePage(DraftGuard):
         self.studio = studio
         self.own_file = ""  # the workspace file this page last loaded or saved: the one that may be applied
 
-    def file_controls(self, what: str, default: str, prefix: str, width: str, extra: Callable[[], None]) -> None:
+    def load(self) -> None:
+        raise NotImplementedError
+
+    def save(self) -> bool:
+        raise NotImplementedError
+
+    async def apply_to_world(self) -> None:
+        raise NotImplementedError
+
+    def file_controls(self, what: str, default: str, prefix: str, width: str, extra: Callable[[], Any]) -> None:
         """The file name, Load, Save and overwrite (``extra()`` adds widgets to that row); the
         elements' classes ``studio-<prefix>-file``, ``-load``, ``-save``."""
         from nicegui import ui
@@ -82,8 +93,12 @@ class FilePage(DraftGuard):
         self.overwrite.set_value(True)  # the file this page loaded or saved: bring it up to date
         if not self.save():
             return
+        ros = create_ros(self.studio)
+        if ros is None:
+            self.say("the studio's ROS client has not started", error=True)
+            return
         try:
-            refused = await self.studio.ros.set_parameters(ns, {parameter: str(path)})
+            refused = await ros.set_parameters(ns, {parameter: str(path)})
         except TimeoutError as err:
             refused = [str(err)]
         if refused:
@@ -92,7 +107,7 @@ class FilePage(DraftGuard):
             self.say(f"saved {name} and applied it to the world in {ns or '/'}")
 
     def refresh_worlds(self) -> None:
-        ros = self.studio.ros
+        ros = create_ros(self.studio)
         names = ros.namespaces() if ros is not None else []
         if names != list(self.world_select.options):
             value = self.studio.default_robot(names, self.world_select.value)

@@ -221,6 +221,8 @@ class MapMakerPage(FilePage, ZoomableView):
         self.click(p, e)
 
     def preview_move(self, p: tuple[float, float]) -> None:
+        if self.drag_from is None or self.selected is None:
+            return  # no drag of a selected element under way
         dx, dy = p[0] - self.drag_from[0], p[1] - self.drag_from[1]
         self.preview.set_content(self.highlight(moved(self.doc.elements[self.selected], dx, dy)))
 
@@ -289,6 +291,7 @@ class MapMakerPage(FilePage, ZoomableView):
             return
         element = self.doc.elements[self.selected]
         self.selection_label.set_text(element_label(element))
+        values: tuple[float | int | str, ...]
         if isinstance(element, Segment):
             values = element[1:]
         elif isinstance(element, Beacon):

@@ -170,7 +170,8 @@ def elements_from_map(world: CreateMap) -> list[Element]:
     elements: list[Element] = [Segment("wall", *map(float, w)) for w in world.walls]
     elements += [Segment("line", *map(float, w)) for w in world.lines]
     for xy, rgb, beacon_id in zip(world.beacon_xy, world.beacon_rgb, world.beacon_ids, strict=True):
-        elements.append(Beacon(float(xy[0]), float(xy[1]), tuple(float(c) for c in rgb), beacon_id))
+        r, g, b = (float(c) for c in rgb)
+        elements.append(Beacon(float(xy[0]), float(xy[1]), (r, g, b), beacon_id))
     elements += [VirtualWall(float(x), float(y), float(t), int(s)) for x, y, t, s in world.virtwalls]
     return elements
 

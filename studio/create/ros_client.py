@@ -13,6 +13,7 @@ import math
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, Twist
@@ -25,10 +26,18 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from create_sim.mapfile import CreateMap
-from create_sim.model import CreateModel
-from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import (
+    BEACONS_NS,
+    CLIFF_NAMES,
+    LINES_NS,
+    SONAR_NAMES,
+    VIRTUAL_WALL_FIELDS_NS,
+    WALLS_NS,
+    virtual_wall_setting,
+)
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
+from studio.shell.app import Studio
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
@@ -84,20 +93,21 @@ def map_from_markers(msg: MarkerArray) -> CreateMap:
 
     Works with any world, local or not; a virtual wall's setting is the field whose length
     matches its triangle."""
-    walls, lines, beacons, vwalls = [], [], [], []
+    walls: list[tuple[float, float, float, float]] = []
+    lines: list[tuple[float, float, float, float]] = []
+    beacons: list[tuple[float, float, tuple[float, float, float], str]] = []
+    vwalls: list[tuple[float, float, float, int]] = []
     for m in msg.markers:
         pts = [(p.x, p.y) for p in m.points]
-        if m.ns in ("walls", "lines"):
+        if m.ns in (WALLS_NS, LINES_NS):
             segs = [(*pts[i], *pts[i + 1]) for i in range(0, len(pts) - 1, 2)]
-            (walls if m.ns == "walls" else lines).extend(segs)
-        elif m.ns == "beacons":
+            (walls if m.ns == WALLS_NS else lines).extend(segs)
+        elif m.ns == BEACONS_NS:
             beacons.append((m.pose.position.x, m.pose.position.y, (m.color.r, m.color.g, m.color.b), m.text))
-        elif m.ns == "virtual_wall_fields" and len(pts) >= 3:
+        elif m.ns == VIRTUAL_WALL_FIELDS_NS and len(pts) >= 3:
             (ex, ey), (ax, ay), (bx, by) = pts[:3]
             theta = math.atan2((ay + by) / 2 - ey, (ax + bx) / 2 - ex)
-            length = math.hypot(ax - ex, ay - ey)
-            setting = min(CreateModel.VWALL_FIELDS, key=lambda s: abs(CreateModel.VWALL_FIELDS[s][0] - length))
-            vwalls.append((ex, ey, theta, setting))
+            vwalls.append((ex, ey, theta, virtual_wall_setting(math.hypot(ax - ex, ay - ey))))
     return CreateMap(
         walls=np.array(walls, dtype=np.float64).reshape(-1, 4),
         lines=np.array(lines, dtype=np.float64).reshape(-1, 4),
@@ -119,19 +129,17 @@ class _Robot:
             sub(PoseStamped, s.topic("overhead_pose"), self._on_pose, q),
             sub(Odometry, s.topic("odom"), self._on_odom, q),
             sub(LaserScan, s.topic("scan"), self._on_scan, q),
-            sub(Range, s.topic("wall"), lambda m: setattr(s, "wall", m.range == -math.inf), q),
-            sub(Range, s.topic("virtual_wall"), lambda m: setattr(s, "virtual_wall", m.range == -math.inf), q),
+            sub(Range, s.topic("wall"), self._on_wall, q),
+            sub(Range, s.topic("virtual_wall"), self._on_virtual_wall, q),
             sub(Range, s.topic("bump/left"), lambda m: self._on_bump(0, m), q),
             sub(Range, s.topic("bump/right"), lambda m: self._on_bump(1, m), q),
             sub(MarkerArray, s.topic("camera/beacons"), self._on_camera, q),
             sub(MarkerArray, s.topic("map_markers"), self._on_map, LATCHED_QOS),
         ]
         for name in SONAR_NAMES:
-            self.subs.append(sub(Range, s.topic(f"sonar/{name}"), lambda m, n=name: s.sonar.__setitem__(n, m.range), q))
+            self.subs.append(sub(Range, s.topic(f"sonar/{name}"), partial(self._on_sonar, name), q))
         for name in CLIFF_NAMES:
-            self.subs.append(
-                sub(Illuminance, s.topic(f"cliff/{name}"), lambda m, n=name: s.cliffs.__setitem__(n, m.illuminance), q)
-            )
+            self.subs.append(sub(Illuminance, s.topic(f"cliff/{name}"), partial(self._on_cliff, name), q))
         # Every tab, teleop and controller commands the same world: the speed steps start from
         # its last command, whoever sent it.
         # Reliable, as the world listens: a best-effort reader loses a one-shot command from a
@@ -175,6 +183,18 @@ class _Robot:
         s.scan_stamp = time_from_msg(msg.header.stamp)
         s.scan_count += 1
         s.seq += 1
+
+    def _on_wall(self, msg: Range) -> None:
+        self.state.wall = msg.range == -math.inf
+
+    def _on_virtual_wall(self, msg: Range) -> None:
+        self.state.virtual_wall = msg.range == -math.inf
+
+    def _on_sonar(self, name: str, msg: Range) -> None:
+        self.state.sonar[name] = msg.range
+
+    def _on_cliff(self, name: str, msg: Illuminance) -> None:
+        self.state.cliffs[name] = msg.illuminance
 
     def _on_bump(self, index: int, msg: Range) -> None:
         bumps = list(self.state.bumps)
@@ -272,3 +292,9 @@ class CreateRos(StudioRos):
             ParameterType.PARAMETER_STRING: v.string_value,
             ParameterType.PARAMETER_BOOL: v.bool_value,
         }.get(v.type)
+
+
+def create_ros(studio: Studio) -> CreateRos | None:
+    """The studio's ROS client as the Create's pages use it (None until the app has started)."""
+    ros = studio.ros
+    return ros if isinstance(ros, CreateRos) else None

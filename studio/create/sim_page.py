@@ -9,12 +9,13 @@ import os
 from html import escape
 
 import numpy as np
-from nicegui import ui
+from nicegui import events, ui
 
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
 from sim_runtime.errors import InputError
 from studio.create import draw
+from studio.create.ros_client import CreateRos, RobotState, create_ros
 from studio.shell import svg
 from studio.shell.app import Studio, recording_clock
 from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, stop_started_world, view_image
@@ -87,7 +88,7 @@ def _fmt(value: float | None, digits: int = 3) -> str:
     return f"{value:.{digits}f}" if math.isfinite(value) else ("+inf" if value > 0 else "-inf" if value < 0 else "nan")
 
 
-def status_html(ns: str, st) -> str:
+def status_html(ns: str, st: RobotState) -> str:
     """The live Read Sensors table of one robot."""
     rows = [
         ("namespace", escape(ns or "/")),
@@ -139,7 +140,7 @@ class SimulatorPage(ZoomableView):
         self.centred = False
         self.mouse_mode = "pan"
         self.drawn_seq = -1
-        self.drawn_map = (None, -1)
+        self.drawn_map: tuple[str | None, int] = (None, -1)
         self.view_dirty = True
         self.mouse_down: tuple[float, float] | None = None  # pixel of the mouse press
         self.view_at_press = (0.0, 0.0)
@@ -152,7 +153,6 @@ class SimulatorPage(ZoomableView):
 
     # ---------------------------------------------------------------- layout
     def build(self) -> None:
-        studio = self.studio
         nav("/")
         # Keys still drive after a click on a button, switch or checkbox: a clicked control gives the
         # focus back at once, so Space stops the robot instead of pressing Record again. Only
@@ -188,54 +188,64 @@ class SimulatorPage(ZoomableView):
                     )
                     self.no_world = ui.label("no Create world found yet").classes("text-orange-700 text-sm")
                 self.build_world_panel()
-                with ui.card().classes("w-full"):
-                    ui.label("Manual control (arrows/WASD, space = stop)").classes("font-bold")
-                    with ui.row().classes("items-center gap-6"):
-                        with ui.grid(columns=3).classes("gap-1 w-40"):
-                            ui.element()
-                            self.drive_button("▲", 1, 0).classes("studio-forward")
-                            ui.element()
-                            self.drive_button("◀", 0, 1)
-                            self.drive_button("■", 0, 0).props("color=red").classes("studio-stop")
-                            self.drive_button("▶", 0, -1)
-                            ui.element()
-                            self.drive_button("▼", -1, 0)
-                        ui.joystick(
-                            on_move=self.on_joystick, on_end=lambda _: self.stop(), color="#1565c0", size=70
-                        ).classes("w-28 h-28 bg-slate-100 rounded-full")
-                    self.command_label = ui.label("v 0.00 m/s, ω 0.00 rad/s").classes("font-mono text-sm")
-                    with ui.row().classes("items-center gap-2"):
-                        ui.switch("Play", on_change=lambda e: self.press(0, e.value))
-                        ui.switch("Advance", on_change=lambda e: self.press(1, e.value))
-                        ui.button("Reset", on_click=self.reset).props("dense outline")
-                    with ui.row().classes("items-center gap-2"):
-                        self.rtf_select = ui.select(
-                            RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
-                        ).classes("w-48 studio-rtf")
-                        self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("studio-pause")
-                        ui.button("Step", on_click=self.step_once).props("dense outline").classes("studio-step")
-                with ui.card().classes("w-full"):
-                    ui.label("Autonomous").classes("font-bold")
-                    with ui.row().classes("items-center gap-2"):
-                        names = list(studio.controllers)
-                        self.controller_select = ui.select(names, value=names[0], label="controller").classes("w-48")
-                        ui.button("Start", on_click=self.start_controller).props("dense").classes(
-                            "studio-controller-start"
-                        )
-                        ui.button("Stop", on_click=self.stop_controller).props("dense outline").classes(
-                            "studio-controller-stop"
-                        )
-                    self.controller_label = ui.label("").classes("text-sm")
-                with ui.card().classes("w-full"):
-                    with ui.row().classes("items-center gap-2"):
-                        ui.label("Save Data").classes("font-bold")
-                        self.record_button = (
-                            ui.button("Record", on_click=self.toggle_recording).props("dense").classes("studio-record")
-                        )
-                    self.record_label = ui.label("").classes("text-sm break-all studio-record-label")
+                self.build_drive_card()
+                self.build_controller_card()
+                self.build_record_card()
                 self.status = ui.html("", sanitize=False).classes("w-full")
         ui.timer(FRAME_PERIOD_S, self.tick)
         ui.timer(0.5, self.slow_tick)
+
+    def build_drive_card(self) -> None:
+        """Manual control: arrows, joystick, Play/Advance/Reset, speed, pause and step."""
+        with ui.card().classes("w-full"):
+            ui.label("Manual control (arrows/WASD, space = stop)").classes("font-bold")
+            with ui.row().classes("items-center gap-6"):
+                with ui.grid(columns=3).classes("gap-1 w-40"):
+                    ui.element()
+                    self.drive_button("▲", 1, 0).classes("studio-forward")
+                    ui.element()
+                    self.drive_button("◀", 0, 1)
+                    self.drive_button("■", 0, 0).props("color=red").classes("studio-stop")
+                    self.drive_button("▶", 0, -1)
+                    ui.element()
+                    self.drive_button("▼", -1, 0)
+                ui.joystick(on_move=self.on_joystick, on_end=lambda _: self.stop(), color="#1565c0", size=70).classes(
+                    "w-28 h-28 bg-slate-100 rounded-full"
+                )
+            self.command_label = ui.label("v 0.00 m/s, ω 0.00 rad/s").classes("font-mono text-sm")
+            with ui.row().classes("items-center gap-2"):
+                ui.switch("Play", on_change=lambda e: self.press(0, e.value))
+                ui.switch("Advance", on_change=lambda e: self.press(1, e.value))
+                ui.button("Reset", on_click=self.reset).props("dense outline")
+            with ui.row().classes("items-center gap-2"):
+                self.rtf_select = ui.select(
+                    RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
+                ).classes("w-48 studio-rtf")
+                self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("studio-pause")
+                ui.button("Step", on_click=self.step_once).props("dense outline").classes("studio-step")
+
+    def build_controller_card(self) -> None:
+        """Autonomous: start and stop a controller for the selected robot."""
+        with ui.card().classes("w-full"):
+            ui.label("Autonomous").classes("font-bold")
+            with ui.row().classes("items-center gap-2"):
+                names = list(self.studio.controllers)
+                self.controller_select = ui.select(names, value=names[0], label="controller").classes("w-48")
+                ui.button("Start", on_click=self.start_controller).props("dense").classes("studio-controller-start")
+                ui.button("Stop", on_click=self.stop_controller).props("dense outline").classes(
+                    "studio-controller-stop"
+                )
+            self.controller_label = ui.label("").classes("text-sm")
+
+    def build_record_card(self) -> None:
+        """Save Data: record every published topic to a bag in the workspace."""
+        with ui.card().classes("w-full"):
+            with ui.row().classes("items-center gap-2"):
+                ui.label("Save Data").classes("font-bold")
+                self.record_button = (
+                    ui.button("Record", on_click=self.toggle_recording).props("dense").classes("studio-record")
+                )
+            self.record_label = ui.label("").classes("text-sm break-all studio-record-label")
 
     def build_world_panel(self) -> None:
         ws = self.studio.workspace
@@ -259,9 +269,21 @@ class SimulatorPage(ZoomableView):
             self.world_label = ui.label("").classes("text-sm text-red-700 break-all studio-world-error")
 
     # ---------------------------------------------------------------- robots
-    def robot(self):
-        ros = self.studio.ros
+    @property
+    def ros(self) -> CreateRos:
+        """The studio's Create client: the app makes it at start-up, before any page is served."""
+        ros = create_ros(self.studio)
+        if ros is None:
+            raise RuntimeError("the studio's ROS client has not started")
+        return ros
+
+    def robot(self) -> RobotState | None:
+        ros = create_ros(self.studio)
         return None if ros is None or self.selected is None else ros.robots.get(self.selected)
+
+    def picked(self) -> str | None:
+        """The selected namespace while its world is followed (None: no robot to command)."""
+        return self.selected if self.robot() is not None else None
 
     async def on_select(self, e) -> None:
         self.selected = e.value
@@ -271,7 +293,7 @@ class SimulatorPage(ZoomableView):
         if self.robot() is None:
             return
         try:  # show the selected world's speed
-            rtf = await self.studio.ros.get_parameter(self.selected, "real_time_factor")
+            rtf = await self.ros.get_parameter(self.selected, "real_time_factor")
         except TimeoutError:
             return
         if rtf is not None and float(rtf) in RTF_OPTIONS and float(rtf) != self.rtf_select.value:
@@ -283,7 +305,7 @@ class SimulatorPage(ZoomableView):
         self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
 
     def slow_tick(self) -> None:
-        ros = self.studio.ros
+        ros = create_ros(self.studio)
         if ros is None:
             return
         names = ros.namespaces()
@@ -292,7 +314,7 @@ class SimulatorPage(ZoomableView):
             self.robot_select.set_options({ns: ns or "/" for ns in names}, value=value)
         self.no_world.set_visibility(not names)
         st = self.robot()
-        if st is not None:
+        if st is not None and self.selected is not None:
             self.status.set_content(status_html(self.selected, st))
             self.show_command(st.command)
         for ns, world in list(self.studio.worlds.items()):
@@ -309,11 +331,11 @@ class SimulatorPage(ZoomableView):
 
     # ---------------------------------------------------------------- drawing
     def tick(self) -> None:
-        st = self.robot()
-        if st is None or st.pose is None:
+        st, ns = self.robot(), self.selected
+        if st is None or st.pose is None or ns is None:
             return
-        if fit_due(self.fitted.get(self.selected), st.map_seq):
-            self.fitted[self.selected] = st.map_seq
+        if fit_due(self.fitted.get(ns), st.map_seq):
+            self.fitted[ns] = st.map_seq
             self.fit()
         if self.centred:
             self.view.centre_x, self.view.centre_y = st.pose[0], st.pose[1]
@@ -325,22 +347,22 @@ class SimulatorPage(ZoomableView):
         if self.view_dirty or st.seq != self.drawn_seq:
             self.drawn_seq = st.seq
             self.view_dirty = False
-            self.dynamic.set_content(self.dynamic_svg(st))
+            self.dynamic.set_content(self.dynamic_svg(st, st.pose))
             self.frames += 1
 
-    def dynamic_svg(self, st) -> str:
+    def dynamic_svg(self, st: RobotState, pose: tuple[float, float, float]) -> str:
         v = self.view  # the transform, for tools and tests that map pixels back to metres
         parts = [
             f'<g class="view" data-centre-x="{float(v.centre_x)!r}" data-centre-y="{float(v.centre_y)!r}" '
             f'data-scale="{float(v.scale)!r}"/>'
         ]
-        for ns, other in self.studio.ros.robots.items():
+        for ns, other in self.ros.robots.items():
             if ns != self.selected and other.pose is not None:
                 parts.append(draw.robot_svg(self.view, other.pose, selected=False, label=ns))
         track = np.array(list(st.track)) if "track" in self.layers else None  # list(): one atomic copy
         readings = draw.readings_of(st, track)
         parts.append(draw.sensors_svg(self.view, readings, self.layers))
-        parts.append(draw.robot_svg(self.view, st.pose, selected=True, label=self.selected or ""))
+        parts.append(draw.robot_svg(self.view, pose, selected=True, label=self.selected or ""))
         return "".join(parts)
 
     def view_changed(self) -> None:
@@ -394,15 +416,15 @@ class SimulatorPage(ZoomableView):
         elif e.type == "mouseup":
             self.mouse_down = None
             self.overlay.set_content("")
-            st = self.robot()
-            if st is None:
+            st, ns = self.robot(), self.selected
+            if st is None or ns is None:
                 return
             x, y = self.view.to_world(px, py)
             if math.hypot(e.image_x - px, e.image_y - py) >= SET_POSE_MIN_DRAG_PX:
                 theta = math.atan2(-(e.image_y - py), e.image_x - px)
             else:
                 theta = st.pose[2] if st.pose else 0.0
-            self.studio.ros.set_pose(self.selected, x, y, theta)
+            self.ros.set_pose(ns, x, y, theta)
             st.track.clear()  # no line across the jump
             ui.notify(f"set_pose x={x:.2f} y={y:.2f} θ={theta:.2f}")
 
@@ -431,15 +453,16 @@ class SimulatorPage(ZoomableView):
 
         return ui.button(text, on_click=clicked).props("dense")
 
-    def on_joystick(self, e) -> None:
+    def on_joystick(self, e: events.JoystickEventArguments) -> None:
         """Joystick: up/down = forward speed, left/right = turn rate, up to the teleop limits."""
-        if self.selected is None or self.robot() is None or e.x is None or e.y is None:
+        ns = self.picked()
+        if ns is None or e.x is None or e.y is None:
             return
         if self.controller_running():
             return
         v = round(e.y * MAX_LINEAR_STEPS * LINEAR_STEP, 2)
         w = round(-e.x * MAX_ANGULAR_STEPS * ANGULAR_STEP, 2)
-        self.studio.ros.drive(self.selected, v, w)
+        self.ros.drive(ns, v, w)
         self.show_command((v, w))
 
     def controller_running(self) -> bool:
@@ -447,13 +470,14 @@ class SimulatorPage(ZoomableView):
         return child is not None and child.running
 
     def change(self, linear: int, angular: int) -> None:
-        if self.selected is None or self.robot() is None:
+        st = self.robot()
+        if self.selected is None or st is None:
             ui.notify("no robot selected", type="warning")
             return
         if self.controller_running():
             ui.notify("a controller is driving: Stop it for manual control", type="warning")
             return
-        steps = command_steps(self.robot().command)
+        steps = command_steps(st.command)
         steps[0] = max(-MAX_LINEAR_STEPS, min(MAX_LINEAR_STEPS, steps[0] + linear))
         steps[1] = max(-MAX_ANGULAR_STEPS, min(MAX_ANGULAR_STEPS, steps[1] + angular))
         self.send(steps)
@@ -464,26 +488,31 @@ class SimulatorPage(ZoomableView):
         self.send([0, 0])
 
     def send(self, steps: list[int]) -> None:
+        ns = self.picked()
+        if ns is None:
+            return
         v, w = steps[0] * LINEAR_STEP, steps[1] * ANGULAR_STEP
-        self.studio.ros.drive(self.selected, v, w)
+        self.ros.drive(ns, v, w)
         self.show_command((v, w))
 
     def show_command(self, command: tuple[float, float]) -> None:
         self.command_label.set_text(f"v {command[0]:.2f} m/s, ω {command[1]:.2f} rad/s")
 
     async def press(self, button: int, down: bool) -> None:
-        if self.robot() is None:
+        ns = self.picked()
+        if ns is None:
             return
         try:
-            ui.notify(await self.studio.ros.press(self.selected, button, down))
+            ui.notify(await self.ros.press(ns, button, down))
         except TimeoutError as err:
             ui.notify(str(err), type="negative")
 
     async def reset(self) -> None:
-        if self.robot() is None:
+        ns = self.picked()
+        if ns is None:
             return
         try:
-            ui.notify(await self.studio.ros.reset(self.selected))
+            ui.notify(await self.ros.reset(ns))
         except TimeoutError as err:
             ui.notify(str(err), type="negative")
         st = self.robot()
@@ -493,10 +522,11 @@ class SimulatorPage(ZoomableView):
 
     async def on_pause(self, e) -> None:
         """Hold or release the selected world (its live ``paused`` parameter)."""
-        if self.robot() is None:
+        ns = self.picked()
+        if ns is None:
             return
         try:
-            refused = await self.studio.ros.set_parameters(self.selected, {"paused": bool(e.value)})
+            refused = await self.ros.set_parameters(ns, {"paused": bool(e.value)})
         except TimeoutError as err:
             refused = [str(err)]
         for reason in refused:
@@ -504,19 +534,21 @@ class SimulatorPage(ZoomableView):
 
     async def step_once(self) -> None:
         """One physics step of the paused world (SimulatorGUI's step)."""
-        if self.robot() is None:
+        ns = self.picked()
+        if ns is None:
             return
         try:
-            done, message = await self.studio.ros.step(self.selected)
+            done, message = await self.ros.step(ns)
         except TimeoutError as err:
             done, message = False, str(err)
         ui.notify(message, type="positive" if done else "negative")
 
     async def on_rtf(self, e) -> None:
-        if self.robot() is None or e.value is None:
+        ns = self.picked()
+        if ns is None or e.value is None:
             return
         try:
-            refused = await self.studio.ros.set_parameters(self.selected, {"real_time_factor": float(e.value)})
+            refused = await self.ros.set_parameters(ns, {"real_time_factor": float(e.value)})
         except TimeoutError as err:
             refused = [str(err)]
         for reason in refused:
@@ -538,7 +570,7 @@ class SimulatorPage(ZoomableView):
             return
         refusal = studio.namespace_refusal(ns) or (
             f"a Create world already runs in {ns or '/'}: give another namespace or stop it"
-            if ns in studio.ros.robots
+            if ns in self.ros.robots
             else None
         )
         if refusal:
@@ -558,7 +590,7 @@ class SimulatorPage(ZoomableView):
             if not child.running:
                 self.show_ending(ns, child)
                 return
-            if ns in studio.ros.robots:
+            if ns in self.ros.robots:
                 break
         else:
             return
@@ -611,7 +643,7 @@ class SimulatorPage(ZoomableView):
         ws = studio.workspace
         name = ws.new_folder_name("studio_data/SimulatorOutputData")
         ws.path(name).parent.mkdir(parents=True, exist_ok=True)
-        topics = studio.ros.published_topics()  # what "recording" promises to be in the bag
+        topics = self.ros.published_topics()  # what "recording" promises to be in the bag
         clock, timeline = recording_clock(studio.graph_worlds())
         node_name = f"studio_record_{os.getpid()}_{next(RECORDINGS)}"
         args = ["-o", str(ws.path(name)), "--clock", clock, "--ros-args", "-r", f"__node:={node_name}"]
@@ -648,7 +680,8 @@ async def recorder_ready(
             return f"the recorder ended: {recorder.error_line()}"
         if studio.recorder is not recorder:
             return ""
-        waiting = studio.ros.not_subscribed(topics, node_name)
+        ros = studio.ros
+        waiting = ros.not_subscribed(topics, node_name) if ros is not None else topics
         if not waiting:
             return f"recording to {name} ({timeline})"
         if asyncio.get_running_loop().time() > deadline:

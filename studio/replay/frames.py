@@ -17,8 +17,11 @@ import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from nav_msgs.msg import OccupancyGrid
+from visualization_msgs.msg import MarkerArray
 
 from create_sim.mapfile import CreateMap
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
@@ -101,8 +104,8 @@ class Frame:
     commands: list[tuple[float, str, str]]  # (elapsed s, topic, summary), newest first
     latest: list[tuple[str, float, str]]  # (topic, age s, summary) of every topic
     map: CreateMap | None = None
-    grid: object | None = None  # nav_msgs/OccupancyGrid (SIMROBOT's map)
-    outlines: object | None = None  # /robots MarkerArray
+    grid: OccupancyGrid | None = None  # SIMROBOT's map
+    outlines: MarkerArray | None = None  # /robots
     arm_groups: list[Group] = field(default_factory=list)  # what the arm view draws, as live
 
 
@@ -202,7 +205,7 @@ class Replay:
         for robot in self.robots:
             self._load_track(robot)
         self._maps: dict[str, CreateMap] = {}
-        self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, object]] = OrderedDict()
+        self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, Any]] = OrderedDict()
         self._groups: dict[str, tuple[int, Group]] = {}  # marker topic -> (position, its group)
 
     @classmethod
@@ -273,7 +276,8 @@ class Replay:
                 state[topic], decoded[topic] = self._message(topic, position)
                 positions[topic] = position
         robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots]
-        joints, effectors = {}, {}
+        joints: dict[str, list[tuple[str, float]]] = {}
+        effectors: dict[str, tuple[float, ...]] = {}
         for arm in self.arms:
             msg = decoded.get(f"{arm}/joint_states")
             if msg is not None:
@@ -289,8 +293,8 @@ class Replay:
         ]
         commands = []
         for topic in self.command_topics:
-            ti = index.by_topic.get(topic)
-            last = -1 if ti is None else ti.at_or_before(t_ns)
+            commanded = index.by_topic.get(topic)
+            last = -1 if commanded is None else commanded.at_or_before(t_ns)
             for i in range(last, max(last - COMMANDS_SHOWN, -1), -1):
                 m, msg = self._message(topic, i)
                 commands.append(((m.log_time_ns - self.start_ns) / 1e9, topic, summary(m.type, msg)))
@@ -330,9 +334,10 @@ class Replay:
             kept = self._groups[topic] = (position, Group(owner, tuple(look), poses, position))
         return kept[1]
 
-    def _message(self, topic: str, position: int) -> tuple[BagMessage, object]:
-        """A topic's message and its decoded form; the last DECODED_KEPT are kept, so a map, a robot
-        description or a sensor that did not publish again is not decoded at every frame."""
+    def _message(self, topic: str, position: int) -> tuple[BagMessage, Any]:
+        """A topic's message and its decoded form (of the topic's type, hence ``Any``); the last
+        DECODED_KEPT are kept, so a map, a robot description or a sensor that did not publish again
+        is not decoded at every frame."""
         key = (topic, position)
         found = self._decoded.get(key)
         if found is None:

@@ -345,10 +345,13 @@ class ReplayPage(ZoomableView):
         try:
             path = self.studio.workspace.path(name)
             started = time.monotonic()
-            replay, problems = await run.io_bound(open_replay, path)
+            opened = await run.io_bound(open_replay, path)
         except InputError as err:
             self.bag_label.set_text(f"error: {err}")
             return
+        if opened is None:
+            return  # the studio is shutting down
+        replay, problems = opened
         self.replay = replay
         self.arm_view.clear()
         self.arm_view.set_shown(bool(replay.arm_marker_topics))
@@ -416,6 +419,8 @@ class ReplayPage(ZoomableView):
         except InputError as err:
             self.output_label.set_text(f"error: {err}")
             return
+        if written is None:
+            return  # the studio is shutting down
         self.output_label.set_text(f"wrote {self.studio.workspace.relative(written)}")
 
     # ---------------------------------------------------------------- transport

@@ -81,7 +81,8 @@ def rgb_hex(rgb: Iterable[float]) -> str:
 def hex_rgb(colour: str) -> tuple[float, float, float]:
     """rgb triple in 0..1 (3 decimals) of ``#rrggbb``."""
     colour = colour.lstrip("#")
-    return tuple(round(int(colour[i : i + 2], 16) / 255, 3) for i in (0, 2, 4))
+    r, g, b = (round(int(colour[i : i + 2], 16) / 255, 3) for i in (0, 2, 4))
+    return r, g, b
 
 
 def grid_svg(view: View, step_m: float) -> str:

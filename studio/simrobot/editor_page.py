@@ -16,7 +16,7 @@ import numpy as np
 from nicegui import ui
 
 from sim_runtime.errors import InputError
-from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, load_world
+from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, RobotSpec, SensorSpec, load_world
 from studio.shell import svg
 from studio.shell.app import Studio
 from studio.shell.kit import VIEW_SIZE, DraftGuard, ZoomableView, checked_number, nav, view_image
@@ -273,14 +273,15 @@ class EditorPage(ZoomableView, DraftGuard):
         if tool in ("paint", "erase"):
             self.paint(x, y)
         elif tool == "pan":
-            self.view.pan(self.pan_from, px - self.drag[0], py - self.drag[1])
-            self.redraw(map_too=True)
+            if self.drag is not None:  # the pixel of the press
+                self.view.pan(self.pan_from, px - self.drag[0], py - self.drag[1])
+                self.redraw(map_too=True)
         elif self.selected is not None:
             r = self.doc.robots[self.selected]
             if tool == "rotate":
                 heading = math.atan2(y - r.position[1], x - r.position[0])
                 self.set_robot(replace(r, heading=heading))
-            else:
+            elif self.drag is not None:  # the grab offset
                 self.set_robot(replace(r, position=(round(x - self.drag[0], 4), round(y - self.drag[1], 4))))
 
     def paint(self, x: float, y: float) -> None:
@@ -320,7 +321,9 @@ class EditorPage(ZoomableView, DraftGuard):
         self.select(None)
         self.say(f"deleted {robot.name}")
 
-    def set_robot(self, robot) -> None:
+    def set_robot(self, robot: RobotSpec) -> None:
+        if self.selected is None:
+            return
         self.doc.robots[self.selected] = robot
         self.fill_form()
         self.redraw()
@@ -413,12 +416,15 @@ class EditorPage(ZoomableView, DraftGuard):
             self.set_robot(replace(self.doc.robots[self.selected], shape=DEFAULT_SHAPE))
 
     # ---------------------------------------------------------------- sensors
-    def robot(self):
+    def robot(self) -> RobotSpec | None:
         return self.doc.robots[self.selected] if self.selected is not None else None
 
-    def set_sensors(self, sensors, index: int | None) -> None:
+    def set_sensors(self, sensors: list[SensorSpec], index: int | None) -> None:
+        r = self.robot()
+        if r is None:
+            return
         self.sensor = index
-        self.set_robot(replace(self.robot(), sensors=tuple(sensors)))
+        self.set_robot(replace(r, sensors=tuple(sensors)))
 
     def add_sensor(self) -> None:
         r = self.robot()
@@ -456,9 +462,9 @@ class EditorPage(ZoomableView, DraftGuard):
             self.sensor = e.value
             self.fill_form()
 
-    def on_sensor_field(self, _e=None) -> None:
-        r = self.robot()
-        if self.filling or r is None or self.sensor is None:
+    def on_sensor_field(self, _e: object = None) -> None:
+        r, index = self.robot(), self.selected
+        if self.filling or r is None or index is None or self.sensor is None:
             return
         values = [self.s_x.value, self.s_y.value, self.s_axis.value, self.s_beam.value, self.s_range.value]
         if any(v is None for v in values) or self.s_rays.value is None:
@@ -473,7 +479,7 @@ class EditorPage(ZoomableView, DraftGuard):
             range=max(float(self.s_range.value), 1e-6),
             rays=max(int(self.s_rays.value), 1),
         )
-        self.doc.robots[self.selected] = replace(r, sensors=tuple(sensors))
+        self.doc.robots[index] = replace(r, sensors=tuple(sensors))
         self.redraw()
 
     # ---------------------------------------------------------------- world
@@ -592,8 +598,8 @@ class EditorPage(ZoomableView, DraftGuard):
         if ns and not ns.startswith("/"):
             ns = "/" + ns
         running = simrobot.worlds.get(ns)
-        rerun = running is not None and running.running  # "Run it" again runs the edited world
-        refusal = None if rerun else self.studio.namespace_refusal(ns)
+        rerun = running if running is not None and running.running else None  # "Run it" again: the edited world
+        refusal = None if rerun is not None else self.studio.namespace_refusal(ns)
         if refusal:
             self.say(f"error: {refusal}", error=True)
             return
@@ -602,9 +608,9 @@ class EditorPage(ZoomableView, DraftGuard):
         if not self.save_world():
             return
         # A re-run keeps the clock its world had; a new world owns /clock if nobody does.
-        owns_clock = running.clock == "/clock" if rerun else self.studio.clock_owner() is None
-        if rerun:
-            running.stop()
+        owns_clock = rerun.clock == "/clock" if rerun is not None else self.studio.clock_owner() is None
+        if rerun is not None:
+            rerun.stop()
         old = simrobot.ros.worlds.get(ns) if simrobot.ros is not None else None
         if simrobot.ros is not None:
             simrobot.ros.forget(ns)

@@ -13,14 +13,15 @@ import time
 from html import escape
 
 import numpy as np
-from nicegui import ui
+from nicegui import events, ui
 
 from sim_runtime.track_plot import draw_tracks
+from simrobot_sim.world_file import WorldSpec
 from studio.shell import svg
 from studio.shell.app import Studio
 from studio.shell.kit import VIEW_SIZE, ZoomableView, nav, stop_started_world, view_image
 from studio.simrobot.draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
-from studio.simrobot.ros_client import WorldState, side
+from studio.simrobot.ros_client import SimrobotRos, WorldState, side
 
 FRAME_PERIOD_S = 0.05
 """How often the page looks for a new step (it redraws only when one came). Looking every 25 ms
@@ -90,11 +91,11 @@ class SimrobotPage(ZoomableView):
         self.layers = set(LAYERS)
         self.robot: int | None = None
         self.drawn_seq = -1
-        self.drawn_map: tuple | None = None
+        self.drawn_map: WorldSpec | None = None  # the spec whose map is drawn
         self.view_dirty = True
         self.frames = 0
         self.map_url = ""
-        self.mouse_down = None
+        self.mouse_down: tuple[float, float, float, float] | None = None  # pixel, view centre at the press
         self.tracks_drawn = 0.0
         self.build()
         ui.timer(FRAME_PERIOD_S, self.tick)
@@ -155,11 +156,22 @@ class SimrobotPage(ZoomableView):
 
     # ---------------------------------------------------------------- state
     def world(self) -> WorldState | None:
+        """The selected world once its file is read (:meth:`loaded`)."""
+        loaded = self.loaded()
+        return loaded[0] if loaded is not None else None
+
+    def loaded(self) -> tuple[WorldState, WorldSpec] | None:
+        """The selected world and its spec, once its file is read (before, nothing is drawn)."""
         ros = self.side.ros
         if ros is None or self.ns is None:
             return None
         st = ros.worlds.get(self.ns)
-        return st if st is not None and st.spec is not None else None
+        return (st, st.spec) if st is not None and st.spec is not None else None
+
+    def commanded(self) -> tuple[SimrobotRos, str] | None:
+        """The client and the namespace a command goes to (None: no world selected)."""
+        ros = self.side.ros
+        return (ros, self.ns) if ros is not None and self.ns is not None and self.world() is not None else None
 
     def slow_tick(self) -> None:
         ros = self.side.ros
@@ -191,37 +203,36 @@ class SimrobotPage(ZoomableView):
 
     # ---------------------------------------------------------------- drawing
     def tick(self) -> None:
-        st = self.world()
-        if st is None or len(st.poses) != len(st.names):
+        loaded = self.loaded()
+        if loaded is None or len(loaded[0].poses) != len(loaded[0].names):
             return
-        spec = st.spec
-        if self.drawn_map is None or self.drawn_map[0] is not spec:
+        st, spec = loaded
+        if self.drawn_map is not spec:
             self.map_url = map_data_url(spec.walls)
-            self.drawn_map = (spec,)
+            self.drawn_map = spec
             self.fit()
         if self.view_dirty or time.monotonic() - self.tracks_drawn >= TRACKS_PERIOD_S:
             self.tracks_drawn = time.monotonic()
-            self.track_layer.set_content(self.tracks_svg(st) if "tracks" in self.layers else "")
+            self.track_layer.set_content(self.tracks_svg(st, spec) if "tracks" in self.layers else "")
         if self.view_dirty or st.seq != self.drawn_seq:
             self.drawn_seq = st.seq
             self.view_dirty = False
             self.frames += 1
-            self.dynamic.set_content(self.dynamic_svg(st))
+            self.dynamic.set_content(self.dynamic_svg(st, spec))
 
     def draw_map(self) -> None:
-        st = self.world()
-        if st is not None and self.map_url:
-            self.image.set_content(
-                map_svg(self.view, self.map_url, st.spec.walls.shape, st.spec.resolution, st.spec.origin)
-            )
+        loaded = self.loaded()
+        if loaded is not None and self.map_url:
+            spec = loaded[1]
+            self.image.set_content(map_svg(self.view, self.map_url, spec.walls.shape, spec.resolution, spec.origin))
 
-    def dynamic_svg(self, st: WorldState) -> str:
+    def dynamic_svg(self, st: WorldState, spec: WorldSpec) -> str:
         v = self.view
         parts = [
             f'<g class="frame" data-n="{self.frames}" data-sim-time="{st.sim_time!r}" data-centre-x="{v.centre_x!r}" '
             f'data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
         ]
-        robots, poses, model = st.spec.robots, st.poses, st.spec.sensor_model
+        robots, poses, model = spec.robots, st.poses, spec.sensor_model
         if "beams" in self.layers:
             nearest = st.nearest.tolist()
             for k, (i, sensor) in enumerate(st.sensors):
@@ -236,8 +247,8 @@ class SimrobotPage(ZoomableView):
             parts.append(robot_svg(v, robot, poses[i], selected=i == self.robot, crashed=crashed[i], label=label))
         return "".join(parts)
 
-    def tracks_svg(self, st: WorldState) -> str:
-        robots = st.spec.robots
+    def tracks_svg(self, st: WorldState, spec: WorldSpec) -> str:
+        robots = spec.robots
         return "".join(
             track_svg(self.view, np.array(list(track)).reshape(-1, 2), robots[i].color)  # list(): one atomic copy
             for i, track in enumerate(st.tracks)
@@ -248,12 +259,13 @@ class SimrobotPage(ZoomableView):
         self.view_dirty = True
 
     def fit(self) -> None:
-        st = self.world()
-        if st is None:
+        loaded = self.loaded()
+        if loaded is None:
             return
-        nx, ny = st.spec.walls.shape
-        ox, oy = st.spec.origin
-        w, h = nx * st.spec.resolution, ny * st.spec.resolution
+        spec = loaded[1]
+        nx, ny = spec.walls.shape
+        ox, oy = spec.origin
+        w, h = nx * spec.resolution, ny * spec.resolution
         self.view.fit(np.array([ox, ox + w]), np.array([oy, oy + h]), margin_m=0.03 * max(w, h))
         self.draw_map()
         self.view_dirty = True
@@ -281,12 +293,13 @@ class SimrobotPage(ZoomableView):
                 self.pick(*self.view.to_world(e.image_x, e.image_y))
 
     def pick(self, x: float, y: float) -> None:
-        st = self.world()
-        if st is None or not len(st.poses):
+        loaded = self.loaded()
+        if loaded is None or not len(loaded[0].poses):
             return
+        st, spec = loaded
         d = np.hypot(st.poses[:, 0] - x, st.poses[:, 1] - y)
         i = int(np.argmin(d))
-        reach = max(math.hypot(*p) for p in st.spec.robots[i].shape) * st.spec.robots[i].scale
+        reach = max(math.hypot(*p) for p in spec.robots[i].shape) * spec.robots[i].scale
         if d[i] > reach + 10.0 / self.view.scale:
             return
         self.robot = i
@@ -308,25 +321,25 @@ class SimrobotPage(ZoomableView):
         else:
             ui.notify(result)
 
-    async def on_pause(self, e) -> None:
-        if self.world() is not None:
-            await self.ask(self.side.ros.set_world_parameters(self.ns, {"paused": bool(e.value)}))
+    async def on_pause(self, e: events.ValueChangeEventArguments) -> None:
+        if (to := self.commanded()) is not None:
+            await self.ask(to[0].set_world_parameters(to[1], {"paused": bool(e.value)}))
 
     async def step(self) -> None:
-        if self.world() is not None:
-            await self.ask(self.side.ros.step_world(self.ns))
+        if (to := self.commanded()) is not None:
+            await self.ask(to[0].step_world(to[1]))
 
-    async def on_rtf(self, e) -> None:
-        if self.world() is not None and e.value is not None:
-            await self.ask(self.side.ros.set_world_parameters(self.ns, {"real_time_factor": float(e.value)}))
+    async def on_rtf(self, e: events.ValueChangeEventArguments) -> None:
+        if (to := self.commanded()) is not None and e.value is not None:
+            await self.ask(to[0].set_world_parameters(to[1], {"real_time_factor": float(e.value)}))
 
     async def power(self, on: bool) -> None:
-        if self.world() is not None and self.robot is not None:
-            await self.ask(self.side.ros.set_power(self.ns, self.robot, on))
+        if (to := self.commanded()) is not None and self.robot is not None:
+            await self.ask(to[0].set_power(to[1], self.robot, on))
 
     async def clear_crash(self) -> None:
-        if self.world() is not None and self.robot is not None:
-            await self.ask(self.side.ros.clear_crash(self.ns, self.robot))
+        if (to := self.commanded()) is not None and self.robot is not None:
+            await self.ask(to[0].clear_crash(to[1], self.robot))
 
     def stop_world(self) -> None:
         stop_started_world(self.side.worlds, self.ns or "")
@@ -338,9 +351,10 @@ class SimrobotPage(ZoomableView):
             self.view_dirty = True
 
     def draw_tracks(self) -> None:
-        st = self.world()
-        if st is None:
+        loaded = self.loaded()
+        if loaded is None:
             return
+        st, spec = loaded
         ws = self.studio.workspace
         name = (self.tracks_name.value or "").strip()
         try:
@@ -348,9 +362,9 @@ class SimrobotPage(ZoomableView):
             if path.suffix.lower() != ".png":
                 raise ValueError(f"{name!r}: name the file .png")
             tracks = {st.names[i]: np.array(list(t)).reshape(-1, 2) for i, t in enumerate(st.tracks)}
-            colors = {r.name: r.color for r in st.spec.robots}
+            colors = {r.name: r.color for r in spec.robots}
             # draw_tracks takes OccupancyGrid layout: rows along y, row 0 the lowest
-            draw_tracks(st.spec.walls.T, st.spec.resolution, st.spec.origin, tracks, colors, path, title=st.ns or "/")
+            draw_tracks(spec.walls.T, spec.resolution, spec.origin, tracks, colors, path, title=st.ns or "/")
         except (ValueError, OSError) as err:
             self.tracks_label.set_text(f"error: {err}")
             return
