@@ -17,9 +17,9 @@ import numpy as np
 import yaml
 
 from sim_runtime.paths import config_path
+from sim_tools.adapters.arm.world import NODE_EXECUTABLES
 from sim_tools.fuzz_kit import Case, Defect, check_finite, mutated_yaml
 from sim_tools.fuzz_kit.mutate import dump_yaml, mutate_bytes, mutate_text
-from sim_tools.node_help import NODE_EXECUTABLES
 
 #: Executable → its world node class, as ``module:Class``.
 WORLD_NODES = {"arm": NODE_EXECUTABLES["arm"][0]}

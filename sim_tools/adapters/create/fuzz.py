@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from sim_runtime.paths import config_path
+from sim_tools.adapters.create.world import NODE_EXECUTABLES
 from sim_tools.fuzz_kit import Case, Defect, check_finite, mutated_text
-from sim_tools.node_help import NODE_EXECUTABLES
 
 #: Executable → its world node class, as ``module:Class``.
 WORLD_NODES = {"create_world": NODE_EXECUTABLES["create_world"][0]}
