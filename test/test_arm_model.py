@@ -267,6 +267,19 @@ def test_ik_reports_failure_for_unreachable_pose():
     assert result.residual > 1.0
 
 
+def test_batched_ik_seeds_the_restarts_of_target_k_with_seed_plus_k():
+    arm = Arm.from_file(IRB120, load_meshes=False)
+    rng = np.random.default_rng(12)
+    targets = arm.fkine_batch(random_q(arm, rng, 3))
+    targets[2, :3, 3] = [2.0, 0.0, 0.5]  # out of reach: every restart runs, its seed shows in q
+    Q, ok, residual = arm.ikine_batch(targets, slimit=4, seed=7)
+    for k, target in enumerate(targets):
+        single = arm.ikine(target, slimit=4, seed=7 + k)
+        assert np.array_equal(Q[k], single.q)
+        assert (ok[k], residual[k]) == (single.success, single.residual)
+    assert not ok[2]
+
+
 # --- dynamics --------------------------------------------------------------------------------
 def test_rne_matches_lagrangian_oracle(arm4):
     rng = np.random.default_rng(6)
@@ -289,6 +302,17 @@ def test_gravload_holds_the_arm(arm4):
     rng = np.random.default_rng(9)
     q = random_q(arm4, rng)
     np.testing.assert_allclose(arm4.gravload(q), oracle_gravity(arm4.config, q), atol=1e-10)
+
+
+def test_rne_under_another_gravity_leaves_the_arms_own_gravity_alone():
+    arm = Arm.from_file(IRB120, load_meshes=False)
+    q = random_q(arm, np.random.default_rng(13))
+    held = arm.gravload(q)
+    zero = np.zeros(arm.n)
+    assert np.array_equal(arm.rne(q, zero, zero, gravity=[0.0, 0.0, 0.0]), zero)  # at rest, weightless
+    np.testing.assert_allclose(arm.rne(q, zero, zero, gravity=2.0 * arm.gravity), 2.0 * held, atol=1e-12)
+    assert np.array_equal(arm.gravity, [0.0, 0.0, -9.81])
+    assert np.array_equal(arm.gravload(q), held)
 
 
 def test_irb120_gravity_torques_are_plausible():
