@@ -48,78 +48,99 @@ new MutationObserver(() => {
 """
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=15.0)
-    args = parser.parse_args()
-    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
-        print("bench/studio.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
-        return 0
-
-    import rclpy
-    from geometry_msgs.msg import Twist
-    from rclpy.node import Node
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-    from sensor_msgs.msg import LaserScan
-
-    from sim_runtime.msgs import time_from_msg
-    from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS
-    from sim_runtime.run import make_executor
-    from sim_runtime.testing import spin_until
-
+def start_children(port: int) -> tuple[subprocess.Popen, subprocess.Popen]:
+    """A ``create_world`` and a studio on ``port``, in this run's ROS domain."""
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     world = subprocess.Popen(executable_command("create_world"), env=env, stdout=subprocess.DEVNULL)
-    port = free_port()
     studio = subprocess.Popen(
         [sys.executable, "-m", "studio", "--port", str(port), "--workspace", str(ROOT)],
         env=env,
         stdout=subprocess.DEVNULL,
         cwd=ROOT,
     )
-    rclpy.init()
-    node = Node("studio_bench")
-    executor = make_executor()
-    executor.add_node(node)
-    arrivals: dict[str, float] = {}
-    node.create_subscription(
-        LaserScan,
-        "/scan",
-        lambda m: arrivals.setdefault(f"{time_from_msg(m.header.stamp):.9f}", time.time()),
-        ANY_PUBLISHER_QOS,
-    )
-    cmd = node.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
-    driver = None
-    try:
-        assert spin_until(executor, lambda: len(arrivals) > 5, timeout=60.0), "no scans from create_world"
-        turn = Twist()
-        turn.angular.z = 1.0  # keep every layer changing
-        cmd.publish(turn)
+    return world, studio
 
-        def measure_cpu(seconds: float) -> float:
-            c0, t0 = cpu_seconds(studio.pid), time.monotonic()
-            spin_until(executor, lambda: time.monotonic() - t0 >= seconds, timeout=seconds + 5)
-            return 100.0 * (cpu_seconds(studio.pid) - c0) / (time.monotonic() - t0)
 
-        idle_cpu = measure_cpu(args.seconds / 2)
+def new_driver():
+    """Headless Chromium, tall enough for the whole Simulator page."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
 
-        options = webdriver.ChromeOptions()
-        options.binary_location = CHROMIUM
-        for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
-            options.add_argument(arg)
-        os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-        driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
-        driver.get(f"http://127.0.0.1:{port}/")
-        spin_until(
-            executor,
-            lambda: driver.execute_script("return !!document.querySelector('.studio-view polyline.lidar')"),
-            timeout=60,
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
+        options.add_argument(arg)
+    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
+    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+
+
+class Listener:
+    """This process's node: when each scan arrived (by stamp), and the turn command."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from geometry_msgs.msg import Twist
+        from rclpy.node import Node
+        from sensor_msgs.msg import LaserScan
+
+        from sim_runtime.msgs import time_from_msg
+        from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS
+        from sim_runtime.run import make_executor
+
+        rclpy.init()
+        self.node = Node("studio_bench")
+        self.executor = make_executor()
+        self.executor.add_node(self.node)
+        self.arrivals: dict[str, float] = {}
+        self.node.create_subscription(
+            LaserScan,
+            "/scan",
+            lambda m: self.arrivals.setdefault(f"{time_from_msg(m.header.stamp):.9f}", time.time()),
+            ANY_PUBLISHER_QOS,
         )
+        self.cmd = self.node.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
+        self.turn = Twist()
+        self.turn.angular.z = 1.0  # keep every layer changing
+
+    def spin_until(self, condition, timeout: float) -> bool:
+        from sim_runtime.testing import spin_until
+
+        return spin_until(self.executor, condition, timeout=timeout)
+
+    def close(self) -> None:
+        import rclpy
+
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown()
+
+
+def measure(seconds: float) -> tuple[float, float, float, list, dict[str, float]]:
+    """Run the world, the studio and the page: (studio CPU without a page, with it, seconds
+    watched, the browser's (stamp, drawn at) list, this process's stamp → arrival)."""
+    port = free_port()
+    world, studio = start_children(port)
+    ros = Listener()
+    driver = None
+
+    def studio_cpu(for_s: float) -> float:
+        c0, t0 = cpu_seconds(studio.pid), time.monotonic()
+        ros.spin_until(lambda: time.monotonic() - t0 >= for_s, timeout=for_s + 5)
+        return 100.0 * (cpu_seconds(studio.pid) - c0) / (time.monotonic() - t0)
+
+    try:
+        assert ros.spin_until(lambda: len(ros.arrivals) > 5, timeout=60.0), "no scans from create_world"
+        ros.cmd.publish(ros.turn)
+        idle_cpu = studio_cpu(seconds / 2)
+        driver = new_driver()
+        driver.get(f"http://127.0.0.1:{port}/")
+        lidar = "return !!document.querySelector('.studio-view polyline.lidar')"
+        ros.spin_until(lambda: driver.execute_script(lidar), timeout=60)
         driver.execute_script(OBSERVER_JS)
-        arrivals.clear()
+        ros.arrivals.clear()
         t0 = time.time()
-        view_cpu = measure_cpu(args.seconds)
+        view_cpu = studio_cpu(seconds)
         elapsed = time.time() - t0
         drawn = driver.execute_script("return window.__drawn")
     finally:
@@ -128,17 +149,18 @@ def main() -> int:
         for child in (studio, world):
             child.terminate()
             child.wait(timeout=20)
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown()
+        ros.close()
+    return idle_cpu, view_cpu, elapsed, drawn, ros.arrivals
 
+
+def report(seconds: float, idle_cpu: float, view_cpu: float, elapsed: float, drawn: list, arrivals: dict) -> None:
     delays = sorted(1000.0 * (t - arrivals[s]) for s, t in drawn if s in arrivals)
     fps = len(drawn) / elapsed
     median = delays[len(delays) // 2] if delays else float("nan")
     p90 = delays[int(len(delays) * 0.9)] if delays else float("nan")
     scans_published = len(arrivals) / elapsed
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    print(f"studio live view, {args.seconds:.0f} s, {os.cpu_count()} CPUs, load average {load}")
+    print(f"studio live view, {seconds:.0f} s, {os.cpu_count()} CPUs, load average {load}")
     print(f"{'measure':34s} {'value':>9s} {'goal':>9s} {'ratio':>7s}")
     ratio = fps / GOAL_FPS
     print(f"{'scans drawn per s (published/s)':34s} {fps:9.1f} {GOAL_FPS:9.1f} {ratio:7.2f}  ({scans_published:.1f})")
@@ -148,6 +170,16 @@ def main() -> int:
     print(f"{'studio CPU, no page (baseline)':34s} {idle_cpu:9.1f}  page/baseline {view_cpu / max(idle_cpu, 0.1):.2f}")
     ok = fps >= GOAL_FPS * 0.95 and median <= GOAL_DELAY_MS and view_cpu <= GOAL_CPU
     print("all goals met" if ok else "GOAL MISSED (check the load average: the machine may be busy)")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=15.0)
+    args = parser.parse_args()
+    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
+        print("bench/studio.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
+        return 0
+    report(args.seconds, *measure(args.seconds))
     return 0
 
 

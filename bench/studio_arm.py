@@ -145,29 +145,11 @@ def open_arm_page(driver, url: str, faces: int) -> dict:
     raise TimeoutError(f"the arm page did not draw {MESHES} meshes within 120 s")
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeats", type=int, default=3, help="warm page loads per case (default 3)")
-    args = parser.parse_args()
-    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
-        print("bench/studio_arm.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
-        return 0
+def new_driver():
+    """Headless Chromium with its cache off (every load is the studio's work) and the page probe."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
-    folder = Path(tempfile.mkdtemp(prefix="studio_arm_bench_"))
-    worlds = {"IRB120": "arm/irb120.yaml", "IRB120 + 756k-face link": str(dense_config(folder))}
-    port = free_port()
-    url = f"http://127.0.0.1:{port}"
-    log = (folder / "studio.log").open("w")
-    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
-    studio = subprocess.Popen(
-        [sys.executable, "-m", "studio", "--workspace", str(folder), "--port", str(port)],
-        cwd=ROOT,
-        stdout=log,
-        stderr=subprocess.STDOUT,
-        env=env,
-    )
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1000"):
@@ -177,55 +159,63 @@ def main() -> int:
     driver.execute_cdp_cmd("Network.enable", {})
     driver.execute_cdp_cmd("Network.setCacheDisabled", {"cacheDisabled": True})
     driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": PROBE_JS})
+    return driver
+
+
+def wait_for_port(port: int) -> None:
+    for _ in range(600):
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+            return
+        except OSError:
+            time.sleep(0.1)
+
+
+def measure_world(driver, url: str, folder: Path, name: str, config: str, repeats: int, env: dict) -> list[tuple]:
+    """Start an arm world with ``config``, wait until the studio follows it, and time the arm page
+    at both display budgets: rows (world, faces, cold run, warm runs, load)."""
+    code = "import sys; from sim_tools.cli import run; sys.exit(run('arm', sys.argv[1:]))"
+    world = subprocess.Popen(
+        [sys.executable, "-c", code, "--ros-args", "-p", f"robot_config_file:={config}"],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
     rows = []
     try:
-        for _ in range(600):
-            try:
-                socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+        for _ in range(600):  # until the studio follows it
+            if "following the arm" in (folder / "studio.log").read_text().split("has gone")[-1]:
                 break
-            except OSError:
-                time.sleep(0.1)
-        for name, config in worlds.items():
-            code = "import sys; from sim_tools.cli import run; sys.exit(run('arm', sys.argv[1:]))"
-            world = subprocess.Popen(
-                [sys.executable, "-c", code, "--ros-args", "-p", f"robot_config_file:={config}"],
-                cwd=ROOT,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-                env=env,
-            )
-            try:
-                for _ in range(600):  # until the studio follows it
-                    if "following the arm" in (folder / "studio.log").read_text().split("has gone")[-1]:
-                        break
-                    time.sleep(0.1)
-                time.sleep(1.0)  # its markers have arrived
-                for faces in (DISPLAY_FACES, 0):
-                    cold = open_arm_page(driver, url, faces)
-                    warm = [open_arm_page(driver, url, faces) for _ in range(args.repeats)]
-                    rows.append((name, faces, cold, warm, os.getloadavg()[0]))
-
-                    def w(key: str, runs=warm) -> float:
-                        return statistics.median(r[key] for r in runs)
-
-                    print(
-                        f"{name:26s} {'every face' if faces == 0 else f'{faces // 1000}k/mesh':>10s}: "
-                        f"first draw cold {cold['drawn'] / 1000:.2f} s, warm {w('drawn') / 1000:.2f} s; "
-                        f"longest frame gap {w('maxGap'):.0f} ms, long tasks {w('longTasks'):.0f} ms, "
-                        f"studio worst answer {cold['server_worst'] * 1000:.0f} ms cold / "
-                        f"{w('server_worst') * 1000:.0f} ms warm (load {os.getloadavg()[0]:.1f})",
-                        flush=True,
-                    )
-            finally:
-                world.terminate()
-                world.wait(timeout=20)
-                time.sleep(3.0)  # the studio forgets it
+            time.sleep(0.1)
+        time.sleep(1.0)  # its markers have arrived
+        for faces in (DISPLAY_FACES, 0):
+            cold = open_arm_page(driver, url, faces)
+            warm = [open_arm_page(driver, url, faces) for _ in range(repeats)]
+            rows.append((name, faces, cold, warm, os.getloadavg()[0]))
+            print_case(name, faces, cold, warm)
     finally:
-        driver.quit()
-        studio.terminate()
-        studio.wait(timeout=20)
-        log.close()
+        world.terminate()
+        world.wait(timeout=20)
+        time.sleep(3.0)  # the studio forgets it
+    return rows
 
+
+def print_case(name: str, faces: int, cold: dict, warm: list[dict]) -> None:
+    def w(key: str) -> float:
+        return statistics.median(r[key] for r in warm)
+
+    print(
+        f"{name:26s} {'every face' if faces == 0 else f'{faces // 1000}k/mesh':>10s}: "
+        f"first draw cold {cold['drawn'] / 1000:.2f} s, warm {w('drawn') / 1000:.2f} s; "
+        f"longest frame gap {w('maxGap'):.0f} ms, long tasks {w('longTasks'):.0f} ms, "
+        f"studio worst answer {cold['server_worst'] * 1000:.0f} ms cold / "
+        f"{w('server_worst') * 1000:.0f} ms warm (load {os.getloadavg()[0]:.1f})",
+        flush=True,
+    )
+
+
+def print_summary(worlds: dict[str, str], rows: list[tuple]) -> None:
     print("\nside by side (warm medians; ratio = every face / display budget):")
     by = {(r[0], r[1]): r for r in rows}
     for name in worlds:
@@ -241,6 +231,40 @@ def main() -> int:
     irb = statistics.median(r["drawn"] for r in by[("IRB120", DISPLAY_FACES)][3]) / 1000
     verdict = "met" if irb <= GOAL_FIRST_DRAW_S else "NOT met"
     print(f"goal: IRB120 first draw <= {GOAL_FIRST_DRAW_S:g} s: {verdict} ({irb:.2f} s)")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=3, help="warm page loads per case (default 3)")
+    args = parser.parse_args()
+    if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
+        print("bench/studio_arm.py skipped: needs Debian's chromium and chromium-driver (apt-get install -y ...)")
+        return 0
+    folder = Path(tempfile.mkdtemp(prefix="studio_arm_bench_"))
+    worlds = {"IRB120": "arm/irb120.yaml", "IRB120 + 756k-face link": str(dense_config(folder))}
+    port = free_port()
+    url = f"http://127.0.0.1:{port}"
+    log = (folder / "studio.log").open("w")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
+    studio = subprocess.Popen(
+        [sys.executable, "-m", "studio", "--workspace", str(folder), "--port", str(port)],
+        cwd=ROOT,
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=env,
+    )
+    driver = new_driver()
+    rows = []
+    try:
+        wait_for_port(port)
+        for name, config in worlds.items():
+            rows += measure_world(driver, url, folder, name, config, args.repeats, env)
+    finally:
+        driver.quit()
+        studio.terminate()
+        studio.wait(timeout=20)
+        log.close()
+    print_summary(worlds, rows)
     return 0
 
 

@@ -55,19 +55,10 @@ def write_world(folder: Path, robots: int) -> Path:
     return path
 
 
-def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
-    """(frames/s shown by the browser, sim steps/s, studio CPU %, studio CPU % with no page open)
-    for a world of ``robots``."""
-    import rclpy
-    from geometry_msgs.msg import Twist
-    from rclpy.node import Node
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    from sim_runtime.qos import COMMAND_PUBLISHER_QOS
+def start_children(folder: Path, robots: int) -> tuple[subprocess.Popen, subprocess.Popen, int]:
+    """A ``simrobot_world`` of ``robots`` and a studio: (world, studio, the studio's port)."""
     from sim_tools.cli import executable_command
 
-    folder = Path(tempfile.mkdtemp(prefix="studio_simrobot_bench_"))
     world_file = write_world(folder, robots)
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_CURRENT_TEST"}
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
@@ -83,6 +74,62 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
         stdout=subprocess.DEVNULL,
         cwd=ROOT,
     )
+    return world, studio, port
+
+
+def new_driver():
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1200"):
+        options.add_argument(arg)
+    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
+    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+
+
+COUNT_JS = "return document.querySelectorAll('.simrobot-view .robot').length"
+SIM_TIME_JS = "return +document.querySelector('.simrobot-view g.frame').dataset.simTime"
+
+
+def show_world(driver, url: str, robots: int, world: subprocess.Popen, deadline: float) -> None:
+    """Open the SIMROBOT page (once the studio answers) and wait until it draws every robot."""
+    while True:
+        try:
+            driver.get(url)
+            break
+        except Exception:
+            assert time.monotonic() < deadline, "the studio did not start"
+            time.sleep(0.5)
+    while driver.execute_script(COUNT_JS) != robots:
+        assert time.monotonic() < deadline and world.poll() is None, "the world was not drawn"
+        time.sleep(0.2)
+
+
+def watch(driver, studio: subprocess.Popen, seconds: float) -> tuple[float, float, float]:
+    """(frames/s shown, sim steps/s, studio CPU %) over ``seconds`` of the open page."""
+    f0, s0 = driver.execute_script("return window.simrobotFrames"), driver.execute_script(SIM_TIME_JS)
+    c0, t0 = cpu_seconds(studio.pid), time.monotonic()
+    time.sleep(seconds)
+    f1, s1 = driver.execute_script("return window.simrobotFrames"), driver.execute_script(SIM_TIME_JS)
+    elapsed = time.monotonic() - t0
+    cpu = 100.0 * (cpu_seconds(studio.pid) - c0) / elapsed
+    return (f1 - f0) / elapsed, (s1 - s0) / 0.1 / elapsed, cpu
+
+
+def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
+    """(frames/s shown by the browser, sim steps/s, studio CPU %, studio CPU % with no page open)
+    for a world of ``robots``."""
+    import rclpy
+    from geometry_msgs.msg import Twist
+    from rclpy.node import Node
+
+    from sim_runtime.qos import COMMAND_PUBLISHER_QOS
+
+    folder = Path(tempfile.mkdtemp(prefix="studio_simrobot_bench_"))
+    world, studio, port = start_children(folder, robots)
+    url = f"http://127.0.0.1:{port}/simrobot"
     context = rclpy.Context()
     rclpy.init(context=context)
     node = Node("studio_simrobot_bench", context=context)
@@ -91,24 +138,9 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
     turn.linear.x, turn.angular.z = 0.02, 0.3
     driver = None
     try:
-        options = webdriver.ChromeOptions()
-        options.binary_location = CHROMIUM
-        for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1200"):
-            options.add_argument(arg)
-        os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-        driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+        driver = new_driver()
         deadline = time.monotonic() + 120
-        while True:  # the studio up, then the world drawn with every robot
-            try:
-                driver.get(f"http://127.0.0.1:{port}/simrobot")
-                break
-            except Exception:
-                assert time.monotonic() < deadline, "the studio did not start"
-                time.sleep(0.5)
-        count = "return document.querySelectorAll('.simrobot-view .robot').length"
-        while driver.execute_script(count) != robots:
-            assert time.monotonic() < deadline and world.poll() is None, "the world was not drawn"
-            time.sleep(0.2)
+        show_world(driver, url, robots, world, deadline)  # the studio up, then every robot drawn
         for pub in pubs:  # a command holds until the next: once each (twice, for late matches)
             pub.publish(turn)
         time.sleep(1.0)
@@ -118,17 +150,8 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
         c0, t0 = cpu_seconds(studio.pid), time.monotonic()
         time.sleep(seconds / 2)
         ros_cpu = 100.0 * (cpu_seconds(studio.pid) - c0) / (time.monotonic() - t0)
-        driver.get(f"http://127.0.0.1:{port}/simrobot")
-        while driver.execute_script(count) != robots:
-            assert time.monotonic() < deadline + 60, "the world was not drawn again"
-            time.sleep(0.2)
-        sim_time = "return +document.querySelector('.simrobot-view g.frame').dataset.simTime"
-        f0, s0 = driver.execute_script("return window.simrobotFrames"), driver.execute_script(sim_time)
-        c0, t0 = cpu_seconds(studio.pid), time.monotonic()
-        time.sleep(seconds)
-        f1, s1 = driver.execute_script("return window.simrobotFrames"), driver.execute_script(sim_time)
-        elapsed = time.monotonic() - t0
-        cpu = 100.0 * (cpu_seconds(studio.pid) - c0) / elapsed
+        show_world(driver, url, robots, world, deadline + 60)
+        fps, steps, cpu = watch(driver, studio, seconds)
     finally:
         if driver is not None:
             driver.quit()
@@ -137,7 +160,7 @@ def run(robots: int, seconds: float) -> tuple[float, float, float, float]:
             child.wait(timeout=20)
         node.destroy_node()
         rclpy.shutdown(context=context)
-    return (f1 - f0) / elapsed, (s1 - s0) / 0.1 / elapsed, cpu, ros_cpu
+    return fps, steps, cpu, ros_cpu
 
 
 def main() -> int:

@@ -394,7 +394,7 @@ def test_a_stuck_child_is_killed_when_the_timeout_runs_out(tmp_path):
 
 def test_key_presses_step_from_the_worlds_last_command_whoever_sent_it():
     from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP
-    from studio.create.sim_page import command_steps
+    from studio.create.sim_drive import command_steps
 
     assert command_steps((0.0, 0.0)) == [0, 0]
     assert command_steps((3 * LINEAR_STEP, -2 * ANGULAR_STEP)) == [3, -2]
@@ -402,7 +402,7 @@ def test_key_presses_step_from_the_worlds_last_command_whoever_sent_it():
 
 
 def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
-    from studio.create.sim_page import fit_due
+    from studio.create.sim_view import fit_due
 
     assert fit_due(None, 0)  # first shown, no map yet: fit to the robot
     assert fit_due(0, 1)  # then its map arrives: fit to the map
@@ -430,7 +430,7 @@ def test_a_number_below_its_minimum_is_flagged_not_clamped():
 
 
 def test_an_empty_or_non_numeric_pose_field_is_an_error_not_zero():
-    from studio.create.sim_page import initial_pose
+    from studio.create.sim_runs import initial_pose
 
     assert initial_pose(1.0, -0.5, 0.25) == (1.0, -0.5, 0.25)
     with pytest.raises(InputError, match="initial pose y: a number is needed"):
