@@ -6,6 +6,7 @@ for the converter's process with ``ROBOT_SIMS_SIMULATORS=toy=toy_sim.adapter``; 
 
 from __future__ import annotations
 
+import ast
 import os
 import subprocess
 import sys
@@ -29,6 +30,7 @@ TOY = {
     "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "test")]),
 }
 BODY = "/top/map/robots/robot/body"
+SIMULATOR_PACKAGES = ("create_sim", "simrobot_sim", "arm_sim", "sim_tools.adapters.")
 
 
 def write_toy_bag(folder: Path, steps: int = 30) -> Path:
@@ -92,3 +94,15 @@ def test_without_its_registry_entry_the_toy_robot_gets_the_default_dot(toy_bag: 
     ents = load_entities(bag_to_rerun(toy_bag, tmp_path / "plain.rrd", progress=False))
     assert column(ents[BODY], "LineStrips2D:strips") == []
     assert len(column(ents[BODY], "Points2D:positions")) == 1
+
+
+def test_the_views_and_their_drawing_kit_import_no_simulator() -> None:
+    """Only the registry (``sim_tools.adapters`` itself) may be named: each simulator comes from it."""
+    named = {}
+    for path in [*(ROOT / "sim_tools" / "rerun_view").glob("*.py"), *(ROOT / "sim_tools" / "rerun_kit").glob("*.py")]:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            modules += [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            named.update({f"{path.name}: {m}": m for m in modules if m.startswith(SIMULATOR_PACKAGES)})
+    assert not named
+    assert any(path.name == "logger.py" for path in (ROOT / "sim_tools" / "rerun_view").glob("*.py"))
