@@ -282,14 +282,7 @@ class Campaign:
 
     def run(self) -> Report:
         """Run up to ``inputs`` inputs (fewer if ``seconds`` run out) and report what happened."""
-        from sim_tools.fuzz.targets import Seeds, prepare_seeds
-
-        shutil.rmtree(self.out / "defects", ignore_errors=True)
-        self.out.mkdir(parents=True, exist_ok=True)
-        seed_folder = self.out / "seeds"
-        shutil.rmtree(seed_folder, ignore_errors=True)
-        prepare_seeds(seed_folder)
-        self.seeds = Seeds.load(seed_folder)
+        seed_folder = self._prepare()
         ctx = mp.get_context("spawn")
         self.begin = self.last_print = time.monotonic()
         self.slots = [_Slot(ctx, (str(seed_folder), self.seed, str(self.out)), n) for n in range(self.workers)]
@@ -302,6 +295,18 @@ class Campaign:
         self.report.seconds = time.monotonic() - self.begin
         (self.out / "summary.json").write_text(json.dumps(self.report.to_json(), indent=1), encoding="utf-8")
         return self.report
+
+    def _prepare(self) -> Path:
+        """A fresh seed corpus (and no defects of an earlier campaign) in the output folder."""
+        from sim_tools.fuzz.targets import Seeds, prepare_seeds
+
+        shutil.rmtree(self.out / "defects", ignore_errors=True)
+        self.out.mkdir(parents=True, exist_ok=True)
+        seed_folder = self.out / "seeds"
+        shutil.rmtree(seed_folder, ignore_errors=True)
+        prepare_seeds(seed_folder)
+        self.seeds = Seeds.load(seed_folder)
+        return seed_folder
 
     def _round(self) -> bool:
         """Hand out work, take in results, deal with dead and hung workers; False when it is over."""
