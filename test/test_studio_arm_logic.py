@@ -149,7 +149,7 @@ def test_element_poses_turn_into_the_same_rotations_as_the_messages_helpers():
 
 
 def test_a_world_file_typed_in_the_arm_page_stays_in_the_workspace_or_the_shipped_configs(tmp_path):
-    from studio.arm.page import arm_world_ros_args, resolve_config
+    from studio.arm.worlds import arm_world_ros_args, resolve_config
     from studio.shell.app import Studio
     from studio.shell.workspace import Workspace
 
