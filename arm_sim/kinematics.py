@@ -559,7 +559,7 @@ def _rne_inward(tau, links, dh):
             tau[i] = f[0] * z[i, 0] + f[1] * z[i, 1] + f[2] * z[i, 2]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rne_into(tau, frames, qd, qdd, chain, dyn):
     """Recursive Newton–Euler inverse dynamics, written in world coordinates.
 
