@@ -17,8 +17,9 @@ from create_sim.synthetic_run import write_create_run
 from sim_runtime.bag.reader import open_bag
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
 from sim_runtime.msgs import pose_msg, yaw_from_quaternion
+from studio.replay.draw import grid_image_svg, panel_html
 from studio.replay.frames import Replay
-from studio.replay.page import bag_names, grid_image_svg, panel_html
+from studio.replay.page import bag_names
 from studio.shell.svg import View
 from studio.shell.workspace import Workspace
 
