@@ -118,7 +118,7 @@ class SimulatorDrawing:
     """Plot tabs of its own quantities (those of the message families are the kit's)."""
     handlers: ClassVar[Mapping[tuple[str | None, str], Handler]] = MappingProxyType({})
     """``(topic, pkg/msg/Type)`` → how it is drawn, instead of the kit's family for that type;
-    ``(None, type)``: every topic of that type."""
+    ``(None, type)``: every topic of that type that no drawing claims by name."""
     legend_3d: ClassVar[str | None] = None
     """The legend of a 3-D world (markdown)."""
 
@@ -126,11 +126,6 @@ class SimulatorDrawing:
         """Whether the robot in ``namespace`` (``""``: the root) is one of its robots, drawn with
         :attr:`look`; ``topics`` is every topic known (name → type)."""
         return False
-
-    def handler(self, topic: str, kind: str) -> Handler | None:
-        """How it draws ``topic`` of type ``kind``, if it claims it."""
-        leaf = topic.rstrip("/").rpartition("/")[2]
-        return self.handlers.get((leaf, kind)) or self.handlers.get((None, kind))
 
     def outlines(self, markers: Iterable[Any]) -> list[Outline]:
         """The robots' outlines in a message of an :attr:`outline_topics` topic."""

@@ -12,7 +12,7 @@ from sim_tools.rerun_kit.contract import SimulatorDrawing
 from sim_tools.rerun_kit.inputs import Inputs
 from sim_tools.rerun_kit.markers import Markers
 from sim_tools.rerun_kit.poses import Poses
-from sim_tools.rerun_kit.ros import stamp_ns, type_name
+from sim_tools.rerun_kit.ros import basename, stamp_ns, type_name
 from sim_tools.rerun_kit.sensors import Sensors
 from sim_tools.rerun_kit.tf import TF_MESSAGE_TYPE
 
@@ -85,10 +85,12 @@ class Drawer(Poses, Sensors, Markers, Inputs, Layout):
         return True
 
     def _drawing_of(self, topic: str, kind: str) -> Callable[[str, object], None] | None:
-        """Who draws ``topic`` of type ``kind``: the first simulator claiming it, else its family."""
+        """Who draws ``topic`` of type ``kind``: the first simulator claiming it by name, else the
+        first claiming its type, else its family."""
         key = (topic, kind)
         if key not in self._draw:
-            claimed = next((h for d in self.drawings if (h := d.handler(topic, kind)) is not None), None)
+            claims = ((basename(topic), kind), (None, kind))
+            claimed = next((d.handlers[c] for c in claims for d in self.drawings if c in d.handlers), None)
             method = HANDLERS.get(kind)
             if claimed is not None:
                 self._draw[key] = functools.partial(claimed, self)

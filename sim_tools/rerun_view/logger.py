@@ -52,7 +52,8 @@ and declares, each optional (topic names are last segments):
   namespaces ``owns_robot(namespace, topics)`` accepts; the others get the default look (a dot);
   ``truth_pose_topics``, its robots' ground-truth PoseStamped topics;
 - **topics it claims**: ``handlers``, ``(topic, pkg/msg/Type)`` (or ``(None, type)``: every topic
-  of that type) → ``draw(drawer, topic, msg)``, called instead of the kit's family for that type;
+  of that type no drawing claims by name) → ``draw(drawer, topic, msg)``, called instead of the
+  kit's family for that type;
   it draws with the public methods of :class:`~sim_tools.rerun_kit.drawer.Drawer` (``robot``,
   ``frame_entity``, ``scalar``, ``binary``, ``event``, ``mark``, ``joints``…). The types it
   claims are drawn types (``supported_types``). ``quiet_topics`` are skipped without a warning;
@@ -68,7 +69,8 @@ and declares, each optional (topic names are last segments):
   ``legend_notes(leaves)`` and ``legend_lines(topics)`` (ranked lines of the legend),
   ``legend_3d`` (the legend of a 3-D world).
 
-The first drawing (in registry order) that claims a topic, owns a robot or answers a hook wins.
+The first drawing (in registry order) that claims a topic (by name before by type), owns a robot
+or answers a hook wins.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import ClassVar
 
-from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC, SCENE_MARKERS_TOPIC
+from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, SCENE_MARKERS_TOPIC
 from sim_tools.rerun_kit.contract import Handler, SimulatorDrawing
 from sim_tools.rerun_kit.drawer import Drawer
 
@@ -19,7 +19,8 @@ LEGEND = (
 
 
 def draw_joints(view: Drawer, topic: str, msg) -> None:
-    """The arm's joint states: positions, velocities and efforts, plotted as the ``arm``'s."""
+    """An arm's joint states: positions, velocities and efforts, plotted as the ``arm``'s (in the
+    root namespace)."""
     view.joints(topic, msg, "arm")
 
 
@@ -28,9 +29,9 @@ class ArmDrawing(SimulatorDrawing):
 
     path_topics = (END_EFFECTOR_POSE_TOPIC,)
     static_marker_topics = (SCENE_MARKERS_TOPIC,)
-    handlers: ClassVar[Mapping[tuple[str | None, str], Handler]] = {
-        (JOINT_STATES_TOPIC, "sensor_msgs/msg/JointState"): draw_joints
-    }
+    # Every JointState is an arm's (joint_states, and a controller's joint_command), but a topic
+    # another simulator claims by name (SIMROBOT's wheel_cmd).
+    handlers: ClassVar[Mapping[tuple[str | None, str], Handler]] = {(None, "sensor_msgs/msg/JointState"): draw_joints}
     legend_3d = LEGEND
 
 
