@@ -12,6 +12,7 @@ from pathlib import Path
 
 import yaml
 
+from sim_tools.adapters import simulators
 from sim_tools.fuzz.bags import read_bag
 from sim_tools.fuzz.corpus import Seeds, fuzz_parts
 from sim_tools.fuzz.nodes import file_parameters, run_world_node
@@ -73,13 +74,15 @@ def _bag_with_special_split(rng: random.Random, seeds: Seeds, folder: Path, kind
 
 def _field_cases(rng: random.Random, seeds: Seeds, folder: Path, special: Path) -> dict[str, Callable[[], object]]:
     """Files whose field names ``special``: each simulator's (a world's map, a robot config's mesh…),
-    and a sweep's map file."""
+    and a sweep's world file."""
     cases: dict[str, Callable[[], object]] = {}
     for part in fuzz_parts():
         cases.update(part.field_cases(rng, seeds.simulators[part.name], folder, special))
-    sweep = {"worlds": [{"map": str(special)}], "controllers": ["create_bump_turn"], "duration_s": 1}
-    (folder / "sweep.yaml").write_text(dump_yaml(sweep), encoding="utf-8")
-    cases["sweep_map"] = lambda: _load_sweep(folder / "sweep.yaml")
+    world = next((sim.part("world") for sim in simulators().values() if sim.has_part("world")), None)
+    if world is not None:  # a sweep of the first simulator's world and controller
+        sweep = {"worlds": [{world.WORLD_KEY: str(special)}], "controllers": [next(iter(world.CONTROLLERS))]}
+        (folder / "sweep.yaml").write_text(dump_yaml({**sweep, "duration_s": 1}), encoding="utf-8")
+        cases[f"sweep_{world.WORLD_KEY}"] = lambda: _load_sweep(folder / "sweep.yaml")
     return cases
 
 
