@@ -1,5 +1,9 @@
 """The bag targets: seed bags, damaged copies of them, and the tools that read them (the bag reader,
-``draw_tracks``, ``bag_to_rerun``, ``replay``)."""
+``draw_tracks``, ``bag_to_rerun``, ``replay``).
+
+A bag is no simulator's input file, so these targets are the fuzzer's own; the seed bags imitate a
+Create and a SIMROBOT run only by their topic names and message types, which is what the tools
+look at."""
 
 from __future__ import annotations
 
