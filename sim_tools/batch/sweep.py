@@ -3,7 +3,7 @@
 No ROS imports: the driver process reads and expands the sweep; workers get plain episodes.
 
 ```yaml
-worlds:                      # one or more; all of one simulator
+worlds:                      # one or more; all of one simulator (its adapter's WORLD_KEY says which)
   - {map: create/example.map, config: ""}      # Create: map + noise config ("" = noise-free)
   # - {world_file: simrobot/demo.yaml}          # SIMROBOT
   # - {robot_config: arm/irb120.yaml, targets: [[0.4, 0.0, 0.5], ...]}   # arm
