@@ -29,6 +29,7 @@ from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
 from sim_runtime.msgs import yaw_from_quaternion
+from simrobot_sim.spec import ROBOTS_TOPIC
 from studio.arm.ros_client import Group, drawables
 
 POSE = "geometry_msgs/msg/PoseStamped"
@@ -308,7 +309,7 @@ class Replay:
         if markers:
             create_map = self._create_map(state[markers[0]], decoded[markers[0]])
         grids = [t for t, kind in index.topics.items() if kind == "nav_msgs/msg/OccupancyGrid" and t in decoded]
-        outlines = [t for t in decoded if basename(t) == "robots" and index.topics[t].endswith("/MarkerArray")]
+        outlines = [t for t in decoded if basename(t) == ROBOTS_TOPIC and index.topics[t].endswith("/MarkerArray")]
         return Frame(
             t_ns=t_ns,
             elapsed_s=(t_ns - self.start_ns) / 1e9,

@@ -26,8 +26,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from sim_runtime.errors import InputError
 from sim_runtime.qos import ANY_PUBLISHER_QOS
+from simrobot_sim.spec import ROBOT_STATE_FIELDS, ROBOT_STATES_TOPIC
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
-from simrobot_sim.world_node import ROBOT_STATE_FIELDS
 from studio.shell.app import Studio
 from studio.shell.processes import Child, stop_all
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
@@ -73,7 +73,7 @@ class _World:
         self.state = WorldState(ns=ns, node_name=node_name, last_heard=time.monotonic())
         s = self.state
         self.subs = [
-            node.create_subscription(Float64MultiArray, s.topic("robot_states"), self._on_states, ANY_PUBLISHER_QOS)
+            node.create_subscription(Float64MultiArray, s.topic(ROBOT_STATES_TOPIC), self._on_states, ANY_PUBLISHER_QOS)
         ]
         self.step = node.create_client(Trigger, s.topic("step"))
         self.set_params = node.create_client(SetParameters, f"{node_name}/set_parameters")
@@ -178,7 +178,7 @@ class SimrobotRos(StudioRos):
         for ns, world in list(self._worlds.items()):
             world.ask_world_file()
             gone = (
-                self.node.count_publishers(world.state.topic("robot_states")) == 0
+                self.node.count_publishers(world.state.topic(ROBOT_STATES_TOPIC)) == 0
                 and now - world.state.last_heard > 2.0
             )
             if gone or ns in forget:
@@ -186,7 +186,7 @@ class SimrobotRos(StudioRos):
                 world.destroy()
                 del self._worlds[ns]
                 self.worlds = {k: v for k, v in self.worlds.items() if k != ns}
-        for ns, info in new_worlds(self.node, "robot_states", STATES_TYPE, self._worlds):
+        for ns, info in new_worlds(self.node, ROBOT_STATES_TOPIC, STATES_TYPE, self._worlds):
             node_name = node_full_name(info)
             world = _World(self.node, ns, node_name)
             print(f"studio: following the SIMROBOT world in {ns or '/'} (node {node_name})", flush=True)
