@@ -27,7 +27,8 @@ class ToyWorldNode(SimWorldNode):
             "initial_pose", [0.0, 0.0, 0.0], lambda p: len(p) == 3 and all_finite(*p), "x y theta at start (m, m, rad)"
         )
         self.parameters_declared()
-        self.model = PointRobot(tuple(float(v) for v in start))
+        x, y, theta = (float(v) for v in start)
+        self.model = PointRobot((x, y, theta))
         self.prefix = namespace_prefix(self.get_namespace())
         self.pub_odom = create_sensor_publisher(self, Odometry, "odom")
         create_command_subscription(self, Twist, "cmd_vel", self._on_cmd_vel)
