@@ -1,0 +1,79 @@
+"""numba's cache stays coherent when processes compile one kernel at once (sim_runtime.numba_cache).
+
+Without the lock, four processes compiling four signatures of one fresh kernel left an index entry
+naming a file that held another signature's code in 1 of 10 trials: the process that later loads
+it crashes. Here a second compiler is seen to wait for the lock a first one holds."""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+KERNEL = """
+import numba
+
+@numba.njit(cache=True)
+def doubled_sum(x):
+    s = 0
+    for i in range(x.shape[0]):
+        s += x[i] * 2
+    return s
+"""
+FLOCK_SYSCALL = 73  # x86_64
+
+
+def compile_in_child(folder: Path, dtype: str) -> subprocess.Popen:
+    code = f"import sim_runtime, numpy as np, kernel; print(kernel.doubled_sum(np.arange(5, dtype=np.{dtype})))"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(folder / "cache"), PYTHONPATH=f"{folder}{os.pathsep}{ROOT}")
+    return subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+
+
+def index_entries(folder: Path) -> dict[str, tuple]:
+    """Each entry of the kernel's index: data file → (the signature it is filed under, the one it holds)."""
+    (index,) = (folder / "cache").rglob("*.nbi")
+    with index.open("rb") as f:
+        pickle.load(f)
+        _stamp, overloads = pickle.loads(f.read())
+    entries = {}
+    for key, name in overloads.items():
+        payload = pickle.loads((index.parent / name).read_bytes())
+        entries[name] = (tuple(key[0]), tuple(payload[3].args))
+    return entries
+
+
+def wait_in_flock(process: subprocess.Popen, timeout: float = 60.0) -> bool:
+    """Whether ``process`` comes to wait in flock(2) before it ends (or the timeout)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and process.poll() is None:
+        try:
+            if Path(f"/proc/{process.pid}/syscall").read_text().split()[0] == str(FLOCK_SYSCALL):
+                return True
+        except (OSError, IndexError):
+            pass
+        time.sleep(0.005)  # polling the child's state, not waiting for time to pass
+    return False
+
+
+def test_a_process_saving_a_kernel_waits_for_the_lock_and_the_index_stays_coherent(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(tmp_path))  # reading an entry back imports the kernel's module
+
+    (tmp_path / "kernel.py").write_text(textwrap.dedent(KERNEL), encoding="utf-8")
+    first = compile_in_child(tmp_path, "int64")
+    assert first.communicate(timeout=120)[0].strip() == "20"
+    (lock_path,) = (tmp_path / "cache").rglob("*.nbi.lock")
+    with lock_path.open("ab") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        second = compile_in_child(tmp_path, "float64")
+        assert wait_in_flock(second), "the second compiler saved without taking the lock"
+        assert len(index_entries(tmp_path)) == 1  # nothing written while we hold the lock
+    assert second.communicate(timeout=120)[0].strip() == "20.0"
+    entries = index_entries(tmp_path)
+    assert len(entries) == 2
+    assert all(filed == held for filed, held in entries.values()), entries
