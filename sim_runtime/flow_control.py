@@ -92,6 +92,10 @@ class RecorderGate:
         entry = self._recorders.get(msg.source)
         if entry is None:
             self._recorders[msg.source] = _Progress(_ns(msg.time_ref), time.monotonic())
+            self._node.get_logger().info(
+                f"recorder {msg.source} attached: at real_time_factor 0 "
+                f"the world stays within {WINDOW_STEPS} steps of it"
+            )
             return
         if entry.ignored:
             self._node.get_logger().info(f"recorder {msg.source} reports again: waiting for it at real_time_factor 0")

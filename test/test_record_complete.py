@@ -121,6 +121,7 @@ def test_a_stopped_recorder_holds_a_world_at_real_time_factor_0_only_briefly_and
     world = world_process(0.0)
     try:
         assert spin_until(executor, lambda: "recording /clock" in recorder.text() and len(sim) > 50, timeout=90.0)
+        assert spin_until(executor, lambda: "attached" in world.text(), timeout=30.0)  # the world follows it
         recorder.signal(signal.SIGSTOP)  # a hung recorder: its DDS threads stop too
         assert spin_until(executor, lambda: "has recorded nothing for" in world.text(), timeout=20.0)
         held_at = sim[-1]
@@ -142,6 +143,7 @@ def test_a_recorder_that_falls_behind_at_real_time_counts_its_lost_messages_in_i
     world = world_process(5.0)  # 500 steps a second, so 1.5 s away loses more than a publisher keeps
     try:
         assert spin_until(executor, lambda: "recording /clock" in recorder.text() and len(sim) > 50, timeout=90.0)
+        assert spin_until(executor, lambda: "attached" in world.text(), timeout=30.0)  # the world follows it
         recorder.signal(signal.SIGSTOP)
         stopped_at = sim[-1]
         assert spin_until(executor, lambda: sim[-1] > stopped_at + 7.5, timeout=20.0)
