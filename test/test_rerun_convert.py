@@ -32,10 +32,10 @@ from std_msgs.msg import Bool, String
 from create_sim import spec as mounts
 from sim_runtime.bag.reader import BagWarning
 from sim_runtime.errors import InputError
+from sim_tools.rerun_kit.style import LIDAR_COLOR, TRACK_SEGMENT_POINTS
 from sim_tools.rerun_view.analytics import analytics_disabled, private_rerun_env, rerun_cli
 from sim_tools.rerun_view.analytics import main as analytics_main
 from sim_tools.rerun_view.convert import bag_to_rerun, main
-from sim_tools.rerun_kit.style import LIDAR_COLOR, TRACK_SEGMENT_POINTS
 
 
 @pytest.fixture(scope="module")

@@ -25,8 +25,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, UInt8
 from visualization_msgs.msg import Marker, MarkerArray
 
-from sim_tools.rerun_view.convert import bag_to_rerun
 from sim_tools.rerun_kit.contract import DEFAULT_LOOK
+from sim_tools.rerun_view.convert import bag_to_rerun
 from sim_tools.rerun_view.logger import RerunLogger
 
 RED = (1.0, 0.0, 0.0)

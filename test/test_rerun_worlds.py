@@ -23,11 +23,11 @@ from sim_runtime.paths import config_path
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 from sim_runtime.run import drain
 from sim_runtime.testing import spin_until, wait_for_match
+from sim_tools.adapters.create.rerun import OCCUPIED_UNDER_LINES
+from sim_tools.rerun_kit.ros import type_name
 from sim_tools.rerun_view.analytics import private_rerun_env, rerun_cli
 from sim_tools.rerun_view.convert import bag_to_rerun
 from sim_tools.rerun_view.live import attach_live_view
-from sim_tools.adapters.create.rerun import OCCUPIED_UNDER_LINES
-from sim_tools.rerun_kit.ros import type_name
 from sim_tools.rerun_view.tracks import tracks_from_bag
 from simrobot_sim import world_node as simrobot
 
