@@ -1,4 +1,4 @@
-"""Create config files (sensor noise and communication delay), in the MATLAB simulator's format.
+"""Create config files (sensor noise and communication delay), in the original's format.
 
 Rows ``<sensor> mean std`` for sensor in wall, cliff, odometry, sonar, lidar, camera, and
 ``com_delay seconds``; ``%`` comments, blank rows and whitespace as in map files; keywords are

@@ -1,4 +1,4 @@
-"""Create map files, in the MATLAB simulator's text format (unchanged).
+"""Create map files, in the original's text format (unchanged).
 
 One element per row; ``%`` starts a comment (whole row or trailing); blank rows, any spaces or
 tabs between fields and around the row are fine; keywords are case-insensitive::

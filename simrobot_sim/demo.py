@@ -1,4 +1,4 @@
-"""The seed's demo: four robots running alg2 for 300 steps on a drawn map, plus its tracks PNG.
+"""The original's demo: four robots running alg2 for 300 steps on a drawn map, plus its tracks PNG.
 
 ``python -m simrobot_sim.demo [out_dir]`` or :func:`run_demo` (the lead's ``make demo``).
 The original demo map is lost; :func:`draw_demo_map` draws the shipped one (5 m x 5 m at 1 cm:

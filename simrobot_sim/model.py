@@ -785,19 +785,19 @@ class SimrobotWorld:
             raise InputError(f"no robot named {name!r}; robots: {', '.join(self.names)}") from None
 
     def set_wheel_speeds(self, i: int, left: float, right: float) -> None:
-        """The seed's ``setvel``: wheel angular velocities (rad/s). NaN/inf raise InputError."""
+        """The original's ``setvel``: wheel angular velocities (rad/s). NaN/inf raise InputError."""
         if not (math.isfinite(left) and math.isfinite(right)):
             raise InputError(f"robot {self.names[i]!r}: wheel speeds must be finite, got [{left}, {right}]")
         self.vel[i] = (left, right)
 
     def set_wheel_accels(self, i: int, left: float, right: float) -> None:
-        """The seed's ``setaccel``: added to the wheel speeds every step (rad/s^2) until changed."""
+        """The original's ``setaccel``: added to the wheel speeds every step (rad/s^2) until changed."""
         if not (math.isfinite(left) and math.isfinite(right)):
             raise InputError(f"robot {self.names[i]!r}: wheel accelerations must be finite, got [{left}, {right}]")
         self.accel[i] = (left, right)
 
     def wheel_speeds_for(self, i: int, v: float, omega: float) -> tuple[float, float]:
-        """The seed's ``invmodel``: wheel speeds (rad/s) giving forward speed ``v`` (m/s) and yaw
+        """The original's ``invmodel``: wheel speeds (rad/s) giving forward speed ``v`` (m/s) and yaw
         rate ``omega`` (rad/s) exactly. With ``lb`` != 0 the body also drifts sideways by
         ``lb * omega`` (a differential drive cannot avoid it)."""
         res = self.resolution
@@ -816,11 +816,11 @@ class SimrobotWorld:
         self.vel[i] = speeds
 
     def set_power(self, i: int, on: bool) -> None:
-        """The seed's ``setpower``: an unpowered robot keeps its place."""
+        """The original's ``setpower``: an unpowered robot keeps its place."""
         self.power[i] = bool(on)
 
     def clear_crash(self, i: int) -> None:
-        """The seed's ``clearcf``: the robot may move again (from its last free pose)."""
+        """The original's ``clearcf``: the robot may move again (from its last free pose)."""
         self.crashed[i] = False
 
     # -- simulation -------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from sim_runtime.yamlfile import read_pair as _pair
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
 
-#: The seed's default robot outline (cells at 1 cm, heading east, pivot at 0,0), in metres.
+#: The original's default robot outline (cells at 1 cm, heading east, pivot at 0,0), in metres.
 DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, -0.03))
 
 #: Highest robot count whose ids fit the original's uint8 matrix (ids 2-255).
