@@ -4,8 +4,9 @@ A simulator's adapter is a package with one module per tool that uses it (``worl
 demo, warm-up; ``fuzz``: the fuzzer's targets; ``rerun``: how its messages are drawn in
 Rerun). The tools (batch, fuzz, Rerun conversion, demo, warm-up) loop over :func:`simulators`
 and import a part with :meth:`Simulator.part`; none of them names a simulator. What each part
-holds is written in the docstring of the tool that reads it (``sim_tools.batch.episode``,
-``sim_tools.fuzz.targets``, ``sim_tools.rerun_view.logger``) and in ``docs/architecture.md``.
+holds is written once: the ``world`` part in :mod:`sim_tools.adapters.contract`, the ``fuzz``
+part in :mod:`sim_tools.fuzz.targets`, the ``rerun`` part in :mod:`sim_tools.rerun_view.logger`;
+``docs/architecture.md`` sums them up.
 
 The three simulators of this package are listed here. Another one (a course's own, or the
 point robot of the tests) is added without touching the tools:
