@@ -24,6 +24,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from arm_sim import kinematics as kin
@@ -57,6 +58,19 @@ class LoadedElement:
     triangles: np.ndarray
     placeholder: bool = False
     error: str = ""
+
+
+# numba checks a named-table argument's class and field names on every call from Python (~0.6 µs
+# a table, half the cost of a one-pose call): the single-pose calls pass the chain's arrays and
+# rebuild the table inside the kernel, where it costs nothing.
+@numba.njit(cache=True)
+def _fk_of(q, dh, base, modified):
+    return kin.fk(q, kin.Chain(dh, base, modified))
+
+
+@numba.njit(cache=True)
+def _jacob0_of(q, dh, base, modified):
+    return kin.jacob0(q, kin.Chain(dh, base, modified))
 
 
 def placeholder_cube(size: float = PLACEHOLDER_SIZE) -> np.ndarray:
@@ -147,7 +161,7 @@ class Arm:
     # --- kinematics -------------------------------------------------------------------------
     def fkine(self, q) -> np.ndarray:
         """World pose (4x4) of the flange (last DH frame) at joint coordinates q."""
-        return kin.fk(np.asarray(q, dtype=float), self.chain)
+        return _fk_of(np.asarray(q, dtype=float), *self.chain)
 
     def fkine_all(self, q) -> np.ndarray:
         """World poses (n+1, 4, 4) of frames 0 (base) .. n (flange)."""
@@ -159,7 +173,7 @@ class Arm:
 
     def jacob0(self, q) -> np.ndarray:
         """Geometric Jacobian (6, n) of the flange in the world frame (v then omega)."""
-        return kin.jacob0(np.asarray(q, dtype=float), self.chain)
+        return _jacob0_of(np.asarray(q, dtype=float), *self.chain)
 
     def jacob0_batch(self, Q) -> np.ndarray:
         """Jacobians (m, 6, n) for configurations Q (m, n)."""
