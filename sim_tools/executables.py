@@ -19,4 +19,6 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "urdf": ("sim_tools.urdf_cli:main", "print the URDF of an arm's robot config, or of the Create (`urdf create`)"),
     "studio": ("studio.main:main", "web app: Create simulator view and controls, map maker, config maker"),
     "batch": ("sim_tools.batch.cli:main", "run a sweep of isolated episodes (locally or on Ray): table and plots"),
+    "matlab_bridge": ("sim_tools.matlab.bridge:main", "serve one Create's toolbox calls to a MATLAB/Octave program"),
+    "matlab_path": ("sim_tools.matlab.paths:main", "print the folder of the m-files (the Create toolbox) for addpath"),
 }

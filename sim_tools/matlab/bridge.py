@@ -1,0 +1,319 @@
+"""``robot_sims matlab_bridge``: serve one Create's toolbox calls to a MATLAB/Octave program over TCP.
+
+The m-files of ``robot_sims matlab_path`` (class ``CreateRobot``) send each toolbox call here; the
+bridge makes it on a :class:`create_sim.client.CreateRobot` in the robot's namespace and sends the
+outputs back. It listens on loopback only (a program on the same machine; nothing else can drive
+the robot) and serves one program at a time.
+
+Protocol, version 1 (UTF-8 text, one line each way, ``\\n``-terminated):
+
+- On connect the bridge sends ``robot_sims-matlab 1 create <namespace>`` (name, protocol version,
+  toolbox, robot namespace). While another program is connected it sends ``busy <message>``
+  instead and closes the connection: one program at a time, a second is refused, not queued.
+- The program sends a request: the toolbox function's name and its numeric arguments after
+  ``serPort``, separated by spaces (``SetFwdVelAngVelCreate 0.2 0.5``; ``Inf``/``NaN`` allowed).
+- The bridge answers ``ok`` followed by each output as one JSON value, tab-separated
+  (``ok\\t0\\t1\\t0\\t0\\t0\\t0``; a command answers a bare ``ok``), or ``error <message>``, which
+  the m-file raises as a MATLAB error with that message (identifier ``CreateRobot:bridge``).
+- ``bye`` ends the program's session (so does closing the socket).
+
+However the session ends (``bye``, the socket closed, Octave killed, Ctrl-C'd MATLAB clearing
+``serPort``), the robot is stopped (zero velocity, confirmed by its odometry); a program lost
+during a blocking call (``travelDist``, ``turnAngle``) is noticed within milliseconds, not at the
+call's end. Each session gets a fresh client, so ``DistanceSensorRoomba`` counts from the
+program's first call, as after ``RoombaInit``.
+
+From Python (the studio)::
+
+    bridge = MatlabBridge("/robot1")      # bound and listening; port 0 = any free port
+    bridge.start()                        # serve in a background thread
+    print(bridge.port)                    # -> CreateRobot(port) in the program
+    bridge.close()
+
+or :func:`spawn_bridge` for a bridge in its own process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import ipaddress
+import json
+import math
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from typing import Any
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from create_sim.client import CreateRobot
+from sim_runtime.errors import InputError
+from sim_tools.matlab.calls import run_call
+
+PROTOCOL_VERSION = 1
+HELLO = "robot_sims-matlab"
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 47800
+POLL = 0.005  # s, wall: how often a blocking call checks that its program is still there
+LISTENING = re.compile(r"listening on ([\d.:a-f\[\]]+):(\d+)")
+
+
+class ProgramLost(Exception):
+    """The program's connection closed (it ended, or Octave/MATLAB was killed)."""
+
+
+def check_loopback(host: str) -> None:
+    """Refuse any address but loopback: the bridge drives a robot for whoever connects."""
+    try:
+        addresses = {info[4][0] for info in socket.getaddrinfo(host, None)}
+    except socket.gaierror as error:
+        raise InputError(f"--host {host!r}: unknown host ({error})") from None
+    if not all(ipaddress.ip_address(str(a).split("%")[0]).is_loopback for a in addresses):
+        raise InputError(
+            f"--host {host!r}: the MATLAB bridge listens on loopback only (127.0.0.1, ::1, localhost), "
+            "so that no other machine can drive the robot"
+        )
+
+
+def _encode(value: Any) -> Any:
+    """JSON-able outputs, with non-finite numbers as null (MATLAB's jsondecode reads NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, list | tuple):
+        return [_encode(v) for v in value]
+    return value
+
+
+def reply_ok(outputs: list[Any]) -> str:
+    return "\t".join(["ok", *(json.dumps(_encode(o)) for o in outputs)])
+
+
+def reply_error(error: BaseException) -> str:
+    text = str(error) or type(error).__name__
+    if not isinstance(error, ValueError | RuntimeError | TimeoutError):
+        text = f"{type(error).__name__}: {text}"
+    return "error " + " ".join(text.split())  # one line
+
+
+def parse_request(line: str) -> tuple[str, list[float]]:
+    """``Name a1 a2 …`` → (name, numeric arguments); ValueError naming what is wrong."""
+    words = line.split()
+    if not words:
+        raise ValueError("empty request: expected a toolbox function name and its arguments")
+    try:
+        return words[0], [float(w) for w in words[1:]]
+    except ValueError:
+        raise ValueError(f"{words[0]}: arguments must be numbers, got {' '.join(words[1:])!r}") from None
+
+
+class Session:
+    """One program's connection: requests in, replies out, the robot stopped at the end."""
+
+    def __init__(self, conn: socket.socket, node: Node) -> None:
+        self.conn = conn
+        self.node = node
+        self._buffer = b""
+        self._armed = False  # while True, a lost program aborts a blocking call
+
+    def serve(self) -> None:
+        self._send(f"{HELLO} {PROTOCOL_VERSION} create {self.node.get_namespace()}")
+        subscriptions, publishers = set(self.node.subscriptions), set(self.node.publishers)
+        robot = CreateRobot(node=self.node, spin=self._spin)
+        try:
+            self._loop(robot)
+        except (ProgramLost, OSError):
+            pass
+        finally:
+            self._armed = False
+            robot.close()  # zero velocity, confirmed by odometry (at most 1 s)
+            for sub in set(self.node.subscriptions) - subscriptions:
+                self.node.destroy_subscription(sub)
+            for pub in set(self.node.publishers) - publishers:
+                self.node.destroy_publisher(pub)
+            self.conn.close()
+
+    def _loop(self, robot: CreateRobot) -> None:
+        while (line := self._read_line()) != "bye":
+            self._armed = True
+            try:
+                name, args = parse_request(line)
+                reply = reply_ok(run_call(robot, name, args))
+            except ProgramLost:
+                raise
+            except Exception as error:  # the program's mistake or the robot's: the program's error()
+                reply = reply_error(error)
+            self._armed = False
+            self._send(reply)
+
+    def _read_line(self) -> str:
+        while b"\n" not in self._buffer:
+            chunk = self.conn.recv(65536)
+            if not chunk:
+                raise ProgramLost
+            self._buffer += chunk
+        line, self._buffer = self._buffer.split(b"\n", 1)
+        return line.decode("utf-8", "replace").strip()
+
+    def _send(self, line: str) -> None:
+        self.conn.sendall(line.encode() + b"\n")
+
+    def _spin(self) -> None:
+        """While a call blocks: let the node's executor work, and give up if the program is gone."""
+        threading.Event().wait(POLL)
+        if not self._armed:
+            return
+        try:
+            if self.conn.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b"":
+                raise ProgramLost
+        except BlockingIOError:
+            return
+        except OSError:
+            raise ProgramLost from None
+
+
+class MatlabBridge:
+    """A listening bridge for the Create in ``namespace`` (bound when constructed)."""
+
+    def __init__(
+        self, namespace: str = "", host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, node: Node | None = None
+    ) -> None:
+        check_loopback(host)
+        self._server = socket.create_server((host, port), family=_family(host))
+        self._executor: SingleThreadedExecutor | None = None
+        if node is None:
+            if not rclpy.ok():
+                # Without rclpy's signal handlers: they would shut ROS down on Ctrl-C before the
+                # robot could be told to stop.
+                rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+            node = Node("matlab_bridge", namespace=namespace)
+            self._executor = SingleThreadedExecutor()
+            self._executor.add_node(node)
+            threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin").start()
+        self.node = node
+        self._busy = threading.Lock()
+        self._session: Session | None = None
+        self._closed = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    @property
+    def port(self) -> int:
+        return int(self._server.getsockname()[1])
+
+    @property
+    def host(self) -> str:
+        return str(self._server.getsockname()[0])
+
+    def start(self) -> MatlabBridge:
+        """Serve in a background thread; returns self."""
+        self._thread = threading.Thread(target=self.serve_forever, daemon=True, name="matlab_bridge")
+        self._thread.start()
+        return self
+
+    def serve_forever(self) -> None:
+        """Accept programs until :meth:`close`: one served at a time, others told so."""
+        while not self._closed.is_set():
+            try:
+                conn, _address = self._server.accept()
+            except OSError:
+                return  # closed
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            if self._busy.acquire(blocking=False):
+                threading.Thread(target=self._serve, args=(conn,), daemon=True, name="matlab_session").start()
+            else:
+                _refuse(conn, self.node.get_namespace())
+
+    def _serve(self, conn: socket.socket) -> None:
+        try:
+            _log(f"a program connected to {self.node.get_namespace()}")
+            self._session = Session(conn, self.node)
+            self._session.serve()
+            _log("the program ended: robot stopped")
+        finally:
+            self._busy.release()
+
+    def close(self) -> None:
+        """Stop listening, end the program's session (stopping the robot) and the node."""
+        self._closed.set()
+        self._server.close()
+        session = self._session
+        if session is not None:
+            with contextlib.suppress(OSError):  # already closed: the session has ended
+                session.conn.shutdown(socket.SHUT_RDWR)  # its program is lost: the robot stops
+        if self._busy.acquire(timeout=5.0):
+            self._busy.release()
+        if self._executor is not None:
+            self._executor.shutdown(timeout_sec=2.0)
+            self.node.destroy_node()
+
+
+def _family(host: str) -> socket.AddressFamily:
+    return socket.AF_INET6 if ":" in host else socket.AF_INET
+
+
+def _refuse(conn: socket.socket, namespace: str) -> None:
+    message = f"busy another program is connected to the robot {namespace}: one program at a time per bridge"
+    try:
+        conn.sendall(message.encode() + b"\n")
+    finally:
+        conn.close()
+
+
+def _log(text: str) -> None:
+    print(f"matlab_bridge: {text}", file=sys.stderr, flush=True)
+
+
+def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = None) -> tuple[subprocess.Popen, int]:
+    """``robot_sims matlab_bridge`` for ``namespace`` in its own process; returns it and its port
+    once it listens (port 0: any free port). Stop it with SIGINT or SIGTERM: the robot stops."""
+    from sim_tools.cli import executable_command  # the CLI imports every executable's table
+
+    process = subprocess.Popen(
+        executable_command("matlab_bridge", ["--namespace", namespace, "--port", str(port)]),
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    assert process.stdout is not None
+    first = process.stdout.readline()
+    match = LISTENING.search(first)
+    if match is None:
+        process.kill()
+        process.wait()
+        raise RuntimeError(f"matlab_bridge did not start (said {first!r}); see its stderr")
+    return process, int(match.group(2))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="robot_sims matlab_bridge",
+        description="Serve one Create's toolbox calls to a MATLAB/Octave program (loopback TCP).",
+    )
+    parser.add_argument("--namespace", default="", help="the robot's namespace, e.g. /robot1 (default: none)")
+    parser.add_argument("--host", default=DEFAULT_HOST, help="loopback address to listen on (default 127.0.0.1)")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; 0 = any free)")
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        bridge = MatlabBridge(args.namespace, args.host, args.port)
+    except InputError as error:
+        print(f"matlab_bridge: error: {error}", file=sys.stderr)
+        return 2
+    # SIGTERM ends like Ctrl-C: through close(), which stops the robot.
+    signal.signal(signal.SIGTERM, lambda *_: os.kill(os.getpid(), signal.SIGINT))
+    print(f"matlab_bridge: listening on {bridge.host}:{bridge.port} for {bridge.node.get_namespace()}", flush=True)
+    try:
+        bridge.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        bridge.close()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
