@@ -45,10 +45,10 @@ def wrapper_files() -> list[str]:
     return paths
 
 
-def config_files() -> list[tuple[str, list[str]]]:
-    """Every file under config/, installed to share/robot_sims/config/ keeping the tree."""
+def shared_files(top: str) -> list[tuple[str, list[str]]]:
+    """Every file under ``top``/ (config/, matlab/), installed to share/robot_sims/``top``/ keeping the tree."""
     entries = []
-    for folder, _dirs, files in sorted(os.walk(HERE / "config")):
+    for folder, _dirs, files in sorted(os.walk(HERE / top)):
         if files:
             rel = os.path.relpath(folder, HERE)
             entries.append((f"share/{PACKAGE}/{rel}", [os.path.join(rel, f) for f in sorted(files)]))
@@ -81,7 +81,8 @@ setup(
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"lib/{PACKAGE}", wrapper_files()),
-        *config_files(),
+        *shared_files("config"),
+        *shared_files("matlab"),  # the m-files: `robot_sims matlab_path`
     ],
     install_requires=[
         "numpy>=1.26",
@@ -111,6 +112,8 @@ setup(
             "mcap-ros2-support",
             "yourdfpy",
             "selenium>=4.20",
+            "scipy",  # .mat files for MATLAB users (bag_to_mat) and their tests
+            "oct2py",  # SIMROBOT algorithm m-files driven from Python through Octave
             *RAY,
         ],
         # `robot_sims batch --ray`: run sweeps on Ray (a local one, or a cluster).

@@ -50,6 +50,12 @@ def test_ament_index_and_share_files_are_installed(prefix):
     assert (prefix / "share" / "robot_sims" / "config" / "fastdds_localhost.xml").is_file()
 
 
+def test_the_matlab_toolbox_is_installed_beside_config(prefix):
+    # `robot_sims matlab_path` finds it there: share/robot_sims/config/../matlab/create
+    installed = prefix / "share" / "robot_sims" / "matlab" / "create" / "CreateRobot.m"
+    assert installed.read_text() == (ROOT / "matlab" / "create" / "CreateRobot.m").read_text()
+
+
 def test_umbrella_command_lists_the_executables():
     out = subprocess.run(
         [sys.executable, "-c", "import sys; from sim_tools import cli; sys.argv=['rs', '--help']; cli.main()"],
