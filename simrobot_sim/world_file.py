@@ -68,6 +68,8 @@ class RobotSpec:
     lb: float = 0.0
     sensors: tuple[SensorSpec, ...] = ()
     controller: str | None = None
+    #: The original-style algorithm m-file driving this robot (absolute path), run in Octave.
+    algorithm: str | None = None
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,7 @@ _ROBOT_KEYS = {
     *ROBOT_KEY_ALIASES,
     "sensors",
     "controller",
+    "algorithm",
 }
 _WORLD_KEYS = {
     "map",
@@ -209,7 +212,23 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
     )
 
 
-def _robot(entry: Any, where: str) -> RobotSpec:
+def _algorithm(entry: dict, where: str, base_dir: Path) -> str | None:
+    # an m-file path, relative to the world file; a robot has a controller or an algorithm
+    value = entry.get("algorithm")
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.endswith(".m"):
+        raise InputError(f"{where}.algorithm: expected the path of an m-file (e.g. alg2.m), got {value!r}")
+    if entry.get("controller") is not None:
+        raise InputError(f"{where}: give a controller or an algorithm, not both")
+    path = Path(value).expanduser()
+    path = path if path.is_absolute() else base_dir / path
+    if not path.is_file():
+        raise InputError(f"{where}.algorithm: {str(path)!r}: no such file")
+    return str(path.resolve())
+
+
+def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
     if not isinstance(entry, dict):
         raise InputError(f"{where}: expected a mapping, got {entry!r}")
     _check_keys(entry, _ROBOT_KEYS, where)
@@ -273,6 +292,7 @@ def _robot(entry: Any, where: str) -> RobotSpec:
         lb=lb,
         sensors=sensors,
         controller=controller,
+        algorithm=_algorithm(entry, where, base_dir),
     )
 
 
@@ -310,7 +330,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     robots_in = data.get("robots", [])
     if not isinstance(robots_in, list) or not robots_in:
         raise InputError(f"{source}: robots: at least one robot is required")
-    robots = tuple(_robot(r, f"{source}: robots[{i}]") for i, r in enumerate(robots_in))
+    robots = tuple(_robot(r, f"{source}: robots[{i}]", base_dir) for i, r in enumerate(robots_in))
     resolution = _number(data.get("resolution", 0.01), f"{source}: resolution", positive=True)
     map_size_m = math.hypot(*walls.shape) * resolution
     for i, r in enumerate(robots):
@@ -376,6 +396,8 @@ def load_world(path: str | Path) -> WorldSpec:
             half_track: 0.03     # half the wheel distance (m); or la
             axle_offset: 0.0     # pivot offset from the wheel axle (m); or lb
             controller: avoid    # optional: run this controller in the world's process
+            algorithm: alg2.m    # or: the original's algorithm m-file (relative to this file),
+                                 # run in GNU Octave once per step (see docs/matlab.md)
             sensors:
               - name: sens1      # topic /r1/sens1 (+ /r1/sens1/obstacle for ultrasonic)
                 type: ultrasonic # ultrasonic (nearest ray) or laser (every ray)

@@ -13,7 +13,9 @@ has to keep true:
   stamped with step k's time; older stamps are stale), re-publishing the step's data every 0.5 s
   while it waits, and steps on with a warning after ``lockstep_timeout`` wall seconds: a run is
   then identical whatever the machine's load;
-- robots naming a ``controller`` (``avoid``: the original's alg2) get that node in this process.
+- robots naming a ``controller`` (``avoid``: the original's alg2) get that node in this process;
+  robots naming an ``algorithm`` m-file run it in one Octave session of this process, called
+  before each step (they count as answered in lockstep; see ``simrobot_sim.matlab_alg``).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from __future__ import annotations
 import array
 import time
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped
@@ -52,6 +55,7 @@ from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHE
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
+from simrobot_sim.matlab_alg import OctaveAlgorithms
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.spec import (
     OBSTACLE_SUFFIX,
@@ -136,6 +140,7 @@ class SimrobotWorldNode(SimWorldNode):
         self.lockstep_timeout = float(spec.lockstep_timeout)
         n = len(self.model.names)
         self._answered = np.zeros(n, dtype=bool)
+        self._algorithms = self._start_algorithms()
         self._published_wall = time.monotonic()
         self._republished_wall = self._published_wall
         self._io = [self._make_robot_io(i) for i in range(n)]
@@ -163,6 +168,23 @@ class SimrobotWorldNode(SimWorldNode):
         )
 
     # -- construction -----------------------------------------------------------------------
+    def _start_algorithms(self) -> OctaveAlgorithms | None:
+        # robots driven by m-files: their algorithms set their commands right before each step
+        files = {i: Path(r.algorithm) for i, r in enumerate(self.spec.robots) if r.algorithm}
+        self._hosted = np.zeros(len(self.spec.robots), dtype=bool)
+        self._hosted[list(files)] = True
+        if not files:
+            return None
+        algorithms = OctaveAlgorithms(self.model, files, report=self.get_logger().error)
+        self.get_logger().info(f"{len(files)} robots run algorithm m-files in Octave")
+        return algorithms
+
+    def destroy_node(self) -> None:
+        """Also end the Octave session of the algorithm m-files."""
+        if self._algorithms is not None:
+            self._algorithms.close()
+        super().destroy_node()
+
     def _make_robot_io(self, i: int) -> _RobotIO:
         model = self.model
         name = model.names[i]
@@ -340,6 +362,7 @@ class SimrobotWorldNode(SimWorldNode):
             return True
         model = self.model
         waiting = model.power & ~model.crashed & ~self._answered
+        waiting &= ~self._hosted  # the algorithm m-files answer in physics_step
         if not waiting.any():
             return True
         now = time.monotonic()
@@ -357,13 +380,25 @@ class SimrobotWorldNode(SimWorldNode):
         return False
 
     def physics_step(self) -> None:
-        """Move every robot one ``dt``; announce new crashes."""
+        """Run the algorithm m-files, move every robot one ``dt``; announce new crashes."""
+        if self._algorithms is not None:
+            self._run_algorithms(self._algorithms)
         for i in self.model.step():
             self._io[i].crashed_pub.publish(Bool(data=True))
         self._answered[:] = False
         if self.model.step_count >= self.spec.steps_limit and not self.finished:
             self.finished = True
             self.get_logger().info(f"steps_limit {int(self.model.step_count)} reached: the world stops")
+
+    def _run_algorithms(self, algorithms: OctaveAlgorithms) -> None:
+        # an algorithm may switch its robot's power or clear its crash: say so as the services do
+        model = self.model
+        power, crashed = model.power.copy(), model.crashed.copy()
+        algorithms.run()
+        for i in np.flatnonzero(power != model.power):
+            self._io[i].power_pub.publish(Bool(data=bool(model.power[i])))
+        for i in np.flatnonzero(crashed != model.crashed):
+            self._io[i].crashed_pub.publish(Bool(data=bool(model.crashed[i])))
 
     def _publish_step(self) -> None:
         model = self.model

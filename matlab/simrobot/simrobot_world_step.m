@@ -1,0 +1,35 @@
+function [velocity, accel, power, crashed, errors] = simrobot_world_step(active, pose, velocity, ...
+    accel, power, crashed, values, nums, matrix, step)
+% SIMROBOT_WORLD_STEP  (system) Run every active robot's algorithm once on this step's state.
+%   pose: n-by-3 [x y heading] (cells, degrees); velocity, accel: n-by-2; power, crashed: n;
+%   values, nums: every sensor's readings; matrix: the world's matrix; step: 1, 2, ...
+%   Returns the commands each algorithm left and, per robot, '' or its error's message.
+  global SIMROBOT_WORLD_
+  n = numel(SIMROBOT_WORLD_.robots);
+  errors = repmat({''}, 1, n);
+  for j = find(active(:)')
+    SIMROBOT_WORLD_.running = j;
+    r = simrobot_refresh(SIMROBOT_WORLD_.robots{j}, pose(j, 1:2), pose(j, 3), velocity(j, :), ...
+                         accel(j, :), power(j), crashed(j), values, nums);
+    try
+      new = feval(SIMROBOT_WORLD_.afs{j}, r, matrix, step);
+      if ~isa(new, 'simrobot')
+        error('%s must return the robot (end it with: new = simrobot;)', SIMROBOT_WORLD_.afs{j});
+      end
+    catch err
+      errors{j} = describe(err);
+      continue
+    end
+    SIMROBOT_WORLD_.robots{j} = new;
+    [velocity(j, :), accel(j, :), power(j), crashed(j)] = simrobot_commands(new);
+  end
+  SIMROBOT_WORLD_.running = 0;
+end
+
+function text = describe(err)
+  % the message and where it was raised (the algorithm's own line when it raised it)
+  text = err.message;
+  if ~isempty(err.stack)
+    text = sprintf('%s (%s line %d)', text, err.stack(1).name, err.stack(1).line);
+  end
+end
