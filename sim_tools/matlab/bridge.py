@@ -196,7 +196,8 @@ class MatlabBridge:
             node = Node("matlab_bridge", namespace=namespace)
             self._executor = SingleThreadedExecutor()
             self._executor.add_node(node)
-            threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin").start()
+            self._spinner = threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin")
+            self._spinner.start()
         self.node = node
         self._busy = threading.Lock()
         self._session: Session | None = None
@@ -251,6 +252,7 @@ class MatlabBridge:
             self._busy.release()
         if self._executor is not None:
             self._executor.shutdown(timeout_sec=2.0)
+            self._spinner.join(timeout=2.0)  # a thread still inside rclpy at exit aborts the process
             self.node.destroy_node()
 
 

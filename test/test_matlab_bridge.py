@@ -1,0 +1,288 @@
+"""MATLAB/Octave control programs, unchanged, against a create_world through ``matlab_bridge``.
+
+One world (its own process, real time, a wall 0.6 m ahead of the robot) and one bridge serve the
+module; each test resets the robot first. Octave programs are compared with their Python twins on
+the toolbox-style client (test/matlab_programs/create_*.m and .py): at real time the two runs see
+different message timings, so their tracks agree within TRACK_TOLERANCE, not exactly.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Parameter as ParameterMsg
+from rcl_interfaces.msg import ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
+from std_srvs.srv import Trigger
+
+from sim_runtime.errors import InputError
+from sim_runtime.msgs import yaw_from_quaternion
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
+from sim_runtime.testing import Collector, spin_until
+from sim_tools.cli import executable_command
+from sim_tools.matlab.bridge import HELLO, PROTOCOL_VERSION, MatlabBridge, spawn_bridge
+from sim_tools.matlab.calls import CALLS
+from sim_tools.matlab.paths import matlab_dir
+
+ROOT = Path(__file__).resolve().parent.parent
+PROGRAMS = ROOT / "test" / "matlab_programs"
+NAMESPACE = "/matlab"
+TRACK_TOLERANCE = 0.03  # m: the furthest a point of one track may be from the other track
+HEADING_TOLERANCE = math.radians(3)
+OCTAVE = shutil.which("octave-cli")
+needs_octave = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
+ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory):
+    """create_world in /matlab at real time, with a wall across the floor at x = 0.6 m."""
+    map_file = tmp_path_factory.mktemp("matlab_map") / "wall.map"
+    map_file.write_text("wall 0.6 -3 0.6 3\n")
+    process = subprocess.Popen(
+        executable_command("create_world", ["--ros-args", "-p", f"map_file:={map_file}", "-r", f"__ns:={NAMESPACE}"]),
+        env=ENV,
+        cwd=ROOT,
+        stderr=subprocess.DEVNULL,
+    )
+    yield process
+    process.send_signal(signal.SIGINT)
+    process.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def bridge_port(world):
+    process, port = spawn_bridge(NAMESPACE, env=ENV)
+    yield port
+    process.send_signal(signal.SIGINT)
+    process.wait(timeout=30)
+
+
+class Robot:
+    """The test's view of the robot: its pose and odometry, and the world's reset."""
+
+    def __init__(self, executor, node) -> None:
+        self.executor, self.node = executor, node
+        self.poses = Collector(node, PoseStamped, f"{NAMESPACE}/overhead_pose", SENSOR_SUBSCRIBER_QOS)
+        self.odom = Collector(node, Odometry, f"{NAMESPACE}/odom", SENSOR_SUBSCRIBER_QOS)
+
+    def call(self, srv_type, name: str, request):
+        client = self.node.create_client(srv_type, f"{NAMESPACE}/{name}")
+        assert client.wait_for_service(timeout_sec=120), f"no {name} service: is create_world up?"
+        future = client.call_async(request)
+        assert spin_until(self.executor, future.done, timeout=30)
+        return future.result()
+
+    def reset(self, real_time_factor: float = 1.0) -> None:
+        """Real time factor set, robot back at the origin and standing, tracks cleared."""
+        value = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=real_time_factor)
+        request = SetParameters.Request(parameters=[ParameterMsg(name="real_time_factor", value=value)])
+        assert self.call(SetParameters, "create_world/set_parameters", request).results[0].successful
+        assert self.call(Trigger, "reset", Trigger.Request()).success
+        self.poses.clear()
+        self.odom.clear()
+        assert spin_until(self.executor, lambda: self.standing() and self.track() and self.track()[-1] == (0, 0), 10)
+        self.poses.clear()
+
+    def track(self) -> list[tuple[float, float]]:
+        return [(m.pose.position.x, m.pose.position.y) for m in self.poses.msgs]
+
+    def heading(self) -> float:
+        return yaw_from_quaternion(self.poses.last.pose.orientation)
+
+    def moving(self) -> bool:
+        return self.odom.last is not None and abs(self.odom.last.twist.twist.linear.x) > 0.01
+
+    def standing(self) -> bool:
+        return self.odom.last is not None and not self.moving() and self.odom.last.twist.twist.angular.z == 0.0
+
+    def run(self, argv: list[str], timeout: float = 60) -> subprocess.CompletedProcess:
+        """A program in its own process, this node collecting the track while it runs."""
+        process = subprocess.Popen(argv, env=ENV, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            assert spin_until(self.executor, lambda: process.poll() is not None, timeout), f"{argv} still running"
+        finally:
+            if process.poll() is None:
+                process.kill()
+        out, err = process.communicate()
+        # The last poses in: half a second more of them, standing.
+        after = len(self.poses.msgs)
+        assert spin_until(self.executor, lambda: len(self.poses.msgs) >= after + 5, 10), "the world stopped"
+        return subprocess.CompletedProcess(argv, process.returncode, out, err)
+
+
+@pytest.fixture
+def robot(world, executor, make_node):
+    return Robot(executor, make_node("matlab_probe"))
+
+
+def octave(port: int, program: str, *paths: Path) -> list[str]:
+    """octave-cli running ``program(serPort)`` with our toolbox (and ``paths``) on the path."""
+    adds = "".join(f"addpath('{p}'); " for p in (matlab_dir("create"), PROGRAMS, *paths))
+    return [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", f"{adds}serPort = CreateRobot({port}); {program}"]
+
+
+def python_twin(name: str) -> list[str]:
+    return [sys.executable, str(PROGRAMS / f"{name}.py"), NAMESPACE]
+
+
+def furthest(track: list[tuple[float, float]], other: list[tuple[float, float]]) -> float:
+    """The largest distance from a point of ``track`` to the nearest point of ``other`` (and back)."""
+
+    def one_way(a, b):
+        return max(min(math.dist(p, q) for q in b) for p in a)
+
+    return max(one_way(track, other), one_way(other, track))
+
+
+def run_both(robot: Robot, port: int, name: str, real_time_factor: float = 1.0):
+    """The Octave program and its Python twin from the same start: (track, heading) of each."""
+    runs = []
+    for argv in (octave(port, f"{name}(serPort)", PROGRAMS / "create_real_toolbox"), python_twin(name)):
+        robot.reset(real_time_factor)
+        done = robot.run(argv)
+        assert done.returncode == 0, done.stderr
+        assert robot.standing()
+        runs.append((robot.track(), robot.heading()))
+    return runs
+
+
+@needs_octave
+def test_a_bump_and_turn_program_runs_unchanged_in_octave_as_its_python_twin_does(robot, bridge_port):
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_bump_turn")
+    # Two bumps at the wall (x = 0.6 - the body's radius), each followed by a 20° turn.
+    assert max(x for x, _y in octave_track) == pytest.approx(0.6 - 0.17, abs=0.02)
+    assert octave_heading == pytest.approx(math.radians(40), abs=HEADING_TOLERANCE)
+    assert furthest(octave_track, python_track) < TRACK_TOLERANCE
+    assert octave_heading == pytest.approx(python_heading, abs=HEADING_TOLERANCE)
+
+
+@needs_octave
+def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_five_times_real_time(robot, bridge_port):
+    # No pause or tic/toc in it: travelDist and turnAngle wait on the robot's odometry, so the
+    # program runs the same at any real_time_factor.
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_square", 5.0)
+    assert math.dist(octave_track[-1], (0, 0)) < TRACK_TOLERANCE
+    # Odometry arrives a little after the robot got there: at five times real time that is 1 cm.
+    assert max(x for x, _y in octave_track) == pytest.approx(0.25, abs=0.02)
+    assert max(y for _x, y in octave_track) == pytest.approx(0.25, abs=0.02)
+    assert furthest(octave_track, python_track) < TRACK_TOLERANCE
+    assert math.remainder(octave_heading - python_heading, math.tau) == pytest.approx(0, abs=HEADING_TOLERANCE)
+
+
+@needs_octave
+def test_a_program_that_errors_shows_the_bridges_message_and_the_robot_stops(robot, bridge_port):
+    robot.reset()
+    done = robot.run(octave(bridge_port, "create_error(serPort)"))
+    assert done.returncode == 1
+    assert "ReadSonar: sonar_num must be 1 (right), 2 (front), 3 (left) or 4 (back), got 9" in done.stderr
+    assert max(x for x, _y in robot.track()) > 0.05  # it drove before the error
+    assert spin_until(robot.executor, robot.standing, timeout=5)
+
+
+@needs_octave
+@pytest.mark.parametrize("program", ["create_forever", "create_long_travel"])
+def test_a_program_killed_mid_loop_or_mid_call_stops_the_robot_and_the_world_runs_on(robot, bridge_port, program):
+    robot.reset()
+    process = subprocess.Popen(octave(bridge_port, f"{program}(serPort)"), env=ENV, stderr=subprocess.DEVNULL)
+    try:
+        assert spin_until(robot.executor, robot.moving, timeout=30), "the program never drove"
+    finally:
+        process.kill()
+        process.wait()
+    assert spin_until(robot.executor, robot.standing, timeout=2), "the robot drove on after its program died"
+    stamps = len(robot.odom.msgs)
+    assert spin_until(robot.executor, lambda: len(robot.odom.msgs) > stamps + 10, timeout=5), "the world stopped"
+    # The next program is served.
+    again = robot.run(octave(bridge_port, "x = OverheadLocalizationCreate(serPort); printf('x=%.3f\\n', x)"))
+    assert again.returncode == 0 and "x=" in again.stdout, again.stderr
+
+
+@needs_octave
+def test_every_toolbox_function_is_a_method_with_help_and_a_connect_error_is_clear(bridge_port):
+    names = " ".join(sorted(CALLS))
+    script = (
+        f"addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
+        "for k = 1:numel(names), h = evalc(['help CreateRobot.' names{k}]); "
+        "if isempty(strfind(h, upper(names{k}))), printf('no help: %s\\n', names{k}); end, end; "
+        "m = methods('CreateRobot'); missing = setdiff(names, m); printf('missing: %s\\n', strjoin(missing, ' ')); "
+        "try, CreateRobot(1), catch e, printf('%s\\n', e.message), end"
+    )
+    done = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--eval", script], capture_output=True, text=True, timeout=60)
+    assert "no help" not in done.stdout and "missing: \n" in done.stdout, done.stdout + done.stderr
+    assert "cannot reach the robot_sims MATLAB bridge at 127.0.0.1:1" in done.stdout
+
+
+def connect(port: int) -> tuple[socket.socket, str]:
+    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+    return sock, sock.makefile("r").readline().strip()
+
+
+def ask(sock: socket.socket, line: str) -> str:
+    sock.sendall(line.encode() + b"\n")
+    reply = b""
+    while not reply.endswith(b"\n"):
+        reply += sock.recv(65536)
+    return reply.decode().rstrip("\n")
+
+
+def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_replies(world, bridge_port):
+    sock, hello = connect(bridge_port)
+    with sock:
+        assert hello == f"{HELLO} {PROTOCOL_VERSION} create {NAMESPACE}"
+        assert ask(sock, "BumpsWheelDropsSensorsRoomba") == "ok\t0.0\t0.0\t0.0\t0.0\t0.0\t0.0"
+        assert ask(sock, "SetFwdVelAngVelCreate 0 0") == "ok"
+        assert ask(sock, "ReadSonar 1") == "ok\t3.0"  # nothing in range: the range limit
+        assert (
+            ask(sock, "PowerOnTheMoon") == "error PowerOnTheMoon is not a function of the Create toolbox on this bridge"
+        )
+        assert ask(sock, "travelDist 0.2") == (
+            "error travelDist takes serPort and (roombaSpeed, distance), got 1 more argument(s)"
+        )
+        assert ask(sock, "turnAngle fast 90") == "error turnAngle: arguments must be numbers, got 'fast 90'"
+        assert ask(sock, "SetDriveWheelsCreate NaN 0") == "error right_wheel_vel must be a finite number, got nan"
+        # One program at a time: a second is refused with a clear line.
+        second, refused = connect(bridge_port)
+        second.close()
+        assert (
+            refused == f"busy another program is connected to the robot {NAMESPACE}: one program at a time per bridge"
+        )
+        sock.sendall(b"bye\n")
+        assert sock.recv(10) == b""  # the bridge ended the session
+    sock, hello = connect(bridge_port)  # and serves the next program
+    sock.close()
+    assert hello.startswith(HELLO)
+
+
+def test_the_bridge_refuses_to_listen_beyond_loopback():
+    with pytest.raises(InputError, match="loopback only"):
+        MatlabBridge(host="0.0.0.0")
+    done = subprocess.run(
+        executable_command("matlab_bridge", ["--host", "0.0.0.0", "--port", "0"]),
+        env=ENV,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert "matlab_bridge: error: --host '0.0.0.0': the MATLAB bridge listens on loopback only" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_matlab_path_prints_the_toolbox_folder():
+    done = subprocess.run(
+        executable_command("matlab_path"), env=ENV, cwd=ROOT, capture_output=True, text=True, timeout=60, check=True
+    )
+    assert Path(done.stdout.strip()) == ROOT / "matlab" / "create"
+    assert (Path(done.stdout.strip()) / "CreateRobot.m").is_file()
