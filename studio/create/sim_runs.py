@@ -11,6 +11,7 @@ from collections.abc import Callable
 from nicegui import ui
 
 from sim_runtime.errors import InputError
+from studio.create.matlab_program import ProgramChoice, program_of
 from studio.create.sim_tab import SimTab
 from studio.shell.app import Studio, recording_clock
 from studio.shell.kit import stop_started_world
@@ -153,7 +154,8 @@ class ControllerPanel:
                 ui.button("Stop", on_click=self.stop_controller).props("dense outline").classes(
                     "studio-controller-stop"
                 )
-            self.controller_label = ui.label("").classes("text-sm")
+            self.programs = ProgramChoice(self.tab.studio, self.controller_select)  # .m files, in Octave
+            self.controller_label = ui.label("").classes("text-sm studio-controller-state")
 
     def show_state(self) -> None:
         child = self.tab.studio.running_controllers.get(self.tab.selected or "")
@@ -163,7 +165,7 @@ class ControllerPanel:
             else (f"{child.label} ended: {child.error_line()}" if child else "manual control")
         )
 
-    def start_controller(self) -> None:
+    async def start_controller(self) -> None:
         studio, ns = self.tab.studio, self.tab.selected
         if ns is None:
             ui.notify("no robot selected", type="warning")
@@ -173,6 +175,10 @@ class ControllerPanel:
             ui.notify(f"{running.label} already runs for {ns or '/'}", type="warning")
             return
         name = self.controller_select.value
+        program = program_of(name)
+        if program is not None:
+            await self.programs.start(ns, program)
+            return
         target = studio.controllers[name]
         # The controller follows its world's clock (a world that does not own /clock publishes <ns>/clock).
         ros_args = namespace_args(ns, owns_clock=studio.clock_of(ns) == "/clock")
