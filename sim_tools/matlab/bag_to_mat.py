@@ -104,10 +104,10 @@ class TopicTable:
         """One message: its times and fields."""
         fields = flatten(msg)
         self.t_recorded.append(log_time_ns * 1e-9)
-        has_header = "header_stamp_sec" in fields
-        self.t.append(
-            fields["header_stamp_sec"] + fields["header_stamp_nanosec"] * 1e-9 if has_header else log_time_ns * 1e-9
-        )
+        if "header_stamp_sec" in fields:
+            self.t.append(fields["header_stamp_sec"] + fields["header_stamp_nanosec"] * 1e-9)
+        else:
+            self.t.append(log_time_ns * 1e-9)
         for prefix in YAW_FROM:
             if f"{prefix}_w" in fields:
                 fields["theta"] = _yaw(fields, prefix)
