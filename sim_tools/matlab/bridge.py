@@ -40,7 +40,6 @@ import contextlib
 import ipaddress
 import json
 import math
-import os
 import re
 import signal
 import socket
@@ -293,6 +292,10 @@ def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = Non
     return process, int(match.group(2))
 
 
+def _interrupt(_signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="robot_sims matlab_bridge",
@@ -308,7 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"matlab_bridge: error: {error}", file=sys.stderr)
         return 2
     # SIGTERM ends like Ctrl-C: through close(), which stops the robot.
-    signal.signal(signal.SIGTERM, lambda *_: os.kill(os.getpid(), signal.SIGINT))
+    signal.signal(signal.SIGTERM, _interrupt)
     print(f"matlab_bridge: listening on {bridge.host}:{bridge.port} for {bridge.node.get_namespace()}", flush=True)
     try:
         bridge.serve_forever()
