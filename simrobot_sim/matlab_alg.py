@@ -125,8 +125,19 @@ class OctaveAlgorithms:
             [s.kind for s in sensors],
             first.reshape(1, -1),
             last.reshape(1, -1),
+            self.world.grid,
             nout=0,
         )
+        self._sent = self.world.grid.copy()
+
+    def _matrix_changes(self) -> tuple[np.ndarray, np.ndarray]:
+        # the cells that changed since the last step (Octave keeps the matrix: far less to send)
+        grid = self.world.grid
+        cells = np.flatnonzero(grid != self._sent)
+        xs, ys = np.unravel_index(cells, grid.shape)
+        self._sent[xs, ys] = grid[xs, ys]
+        linear = np.ravel_multi_index((xs, ys), grid.shape, order="F") + 1  # Octave's column-major, 1-based
+        return linear.astype(float).reshape(1, -1), grid[xs, ys].reshape(1, -1)
 
     def _readings(self) -> tuple[np.ndarray, np.ndarray]:
         # every sensor's reading in map cells (nearest for ultrasonic, every ray for a laser)
@@ -172,7 +183,7 @@ class OctaveAlgorithms:
             world.crashed.astype(float).reshape(1, -1),
             values,
             nums,
-            world.grid,
+            *self._matrix_changes(),
             float(world.step_count + 1),
         )
         try:

@@ -110,6 +110,10 @@ def test_the_robot_functions_answer_in_the_originals_units(octave):
     ranges, values = world.ranges(1)  # the laser of the last step: every ray reaches a wall
     assert np.ravel(first["laser_nums"]).tolist() == [1.0, 1.0, 1.0]
     assert np.ravel(first["size"]).tolist() == [120.0, 80.0]
+    # the matrix it got at step 5 is the world's (after the robot's turns), uint8 as the original's
+    last = memory[0, -1] if memory.ndim == 2 else memory[-1]
+    assert last["class"] == "uint8" and np.ravel(last["own_cells"]).tolist() != np.ravel(first["own_cells"]).tolist()
+    assert np.ravel(last["own_cells"]).tolist() == (np.flatnonzero(world.grid.ravel(order="F") == 2) + 1).tolist()
     assert np.ravel(first["inv"]).tolist() == [-0.5, 2.5]  # (1 -+ 3 * 0.5) / 1
     assert "no sensor 'nosuch'" in first["unknown"] and "front, scan" in first["unknown"]
     # it turned in place at [-0.5 0.5] (1/6 rad a step) in steps 1 and 2; step 3 switched it off first

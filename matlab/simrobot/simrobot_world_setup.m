@@ -1,8 +1,8 @@
-function simrobot_world_setup(names, afs, sensor_robot, sensor_names, sensor_types, first, last)
+function simrobot_world_setup(names, afs, sensor_robot, sensor_names, sensor_types, first, last, matrix)
 % SIMROBOT_WORLD_SETUP  (system) The world's robots for simrobot_world_step, built once.
 %   names, afs: cell arrays (robot names, algorithm function names, '' for none);
 %   sensor_robot, first, last: per sensor, its robot (1-based) and its readings' index range;
-%   sensor_names, sensor_types: per sensor, cell arrays of strings.
+%   sensor_names, sensor_types: per sensor, cell arrays of strings; matrix: the world's matrix.
   global SIMROBOT_WORLD_
   n = numel(names);
   robots = cell(1, n);
@@ -19,5 +19,5 @@ function simrobot_world_setup(names, afs, sensor_robot, sensor_names, sensor_typ
                'sensors', sensors);
     robots{j} = simrobot(s);
   end
-  SIMROBOT_WORLD_ = struct('robots', {robots}, 'afs', {afs}, 'running', 0);
+  SIMROBOT_WORLD_ = struct('robots', {robots}, 'afs', {afs}, 'running', 0, 'matrix', matrix);
 end

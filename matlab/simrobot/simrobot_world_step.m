@@ -1,11 +1,14 @@
 function [velocity, accel, power, crashed, errors] = simrobot_world_step(active, pose, velocity, ...
-    accel, power, crashed, values, nums, matrix, step)
+    accel, power, crashed, values, nums, changed, now, step)
 % SIMROBOT_WORLD_STEP  (system) Run every active robot's algorithm once on this step's state.
 %   pose: n-by-3 [x y heading] (cells, degrees); velocity, accel: n-by-2; power, crashed: n;
-%   values, nums: every sensor's readings; matrix: the world's matrix; step: 1, 2, ...
+%   values, nums: every sensor's readings; changed, now: the matrix's cells (linear indices) that
+%   changed since the last step and their values (the matrix itself stays here); step: 1, 2, ...
 %   Returns the commands each algorithm left and, per robot, '' or its error's message.
   global SIMROBOT_WORLD_
   n = numel(SIMROBOT_WORLD_.robots);
+  SIMROBOT_WORLD_.matrix(changed) = now;
+  matrix = SIMROBOT_WORLD_.matrix;
   errors = repmat({''}, 1, n);
   for j = find(active(:)')
     SIMROBOT_WORLD_.running = j;

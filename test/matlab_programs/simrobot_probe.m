@@ -15,6 +15,8 @@ m(step).laser_nums = nums;
 m(step).vel = getvel(simrobot);
 m(step).power = getpower(simrobot);
 m(step).size = size(matrix);
+m(step).class = class(matrix);
+m(step).own_cells = find(matrix == getnum(simrobot))';
 [l, r] = invmodel(1, 0.5);
 m(step).inv = [l r];
 try
