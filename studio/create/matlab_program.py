@@ -201,7 +201,7 @@ class ProgramChoice:
         self.select = select
         self.controllers = {name: name for name in studio.controllers}
         select.set_options({**self.controllers, **program_choices(studio.workspace)}, value=select.value)
-        select.on("popup-show", self.refresh)
+        select.on("popup-show", self.refresh).classes("studio-controller-choice")
         self.note = ui.label(octave_missing() or "").classes("text-sm text-orange-700 studio-program-note")
 
     def refresh(self) -> None:

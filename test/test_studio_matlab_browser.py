@@ -1,0 +1,134 @@
+"""An m-file control program started from the studio's Autonomous section, in a real Chromium:
+it drives the robot through Octave and the MATLAB bridge, Stop ends it and the robot stops, and
+a program that fails shows Octave's error line. Skipped with one line each where Debian's
+Chromium or GNU Octave is absent (CI installs both)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from studio_browser_support import NO_CHROMIUM
+
+if NO_CHROMIUM:
+    pytest.skip(NO_CHROMIUM, allow_module_level=True)
+if shutil.which("octave-cli") is None:
+    pytest.skip("m-file program tests skipped: no octave-cli (CI installs it: .ci/run)", allow_module_level=True)
+
+from nav_msgs.msg import Odometry
+from selenium.webdriver.common.by import By
+from studio_browser_support import click, find, listener_node, open_page, studio_domain, type_into, wait
+
+from sim_runtime.qos import ANY_PUBLISHER_QOS
+from sim_runtime.testing import Collector, spin_until
+
+NS = "/mlab"
+STUDIO_DOMAIN = studio_domain(55)  # the other studio modules use 50-54
+
+CIRCLES = """\
+function circles(serPort)
+% Drive on a circle until stopped, saying where odometry has got to.
+disp('circles: driving');
+tic;
+while toc < 600
+    SetFwdVelAngVelCreate(serPort, 0.3, 0.2);
+    pause(0.2);
+end
+end
+"""
+GIVES_UP = """\
+function gives_up(serPort)
+SetFwdVelAngVelCreate(serPort, 0.2, 0);
+pause(0.5);
+error('lab:gave_up', 'gave up on purpose');
+end
+"""
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    ws = tmp_path_factory.mktemp("studio_matlab_ws")
+    (ws / "labs").mkdir()
+    (ws / "labs" / "circles.m").write_text(CIRCLES)
+    (ws / "gives_up.m").write_text(GIVES_UP)
+    return ws
+
+
+@pytest.fixture(scope="module")
+def odom():
+    """The robot's odometry, read by the test's own node in the studio's domain."""
+    with listener_node(STUDIO_DOMAIN, "studio_matlab_listener") as (executor, node):
+        yield executor, Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
+
+
+def choose_program(driver, label: str) -> None:
+    """Pick ``label`` in the Autonomous section's list (the workspace's programs are listed there)."""
+    find(driver, ".studio-controller-choice").click()
+    xpath = (
+        f"//div[contains(@class,'q-menu')]//div[contains(@class,'q-item')][.//span[normalize-space(text())='{label}']]"
+    )
+    wait(driver, lambda d: d.find_element(By.XPATH, xpath)).click()
+    wait(driver, lambda d: label in text_of(d, ".studio-controller-choice"))
+
+
+def text_of(driver, css: str) -> str:
+    """An element's text, read in one script (the page redraws it twice a second)."""
+    return driver.execute_script(f"const e = document.querySelector('{css}'); return e ? e.innerText : '';")
+
+
+def controller_state(driver) -> str:
+    return text_of(driver, ".studio-controller-state")
+
+
+def test_an_m_file_program_started_from_autonomous_drives_the_robot_and_stop_stops_it(browser, studio_url, odom):
+    executor, odometry = odom
+    open_page(browser, studio_url + "/")
+    find(browser, ".studio-new-world").click()
+    type_into(browser, ".studio-world-ns", NS)
+    click(browser, ".studio-start-world")
+    assert spin_until(executor, lambda: odometry.last is not None, timeout=60.0), "the world did not start"
+    wait(browser, lambda d: NS in text_of(d, ".studio-status"), timeout=30.0)  # the page follows it
+    choose_program(browser, "labs/circles.m (Octave)")
+    find(browser, ".studio-controller-start").click()
+    assert spin_until(executor, lambda: odometry.last.twist.twist.linear.x == pytest.approx(0.3), timeout=60.0), (
+        controller_state(browser)
+    )
+    start = odometry.last.pose.pose.position
+    assert spin_until(executor, lambda: abs(odometry.last.pose.pose.position.x - start.x) > 0.1, timeout=15.0)
+    wait(browser, lambda d: "circles.m (Octave) running" in controller_state(d))
+
+    assert running_in(STUDIO_DOMAIN, b"octave-cli") and running_in(STUDIO_DOMAIN, b"matlab_bridge")
+
+    find(browser, ".studio-controller-stop").click()
+    assert spin_until(executor, lambda: odometry.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    wait(browser, lambda d: controller_state(d) == "manual control")
+    assert running_in(STUDIO_DOMAIN, b"octave-cli") == running_in(STUDIO_DOMAIN, b"matlab_bridge") == []
+
+
+def test_a_program_that_fails_shows_octaves_error_and_leaves_the_robot_stopped(browser, odom):
+    executor, odometry = odom
+    choose_program(browser, "gives_up.m (Octave)")
+    before = len(odometry.msgs)
+    find(browser, ".studio-controller-start").click()
+    driven = spin_until(
+        executor, lambda: any(m.twist.twist.linear.x == pytest.approx(0.2) for m in odometry.msgs[before:]), 60.0
+    )
+    assert driven, controller_state(browser)
+    wait(browser, lambda d: "gives_up.m (Octave) ended: error: gave up on purpose" in controller_state(d), timeout=30.0)
+    assert spin_until(executor, lambda: odometry.last.twist.twist.linear.x == 0.0, timeout=15.0)
+    wait(browser, lambda d: running_in(STUDIO_DOMAIN, b"matlab_bridge") == [])  # ended with its program
+
+
+def running_in(domain: int, name: bytes) -> list[int]:
+    """Process ids of the processes on ROS domain ``domain`` whose command line holds ``name``."""
+    found = []
+    for proc in Path("/proc").iterdir():
+        try:
+            env = (proc / "environ").read_bytes().split(b"\0")
+            cmdline = (proc / "cmdline").read_bytes()
+        except (OSError, ValueError):
+            continue
+        if f"ROS_DOMAIN_ID={domain}".encode() in env and name in cmdline:
+            found.append(int(proc.name))
+    return found
