@@ -175,7 +175,9 @@ class SimrobotWorldNode(SimWorldNode):
         self._hosted[list(files)] = True
         if not files:
             return None
-        algorithms = OctaveAlgorithms(self.model, files, report=self.get_logger().error)
+        algorithms = OctaveAlgorithms(
+            self.model, files, report=self.get_logger().error, timeout=self.spec.lockstep_timeout
+        )
         self.get_logger().info(f"{len(files)} robots run algorithm m-files in Octave")
         return algorithms
 

@@ -130,9 +130,12 @@ def world_yaml(tmp_path: Path, robot_fields: str) -> Path:
 
 
 def test_a_world_file_names_an_algorithm_m_file_relative_to_itself(tmp_path):
+    from studio.simrobot.doc import robot_entry
+
     (tmp_path / "mine.m").write_text("function new = mine(simrobot, matrix, step)\nnew = simrobot;\n")
     spec = load_world(world_yaml(tmp_path, ", algorithm: mine.m"))
     assert spec.robots[0].algorithm == str((tmp_path / "mine.m").resolve())
+    assert robot_entry(spec.robots[0])["algorithm"] == spec.robots[0].algorithm  # the studio saves it back
     assert load_world(world_yaml(tmp_path, "")).robots[0].algorithm is None
 
 

@@ -109,6 +109,8 @@ def robot_entry(r: RobotSpec) -> dict[str, Any]:
     }
     if r.controller:
         entry["controller"] = r.controller
+    if r.algorithm:  # an m-file (absolute path): kept as the opened file had it
+        entry["algorithm"] = r.algorithm
     return entry
 
 
