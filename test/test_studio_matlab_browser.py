@@ -5,10 +5,12 @@ Chromium or GNU Octave is absent (CI installs both)."""
 
 from __future__ import annotations
 
+import math
 import shutil
 from pathlib import Path
 
 import pytest
+import yaml
 from studio_browser_support import NO_CHROMIUM
 
 if NO_CHROMIUM:
@@ -18,7 +20,7 @@ if shutil.which("octave-cli") is None:
 
 from nav_msgs.msg import Odometry
 from selenium.webdriver.common.by import By
-from studio_browser_support import click, find, listener_node, open_page, studio_domain, type_into, wait
+from studio_browser_support import click, click_text, find, listener_node, open_page, studio_domain, type_into, wait
 
 from sim_runtime.qos import ANY_PUBLISHER_QOS
 from sim_runtime.testing import Collector, spin_until
@@ -37,6 +39,17 @@ while toc < 600
 end
 end
 """
+WANDER = """\
+function new = wander(simrobot, matrix, step)
+% Straight on, turning left when the front sonar sees something nearer than 20 cells.
+[dist, num] = readusonic(simrobot, 'sens1', matrix);
+if dist < 20
+  simrobot = setvel(simrobot, [0 3]);
+else
+  simrobot = setvel(simrobot, [3 3]);
+end
+new = simrobot;
+"""
 GIVES_UP = """\
 function gives_up(serPort)
 SetFwdVelAngVelCreate(serPort, 0.2, 0);
@@ -52,6 +65,7 @@ def workspace(tmp_path_factory) -> Path:
     (ws / "labs").mkdir()
     (ws / "labs" / "circles.m").write_text(CIRCLES)
     (ws / "gives_up.m").write_text(GIVES_UP)
+    (ws / "labs" / "wander.m").write_text(WANDER)
     return ws
 
 
@@ -62,14 +76,14 @@ def odom():
         yield executor, Collector(node, Odometry, f"{NS}/odom", ANY_PUBLISHER_QOS)
 
 
-def choose_program(driver, label: str) -> None:
+def choose_program(driver, label: str, css: str = ".studio-controller-choice") -> None:
     """Pick ``label`` in the Autonomous section's list (the workspace's programs are listed there)."""
-    find(driver, ".studio-controller-choice").click()
+    find(driver, css).click()
     xpath = (
         f"//div[contains(@class,'q-menu')]//div[contains(@class,'q-item')][.//span[normalize-space(text())='{label}']]"
     )
     wait(driver, lambda d: d.find_element(By.XPATH, xpath)).click()
-    wait(driver, lambda d: label in text_of(d, ".studio-controller-choice"))
+    wait(driver, lambda d: label in text_of(d, css))
 
 
 def text_of(driver, css: str) -> str:
@@ -132,3 +146,31 @@ def running_in(domain: int, name: bytes) -> list[int]:
         if f"ROS_DOMAIN_ID={domain}".encode() in env and name in cmdline:
             found.append(int(proc.name))
     return found
+
+
+def robots_drawn(driver) -> dict[str, tuple[float, float]]:
+    found = driver.execute_script(
+        "return Array.from(document.querySelectorAll('.simrobot-view .robot'))"
+        ".map(p => [p.dataset.name, p.dataset.x, p.dataset.y]);"
+    )
+    return {name: (float(x), float(y)) for name, x, y in found or []}
+
+
+def test_the_simrobot_editor_gives_a_robot_an_algorithm_m_file_that_drives_it(browser, studio_url, workspace):
+    open_page(browser, studio_url + "/simrobot/editor")
+    find(browser, ".simrobot-editor-view g.view")
+    type_into(browser, ".simrobot-world-name", "alg.yaml")
+    type_into(browser, ".simrobot-map-name", "alg.png")
+    click_text(browser, "Add")
+    wait(browser, lambda d: "added r1" in text_of(d, ".simrobot-editor-message"))
+    click_text(browser, "Add sensor")
+    wait(browser, lambda d: "added sensor sens1 to r1" in text_of(d, ".simrobot-editor-message"))
+    choose_program(browser, "labs/wander.m (Octave)", ".simrobot-controller")
+    click_text(browser, "Save world")
+    wait(browser, lambda d: "saved alg.yaml" in text_of(d, ".simrobot-editor-message"), timeout=60)
+    assert yaml.safe_load((workspace / "alg.yaml").read_text())["robots"][0]["algorithm"] == "labs/wander.m"
+
+    click_text(browser, "Run it")
+    wait(browser, lambda d: d.current_url.endswith("/simrobot"), timeout=90)
+    start = wait(browser, lambda d: robots_drawn(d).get("r1"), timeout=30)
+    wait(browser, lambda d: math.dist(robots_drawn(d)["r1"], start) > 0.05, timeout=30)  # driven by Octave

@@ -13,12 +13,15 @@ import sys
 import textwrap
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
+import yaml
 
 from sim_runtime.errors import InputError
 from sim_tools.matlab.paths import matlab_dir
+from simrobot_sim.world_file import load_world
 from studio.create.matlab_program import (
     NO_OCTAVE,
     MatlabRun,
@@ -33,6 +36,8 @@ from studio.create.matlab_program import (
 from studio.shell.app import Studio
 from studio.shell.processes import Child
 from studio.shell.workspace import Workspace
+from studio.simrobot.doc import WorldDraft, blank_walls, map_image
+from studio.simrobot.editor_algorithms import algorithm_path, algorithm_value
 
 needs_octave = pytest.mark.skipif(
     shutil.which("octave-cli") is None, reason="octave-cli not installed (CI installs it: .ci/run)"
@@ -205,3 +210,28 @@ def test_octave_runs_the_program_with_the_connected_handle_and_its_error_reaches
     name, *args = stand_in.requests[0].split()  # the toolbox's call, as the bridge would get it
     assert (name, [float(a) for a in args]) == ("SetFwdVelAngVelCreate", [0.2, 0.5])
     assert ended(bridge)
+
+
+def test_the_simrobot_editor_writes_a_robots_algorithm_relative_to_the_world_file_and_loads_it_back(tmp_path):
+    (tmp_path / "algs").mkdir()
+    (tmp_path / "algs" / "alg2.m").write_text("function new = alg2(simrobot, matrix, step)\nnew = simrobot;\n")
+    (tmp_path / "worlds").mkdir()
+    doc = WorldDraft(walls=blank_walls(1.0, 0.6, 0.01))
+    robot = doc.add_robot(0.3, 0.3)
+    ws = Workspace(tmp_path)
+    doc.robots[0] = replace(robot, algorithm=algorithm_path("m:algs/alg2.m", ws))
+    map_image(doc.walls).save(tmp_path / "worlds" / "map.png")
+    text = doc.world_yaml("map.png", tmp_path / "worlds")
+    assert yaml.safe_load(text)["robots"][0]["algorithm"] == "../algs/alg2.m"  # the folder moves as one
+    (tmp_path / "worlds" / "w.yaml").write_text(text)
+    spec = load_world(tmp_path / "worlds" / "w.yaml")
+    assert spec.robots == tuple(doc.robots) and spec.robots[0].controller is None
+    assert algorithm_value(spec.robots[0].algorithm, ws) == "m:algs/alg2.m"  # what the editor shows
+
+
+def test_an_algorithm_outside_the_workspace_is_shown_by_its_absolute_path(tmp_path):
+    (tmp_path / "ws").mkdir()
+    ws = Workspace(tmp_path / "ws")
+    assert algorithm_value("/srv/course/alg2.m", ws) == "m:/srv/course/alg2.m"
+    assert algorithm_path("m:/srv/course/alg2.m", ws) == "/srv/course/alg2.m"
+    assert algorithm_path("m:alg2.m", ws) == str(tmp_path / "ws" / "alg2.m")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import math
+import os
 import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -92,8 +93,9 @@ def sensor_entry(s: SensorSpec) -> dict[str, Any]:
     }
 
 
-def robot_entry(r: RobotSpec) -> dict[str, Any]:
-    """A robot as the world file writes it (degrees, the readable wheel keys)."""
+def robot_entry(r: RobotSpec, world_dir: Path | None = None) -> dict[str, Any]:
+    """A robot as the world file in ``world_dir`` writes it (degrees, the readable wheel keys; its
+    algorithm m-file relative to that folder)."""
     entry: dict[str, Any] = {
         "name": r.name,
         "position": [float(r.position[0]), float(r.position[1])],
@@ -109,8 +111,8 @@ def robot_entry(r: RobotSpec) -> dict[str, Any]:
     }
     if r.controller:
         entry["controller"] = r.controller
-    if r.algorithm:  # an m-file (absolute path): kept as the opened file had it
-        entry["algorithm"] = r.algorithm
+    if r.algorithm:  # an m-file (absolute in the spec): relative to the world file's folder when known
+        entry["algorithm"] = r.algorithm if world_dir is None else os.path.relpath(r.algorithm, world_dir)
     return entry
 
 
@@ -172,8 +174,9 @@ class WorldDraft:
         return best
 
     # -- files ------------------------------------------------------------------------------
-    def world_data(self, map_ref: str) -> dict[str, Any]:
-        """The world file's mapping, with ``map_ref`` as its ``map`` entry."""
+    def world_data(self, map_ref: str, world_dir: Path | None = None) -> dict[str, Any]:
+        """The world file's mapping, with ``map_ref`` as its ``map`` entry (``world_dir``: the
+        world file's folder, which algorithm m-files are written relative to)."""
         return {
             "map": map_ref,
             "resolution": float(self.resolution),
@@ -181,11 +184,11 @@ class WorldDraft:
             "dt": float(self.dt),
             "lockstep": bool(self.lockstep),
             **self.kept,
-            "robots": [robot_entry(r) for r in self.robots],
+            "robots": [robot_entry(r, world_dir) for r in self.robots],
         }
 
-    def world_yaml(self, map_ref: str) -> str:
-        return yaml.safe_dump(self.world_data(map_ref), sort_keys=False, default_flow_style=None)
+    def world_yaml(self, map_ref: str, world_dir: Path | None = None) -> str:
+        return yaml.safe_dump(self.world_data(map_ref, world_dir), sort_keys=False, default_flow_style=None)
 
     def check(self, source: str) -> WorldSpec:
         """The world as ``simrobot_world`` would load and place it; InputError with its message.

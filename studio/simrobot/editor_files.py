@@ -152,7 +152,7 @@ class EditorFiles(EditorBase):
             map_missing = not ws.path(self.map_name.value or "").exists()
             if (self.map_unsaved or map_missing) and not self.save_map():
                 return False
-            text = self.doc.world_yaml(self.map_ref())
+            text = self.doc.world_yaml(self.map_ref(), ws.path(name).parent)
             ws.write_text(name, text, overwrite=self.overwrite.value)
         except (InputError, OSError) as err:
             self.say(f"error: {err}", error=True)

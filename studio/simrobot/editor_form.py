@@ -12,6 +12,7 @@ from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, RobotSpec, SensorSpec
 from studio.shell import svg
 from studio.simrobot.doc import new_sensor, parse_vertices, vertices_text
+from studio.simrobot.editor_algorithms import AlgorithmChoice
 from studio.simrobot.editor_base import EditorBase
 
 NO_CONTROLLER = "(none: topics)"
@@ -47,7 +48,8 @@ class EditorForm(EditorBase):
                     value=NO_CONTROLLER,
                     label="controller",
                     on_change=self.on_robot_field,
-                ).classes("w-40")
+                ).classes("w-56 simrobot-controller")
+                self.algorithms = AlgorithmChoice(self.f_controller, self.studio.workspace, NO_CONTROLLER)
                 with ui.row().classes("items-end gap-2"):
                     self.f_shape = (
                         ui.textarea("shape: x, y per vertex (m)")
@@ -131,7 +133,7 @@ class EditorForm(EditorBase):
                 self.f_R.set_value(r.R)
                 self.f_la.set_value(r.la)
                 self.f_lb.set_value(r.lb)
-                self.f_controller.set_value(r.controller or NO_CONTROLLER)
+                self.algorithms.show(r)  # its controller, or its algorithm m-file
                 self.f_shape.set_value(vertices_text(r.shape))
             sensors = {k: s.name for k, s in enumerate(r.sensors)} if r is not None else {}
             self.sensor_select.set_options(sensors, value=self.sensor)
@@ -174,7 +176,7 @@ class EditorForm(EditorBase):
                 R=float(self.f_R.value),
                 la=float(self.f_la.value),
                 lb=float(self.f_lb.value),
-                controller=None if self.f_controller.value == NO_CONTROLLER else self.f_controller.value,
+                **self.algorithms.chosen(),  # controller=…, algorithm=…
             )
         except (TypeError, ValueError) as err:
             self.say(f"error: {err}", error=True)
