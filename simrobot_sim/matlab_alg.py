@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -61,11 +62,18 @@ def function_name(path: Path, where: str) -> str:
 
 def start_octave() -> Any:
     """A fresh Octave session with the SIMROBOT m-files on its path."""
+    executable = octave_executable()
+    first_import = "oct2py" not in sys.modules
+    # importing oct2py starts its own default session: with octave-cli, not the GUI binary
+    os.environ.setdefault("OCTAVE_EXECUTABLE", executable)
     try:
-        from oct2py import Oct2Py
+        import oct2py
     except ImportError:
         raise InputError("algorithm m-files need the Python package oct2py: pip install oct2py") from None
-    session = Oct2Py(executable=octave_executable(), convert_to_float=False)
+    default = getattr(oct2py, "octave", None)  # absent when it failed to start
+    if first_import and default is not None:
+        default.exit()  # that default session is not ours: one Octave process less
+    session = oct2py.Oct2Py(executable=executable, convert_to_float=False)
     session.addpath(str(mfiles_dir()))
     return session
 

@@ -193,17 +193,27 @@ def test_a_killed_octave_stops_every_algorithm_robot_once_and_the_world_steps_on
 
 
 @needs_octave
-def test_a_world_file_robot_with_an_algorithm_is_driven_by_it_in_lockstep_from_the_world_node(executor, tmp_path):
+def test_a_world_file_robot_with_an_algorithm_is_driven_by_it_in_lockstep_from_the_world_node(
+    executor, tmp_path, capfd
+):
     from rclpy.parameter import Parameter
 
     from sim_runtime.run import spin_steps
     from simrobot_sim.world_node import SimrobotWorldNode
 
-    text = config_path("simrobot/demo.yaml").read_text().replace("controller: avoid", f"algorithm: {ALG2}")
+    text = config_path("simrobot/demo.yaml").read_text().replace("controller: avoid", f"algorithm: {ALG2}", 3)
+    text = text.replace("controller: avoid", f"algorithm: {PROGRAMS / 'simrobot_fails.m'}")
     text = text.replace("map: demo_map.png", f"map: {config_path('simrobot/demo_map.png')}")
     (tmp_path / "demo_m.yaml").write_text(text)
     world = SimrobotWorldNode(parameter_overrides=[Parameter("world_file", value=str(tmp_path / "demo_m.yaml"))])
     executor.add_node(world)
-    assert world.lockstep and world.spec.robots[3].algorithm == str(ALG2.resolve())
+    assert world.lockstep and world.spec.robots[2].algorithm == str(ALG2.resolve())
     assert spin_steps(executor, world, 60) == 60
-    assert np.array_equal(world.model.history.array(), run_python_twin(demo_world(), list(range(4)), 60))
+    # the twin: r1-r3 by the Python alg2; r4 straight on for 4 steps, then stopped as its m-file failed
+    twin = demo_world()
+    for step in range(1, 61):
+        twin.set_wheel_speeds(3, *(STRAIGHT if step < 5 else (0.0, 0.0)))
+        run_python_twin(twin, [0, 1, 2], 1)
+    assert np.array_equal(world.model.history.array(), twin.history.array())
+    log = capfd.readouterr().err
+    assert log.count("simrobot_fails.m failed at step 5") == 1 and "robot 'r4'" in log
