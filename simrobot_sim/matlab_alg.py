@@ -46,7 +46,13 @@ def mfiles_dir() -> Path:
 
 def octave_executable() -> str:
     """``$OCTAVE_EXECUTABLE``, else ``octave-cli`` or ``octave`` on PATH; an error saying what to install."""
-    found = os.environ.get("OCTAVE_EXECUTABLE") or shutil.which("octave-cli") or shutil.which("octave")
+    given = os.environ.get("OCTAVE_EXECUTABLE")
+    if given:
+        found = shutil.which(given)
+        if found is None:
+            raise InputError(f"OCTAVE_EXECUTABLE={given!r} is not an executable: point it at octave-cli")
+        return found
+    found = shutil.which("octave-cli") or shutil.which("octave")
     if not found:
         raise InputError("algorithm m-files run in GNU Octave: install it (e.g. apt install octave)")
     return found

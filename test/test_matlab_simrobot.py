@@ -217,3 +217,15 @@ def test_a_world_file_robot_with_an_algorithm_is_driven_by_it_in_lockstep_from_t
     assert np.array_equal(world.model.history.array(), twin.history.array())
     log = capfd.readouterr().err
     assert log.count("simrobot_fails.m failed at step 5") == 1 and "robot 'r4'" in log
+
+
+def test_without_octave_a_world_with_an_algorithm_refuses_to_start_saying_what_to_install(monkeypatch, tmp_path):
+    from simrobot_sim.matlab_alg import OctaveAlgorithms
+
+    monkeypatch.delenv("OCTAVE_EXECUTABLE", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))  # no octave-cli, no octave
+    with pytest.raises(InputError, match=r"run in GNU Octave: install it \(e\.g\. apt install octave\)"):
+        OctaveAlgorithms(demo_world(), {0: ALG2})
+    monkeypatch.setenv("OCTAVE_EXECUTABLE", str(tmp_path / "octave-9"))
+    with pytest.raises(InputError, match=r"OCTAVE_EXECUTABLE=.*octave-9' is not an executable"):
+        OctaveAlgorithms(demo_world(), {0: ALG2})
