@@ -89,7 +89,8 @@ class OctaveAlgorithms:
 
     ``algorithms``: robot index → its m-file. ``report`` gets each problem once (a sentence naming
     the robot and file). ``session``: an Octave session to reuse (from :func:`start_octave`).
-    ``timeout``: wall seconds one step's algorithms may take."""
+    ``timeout``: wall seconds one step's algorithms may take. ``output`` gets each line the
+    algorithms print (``disp``, ``printf``: the original's command window)."""
 
     def __init__(
         self,
@@ -98,9 +99,11 @@ class OctaveAlgorithms:
         report: Callable[[str], None] = print,
         session: Any = None,
         timeout: float = STEP_TIMEOUT,
+        output: Callable[[str], None] = print,
     ) -> None:
         self.world = world
         self.timeout = float(timeout)
+        self.output = output
         self.files = {i: Path(p).resolve() for i, p in algorithms.items()}
         self.report = report
         self.active = np.zeros(len(world.names), dtype=bool)
@@ -201,7 +204,9 @@ class OctaveAlgorithms:
             float(world.step_count + 1),
         )
         try:
-            result = self.octave.feval("simrobot_world_step", *args, nout=5, timeout=self.timeout)
+            result = self.octave.feval(
+                "simrobot_world_step", *args, nout=5, timeout=self.timeout, stream_handler=self.output
+            )
         except Exception as err:  # oct2py raises its own errors, pexpect's for a dead session
             self._interrupted(err)
             return

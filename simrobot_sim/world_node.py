@@ -176,7 +176,11 @@ class SimrobotWorldNode(SimWorldNode):
         if not files:
             return None
         algorithms = OctaveAlgorithms(
-            self.model, files, report=self.get_logger().error, timeout=self.spec.lockstep_timeout
+            self.model,
+            files,
+            report=self.get_logger().error,
+            timeout=self.spec.lockstep_timeout,
+            output=self.get_logger().info,  # what the algorithms print
         )
         self.get_logger().info(f"{len(files)} robots run algorithm m-files in Octave")
         return algorithms

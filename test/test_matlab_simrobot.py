@@ -39,10 +39,12 @@ def demo_world() -> SimrobotWorld:
     return SimrobotWorld(load_world(config_path("simrobot/demo.yaml")))
 
 
-def run_mfiles(world: SimrobotWorld, files: dict[int, Path], steps: int, octave, reports: list[str]) -> np.ndarray:
+def run_mfiles(
+    world: SimrobotWorld, files: dict[int, Path], steps: int, octave, reports: list[str], output=print
+) -> np.ndarray:
     from simrobot_sim.matlab_alg import OctaveAlgorithms
 
-    algorithms = OctaveAlgorithms(world, files, report=reports.append, session=octave)
+    algorithms = OctaveAlgorithms(world, files, report=reports.append, session=octave, output=output)
     for _ in range(steps):
         algorithms.run()
         world.step()
@@ -99,7 +101,9 @@ def test_the_robot_functions_answer_in_the_originals_units(octave):
     )
     robot = RobotSpec("probe", (1.5, 2.4), heading=math.radians(-90), sensors=sensors)
     world = SimrobotWorld(WorldSpec(walls=walls, robots=(robot,), origin=(1.0, 2.0)))
-    tracks = run_mfiles(world, {0: PROGRAMS / "simrobot_probe.m"}, 5, octave, [])
+    printed: list[str] = []
+    tracks = run_mfiles(world, {0: PROGRAMS / "simrobot_probe.m"}, 5, octave, [], printed.append)
+    assert printed == [f"probe step {k}" for k in range(1, 6)]  # what it printed, line by line
     octave.eval("global SIMROBOT_WORLD_; probe_memory = readmem(SIMROBOT_WORLD_.robots{1});", nout=0)
     memory = octave.pull("probe_memory")
     first = memory[0, 0] if memory.ndim == 2 else memory[0]

@@ -2,6 +2,7 @@ function new = simrobot_probe(simrobot, matrix, step)
 % SIMROBOT_PROBE  Keeps what the robot functions return in the robot's memory, then turns in
 % place and at step 3 switches its robot off.
 m = readmem(simrobot);
+printf('probe step %d\n', step);
 [dist, num] = readusonic(simrobot, 'front', matrix);
 [data, nums] = readlaser(simrobot, 'scan', matrix);
 m(step).pos = getpos(simrobot);
