@@ -31,6 +31,7 @@ from studio.create.matlab_program import (
     octave_command,
     program_choices,
     program_of,
+    program_path,
     start_program,
 )
 from studio.shell.app import Studio
@@ -235,3 +236,26 @@ def test_an_algorithm_outside_the_workspace_is_shown_by_its_absolute_path(tmp_pa
     assert algorithm_value("/srv/course/alg2.m", ws) == "m:/srv/course/alg2.m"
     assert algorithm_path("m:/srv/course/alg2.m", ws) == "/srv/course/alg2.m"
     assert algorithm_path("m:alg2.m", ws) == str(tmp_path / "ws" / "alg2.m")
+
+
+@pytest.mark.parametrize(
+    ("text", "runs"),
+    [
+        ("% LAB1  Drive a square.\n\nfunction lab(serPort)\nend\n", True),
+        ("%{\nfunction in a block comment\n%}\nfunction [a]=lab(serPort)\nend\n", True),
+        ("SetFwdVelAngVelCreate(serPort, 0.2, 0)\n", False),  # a script: no serPort to hand it
+        ("% a map saved under a .m name\nwall 0 0 1 1\n", False),
+    ],
+)
+def test_only_a_function_file_is_run_as_a_program(tmp_path, text, runs):
+    (tmp_path / "lab.m").write_text(text)
+    if runs:
+        assert program_path(Workspace(tmp_path), "lab.m") == tmp_path / "lab.m"
+    else:
+        with pytest.raises(InputError, match=r"lab\.m: not a function file: a program starts with function"):
+            program_path(Workspace(tmp_path), "lab.m")
+
+
+def test_a_program_missing_from_the_workspace_is_named(tmp_path):
+    with pytest.raises(InputError, match=r"gone\.m: program file not found in the workspace"):
+        program_path(Workspace(tmp_path), "gone.m")

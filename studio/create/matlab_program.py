@@ -17,6 +17,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import os
+import re
 import shutil
 import signal
 import threading
@@ -162,12 +163,27 @@ class MatlabRun(Child):
 
 
 def program_path(workspace: Workspace, name: str) -> Path:
-    """The program file ``name`` in the workspace; InputError if it is missing or misnamed."""
-    path = workspace.path(name)
-    if not path.is_file():
-        raise InputError.at(name, None, f"program not found in the workspace {workspace.root}")
+    """The program file ``name`` in the workspace; InputError if it is missing, misnamed or not a
+    function file (a script cannot be handed ``serPort``; nor is any other file run as one)."""
+    text, path = workspace.read_text(name, "program")
     function_name(path)
+    if not re.match(r"function\b", first_code_line(text)):
+        raise InputError.at(name, None, "not a function file: a program starts with function prog(serPort)")
     return path
+
+
+def first_code_line(text: str) -> str:
+    """The first line of an m-file that is not blank or a comment (``%``, ``#``, ``%{ … %}``)."""
+    block = 0
+    for raw in text.splitlines():
+        line = raw.strip()
+        if line in ("%{", "#{"):
+            block += 1
+        elif line in ("%}", "#}") and block:
+            block -= 1
+        elif line and not block and not line.startswith(("%", "#")):
+            return line
+    return ""
 
 
 async def start_program(studio: Studio, ns: str, name: str) -> MatlabRun | None:
