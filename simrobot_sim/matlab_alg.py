@@ -66,6 +66,12 @@ def function_name(path: Path, where: str) -> str:
     return name
 
 
+def _no_workspace_dump(session: Any) -> None:
+    # oct2py ends a session with a signal, on which Octave saves its workspace as octave-workspace
+    # in the current folder (whatever the *_dumps_octave_core settings): send it nowhere instead
+    session.eval('octave_core_file_name("/dev/null");', nout=0)
+
+
 def start_octave() -> Any:
     """A fresh Octave session with the SIMROBOT m-files on its path."""
     executable = octave_executable()
@@ -78,8 +84,10 @@ def start_octave() -> Any:
         raise InputError("algorithm m-files need the Python package oct2py: pip install oct2py") from None
     default = getattr(oct2py, "octave", None)  # absent when it failed to start
     if first_import and default is not None:
+        _no_workspace_dump(default)
         default.exit()  # that default session is not ours: one Octave process less
     session = oct2py.Oct2Py(executable=executable, convert_to_float=False)
+    _no_workspace_dump(session)
     session.addpath(str(mfiles_dir()))
     return session
 
