@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -28,8 +27,7 @@ from simrobot_sim.matlab_alg import OctaveAlgorithms, start_octave
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import load_world
 
-ROOT = Path(__file__).resolve().parent.parent
-ALG2 = ROOT / "test" / "matlab_programs" / "simrobot_alg2.m"
+ALG2 = config_path("simrobot/avoid_alg.m")
 
 
 def demo() -> SimrobotWorld:
@@ -67,22 +65,19 @@ def node_run(steps: int) -> tuple[np.ndarray, float]:
     from sim_runtime.run import make_executor, spin_steps
     from simrobot_sim.world_node import SimrobotWorldNode
 
-    text = config_path("simrobot/demo.yaml").read_text().replace("controller: avoid", f"algorithm: {ALG2}")
-    text = text.replace("map: demo_map.png", f"map: {config_path('simrobot/demo_map.png')}")
-    with tempfile.TemporaryDirectory() as folder:
-        (Path(folder) / "demo_m.yaml").write_text(text)
-        rclpy.init()
-        executor = make_executor()
-        world = SimrobotWorldNode(parameter_overrides=[Parameter("world_file", value=f"{folder}/demo_m.yaml")])
-        executor.add_node(world)
-        start = time.perf_counter()
-        spin_steps(executor, world, steps)
-        took = time.perf_counter() - start
-        history = world.model.history.array()
-        executor.remove_node(world)
-        world.destroy_node()
-        executor.shutdown()
-        rclpy.shutdown()
+    # the shipped world file with algorithm lines
+    rclpy.init()
+    executor = make_executor()
+    world = SimrobotWorldNode(parameter_overrides=[Parameter("world_file", value="simrobot/demo_matlab.yaml")])
+    executor.add_node(world)
+    start = time.perf_counter()
+    spin_steps(executor, world, steps)
+    took = time.perf_counter() - start
+    history = world.model.history.array()
+    executor.remove_node(world)
+    world.destroy_node()
+    executor.shutdown()
+    rclpy.shutdown()
     return history, took
 
 

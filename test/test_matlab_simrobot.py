@@ -18,7 +18,8 @@ from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec, load_world
 
 PROGRAMS = Path(__file__).parent / "matlab_programs"
-ALG2 = PROGRAMS / "simrobot_alg2.m"
+#: The shipped alg2-style algorithm (config/simrobot/demo_matlab.yaml runs it on every robot).
+ALG2 = config_path("simrobot/avoid_alg.m")
 needs_octave = pytest.mark.skipif(
     shutil.which("octave-cli") is None and shutil.which("octave") is None,
     reason="GNU Octave is not installed here (apt install octave); CI runs these tests",
@@ -205,8 +206,10 @@ def test_a_world_file_robot_with_an_algorithm_is_driven_by_it_in_lockstep_from_t
     from sim_runtime.run import spin_steps
     from simrobot_sim.world_node import SimrobotWorldNode
 
-    text = config_path("simrobot/demo.yaml").read_text().replace("controller: avoid", f"algorithm: {ALG2}", 3)
-    text = text.replace("controller: avoid", f"algorithm: {PROGRAMS / 'simrobot_fails.m'}")
+    # the shipped demo_matlab.yaml, its last robot's algorithm one that fails at step 5
+    text = config_path("simrobot/demo_matlab.yaml").read_text().replace("algorithm: avoid_alg.m", f"algorithm: {ALG2}")
+    head, _, last = text.rpartition(f"algorithm: {ALG2}")
+    text = head + f"algorithm: {PROGRAMS / 'simrobot_fails.m'}" + last
     text = text.replace("map: demo_map.png", f"map: {config_path('simrobot/demo_map.png')}")
     (tmp_path / "demo_m.yaml").write_text(text)
     world = SimrobotWorldNode(parameter_overrides=[Parameter("world_file", value=str(tmp_path / "demo_m.yaml"))])
@@ -233,3 +236,12 @@ def test_without_octave_a_world_with_an_algorithm_refuses_to_start_saying_what_t
     monkeypatch.setenv("OCTAVE_EXECUTABLE", str(tmp_path / "octave-9"))
     with pytest.raises(InputError, match=r"OCTAVE_EXECUTABLE=.*octave-9' is not an executable"):
         OctaveAlgorithms(demo_world(), {0: ALG2})
+
+
+def test_the_shipped_matlab_demo_runs_avoid_alg_on_the_demo_robots():
+    spec = load_world(config_path("simrobot/demo_matlab.yaml"))
+    demo = load_world(config_path("simrobot/demo.yaml"))
+    assert [r.algorithm for r in spec.robots] == [str(ALG2.resolve())] * 4
+    assert [(r.position, r.heading, r.sensors) for r in spec.robots] == [
+        (r.position, r.heading, r.sensors) for r in demo.robots
+    ]
