@@ -265,6 +265,7 @@ class OctaveAlgorithms:
 
     def _failed(self, i: int, message: str) -> None:
         self._stop(i)
+        message = " ".join(line.strip() for line in message.splitlines() if line.strip())  # one log line
         name = self.world.names[i]
         self.report(
             f"robot {name!r}: algorithm {self.files[i]} failed at step {self.world.step_count + 1}: "

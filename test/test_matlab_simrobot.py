@@ -245,3 +245,14 @@ def test_the_shipped_matlab_demo_runs_avoid_alg_on_the_demo_robots():
     assert [(r.position, r.heading, r.sensors) for r in spec.robots] == [
         (r.position, r.heading, r.sensors) for r in demo.robots
     ]
+
+
+@needs_octave
+def test_a_bad_setvel_and_a_syntax_error_are_reported_on_one_line_each_with_the_users_file(octave):
+    reports: list[str] = []
+    files = {0: PROGRAMS / "simrobot_bad_speed.m", 1: PROGRAMS / "simrobot_syntax.m"}
+    tracks = run_mfiles(demo_world(), files, 3, octave, reports)
+    assert len(reports) == 2 and all("\n" not in r and "failed at step 1" in r for r in reports)
+    assert "setvel: expected [left right], two finite numbers, got [NaN 0.5] (simrobot_bad_speed line 3)" in reports[0]
+    assert "parse error" in reports[1] and "simrobot_syntax.m" in reports[1]
+    assert np.array_equal(tracks[0], tracks[-1])  # nobody moved

@@ -20,7 +20,7 @@ function [velocity, accel, power, crashed, errors] = simrobot_world_step(active,
         error('%s must return the robot (end it with: new = simrobot;)', SIMROBOT_WORLD_.afs{j});
       end
     catch err
-      errors{j} = describe(err);
+      errors{j} = describe(err, SIMROBOT_WORLD_.afs{j});
       continue
     end
     SIMROBOT_WORLD_.robots{j} = new;
@@ -29,10 +29,14 @@ function [velocity, accel, power, crashed, errors] = simrobot_world_step(active,
   SIMROBOT_WORLD_.running = 0;
 end
 
-function text = describe(err)
-  % the message and where it was raised (the algorithm's own line when it raised it)
+function text = describe(err, af)
+  % the message and the algorithm's line that led to it (its first frame on the stack, if any)
   text = err.message;
-  if ~isempty(err.stack)
-    text = sprintf('%s (%s line %d)', text, err.stack(1).name, err.stack(1).line);
+  for k = 1:numel(err.stack)
+    name = err.stack(k).name;
+    if strcmp(name, af) || strncmp(name, [af '>'], numel(af) + 1)
+      text = sprintf('%s (%s line %d)', text, name, err.stack(k).line);
+      return
+    end
   end
 end
