@@ -24,7 +24,7 @@ import numpy as np
 
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import ABSURD_COMMAND, command_ok
-from sim_runtime.paths import config_dir, package_share_dir
+from sim_runtime.paths import config_dir
 from simrobot_sim.model import SimrobotWorld
 
 #: What a sensor reading with no obstacle in range is to an algorithm (the original's value).
@@ -34,14 +34,11 @@ STEP_TIMEOUT = 10.0
 
 
 def mfiles_dir() -> Path:
-    """``matlab/simrobot``: the checkout's, or ``share/robot_sims/matlab/simrobot`` when installed."""
-    checkout = config_dir().parent / "matlab" / "simrobot"
-    if checkout.is_dir():
-        return checkout
-    share = package_share_dir()
-    if share is None or not (share / "matlab" / "simrobot").is_dir():
-        raise InputError("the SIMROBOT m-files (matlab/simrobot) are not installed with robot_sims")
-    return share / "matlab" / "simrobot"
+    """``matlab/simrobot`` beside ``config/``: the checkout's, or ``share/robot_sims/`` when installed."""
+    folder = config_dir().parent / "matlab" / "simrobot"
+    if not folder.is_dir():
+        raise InputError(f"the SIMROBOT m-files are not installed with robot_sims (no {folder})")
+    return folder
 
 
 def octave_executable() -> str:
