@@ -8,7 +8,14 @@ segfault, long after and far from its cause. Our kernels are compiled in paralle
 (a helper process beside each world, batch workers, the worlds a test or the studio starts), so
 every save and load of a cache entry here holds a lock on a file beside the kernel's index.
 
-The lock is installed when numba's caching module loads (or at once if it already has): importing
+numba also checks a cache entry against its own source file only, while a kernel carries the
+code of the kernels it calls, compiled in: after ``git pull`` changed ``geometry.py`` alone, the
+cached physics step still ran the old geometry, and in one process its copy and the new one
+could meet under one name, with a crash as soon as the result was boxed. Here an entry's stamp
+also holds a digest of every kernel source of its own top-level package and of ``sim_runtime``
+(the only packages a kernel calls into), so a change anywhere there recompiles them.
+
+Both are installed when numba's caching module loads (or at once if it already has): importing
 :mod:`sim_runtime` is enough, and every package with kernels does.
 """
 
@@ -16,11 +23,13 @@ from __future__ import annotations
 
 import fcntl
 import functools
+import hashlib
 import importlib.abc
 import importlib.machinery
 import importlib.util
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -42,12 +51,45 @@ def _locked(method: Callable[..., Any], mode: int) -> Callable[..., Any]:
     return locked
 
 
+def top_package(py_file: str | Path) -> Path:
+    """The folder of the top-level package holding ``py_file`` (its own folder outside a package)."""
+    folder = Path(py_file).resolve().parent
+    while (folder.parent / "__init__.py").is_file():
+        folder = folder.parent
+    return folder
+
+
+@functools.cache
+def kernel_sources_digest(package: Path) -> str:
+    """SHA-256 of every ``.py`` file under ``package`` that uses numba (read once per process)."""
+    digest = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        text = path.read_bytes()
+        if b"numba" in text:
+            digest.update(str(path.relative_to(package)).encode() + b"\0" + text)
+    return digest.hexdigest()
+
+
+_BASE = Path(__file__).resolve().parent  # sim_runtime: its kernels are called from every package
+
+
+def _stamped(get_source_stamp: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    @functools.wraps(get_source_stamp)
+    def stamp(self: Any) -> Any:
+        packages = sorted({top_package(self._py_file), _BASE})
+        return get_source_stamp(self), tuple(kernel_sources_digest(p) for p in packages)
+
+    return stamp
+
+
 def _patch(caching: ModuleType) -> None:
     cache_file = caching.IndexDataCacheFile
     if getattr(cache_file.save, "__robot_sims_locked__", False):
         return
     cache_file.save = _locked(cache_file.save, fcntl.LOCK_EX)
     cache_file.load = _locked(cache_file.load, fcntl.LOCK_SH)
+    locator = caching._SourceFileBackedLocatorMixin
+    locator.get_source_stamp = _stamped(locator.get_source_stamp)
 
 
 class _PatchWhenLoaded(importlib.abc.MetaPathFinder):
@@ -72,7 +114,8 @@ class _PatchWhenLoaded(importlib.abc.MetaPathFinder):
 
 
 def lock_numba_cache() -> None:
-    """Guard numba's cache entries with a file lock in this process, now or when numba loads."""
+    """Guard numba's cache entries with a file lock and package-wide stamps in this process, now
+    or when numba loads."""
     if _CACHING in sys.modules:
         _patch(sys.modules[_CACHING])
     elif not any(isinstance(finder, _PatchWhenLoaded) for finder in sys.meta_path):

@@ -77,3 +77,39 @@ def test_a_process_saving_a_kernel_waits_for_the_lock_and_the_index_stays_cohere
     entries = index_entries(tmp_path)
     assert len(entries) == 2
     assert all(filed == held for filed, held in entries.values()), entries
+
+
+CALLEE = """
+import numba
+
+@numba.njit(cache=True)
+def gain():
+    return {gain}
+"""
+CALLER = """
+import numba
+from probe.callee import gain
+
+@numba.njit(cache=True)
+def doubled():
+    return 2 * gain()
+"""
+
+
+def run_caller(folder: Path) -> str:
+    code = "import sim_runtime; from probe.caller import doubled; print(doubled())"
+    env = dict(os.environ, PYTHONPATH=f"{folder}{os.pathsep}{ROOT}")
+    env.pop("NUMBA_CACHE_DIR", None)  # the probe's own __pycache__, as for our packages
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120).stdout
+
+
+def test_a_cached_kernel_runs_the_new_code_of_a_kernel_it_calls_from_another_file(tmp_path):
+    package = tmp_path / "probe"
+    package.mkdir()
+    (package / "__init__.py").write_text("", encoding="utf-8")
+    (package / "caller.py").write_text(textwrap.dedent(CALLER), encoding="utf-8")
+    (package / "callee.py").write_text(textwrap.dedent(CALLEE.format(gain=1)), encoding="utf-8")
+    assert run_caller(tmp_path).strip() == "2"
+    assert list((package / "__pycache__").glob("caller.doubled-*.nbi"))  # cached: the next run loads it
+    (package / "callee.py").write_text(textwrap.dedent(CALLEE.format(gain=5)), encoding="utf-8")
+    assert run_caller(tmp_path).strip() == "10"  # numba alone would load the old caller: 2
