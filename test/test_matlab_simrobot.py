@@ -67,11 +67,11 @@ def test_an_alg2_style_m_file_drives_four_robots_exactly_as_its_python_twin_and_
     files = dict.fromkeys(range(4), ALG2)
     reports: list[str] = []
     first = run_mfiles(demo_world(), files, 300, octave, reports)
-    second = run_mfiles(demo_world(), files, 300, octave, reports)
+    second = run_mfiles(demo_world(), files, 150, octave, reports)  # half as long: the same first half
     twin = run_python_twin(demo_world(), list(range(4)), 300)
     assert reports == []
     assert first.shape == (301, 4, 3)
-    assert np.array_equal(first, second)
+    assert np.array_equal(first[:151], second)
     assert np.array_equal(first, twin)
     assert np.all(np.hypot(*(first[-1, :, :2] - first[0, :, :2]).T) > 0.3)  # every robot went somewhere
     assert np.any(np.abs(np.diff(first[:, :, 2], axis=0)) > 0.05)  # and turned at obstacles
