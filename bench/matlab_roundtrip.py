@@ -33,7 +33,13 @@ FUNCTIONS = (
 OCTAVE_LOOP = """
 addpath('{toolbox}');
 s = CreateRobot({port});
-OverheadLocalizationCreate(s);  % the first call waits for the robot's first messages
+for attempt = 1:24  % the world may still be starting (compiling its kernels on a cold cache)
+  try
+    OverheadLocalizationCreate(s);
+    break
+  catch
+  end
+end
 calls = {{{calls}}};
 for k = 1:numel(calls)
   f = str2func(['@(s) ' calls{{k}}]);

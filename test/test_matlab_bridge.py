@@ -238,7 +238,8 @@ def ask(sock: socket.socket, line: str) -> str:
     return reply.decode().rstrip("\n")
 
 
-def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_replies(world, bridge_port):
+def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_replies(robot, bridge_port):
+    robot.reset()  # the world is up
     sock, hello = connect(bridge_port)
     with sock:
         assert hello == f"{HELLO} {PROTOCOL_VERSION} create {NAMESPACE}"
