@@ -256,3 +256,18 @@ def test_a_bad_setvel_and_a_syntax_error_are_reported_on_one_line_each_with_the_
     assert "setvel: expected [left right], two finite numbers, got [NaN 0.5] (simrobot_bad_speed line 3)" in reports[0]
     assert "parse error" in reports[1] and "simrobot_syntax.m" in reports[1]
     assert np.array_equal(tracks[0], tracks[-1])  # nobody moved
+
+
+@needs_octave
+def test_a_batch_sweep_can_name_an_algorithm_m_file_as_its_controller_and_matches_simrobot_avoid():
+    from sim_tools.matlab.simrobot_batch import algorithm
+
+    world = demo_world()
+    control = algorithm(world, {"algorithm": str(ALG2), "threshold": 0.2}, 0)
+    for _ in range(40):
+        control(world, world.step_count * world.dt)
+        world.step()
+    control.algorithms.close()
+    assert np.array_equal(world.history.array(), run_python_twin(demo_world(), list(range(4)), 40))
+    with pytest.raises(InputError, match="parameter 'algorithm': the path of an algorithm m-file"):
+        algorithm(demo_world(), {"algorithm": "alg2.py"}, 0)
