@@ -115,10 +115,15 @@ class OctaveAlgorithms:
         self.active[list(self.files)] = True
         names = self._function_names()
         self.octave = session if session is not None else start_octave()
-        self.octave.eval("clear functions", nout=0)  # a reused session: no algorithm's persistent state
-        for folder in sorted({str(p.parent) for p in self.files.values()}):
-            self.octave.addpath(folder)
-        self._setup(names)
+        try:
+            self.octave.eval("clear functions", nout=0)  # a reused session: no algorithm's persistent state
+            for folder in sorted({str(p.parent) for p in self.files.values()}):
+                self.octave.addpath(folder)
+            self._setup(names)
+        except BaseException:
+            if session is None:  # ours: not left running
+                self.close()
+            raise
 
     def _function_names(self) -> list[str]:
         names = [""] * len(self.world.names)
