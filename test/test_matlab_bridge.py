@@ -46,9 +46,10 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 
 @pytest.fixture(scope="module")
 def world(tmp_path_factory):
-    """create_world in /matlab at real time, with a wall across the floor at x = 0.6 m."""
-    map_file = tmp_path_factory.mktemp("matlab_map") / "wall.map"
-    map_file.write_text("wall 0.6 -3 0.6 3\n")
+    """create_world in /matlab at real time: a wall across the floor 0.6 m ahead of the robot, and
+    one along it 0.45 m to its right, meeting in a corner."""
+    map_file = tmp_path_factory.mktemp("matlab_map") / "walls.map"
+    map_file.write_text("wall 0.6 -0.45 0.6 3\nwall -3 -0.45 0.6 -0.45\n")
     process = subprocess.Popen(
         executable_command("create_world", ["--ros-args", "-p", f"map_file:={map_file}", "-r", f"__ns:={NAMESPACE}"]),
         env=ENV,
@@ -183,6 +184,19 @@ def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_three_times_
 
 
 @needs_octave
+def test_a_sonar_wall_follower_turns_the_corner_as_its_python_twin_does(robot, bridge_port):
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(
+        robot, bridge_port, "create_wall_follower"
+    )
+    # Along the wall on the right, then left at the corner and along the wall ahead.
+    assert min(y for _x, y in octave_track) > -0.45 + 0.17 and max(x for x, _y in octave_track) < 0.6 - 0.17
+    assert max(y for _x, y in octave_track) > 0.1 and octave_heading > math.radians(45)
+    assert furthest(octave_track, python_track) < TRACK_TOLERANCE
+    # It stops on the clock, mid-correction: 50 ms later or earlier the heading differs by 0.04 rad.
+    assert octave_heading == pytest.approx(python_heading, abs=2 * HEADING_TOLERANCE)
+
+
+@needs_octave
 def test_a_program_that_errors_shows_the_bridges_message_and_the_robot_stops(robot, bridge_port):
     robot.reset()
     done = robot.run(octave(bridge_port, "create_error(serPort)"))
@@ -245,7 +259,7 @@ def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_rep
         assert hello == f"{HELLO} {PROTOCOL_VERSION} create {NAMESPACE}"
         assert ask(sock, "BumpsWheelDropsSensorsRoomba") == "ok\t0.0\t0.0\t0.0\t0.0\t0.0\t0.0"
         assert ask(sock, "SetFwdVelAngVelCreate 0 0") == "ok"
-        assert ask(sock, "ReadSonar 1") == "ok\t3.0"  # nothing in range: the range limit
+        assert ask(sock, "ReadSonar 4") == "ok\t3.0"  # nothing behind: the range limit
         assert (
             ask(sock, "PowerOnTheMoon") == "error PowerOnTheMoon is not a function of the Create toolbox on this bridge"
         )

@@ -10,6 +10,8 @@ from create_sim.client import CreateRobot
 
 with CreateRobot(namespace=sys.argv[1]) as robot:
     bumps = 0
+    robot.bumps_wheel_drops()  # the first reading waits for the robot's messages: before tic, as
+    # serPort is ready before a MATLAB program starts
     start = time.monotonic()  # tic
     while time.monotonic() - start < 30 and bumps < 2:
         bump_right, bump_left, _, _, _, bump_front = robot.bumps_wheel_drops()
