@@ -31,6 +31,7 @@ FUNCTIONS = (
 )
 
 OCTAVE_LOOP = """
+crash_dumps_octave_core(false); sigterm_dumps_octave_core(false);
 addpath('{toolbox}');
 s = CreateRobot({port});
 for attempt = 1:24  % the world may still be starting (compiling its kernels on a cold cache)

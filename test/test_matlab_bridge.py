@@ -127,10 +127,15 @@ def robot(world, executor, make_node):
     return Robot(executor, make_node("matlab_probe"))
 
 
+# A killed Octave would otherwise leave an octave-workspace file in its working directory.
+NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false); "
+
+
 def octave(port: int, program: str, *paths: Path) -> list[str]:
     """octave-cli running ``program(serPort)`` with our toolbox (and ``paths``) on the path."""
     adds = "".join(f"addpath('{p}'); " for p in (matlab_dir("create"), PROGRAMS, *paths))
-    return [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", f"{adds}serPort = CreateRobot({port}); {program}"]
+    script = f"{NO_CORE}{adds}serPort = CreateRobot({port}); {program}"
+    return [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", script]
 
 
 def python_twin(name: str) -> list[str]:
@@ -228,7 +233,7 @@ def test_a_program_killed_mid_loop_or_mid_call_stops_the_robot_and_the_world_run
 def test_every_toolbox_function_is_a_method_with_help_and_a_connect_error_is_clear(bridge_port):
     names = " ".join(sorted(CALLS))
     script = (
-        f"addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
+        f"{NO_CORE}addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
         "for k = 1:numel(names), h = evalc(['help CreateRobot.' names{k}]); "
         "if isempty(strfind(h, upper(names{k}))), printf('no help: %s\\n', names{k}); end, end; "
         "m = methods('CreateRobot'); missing = setdiff(names, m); printf('missing: %s\\n', strjoin(missing, ' ')); "
