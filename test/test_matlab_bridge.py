@@ -47,9 +47,9 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 @pytest.fixture(scope="module")
 def world(tmp_path_factory):
     """create_world in /matlab at real time: a wall across the floor 0.6 m ahead of the robot, and
-    one along it 0.45 m to its right, meeting in a corner."""
+    one along it 0.45 m to its right, meeting in a corner; a red beacon ahead on the floor."""
     map_file = tmp_path_factory.mktemp("matlab_map") / "walls.map"
-    map_file.write_text("wall 0.6 -0.45 0.6 3\nwall -3 -0.45 0.6 -0.45\n")
+    map_file.write_text("wall 0.6 -0.45 0.6 3\nwall -3 -0.45 0.6 -0.45\nbeacon 0.5 0.13 [1 0 0] b1\n")
     process = subprocess.Popen(
         executable_command("create_world", ["--ros-args", "-p", f"map_file:={map_file}", "-r", f"__ns:={NAMESPACE}"]),
         env=ENV,
@@ -230,18 +230,32 @@ def test_a_program_killed_mid_loop_or_mid_call_stops_the_robot_and_the_world_run
 
 
 @needs_octave
-def test_every_toolbox_function_is_a_method_with_help_and_a_connect_error_is_clear(bridge_port):
+def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_toolboxs_shapes(robot, bridge_port):
+    robot.reset()
     names = " ".join(sorted(CALLS))
     script = (
         f"{NO_CORE}addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
         "for k = 1:numel(names), h = evalc(['help CreateRobot.' names{k}]); "
         "if isempty(strfind(h, upper(names{k}))), printf('no help: %s\\n', names{k}); end, end; "
         "m = methods('CreateRobot'); missing = setdiff(names, m); printf('missing: %s\\n', strjoin(missing, ' ')); "
-        "try, CreateRobot(1), catch e, printf('%s\\n', e.message), end"
+        "try, CreateRobot(1), catch e, printf('%s\\n', e.message), end; "
+        f"s = CreateRobot({bridge_port}); "
+        "[a, d, c] = CameraSensorCreate(s); printf('camera %d %d %.3f %.3f %.3f\\n', size(c), c(1), d, a); "
+        "b = ReadBeacon(s); printf('beacon %d %s %.3f\\n', size(b, 2), b{1, 1}, b{1, 4}); "
+        "l = LidarSensorCreate(s); printf('lidar %d %d %.1f\\n', size(l), max(l)); "
+        "r = ReadSonarMultiple(s); printf('sonars %d %d\\n', size(r)); "
+        "o = cell(1, 23); [o{:}] = AllSensorsReadRoomba(s); printf('all %d\\n', sum(cellfun(@isscalar, o)));"
     )
     done = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--eval", script], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
     assert "no help" not in done.stdout and "missing: \n" in done.stdout, done.stdout + done.stderr
     assert "cannot reach the robot_sims MATLAB bridge at 127.0.0.1:1" in done.stdout
+    # The beacon 0.37 m ahead of the camera (0.13 m ahead of the centre) and 0.13 m to the left.
+    distance, bearing = math.hypot(0.37, 0.13), math.atan2(0.13, 0.37)
+    assert f"camera 1 3 1.000 {distance:.3f} {bearing:.3f}" in done.stdout
+    assert f"beacon 5 b1 {distance * math.cos(bearing):.3f}" in done.stdout
+    assert "lidar 1 681 4.0" in done.stdout  # a row; rays with nothing in range read the 4 m limit
+    assert "sonars 1 4" in done.stdout and "all 23" in done.stdout
 
 
 def connect(port: int) -> tuple[socket.socket, str]:
