@@ -3,7 +3,8 @@
 One world (its own process, real time, a wall 0.6 m ahead of the robot) and one bridge serve the
 module; each test resets the robot first. Octave programs are compared with their Python twins on
 the toolbox-style client (test/matlab_programs/create_*.m and .py): at real time the two runs see
-different message timings, so their tracks agree within TRACK_TOLERANCE, not exactly.
+different message timings, so their tracks agree within TRACK_TOLERANCE (3 cm at real time;
+SQUARE_TOLERANCE for the square, run at three times real time to keep the test short), not exactly.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ PROGRAMS = ROOT / "test" / "matlab_programs"
 NAMESPACE = "/matlab"
 TRACK_TOLERANCE = 0.03  # m: the furthest a point of one track may be from the other track
 HEADING_TOLERANCE = math.radians(3)
+SQUARE_TOLERANCE = 0.1  # m, the same for the square at three times real time (see its test)
 OCTAVE = shutil.which("octave-cli")
 needs_octave = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -178,13 +180,15 @@ def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_three_times_
     # No pause or tic/toc in it: travelDist and turnAngle wait on the robot's odometry, so the
     # program runs the same at any real_time_factor.
     (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_square", 3.0)
-    assert math.dist(octave_track[-1], (0, 0)) < 0.05
+    assert math.dist(octave_track[-1], (0, 0)) < SQUARE_TOLERANCE
     # Odometry arrives a little after the robot got there: at three times real time that is 1 cm.
     assert max(x for x, _y in octave_track) == pytest.approx(0.25, abs=0.02)
     assert max(y for _x, y in octave_track) == pytest.approx(0.25, abs=0.02)
-    # The robot moves three times as far while a reading travels (or a loaded machine stalls a
-    # process): three times real time's lag, 5 cm.
-    assert furthest(octave_track, python_track) < 0.05
+    # Each travelDist/turnAngle ends on the odometry message after the goal, read a little later:
+    # at three times real time the robot moves three times as far meanwhile, more when a loaded
+    # machine stalls a process, and the four turns' errors add up over the square. Seen on 2
+    # loaded cores: up to 7 cm.
+    assert furthest(octave_track, python_track) < SQUARE_TOLERANCE
     assert math.remainder(octave_heading - python_heading, math.tau) == pytest.approx(0, abs=HEADING_TOLERANCE)
 
 
