@@ -1,10 +1,15 @@
 """Toolbox call round trip from Octave through ``matlab_bridge`` to a running create_world.
 
-    .venv/bin/python bench/matlab_roundtrip.py [--calls 2000]
+    .venv/bin/python bench/matlab_roundtrip.py [--calls 2000] [--program-seconds 60]
 
 Starts create_world (empty floor, real time) and ``robot_sims matlab_bridge`` in their own
 processes, then times ``--calls`` calls of each function in one Octave session, wall clock from
 ``tic`` before the call to ``toc`` after its outputs are decoded. Goal: median <= 1 ms, p99 <= 5 ms.
+
+Then a control program in the original's style runs for ``--program-seconds`` (0: skip): drive at
+0.1 m/s, read the bumpers and ``pause(0.05)`` in a ``tic; while toc < T`` loop, and every 5 s
+compare ``toc`` with the robot's own clock, read as odometry distance / speed: the lag between
+them must not grow (the robot keeps up with the program's wall clock at real time).
 Prints the machine's load (os.getloadavg) before and after.
 """
 
@@ -56,9 +61,31 @@ end
 """
 
 
+OCTAVE_PROGRAM = """
+SetFwdVelAngVelCreate(s, 0.1, 0);
+DistanceSensorRoomba(s);
+driven = 0; loops = 0; next_mark = 5;
+tic
+while toc < {seconds}
+  BumpsWheelDropsSensorsRoomba(s);
+  loops = loops + 1;
+  if toc >= next_mark
+    driven = driven + DistanceSensorRoomba(s);
+    printf('  at toc %5.1f s: the robot has driven %6.3f m = %5.2f s at 0.1 m/s, lag %+6.3f s\\n', ...
+           toc, driven, driven / 0.1, toc - driven / 0.1);
+    next_mark = next_mark + 5;
+  end
+  pause(0.05);
+end
+SetFwdVelAngVelCreate(s, 0, 0);
+printf('  %d loops in %.1f s (%.1f per s; pause(0.05) alone would give 20)\\n', loops, toc, loops / toc);
+"""
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=2000, help="calls timed per function (default 2000)")
+    parser.add_argument("--program-seconds", type=float, default=60.0, help="control program length (0: skip)")
     args = parser.parse_args()
     octave = shutil.which("octave-cli")
     if octave is None:
@@ -79,6 +106,8 @@ def main() -> int:
         print(f"load before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
         calls = ", ".join(f"'{c}'" for c in FUNCTIONS)
         script = OCTAVE_LOOP.format(toolbox=matlab_dir("create"), port=port, calls=calls, n=args.calls)
+        if args.program_seconds > 0:
+            script += OCTAVE_PROGRAM.format(seconds=args.program_seconds)
         subprocess.run([octave, "--no-gui", "--quiet", "--eval", script], check=True, timeout=600)
         print(f"load after: {os.getloadavg()[0]:.2f}")
     finally:
