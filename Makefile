@@ -35,7 +35,7 @@ demo: venv
 screenshots: venv
 	$(PY) docs/make_rerun_screenshot.py
 
-# docs/architecture.md's import graph and facts table, regenerated from the code (test_architecture_doc checks them).
+# docs/architecture.md's generated parts (contracts, import graph, facts) from the code; test_architecture_doc checks them.
 architecture: venv
 	$(PY) docs/make_architecture.py
 
