@@ -179,7 +179,9 @@ class MatlabBridge:
     """A listening bridge for the Create in ``namespace`` (bound when constructed).
 
     One client serves every program in turn: its subscriptions live as long as the bridge, so a
-    program's first command reaches a world that has long discovered it.
+    program's first command reaches a world that has long discovered it. Without ``node`` the
+    bridge makes its own in ``namespace`` and spins it in a thread; with one (its namespace is the
+    robot's), the caller spins it.
     """
 
     def __init__(
