@@ -248,7 +248,8 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
         "b = ReadBeacon(s); printf('beacon %d %s %.3f\\n', size(b, 2), b{1, 1}, b{1, 4}); "
         "l = LidarSensorCreate(s); printf('lidar %d %d %.1f\\n', size(l), max(l)); "
         "r = ReadSonarMultiple(s); printf('sonars %d %d\\n', size(r)); "
-        "o = cell(1, 23); [o{:}] = AllSensorsReadRoomba(s); printf('all %d\\n', sum(cellfun(@isscalar, o)));"
+        "o = cell(1, 23); [o{:}] = AllSensorsReadRoomba(s); printf('all %d\\n', sum(cellfun(@isscalar, o))); "
+        "printf('RoombaInit gives serPort back: %d\\n', isequal(RoombaInit(s), s));"
     )
     done = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--eval", script], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
@@ -260,6 +261,7 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
     assert f"beacon 5 b1 {distance * math.cos(bearing):.3f}" in done.stdout
     assert "lidar 1 681 4.0" in done.stdout  # a row; rays with nothing in range read the 4 m limit
     assert "sonars 1 4" in done.stdout and "all 23" in done.stdout
+    assert "RoombaInit gives serPort back: 1" in done.stdout
 
 
 def connect(port: int) -> tuple[socket.socket, str]:
