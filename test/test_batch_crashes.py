@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_batch import ROOT, batch, rows, write_sweep
+from test_batch import RAY_CLUSTER, ROOT, batch, rows, write_sweep
 
 SWEEP = """
     worlds: [{map: create/example.map}]
@@ -112,6 +112,27 @@ def test_on_ray_a_failing_controller_is_an_error_row_too_and_the_table_is_the_sa
     assert (tmp_path / "ray" / "episodes.csv").read_text() == (one / "episodes.csv").read_text()
     quits = next(r for r in rows(tmp_path / "ray" / "episodes.csv") if r["controller"].endswith("Quits"))
     assert "giving up" in (tmp_path / "ray" / "logs" / f"{quits['key']}.log").read_text()  # sent back from the node
+
+
+def test_on_a_two_node_ray_cluster_every_failing_controller_is_its_row_and_the_table_is_the_same(
+    tmp_path: Path, one_worker
+) -> None:
+    sweep = _sweep_folder(tmp_path)
+    script = tmp_path / "cluster.py"
+    script.write_text(RAY_CLUSTER, encoding="utf-8")
+    short = Path("/tmp") / f"rayc{os.getpid()}"  # Ray's socket paths must stay short
+    env = dict(os.environ, PYTHONPATH=str(ROOT), RAY_AUTH_MODE="disabled", RAY_TMPDIR=str(short))
+    done = subprocess.run(
+        [sys.executable, str(script), str(sweep), "--out", "cluster", "--no-plots"],
+        cwd=tmp_path,
+        env=env,
+        text=True,
+        capture_output=True,
+        timeout=240,
+    )
+    assert done.returncode == 0, done.stderr
+    one, _ = one_worker
+    assert (tmp_path / "cluster" / "episodes.csv").read_text() == (one / "episodes.csv").read_text()
 
 
 @pytest.mark.parametrize(
