@@ -45,6 +45,7 @@ from arm_sim.spec import (
 )
 from arm_sim.urdf import arm_tree, arm_urdf, fixed_transforms, joint_transforms
 from sim_runtime.errors import InputError
+from sim_runtime.kernels import announce_compiling
 from sim_runtime.msgs import float64_array, matrix_from_quaternion
 from sim_runtime.paths import mesh_uri, resolve_input_file
 from sim_runtime.qos import LATCHED_QOS, create_command_subscription, create_sensor_publisher
@@ -176,6 +177,16 @@ class ArmInstance:
         self.set_marker_alpha(node.marker_alpha)
         self.description = arm_urdf(arm.config, self.frame_prefix, base=arm.base, world_frame=frame)
         self.description_pub.publish(String(data=self.description))
+
+    def compile_kernels(self) -> None:
+        """Run every kernel that publishing and the commands use once, at the start pose: each is
+        compiled (or loaded from numba's cache) before the world is ready, not when a subscriber
+        joins or the first target arrives (the world would stall then)."""
+        q, zero = self.motion.q, np.zeros(self.arm.n)
+        self.arm.rne(q, zero, zero)
+        self.arm.fkine_all(q)
+        joint_transforms(self.tree, q)
+        self.arm.ikine(self.arm.fkine(q), q0=q, ilimit=1, slimit=1)
 
     # --- messages out -----------------------------------------------------------------------
     def set_marker_alpha(self, alpha: float) -> None:
@@ -347,6 +358,9 @@ class ArmNode(SimWorldNode):
             self.parameters_declared()
             self.tf = TfBroadcaster(self)
             self._add_arms()
+            with announce_compiling(self.get_logger().info):
+                for instance in self.arms:
+                    instance.compile_kernels()
         except InputError:
             self.destroy_node()  # a half-built node must not linger in the graph
             raise

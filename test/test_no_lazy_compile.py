@@ -28,7 +28,7 @@ def kernel_signatures() -> dict[str, int]:
 
     counts = {}
     for name, module in list(sys.modules.items()):
-        if module is None or not name.startswith(("create_sim", "simrobot_sim", "sim_runtime")):
+        if module is None or not name.startswith(("create_sim", "simrobot_sim", "arm_sim", "sim_runtime")):
             continue
         for attribute, value in vars(module).items():
             if isinstance(value, CPUDispatcher):
@@ -50,6 +50,10 @@ def probe(world_name: str) -> dict[str, list[str]]:
         from create_sim.world_node import CreateWorldNode
 
         world = CreateWorldNode()
+    elif world_name == "arm":
+        from arm_sim.arm_node import ArmNode
+
+        world = ArmNode()
     else:
         from simrobot_sim.world_file import load_world
         from simrobot_sim.world_node import SimrobotWorldNode
@@ -73,7 +77,7 @@ def probe(world_name: str) -> dict[str, list[str]]:
     return {"new": sorted(k for k, n in after.items() if n > before.get(k, 0)), "checked": sorted(before)}
 
 
-@pytest.mark.parametrize("world_name", ["create_world", "simrobot_world"])
+@pytest.mark.parametrize("world_name", ["create_world", "simrobot_world", "arm"])
 def test_a_subscriber_joining_a_running_world_makes_it_compile_no_kernel(world_name):
     done = subprocess.run(
         [sys.executable, __file__, world_name],
