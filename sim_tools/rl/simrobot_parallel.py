@@ -1,0 +1,221 @@
+"""SIMROBOT as a PettingZoo ``ParallelEnv``: one agent per robot of a bitmap world file.
+
+Each agent observes its own robot's sensors and sets its own wheel speeds; the physics and the
+sensors are :class:`simrobot_sim.model.SimrobotWorld`'s, stepped once per ``step`` (one ``dt``).
+
+- Observation (``Box(0, 1)``, float32): every sensor of the robot in file order, an ultrasonic
+  sensor as one value (its nearest echo), a laser as one value per ray; each distance divided by
+  the sensor's range, no echo reads 1.
+- Action (``Box``, float32): wheel speeds ``[left, right]`` in rad/s within
+  ``±max_wheel_speed``; values outside are clipped.
+- Reward: the distance the robot moved forward this step (along its heading before the step)
+  divided by the most it can move in a step (``wheel radius * max_wheel_speed * dt``): 1 per step
+  at full speed straight on, 0 turning on the spot, negative backwards; ``-crash_penalty`` on
+  the step it crashes.
+- A crash (into a wall, the map's edge or another robot) terminates that agent; its robot stays
+  where it stopped, an obstacle for the others. Every agent is truncated after ``max_steps``
+  steps (default: the world file's ``steps_limit``, else 1000).
+- ``reset(seed=…, options={"random_start": True})`` (or ``random_start=True`` at construction)
+  places the robots at random free poses drawn from the seed; otherwise at the file's poses.
+
+Deterministic: the same seed and actions give the same episode.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from sim_runtime.errors import InputError
+from sim_runtime.paths import resolve_input_file
+from simrobot_sim import raycast
+from simrobot_sim.model import SimrobotWorld
+from simrobot_sim.world_file import RobotSpec, WorldSpec, load_world
+
+#: The shipped world used when none is given (four robots, one ultrasonic sensor each).
+DEFAULT_WORLD = "simrobot/demo.yaml"
+#: Wheel speed limit (rad/s) of the action space: twice the demo's avoid algorithm's 0.5.
+MAX_WHEEL_SPEED = 1.0
+#: Steps before truncation when the world file sets no ``steps_limit``.
+DEFAULT_MAX_STEPS = 1000
+#: Reward on the step an agent crashes (subtracted).
+CRASH_PENALTY = 10.0
+#: Tries to find a free random pose for one robot before giving up.
+_PLACEMENT_TRIES = 10_000
+
+
+def _observation_size(robot: RobotSpec) -> int:
+    # an ultrasonic sensor gives its nearest echo, a laser every ray
+    return sum(1 if s.kind == "ultrasonic" else s.rays for s in robot.sensors)
+
+
+def _normalised(distance: np.ndarray, max_range: float) -> np.ndarray:
+    # distance / range in [0, 1]; no echo (inf) reads 1
+    return np.minimum(distance / max_range, 1.0)
+
+
+class SimrobotParallelEnv(ParallelEnv):
+    """One agent per robot of a SIMROBOT world (see the module's docstring for the spaces and the
+    reward). Agents are named after the robots."""
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "name": "simrobot_parallel_v0", "is_parallelizable": True}
+
+    def __init__(
+        self,
+        world_file: str | Path = DEFAULT_WORLD,
+        *,
+        max_wheel_speed: float = MAX_WHEEL_SPEED,
+        max_steps: int | None = None,
+        crash_penalty: float = CRASH_PENALTY,
+        random_start: bool = False,
+        render_mode: str | None = None,
+    ) -> None:
+        """``world_file``: a SIMROBOT world file (absolute, relative to the current directory, or to
+        the shipped ``config/``). Every robot needs at least one sensor."""
+        if render_mode is not None:
+            raise InputError(f"render_mode: {render_mode!r} is not supported (none is)")
+        if not (math.isfinite(max_wheel_speed) and max_wheel_speed > 0):
+            raise InputError(f"max_wheel_speed: expected a finite number > 0 (rad/s), got {max_wheel_speed!r}")
+        self.render_mode = render_mode
+        self.spec_file: WorldSpec = load_world(resolve_input_file(str(world_file), "world_file"))
+        for i, robot in enumerate(self.spec_file.robots):
+            if not robot.sensors:
+                raise InputError(f"{self.spec_file.source}: robots[{i}] ({robot.name!r}): an agent needs a sensor")
+        self.max_wheel_speed = float(max_wheel_speed)
+        limit = self.spec_file.steps_limit
+        default_steps = limit if math.isfinite(limit) else DEFAULT_MAX_STEPS
+        self.max_steps = int(max_steps if max_steps is not None else default_steps)
+        self.crash_penalty = float(crash_penalty)
+        self.random_start = bool(random_start)
+        self.possible_agents = [r.name for r in self.spec_file.robots]
+        # PettingZoo asks for the same space objects every time
+        speed = self.max_wheel_speed
+        self._action_spaces = {a: spaces.Box(-speed, speed, shape=(2,), dtype=np.float32) for a in self.possible_agents}
+        self._observation_spaces = {
+            r.name: spaces.Box(0.0, 1.0, shape=(_observation_size(r),), dtype=np.float32) for r in self.spec_file.robots
+        }
+        self.agents: list[str] = []
+        self._clearance = raycast.clearance_field(self.spec_file.walls)
+        self._template = SimrobotWorld(self.spec_file, threads=1)
+        self._template.compile_kernels()
+        self.world = self._template
+        self._steps = 0
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        """The agent's sensors, normalised to 0-1."""
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """The agent's wheel speeds [left, right] (rad/s)."""
+        return self._action_spaces[agent]
+
+    # -- episode ---------------------------------------------------------------------------------
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+        """New episode; ``options={"random_start": bool}`` overrides the constructor's choice."""
+        if seed is not None or not hasattr(self, "np_random"):
+            self.np_random = np.random.default_rng(seed)
+        random_start = (options or {}).get("random_start", self.random_start)
+        if random_start:
+            self.world = SimrobotWorld(replace(self.spec_file, robots=self._random_robots()), threads=1)
+        else:
+            self.world = self._fresh_template()
+        self.agents = list(self.possible_agents)
+        self._steps = 0
+        return {a: self._observe(i) for i, a in enumerate(self.possible_agents)}, {a: {} for a in self.agents}
+
+    def _fresh_template(self) -> SimrobotWorld:
+        # a copy of the file's world as built (a copy costs far less than building it again)
+        return copy.deepcopy(self._template)
+
+    def step(
+        self, actions: dict[str, np.ndarray]
+    ) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]:
+        """Set every live agent's wheel speeds, advance the world one ``dt``, read the sensors."""
+        world = self.world
+        for agent in self.agents:
+            i = world.index[agent]
+            left, right = np.clip(np.asarray(actions[agent], dtype=float), -self.max_wheel_speed, self.max_wheel_speed)
+            world.set_wheel_speeds(i, float(left), float(right))
+        before = world.poses()
+        crashed = set(world.step().tolist())
+        after = world.poses()
+        self._steps += 1
+        truncate = self._steps >= self.max_steps
+        obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
+        for agent in self.agents:
+            i = world.index[agent]
+            obs[agent] = self._observe(i)
+            rewards[agent] = -self.crash_penalty if i in crashed else self._progress(i, before[i], after[i])
+            terms[agent] = i in crashed
+            truncs[agent] = truncate and i not in crashed
+            infos[agent] = {"pose": after[i].copy()}
+        self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
+        return obs, rewards, terms, truncs, infos
+
+    def _progress(self, i: int, before: np.ndarray, after: np.ndarray) -> float:
+        # forward distance this step over the largest possible one
+        robot = self.spec_file.robots[i]
+        forward = (after[0] - before[0]) * math.cos(before[2]) + (after[1] - before[1]) * math.sin(before[2])
+        return float(forward / (robot.R * self.max_wheel_speed * self.world.dt))
+
+    def _observe(self, i: int) -> np.ndarray:
+        # robot i's sensors, normalised (see the module's docstring)
+        world = self.world
+        parts = []
+        for k, sensor in enumerate(world.sensors):
+            if sensor.robot != i:
+                continue
+            if sensor.kind == "ultrasonic":
+                parts.append(_normalised(np.array([world.nearest(k)[0]]), sensor.range))
+            else:
+                parts.append(_normalised(world.ranges(k)[0], sensor.range))
+        return np.concatenate(parts).astype(np.float32)
+
+    # -- random start poses ----------------------------------------------------------------------
+    def _random_robots(self) -> tuple[RobotSpec, ...]:
+        """Every robot at a random free pose: its pivot on a cell whose clearance from the walls
+        exceeds the robot's reach, its reach clear of the robots placed before it."""
+        spec = self.spec_file
+        placed: list[tuple[float, float, float]] = []  # x, y (cells), reach (cells)
+        robots = []
+        for robot in spec.robots:
+            reach = max(math.hypot(x, y) for x, y in robot.shape) * robot.scale / spec.resolution + 2.0
+            x, y = self._free_cell(reach, placed, robot.name)
+            placed.append((x, y, reach))
+            heading = float(self.np_random.uniform(-math.pi, math.pi))
+            position = (float(spec.origin[0] + x * spec.resolution), float(spec.origin[1] + y * spec.resolution))
+            robots.append(replace(robot, position=position, heading=heading))
+        return tuple(robots)
+
+    def _free_cell(self, reach: float, placed: list[tuple[float, float, float]], name: str) -> tuple[float, float]:
+        nx, ny = self._clearance.shape
+        for _ in range(_PLACEMENT_TRIES):
+            x = float(self.np_random.uniform(reach, nx - reach))
+            y = float(self.np_random.uniform(reach, ny - reach))
+            clear = int(self._clearance[int(x), int(y)])
+            if clear == raycast.WALL or clear <= reach:
+                continue
+            if all(math.hypot(x - px, y - py) > reach + pr for px, py, pr in placed):
+                return x, y
+        raise InputError(f"{self.spec_file.source}: no free place for robot {name!r} found at random")
+
+    def render(self) -> None:
+        """No picture (``render_mode`` None)."""
+        return None
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+def parallel_env(**kwargs: Any) -> SimrobotParallelEnv:
+    """PettingZoo's usual constructor name."""
+    return SimrobotParallelEnv(**kwargs)
