@@ -15,6 +15,7 @@ from typing import Any
 
 import yaml
 
+from create_sim.spec import WALLS_NS
 from sim_tools.fuzz.corpus import Seeds
 from sim_tools.fuzz.nodes import ensure_ros
 from sim_tools.fuzz_kit import Case, Defect, mutated_yaml
@@ -40,7 +41,7 @@ def _seed_messages() -> dict[str, Any]:
     from visualization_msgs.msg import Marker, MarkerArray
 
     markers = MarkerArray()
-    walls = Marker(ns="walls", type=5)
+    walls = Marker(ns=WALLS_NS, type=5)
     walls.points = [Point(x=0.0, y=0.0), Point(x=2.0, y=0.0), Point(x=2.0, y=0.0), Point(x=2.0, y=2.0)]
     markers.markers = [walls]
     grid = OccupancyGrid()
