@@ -137,6 +137,19 @@ def test_every_agent_is_truncated_at_the_step_limit() -> None:
     assert env.agents == []
 
 
+def test_rgb_array_rendering_draws_the_tracks_picture_and_none_draws_nothing() -> None:
+    env = SimrobotParallelEnv(render_mode="rgb_array", max_steps=20)
+    env.reset()
+    first = env.render()
+    for _ in range(20):
+        env.step({a: np.array([1.0, 0.5], dtype=np.float32) for a in env.agents})
+    frame = env.render()
+    assert first is not None and frame is not None
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    assert not np.array_equal(first, frame)  # the tracks grew (and the step in the title)
+    assert SimrobotParallelEnv().render() is None
+
+
 def test_unsupported_settings_raise_input_errors() -> None:
     with pytest.raises(InputError, match="render_mode"):
         SimrobotParallelEnv(render_mode="human")

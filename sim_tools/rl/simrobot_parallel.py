@@ -18,6 +18,9 @@ sensors are :class:`simrobot_sim.model.SimrobotWorld`'s, stepped once per ``step
 - ``reset(seed=…, options={"random_start": True})`` (or ``random_start=True`` at construction)
   places the robots at random free poses drawn from the seed; otherwise at the file's poses.
 
+- ``render_mode="rgb_array"``: :meth:`render` draws the tracks so far on the map, with the code
+  of the track pictures.
+
 Deterministic: the same seed and actions give the same episode.
 """
 
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import copy
 import math
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, ClassVar
@@ -32,9 +36,11 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
+from PIL import Image
 
 from sim_runtime.errors import InputError
 from sim_runtime.paths import resolve_input_file
+from sim_runtime.track_plot import draw_tracks
 from simrobot_sim import raycast
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import RobotSpec, WorldSpec, load_world
@@ -65,7 +71,11 @@ class SimrobotParallelEnv(ParallelEnv):
     """One agent per robot of a SIMROBOT world (see the module's docstring for the spaces and the
     reward). Agents are named after the robots."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "name": "simrobot_parallel_v0", "is_parallelizable": True}
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array"],
+        "name": "simrobot_parallel_v0",
+        "is_parallelizable": True,
+    }
 
     def __init__(
         self,
@@ -79,8 +89,8 @@ class SimrobotParallelEnv(ParallelEnv):
     ) -> None:
         """``world_file``: a SIMROBOT world file (absolute, relative to the current directory, or to
         the shipped ``config/``). Every robot needs at least one sensor."""
-        if render_mode is not None:
-            raise InputError(f"render_mode: {render_mode!r} is not supported (none is)")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise InputError(f"render_mode: {render_mode!r} is not supported (None or 'rgb_array')")
         if not (math.isfinite(max_wheel_speed) and max_wheel_speed > 0):
             raise InputError(f"max_wheel_speed: expected a finite number > 0 (rad/s), got {max_wheel_speed!r}")
         self.render_mode = render_mode
@@ -208,9 +218,25 @@ class SimrobotParallelEnv(ParallelEnv):
                 return x, y
         raise InputError(f"{self.spec_file.source}: no free place for robot {name!r} found at random")
 
-    def render(self) -> None:
-        """No picture (``render_mode`` None)."""
-        return None
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the episode's tracks on the map so far (height, width, 3)
+        uint8, drawn by the code of the track pictures (``robot_sims`` demo, ``rerun_view tracks``)."""
+        if self.render_mode != "rgb_array":
+            return None
+        world = self.world
+        colors = {name: tuple(world.colors[i]) for i, name in enumerate(world.names)}
+        with tempfile.TemporaryDirectory() as folder:
+            png = draw_tracks(
+                np.asarray(self.spec_file.walls).T,  # OccupancyGrid layout: rows along y
+                world.resolution,
+                world.origin,
+                world.tracks(),
+                colors,
+                Path(folder) / "frame.png",
+                title=f"step {self._steps}",
+            )
+            with Image.open(png) as image:
+                return np.asarray(image.convert("RGB"))
 
     def close(self) -> None:
         """Nothing to release."""
