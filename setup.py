@@ -57,6 +57,7 @@ def shared_files(top: str) -> list[tuple[str, list[str]]]:
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 RAY = ["ray>=2.60"]
+RL = ["gymnasium>=1.0", "pettingzoo>=1.24"]
 
 
 def package_version() -> str:
@@ -115,15 +116,20 @@ setup(
             "scipy",  # .mat files for MATLAB users (bag_to_mat) and their tests
             "oct2py",  # SIMROBOT algorithm m-files driven from Python through Octave
             *RAY,
+            *RL,
         ],
         # `robot_sims batch --ray`: run sweeps on Ray (a local one, or a cluster).
         "ray": RAY,
+        # Learning environments (docs/learning.md): `gymnasium.make("robot_sims/CreateNav-v0")`.
+        "rl": RL,
         # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
         "bench": ["roboticstoolbox-python"],
     },
     entry_points={
         "console_scripts": ["robot_sims = sim_tools.cli:main"],
         "robot_sims.executables": [f"{name} = {target}" for name, (target, _what) in EXECUTABLES.items()],
+        # Gymnasium releases that load plugins register our ids from here (sim_tools/rl/registration.py).
+        "gymnasium.envs": ["robot_sims = sim_tools.rl.registration:register_envs"],
     },
     zip_safe=False,
 )

@@ -1,0 +1,228 @@
+"""``robot_sims/CreateNav-v0``: drive a Create to a goal region on a map file without bumping.
+
+A Gymnasium environment over the pure :class:`~create_sim.model.CreateModel` (no ROS): the same
+physics and sensor models as the ROS world, stepped at the world's physics rate.
+
+- **Action**: ``[v, ω]`` (m/s, rad/s) within the robot's limits (each wheel ±``MAX_WHEEL_SPEED``);
+  a pair beyond one wheel's limit is clamped per wheel, as the world does.
+- **Observation**: one float32 vector, the parts chosen by ``sensors`` in this order (each read
+  from the model in this order after every step, so noise draws are reproducible):
+  ``lidar`` (``lidar_beams`` ranges, m, evenly picked from the 681 beams, no return = max range),
+  ``sonar`` (4 ranges, m, [front, left, back, right], none = max range, too close = 0),
+  ``bump`` (left, right: 0/1), ``cliff`` (4 signals, %, as read: noise is unbounded), ``goal``
+  (distance m and bearing rad of the goal from the robot, as its noisy odometry believes it is:
+  the goal is given once, relative to the start, like a real robot's).
+- **Reward** per step: ``10 × (metres closer to the goal)`` (true pose) ``- 0.01``; reaching the
+  goal (centre within ``goal_radius_m``) adds ``+10`` and terminates; a bump adds ``-10`` and
+  terminates; ``max_steps`` steps truncate.
+- **Randomised per reset(seed=…)**: the start pose and the goal (poses clear of every wall in the
+  walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``), and the noise stream;
+  ``start``/``goal`` (constructor or ``reset(options=…)``) fix them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from create_sim import spec
+from create_sim.configfile import NoiseConfig, load_config
+from create_sim.mapfile import load_map
+from create_sim.model import CreateModel
+from sim_runtime.angles import wrap_angle
+from sim_runtime.errors import InputError
+from sim_runtime.paths import config_path
+from sim_tools.adapters.create.world import random_create_poses
+
+SENSORS = ("lidar", "sonar", "bump", "cliff", "goal")
+DEFAULT_SENSORS = ("lidar", "bump", "goal")
+#: The goal distance an observation reports at most (m).
+MAX_GOAL_DISTANCE_M = 20.0
+PROGRESS_REWARD = 10.0  # per metre closer to the goal
+STEP_COST = 0.01
+GOAL_REWARD = 10.0
+BUMP_PENALTY = 10.0
+#: A random start or goal is at least this clear of every wall (m).
+START_MARGIN_M = 0.1
+MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
+
+
+class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Navigate to a goal region without bumping (see the module's docstring)."""
+
+    metadata = {"render_modes": []}  # noqa: RUF012 (Gymnasium's own attribute)
+
+    def __init__(
+        self,
+        map_file: str | Path | None = None,
+        config_file: str | Path | None = None,
+        *,
+        sensors: Sequence[str] = DEFAULT_SENSORS,
+        lidar_beams: int = 24,
+        start: Sequence[float] | None = None,
+        goal: Sequence[float] | None = None,
+        goal_radius_m: float = 0.3,
+        control_period_s: float = 0.1,
+        max_steps: int = 600,
+        render_mode: str | None = None,
+    ) -> None:
+        self.sensors = _checked_sensors(sensors)
+        if render_mode is not None:
+            raise InputError(f"render_mode {render_mode!r}: CreateNav has no rendering yet (None only)")
+        if not 1 <= lidar_beams <= CreateModel.LIDAR_BEAMS:
+            raise InputError(f"lidar_beams {lidar_beams}: 1 to {CreateModel.LIDAR_BEAMS}")
+        self.map_file = str(map_file if map_file is not None else config_path("create/example.map"))
+        self.map = load_map(self.map_file)
+        self.noise = load_config(config_file) if config_file is not None else NoiseConfig()
+        self.start, self.goal = start, goal
+        self.goal_radius_m = float(goal_radius_m)
+        self.substeps = max(1, round(control_period_s * spec.PHYSICS_RATE))
+        self.max_steps = int(max_steps)
+        self.lidar_index = np.linspace(0, CreateModel.LIDAR_BEAMS - 1, lidar_beams).round().astype(int)
+        self.action_space = spaces.Box(
+            np.array([-CreateModel.MAX_WHEEL_SPEED, -MAX_W], dtype=np.float32),
+            np.array([CreateModel.MAX_WHEEL_SPEED, MAX_W], dtype=np.float32),
+        )
+        low, high = self._bounds()
+        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.model: CreateModel | None = None
+
+    # ----------------------------------------------------------------------------- spaces
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        parts = {
+            "lidar": (CreateModel.LIDAR_RANGE[0], CreateModel.LIDAR_RANGE[1], len(self.lidar_index)),
+            "sonar": (0.0, CreateModel.SONAR_RANGE[1], 4),
+            "bump": (0.0, 1.0, 2),
+            "cliff": (-np.inf, np.inf, 4),  # noise is unbounded
+        }
+        low: list[float] = []
+        high: list[float] = []
+        for name in self.sensors:
+            if name == "goal":
+                low += [0.0, -math.pi]
+                high += [MAX_GOAL_DISTANCE_M, math.pi]
+            else:
+                lo, hi, n = parts[name]
+                low += [lo] * n
+                high += [hi] * n
+        return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+    # ----------------------------------------------------------------------------- episode
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = options or {}
+        start, goal = self._start_and_goal(options.get("start", self.start), options.get("goal", self.goal))
+        #: The model's noise seed this episode (drawn from the env's seeded stream).
+        self.model_seed = int(self.np_random.integers(2**63 - 1))
+        self.model = CreateModel(self.map, self.noise, np.random.default_rng(self.model_seed), pose=start)
+        self.start_pose = tuple(float(v) for v in start)
+        self.goal_xy = (float(goal[0]), float(goal[1]))
+        # The goal in the odometry frame (odometry starts at (0, 0, 0) on the start pose).
+        dx, dy = self.goal_xy[0] - start[0], self.goal_xy[1] - start[1]
+        c, s = math.cos(start[2]), math.sin(start[2])
+        self.goal_odom = (c * dx + s * dy, -s * dx + c * dy)
+        self.steps = 0
+        self.distance_m = self._true_distance()
+        return self._observe(), self._info()
+
+    def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
+        """The fixed ones, the rest drawn clear of the walls from the env's seeded stream."""
+        drawn = random_create_poses(self.map_file, 2, int(self.np_random.integers(2**31)), START_MARGIN_M)
+        start = tuple(float(v) for v in start) if start is not None else drawn[0]
+        if len(start) != 3:
+            raise InputError(f"start {start}: x, y, theta")
+        goal = tuple(float(v) for v in goal) if goal is not None else drawn[1][:2]
+        if len(goal) != 2:
+            raise InputError(f"goal {goal}: x, y")
+        return start, goal
+
+    def step(self, action: np.ndarray):
+        model = self._model()
+        model.set_velocity(float(action[0]), float(action[1]))
+        for _ in range(self.substeps):
+            model.step(1.0 / spec.PHYSICS_RATE)
+        self.steps += 1
+        obs = self._observe()
+        before, self.distance_m = self.distance_m, self._true_distance()
+        reward = PROGRESS_REWARD * (before - self.distance_m) - STEP_COST
+        bumped = any(model.bumps())
+        reached = self.distance_m <= self.goal_radius_m
+        if reached:
+            reward += GOAL_REWARD
+        if bumped:
+            reward -= BUMP_PENALTY
+        truncated = self.steps >= self.max_steps and not (reached or bumped)
+        return obs, float(reward), bool(reached or bumped), truncated, self._info(bumped=bumped)
+
+    def _model(self) -> CreateModel:
+        if self.model is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        return self.model
+
+    # ----------------------------------------------------------------------------- readings
+    def _observe(self) -> np.ndarray:
+        return observation(self._model(), self.sensors, self.lidar_index, self.goal_odom)
+
+    def _true_distance(self) -> float:
+        x, y, _ = self._model().pose
+        return math.hypot(self.goal_xy[0] - x, self.goal_xy[1] - y)
+
+    def _info(self, bumped: bool = False) -> dict[str, Any]:
+        return {
+            "pose": self._model().pose,
+            "goal": np.array(self.goal_xy),
+            "distance_m": self.distance_m,
+            "bumped": bumped,
+            "is_success": self.distance_m <= self.goal_radius_m,
+        }
+
+
+def observation(
+    model: CreateModel, sensors: Sequence[str], lidar_index: np.ndarray, goal_odom: tuple[float, float]
+) -> np.ndarray:
+    """The observation vector of ``model`` now: the ``sensors`` read in the order of :data:`SENSORS`."""
+    parts = []
+    for name in SENSORS:
+        if name in sensors:
+            parts.append(_READERS[name](model, lidar_index, goal_odom))
+    return np.concatenate(parts).astype(np.float32)
+
+
+def _lidar(model: CreateModel, index: np.ndarray, _goal: Any) -> np.ndarray:
+    lo, hi = model.LIDAR_RANGE
+    return np.clip(model.lidar()[index], lo, hi)  # +inf (no return) → max range
+
+
+def _sonar(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
+    return np.clip(model.sonar(), 0.0, model.SONAR_RANGE[1])  # -inf (too close) → 0, +inf → max
+
+
+def _bump(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
+    return np.array(model.bumps(), dtype=float)
+
+
+def _cliff(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
+    return model.cliff_signals()
+
+
+def _goal(model: CreateModel, _index: Any, goal_odom: tuple[float, float]) -> np.ndarray:
+    x, y, th = model.odometry_pose
+    dx, dy = goal_odom[0] - x, goal_odom[1] - y
+    return np.array([min(math.hypot(dx, dy), MAX_GOAL_DISTANCE_M), wrap_angle(math.atan2(dy, dx) - th)])
+
+
+_READERS = {"lidar": _lidar, "sonar": _sonar, "bump": _bump, "cliff": _cliff, "goal": _goal}
+
+
+def _checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:
+    chosen = tuple(sensors)
+    unknown = [s for s in chosen if s not in SENSORS]
+    if unknown or not chosen:
+        raise InputError(f"sensors {list(chosen)}: choose one or more of {list(SENSORS)}")
+    return tuple(s for s in SENSORS if s in chosen)

@@ -1,0 +1,157 @@
+"""The Gymnasium environments over the pure models: Gymnasium's own checker, seeding, the physics."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from create_sim import spec
+from create_sim.configfile import load_config
+from create_sim.mapfile import load_map
+from create_sim.model import CreateModel
+from sim_runtime.errors import InputError
+from sim_runtime.paths import config_path
+from sim_tools.rl.arm_reach import ArmReachEnv, pose_error
+from sim_tools.rl.create_nav import SENSORS, CreateNavEnv
+
+NOISY = str(config_path("create/example_config.txt"))
+
+
+def _checked(env: gymnasium.Env) -> None:
+    with warnings.catch_warnings():
+        # the checker advises [-1, 1] action boxes; ours are the robots' own units by design
+        warnings.filterwarnings("ignore", message=".*symmetric and normalized space.*")
+        # the cliff signals are unbounded (their noise is): the observation box says so
+        warnings.filterwarnings("ignore", message=".*Box observation space m.* is .*infinity.*")
+        check_env(env, skip_render_check=True)
+
+
+def _episode(env: gymnasium.Env, seed: int, steps: int) -> list[np.ndarray]:
+    obs, _info = env.reset(seed=seed)
+    env.action_space.seed(seed)
+    seen = [obs]
+    for _ in range(steps):
+        obs, reward, terminated, truncated, _info = env.step(env.action_space.sample())
+        seen += [obs, np.array([reward])]
+        if terminated or truncated:
+            obs, _info = env.reset()
+            seen.append(obs)
+    return seen
+
+
+def test_create_nav_passes_gymnasiums_env_checker_with_every_sensor_and_noise():
+    _checked(CreateNavEnv(config_file=NOISY, sensors=SENSORS))
+
+
+@pytest.mark.parametrize("robot", ["irb120", "csa7"])
+def test_arm_reach_passes_gymnasiums_env_checker(robot):
+    _checked(ArmReachEnv(robot))
+
+
+def test_the_same_seed_gives_the_same_create_episode_and_another_seed_another():
+    make = lambda: CreateNavEnv(config_file=NOISY, sensors=SENSORS, max_steps=50)  # noqa: E731
+    first, again, other = _episode(make(), 7, 120), _episode(make(), 7, 120), _episode(make(), 8, 120)
+    assert len(first) == len(again)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    assert not np.array_equal(first[0], other[0])
+
+
+def test_the_same_seed_gives_the_same_arm_episode():
+    first = _episode(ArmReachEnv("csa7", max_steps=40), 3, 60)
+    again = _episode(ArmReachEnv("csa7", max_steps=40), 3, 60)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+
+
+def _readings(model: CreateModel) -> np.ndarray:
+    """Every sensor but the goal, read straight from the model in the env's documented order."""
+    lidar, sonar, bump, cliff = model.lidar(), model.sonar(), model.bumps(), model.cliff_signals()
+    parts = [np.clip(lidar, *model.LIDAR_RANGE), np.clip(sonar, 0.0, model.SONAR_RANGE[1]), bump, cliff]
+    return np.concatenate(parts).astype(np.float32)
+
+
+def test_an_action_sequence_through_the_env_equals_stepping_the_create_model_directly():
+    start = (-1.5, -1.0, 0.3)
+    env = CreateNavEnv(config_file=NOISY, sensors=SENSORS, lidar_beams=681, start=start, goal=(3.0, 1.0))
+    obs, _info = env.reset(seed=11)
+    model = CreateModel(
+        load_map(config_path("create/example.map")), load_config(NOISY), np.random.default_rng(env.model_seed), start
+    )
+    assert np.array_equal(obs[:-2], _readings(model))
+    rng = np.random.default_rng(0)
+    for k in range(60):
+        action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        obs, _r, terminated, _t, info = env.step(action)
+        model.set_velocity(float(action[0]), float(action[1]))
+        for _ in range(round(0.1 * spec.PHYSICS_RATE)):
+            model.step(1.0 / spec.PHYSICS_RATE)
+        assert np.array_equal(obs[:-2], _readings(model)), f"step {k}"
+        assert np.array_equal(info["pose"], model.pose)
+        if terminated:
+            break
+    assert k > 10  # long enough to compare (no bump at once)
+
+
+def test_driving_into_a_wall_ends_the_episode_with_the_bump_penalty():
+    # 0.25 m from the outer wall at x = -2, facing it
+    env = CreateNavEnv(start=(-1.75 + 0.01, 0.0, np.pi), goal=(3.0, 0.0), sensors=("bump", "goal"))
+    env.reset(seed=0)
+    for _ in range(20):
+        obs, reward, terminated, truncated, info = env.step(np.array([0.3, 0.0], dtype=np.float32))
+        if terminated:
+            break
+    assert terminated and info["bumped"] and not truncated
+    assert reward < -9.0
+    assert obs[:2].tolist() == [1.0, 1.0]  # both bumpers: a hit in front
+
+
+def test_reaching_the_goal_ends_the_episode_with_the_goal_reward():
+    env = CreateNavEnv(start=(-1.5, -1.0, 0.0), goal=(-1.0, -1.0), sensors=("goal",), goal_radius_m=0.1)
+    obs, _info = env.reset(seed=0)
+    assert obs[0] == pytest.approx(0.5, abs=1e-6) and obs[1] == pytest.approx(0.0, abs=1e-6)
+    for _ in range(30):
+        _obs, reward, terminated, _truncated, info = env.step(np.array([0.3, 0.0], dtype=np.float32))
+        if terminated:
+            break
+    assert terminated and info["is_success"] and reward > 9.0
+
+
+def test_the_step_limit_truncates_a_create_episode():
+    env = CreateNavEnv(start=(-1.5, -1.0, 0.0), goal=(3.0, 1.0), max_steps=5)
+    env.reset(seed=0)
+    results = [env.step(np.zeros(2, dtype=np.float32)) for _ in range(5)]
+    assert [r[3] for r in results] == [False] * 4 + [True]
+    assert not any(r[2] for r in results)
+
+
+def test_a_resolved_rate_controller_reaches_the_target_of_the_7_dof_arm():
+    env = ArmReachEnv("csa7", tolerance_m=0.005)
+    env.reset(seed=1)
+    for _ in range(200):
+        qd = np.linalg.pinv(env.arm.jacob0(env.q)) @ (5.0 * pose_error(env.target, env.arm.fkine(env.q)))
+        _obs, _reward, terminated, truncated, info = env.step(qd.astype(np.float32))
+        if terminated or truncated:
+            break
+    assert terminated and info["is_success"] and info["position_error_m"] <= 0.005
+
+
+def test_the_ids_make_the_envs_through_gymnasium():
+    env = gymnasium.make("sim_tools.rl:robot_sims/CreateNav-v0", sensors=("lidar", "goal"), lidar_beams=8)
+    obs, _info = env.reset(seed=0)
+    assert obs.shape == (10,)
+    arm = gymnasium.make("robot_sims/ArmReach-v0", robot="csa7")
+    assert arm.reset(seed=0)[0].shape == (7 + 6,)
+
+
+def test_bad_options_raise_input_errors_that_say_what_is_allowed():
+    with pytest.raises(InputError, match="choose one or more of"):
+        CreateNavEnv(sensors=("radar",))
+    with pytest.raises(InputError, match="inside a wall"):
+        CreateNavEnv(start=(-2.0, 0.0, 0.0)).reset(seed=0)
+    with pytest.raises(InputError, match="6 joint positions within the limits"):
+        ArmReachEnv("irb120", start=[0.0] * 5)
+    with pytest.raises(InputError, match="None only"):
+        CreateNavEnv(render_mode="rgb_array")
