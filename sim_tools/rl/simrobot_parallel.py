@@ -43,7 +43,7 @@ from sim_runtime.paths import resolve_input_file
 from sim_runtime.track_plot import draw_tracks
 from simrobot_sim import raycast
 from simrobot_sim.model import SimrobotWorld
-from simrobot_sim.world_file import RobotSpec, WorldSpec, load_world
+from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec, load_world
 
 #: The shipped world used when none is given (four robots, one ultrasonic sensor each).
 DEFAULT_WORLD = "simrobot/demo.yaml"
@@ -65,6 +65,11 @@ def _observation_size(robot: RobotSpec) -> int:
 def _normalised(distance: np.ndarray, max_range: float) -> np.ndarray:
     # distance / range in [0, 1]; no echo (inf) reads 1
     return np.minimum(distance / max_range, 1.0)
+
+
+def _world(spec: WorldSpec) -> SimrobotWorld:
+    # the file's threads (results are the same whatever the number); wide ids beyond 254 robots
+    return SimrobotWorld(spec, wide_ids=len(spec.robots) > MAX_ROBOTS_UINT8)
 
 
 class SimrobotParallelEnv(ParallelEnv):
@@ -113,8 +118,12 @@ class SimrobotParallelEnv(ParallelEnv):
         }
         self.agents: list[str] = []
         self._clearance = raycast.clearance_field(self.spec_file.walls)
-        self._template = SimrobotWorld(self.spec_file, threads=1)
+        self._template = _world(self.spec_file)
         self._template.compile_kernels()
+        #: Each robot's sensor numbers in the world, in file order.
+        self._sensors_of: list[list[int]] = [[] for _ in self.possible_agents]
+        for k, sensor in enumerate(self._template.sensors):
+            self._sensors_of[sensor.robot].append(k)
         self.world = self._template
         self._steps = 0
 
@@ -135,7 +144,7 @@ class SimrobotParallelEnv(ParallelEnv):
             self.np_random = np.random.default_rng(seed)
         random_start = (options or {}).get("random_start", self.random_start)
         if random_start:
-            self.world = SimrobotWorld(replace(self.spec_file, robots=self._random_robots()), threads=1)
+            self.world = _world(replace(self.spec_file, robots=self._random_robots()))
         else:
             self.world = self._fresh_template()
         self.agents = list(self.possible_agents)
@@ -181,9 +190,8 @@ class SimrobotParallelEnv(ParallelEnv):
         # robot i's sensors, normalised (see the module's docstring)
         world = self.world
         parts = []
-        for k, sensor in enumerate(world.sensors):
-            if sensor.robot != i:
-                continue
+        for k in self._sensors_of[i]:
+            sensor = world.sensors[k]
             if sensor.kind == "ultrasonic":
                 parts.append(_normalised(np.array([world.nearest(k)[0]]), sensor.range))
             else:
