@@ -146,6 +146,20 @@ def test_the_ids_make_the_envs_through_gymnasium():
     assert arm.reset(seed=0)[0].shape == (7 + 6,)
 
 
+def test_create_nav_renders_the_walls_and_the_track_as_an_rgb_array():
+    env = CreateNavEnv(render_mode="rgb_array", start=(-1.5, -1.0, 0.0), goal=(3.0, 1.0))
+    env.reset(seed=0)
+    before = env.render()
+    for _ in range(20):
+        env.step(np.array([0.3, 0.5], dtype=np.float32))
+    frame = env.render()
+    assert frame is not None and before is not None
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    assert (frame.min(axis=2) < 60).sum() > 1000  # the walls, in black
+    assert not np.array_equal(frame, before)  # the track grew
+    assert CreateNavEnv().render() is None  # no render_mode: nothing drawn
+
+
 def test_bad_options_raise_input_errors_that_say_what_is_allowed():
     with pytest.raises(InputError, match="choose one or more of"):
         CreateNavEnv(sensors=("radar",))
@@ -153,5 +167,5 @@ def test_bad_options_raise_input_errors_that_say_what_is_allowed():
         CreateNavEnv(start=(-2.0, 0.0, 0.0)).reset(seed=0)
     with pytest.raises(InputError, match="6 joint positions within the limits"):
         ArmReachEnv("irb120", start=[0.0] * 5)
-    with pytest.raises(InputError, match="None only"):
-        CreateNavEnv(render_mode="rgb_array")
+    with pytest.raises(InputError, match="None or 'rgb_array'"):
+        CreateNavEnv(render_mode="human")

@@ -18,11 +18,14 @@ physics and sensor models as the ROS world, stepped at the world's physics rate.
 - **Randomised per reset(seed=…)**: the start pose and the goal (poses clear of every wall in the
   walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``), and the noise stream;
   ``start``/``goal`` (constructor or ``reset(options=…)``) fix them.
+- ``render_mode="rgb_array"``: :meth:`~CreateNavEnv.render` draws the walls, the track so far and
+  the goal with the code of the track pictures (``draw_tracks``).
 """
 
 from __future__ import annotations
 
 import math
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -56,7 +59,7 @@ MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning i
 class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
     """Navigate to a goal region without bumping (see the module's docstring)."""
 
-    metadata = {"render_modes": []}  # noqa: RUF012 (Gymnasium's own attribute)
+    metadata = {"render_modes": ["rgb_array"]}  # noqa: RUF012 (Gymnasium's own attribute)
 
     def __init__(
         self,
@@ -73,8 +76,9 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
     ) -> None:
         self.sensors = _checked_sensors(sensors)
-        if render_mode is not None:
-            raise InputError(f"render_mode {render_mode!r}: CreateNav has no rendering yet (None only)")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise InputError(f"render_mode {render_mode!r}: None or 'rgb_array'")
+        self.render_mode = render_mode
         if not 1 <= lidar_beams <= CreateModel.LIDAR_BEAMS:
             raise InputError(f"lidar_beams {lidar_beams}: 1 to {CreateModel.LIDAR_BEAMS}")
         self.map_file = str(map_file if map_file is not None else config_path("create/example.map"))
@@ -92,6 +96,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.model: CreateModel | None = None
+        self.track: list[tuple[float, float]] = []
+        self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
 
     # ----------------------------------------------------------------------------- spaces
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -129,6 +135,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.goal_odom = (c * dx + s * dy, -s * dx + c * dy)
         self.steps = 0
         self.distance_m = self._true_distance()
+        self.track = [(float(start[0]), float(start[1]))]
         return self._observe(), self._info()
 
     def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
@@ -148,6 +155,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         for _ in range(self.substeps):
             model.step(1.0 / spec.PHYSICS_RATE)
         self.steps += 1
+        self.track.append((float(model.pose[0]), float(model.pose[1])))
         obs = self._observe()
         before, self.distance_m = self.distance_m, self._true_distance()
         reward = PROGRESS_REWARD * (before - self.distance_m) - STEP_COST
@@ -164,6 +172,35 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.model is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         return self.model
+
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the walls, the track since reset and the goal,
+        (height, width, 3) uint8, drawn by the track pictures' code."""
+        if self.render_mode != "rgb_array":
+            return None
+        self._model()  # ResetNeeded before the first reset
+        from PIL import Image
+
+        from sim_runtime.track_plot import draw_tracks
+        from sim_tools.rerun_view.tracks import RASTER_RESOLUTION
+
+        walls, origin = self._walls()
+        tracks = {"create": np.array(self.track), "goal": np.array([self.goal_xy])}
+        colors = {"create": (0.1, 0.4, 0.9), "goal": (0.1, 0.8, 0.2)}
+        with tempfile.TemporaryDirectory() as folder:
+            png = draw_tracks(
+                walls, RASTER_RESOLUTION, origin, tracks, colors, Path(folder) / "frame.png", title=f"step {self.steps}"
+            )
+            with Image.open(png) as image:
+                return np.asarray(image.convert("RGB"))
+
+    def _walls(self) -> tuple[np.ndarray, tuple[float, float]]:
+        """The map's walls as an occupancy image, rasterised once (as the bags' track pictures are)."""
+        if self._walls_image is None:
+            from sim_tools.rerun_view.tracks import _rasterise
+
+            self._walls_image = _rasterise(np.asarray(self.map.walls, dtype=float).reshape(-1, 2, 2), [])
+        return self._walls_image
 
     # ----------------------------------------------------------------------------- readings
     def _observe(self) -> np.ndarray:
