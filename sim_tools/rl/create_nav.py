@@ -59,7 +59,8 @@ MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning i
 class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
     """Navigate to a goal region without bumping (see the module's docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"]}  # noqa: RUF012 (Gymnasium's own attribute)
+    # render_fps: one frame per step at the default control period (0.1 s)
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012 (Gymnasium's own attribute)
 
     def __init__(
         self,
