@@ -144,6 +144,8 @@ def test_the_ids_make_the_envs_through_gymnasium():
     assert obs.shape == (10,)
     arm = gymnasium.make("robot_sims/ArmReach-v0", robot="csa7")
     assert arm.reset(seed=0)[0].shape == (7 + 6,)
+    many = gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=3, sensors=("goal",))
+    assert many.reset(seed=0)[0].shape == (3, 2)
 
 
 def test_create_nav_renders_the_walls_and_the_track_as_an_rgb_array():

@@ -14,6 +14,8 @@ ENVS = {
     "CreateNav-v0": "sim_tools.rl.create_nav:CreateNavEnv",
     "ArmReach-v0": "sim_tools.rl.arm_reach:ArmReachEnv",
 }
+#: id → ``module:function(num_envs, **kwargs)`` that ``gymnasium.make_vec`` uses.
+VECTOR_ENVS = {"CreateNav-v0": "sim_tools.rl.vector_create:vector_create_nav"}
 
 
 def register_envs() -> None:
@@ -24,4 +26,4 @@ def register_envs() -> None:
         env_id = f"{NAMESPACE}/{name}"
         if env_id not in gymnasium.registry:
             # The envs truncate themselves (max_steps): no TimeLimit wrapper on top.
-            gymnasium.register(id=env_id, entry_point=entry_point)
+            gymnasium.register(id=env_id, entry_point=entry_point, vector_entry_point=VECTOR_ENVS.get(name))
