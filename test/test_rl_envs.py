@@ -15,7 +15,10 @@ from create_sim.mapfile import load_map
 from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
+from sim_tools.adapters.contract import EpisodeData
+from sim_tools.adapters.create.world import COVERAGE_CELL_M, create_area_covered_m2
 from sim_tools.rl.arm_reach import ArmReachEnv, pose_error
+from sim_tools.rl.create_cover import CreateCoverEnv, disc_cells
 from sim_tools.rl.create_nav import SENSORS, CreateNavEnv
 
 NOISY = str(config_path("create/example_config.txt"))
@@ -50,6 +53,29 @@ def test_create_nav_passes_gymnasiums_env_checker_with_every_sensor_and_noise():
 @pytest.mark.parametrize("robot", ["irb120", "csa7"])
 def test_arm_reach_passes_gymnasiums_env_checker(robot):
     _checked(ArmReachEnv(robot))
+
+
+def test_create_cover_passes_gymnasiums_env_checker():
+    _checked(CreateCoverEnv(config_file=NOISY, sensors=("lidar", "sonar", "bump", "cliff")))
+
+
+def test_create_cover_counts_the_area_as_the_batch_metric_does_and_rewards_it():
+    env = CreateCoverEnv(start=(-1.5, -1.0, 0.0), max_steps=80)
+    env.reset(seed=0)
+    rewards = []
+    for _ in range(80):
+        _obs, reward, terminated, truncated, info = env.step(np.array([0.3, 0.6], dtype=np.float32))
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    xy = np.array(env.track)
+    data = EpisodeData(np.arange(len(xy)) * 0.1, {"x": xy[:, 0], "y": xy[:, 1]}, {"radius_m": CreateModel.RADIUS})
+    assert info["area_covered_m2"] == pytest.approx(create_area_covered_m2(data))
+    assert info["area_covered_m2"] > 0.5
+    # reset counts the start's cells unrewarded; each step pays 100 per m² it adds, a bump costs 10
+    at_start = len(disc_cells(CreateModel.RADIUS, COVERAGE_CELL_M)) * COVERAGE_CELL_M**2
+    paid = 100.0 * (info["area_covered_m2"] - at_start) - 0.01 * len(rewards) - 10.0 * info["bumped"]
+    assert sum(rewards) == pytest.approx(paid)
 
 
 def test_the_same_seed_gives_the_same_create_episode_and_another_seed_another():
@@ -169,5 +195,7 @@ def test_bad_options_raise_input_errors_that_say_what_is_allowed():
         CreateNavEnv(start=(-2.0, 0.0, 0.0)).reset(seed=0)
     with pytest.raises(InputError, match="6 joint positions within the limits"):
         ArmReachEnv("irb120", start=[0.0] * 5)
+    with pytest.raises(InputError, match="CreateCover has no goal"):
+        CreateCoverEnv(sensors=("lidar", "goal"))
     with pytest.raises(InputError, match="None or 'rgb_array'"):
         CreateNavEnv(render_mode="human")

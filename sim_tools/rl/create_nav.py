@@ -53,6 +53,8 @@ GOAL_REWARD = 10.0
 BUMP_PENALTY = 10.0
 #: A random start or goal is at least this clear of every wall (m).
 START_MARGIN_M = 0.1
+TRACK_COLOR = (0.1, 0.4, 0.9)
+GOAL_COLOR = (0.1, 0.8, 0.2)
 MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
 
 
@@ -151,12 +153,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return start, goal
 
     def step(self, action: np.ndarray):
-        model = self._model()
-        model.set_velocity(float(action[0]), float(action[1]))
-        for _ in range(self.substeps):
-            model.step(1.0 / spec.PHYSICS_RATE)
-        self.steps += 1
-        self.track.append((float(model.pose[0]), float(model.pose[1])))
+        model = self._advance(action)
         obs = self._observe()
         before, self.distance_m = self.distance_m, self._true_distance()
         reward = PROGRESS_REWARD * (before - self.distance_m) - STEP_COST
@@ -168,6 +165,16 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
             reward -= BUMP_PENALTY
         truncated = self.steps >= self.max_steps and not (reached or bumped)
         return obs, float(reward), bool(reached or bumped), truncated, self._info(bumped=bumped)
+
+    def _advance(self, action: np.ndarray) -> CreateModel:
+        """One control period at the action's (v, ω), the track extended."""
+        model = self._model()
+        model.set_velocity(float(action[0]), float(action[1]))
+        for _ in range(self.substeps):
+            model.step(1.0 / spec.PHYSICS_RATE)
+        self.steps += 1
+        self.track.append((float(model.pose[0]), float(model.pose[1])))
+        return model
 
     def _model(self) -> CreateModel:
         if self.model is None:
@@ -186,14 +193,18 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         from sim_tools.rerun_view.tracks import RASTER_RESOLUTION
 
         walls, origin = self._walls()
-        tracks = {"create": np.array(self.track), "goal": np.array([self.goal_xy])}
-        colors = {"create": (0.1, 0.4, 0.9), "goal": (0.1, 0.8, 0.2)}
+        tracks, colors = self._drawn()
         with tempfile.TemporaryDirectory() as folder:
             png = draw_tracks(
                 walls, RASTER_RESOLUTION, origin, tracks, colors, Path(folder) / "frame.png", title=f"step {self.steps}"
             )
             with Image.open(png) as image:
                 return np.asarray(image.convert("RGB"))
+
+    def _drawn(self) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, float, float]]]:
+        """What :meth:`render` draws: tracks (name → (N, 2) xy) and their colours."""
+        tracks = {"create": np.array(self.track), "goal": np.array([self.goal_xy])}
+        return tracks, {"create": TRACK_COLOR, "goal": GOAL_COLOR}
 
     def _walls(self) -> tuple[np.ndarray, tuple[float, float]]:
         """The map's walls as an occupancy image, rasterised once (as the bags' track pictures are)."""

@@ -12,6 +12,7 @@ NAMESPACE = "robot_sims"
 #: id (without the namespace) → ``module:Class``.
 ENVS = {
     "CreateNav-v0": "sim_tools.rl.create_nav:CreateNavEnv",
+    "CreateCover-v0": "sim_tools.rl.create_cover:CreateCoverEnv",
     "ArmReach-v0": "sim_tools.rl.arm_reach:ArmReachEnv",
 }
 #: id → ``module:function(num_envs, **kwargs)`` that ``gymnasium.make_vec`` uses.
