@@ -20,6 +20,7 @@ from sim_tools.adapters.create.world import COVERAGE_CELL_M, create_area_covered
 from sim_tools.rl.arm_reach import ArmReachEnv, pose_error
 from sim_tools.rl.create_cover import CreateCoverEnv, disc_cells
 from sim_tools.rl.create_nav import SENSORS, CreateNavEnv
+from sim_tools.rl.create_regions import FloorRegions
 
 NOISY = str(config_path("create/example_config.txt"))
 
@@ -76,6 +77,21 @@ def test_create_cover_counts_the_area_as_the_batch_metric_does_and_rewards_it():
     at_start = len(disc_cells(CreateModel.RADIUS, COVERAGE_CELL_M)) * COVERAGE_CELL_M**2
     paid = 100.0 * (info["area_covered_m2"] - at_start) - 0.01 * len(rewards) - 10.0 * info["bumped"]
     assert sum(rewards) == pytest.approx(paid)
+
+
+def test_random_goals_are_reachable_from_the_start_and_outside_the_goal_region():
+    regions = FloorRegions(load_map(config_path("create/example.map")).walls, CreateModel.RADIUS)
+    # the example map's box (-1.2..-0.6, 0.8..1.4) is closed: its inside is a region of its own
+    assert not regions.connected((-1.5, -1.0), (-0.9, 1.1))
+    assert regions.connected((-1.5, -1.0), (3.0, 1.0))  # through the doorway
+    env = CreateNavEnv(sensors=("goal",))
+    for seed in range(30):
+        _obs, info = env.reset(seed=seed)
+        assert info["distance_m"] > 2 * env.goal_radius_m
+        assert regions.connected(info["pose"], info["goal"])
+    inside = CreateNavEnv(start=(-0.9, 1.1, 0.0), sensors=("goal",))
+    with pytest.raises(InputError, match="no reachable goal"):
+        inside.reset(seed=0)  # a 0.6 m box has no goal 0.6 m from its centre
 
 
 def test_the_same_seed_gives_the_same_create_episode_and_another_seed_another():

@@ -16,7 +16,8 @@ physics and sensor models as the ROS world, stepped at the world's physics rate.
   goal (centre within ``goal_radius_m``) adds ``+10`` and terminates; a bump adds ``-10`` and
   terminates; ``max_steps`` steps truncate.
 - **Randomised per reset(seed=…)**: the start pose and the goal (poses clear of every wall in the
-  walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``), and the noise stream;
+  walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``, the goal reachable from
+  the start (:mod:`~sim_tools.rl.create_regions`) and outside the goal region), and the noise stream;
   ``start``/``goal`` (constructor or ``reset(options=…)``) fix them.
 - ``render_mode="rgb_array"``: :meth:`~CreateNavEnv.render` draws the walls, the track so far and
   the goal with the code of the track pictures (``draw_tracks``).
@@ -42,6 +43,7 @@ from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
 from sim_tools.adapters.create.world import random_create_poses
+from sim_tools.rl.create_regions import map_regions
 
 SENSORS = ("lidar", "sonar", "bump", "cliff", "goal")
 DEFAULT_SENSORS = ("lidar", "bump", "goal")
@@ -53,6 +55,8 @@ GOAL_REWARD = 10.0
 BUMP_PENALTY = 10.0
 #: A random start or goal is at least this clear of every wall (m).
 START_MARGIN_M = 0.1
+#: Random draws of a start and goal before giving up (a map with no room for a fair pair).
+MAX_DRAWS = 100
 TRACK_COLOR = (0.1, 0.4, 0.9)
 GOAL_COLOR = (0.1, 0.8, 0.2)
 MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
@@ -142,15 +146,25 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._observe(), self._info()
 
     def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
-        """The fixed ones, the rest drawn clear of the walls from the env's seeded stream."""
-        drawn = random_create_poses(self.map_file, 2, int(self.np_random.integers(2**31)), START_MARGIN_M)
-        start = tuple(float(v) for v in start) if start is not None else drawn[0]
-        if len(start) != 3:
-            raise InputError(f"start {start}: x, y, theta")
-        goal = tuple(float(v) for v in goal) if goal is not None else drawn[1][:2]
-        if len(goal) != 2:
-            raise InputError(f"goal {goal}: x, y")
-        return start, goal
+        """The fixed ones, the rest drawn from the env's seeded stream: clear of the walls, the goal
+        reachable from the start and outside the goal region."""
+        for _ in range(MAX_DRAWS):
+            drawn = random_create_poses(self.map_file, 2, int(self.np_random.integers(2**31)), START_MARGIN_M)
+            pose = tuple(float(v) for v in start) if start is not None else drawn[0]
+            if len(pose) != 3:
+                raise InputError(f"start {pose}: x, y, theta")
+            xy = tuple(float(v) for v in goal) if goal is not None else drawn[1][:2]
+            if len(xy) != 2:
+                raise InputError(f"goal {xy}: x, y")
+            if (start is not None and goal is not None) or self._fair(pose, xy):
+                return pose, xy
+        raise InputError(f"{self.map_file}: no reachable goal found for start {start} / goal {goal}")
+
+    def _fair(self, start: tuple[float, ...], goal: tuple[float, ...]) -> bool:
+        far = math.hypot(goal[0] - start[0], goal[1] - start[1]) > 2.0 * self.goal_radius_m
+        regions = map_regions(self.map_file, CreateModel.RADIUS)
+        # a start given on no free square (hard by a wall, or in one: the model says) is not judged
+        return far and (regions.region(start[0], start[1]) < 0 or regions.connected(start, goal))
 
     def step(self, action: np.ndarray):
         model = self._advance(action)
