@@ -180,6 +180,22 @@ def test_a_resolved_rate_controller_reaches_the_target_of_the_7_dof_arm():
     assert terminated and info["is_success"] and info["position_error_m"] <= 0.005
 
 
+@pytest.mark.parametrize("axis", [(0.0, 0.0, 1.0), (0.6, 0.0, 0.8), (0.0, 1.0, 0.0)])
+@pytest.mark.parametrize("angle", [0.0, 1e-12, 0.3, 2.0, np.pi])
+def test_the_arms_rotation_error_is_the_rotation_vector_between_the_poses(axis, angle):
+    k = np.array(axis)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    target = np.eye(4)
+    target[:3, :3] = np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * K @ K  # Rodrigues
+    target[:3, 3] = (0.1, -0.2, 0.3)
+    error = pose_error(target, np.eye(4))
+    assert error[:3] == pytest.approx([0.1, -0.2, 0.3])
+    if angle == np.pi:  # a half turn about k is one about -k too
+        assert abs(float(error[3:] @ k)) == pytest.approx(np.pi) and np.linalg.norm(error[3:]) == pytest.approx(np.pi)
+    else:
+        assert error[3:] == pytest.approx(angle * k, abs=1e-12)
+
+
 def test_the_ids_make_the_envs_through_gymnasium():
     env = gymnasium.make("sim_tools.rl:robot_sims/CreateNav-v0", sensors=("lidar", "goal"), lidar_beams=8)
     obs, _info = env.reset(seed=0)

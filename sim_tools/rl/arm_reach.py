@@ -103,8 +103,9 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._observe()
 
     def step(self, action: np.ndarray):
-        qd = np.clip(np.asarray(action, dtype=float), -self.arm.velocity_limits, self.arm.velocity_limits)
-        self.q = np.clip(self.q + qd * self.dt, self.arm.lower, self.arm.upper)
+        limit = self.arm.velocity_limits
+        qd = np.minimum(np.maximum(np.asarray(action, dtype=float), -limit), limit)
+        self.q = np.minimum(np.maximum(self.q + qd * self.dt, self.arm.lower), self.arm.upper)
         self.steps += 1
         obs, info = self._observe()
         reached = info["position_error_m"] <= self.tolerance_m and info["rotation_error_rad"] <= self.tolerance_rad
@@ -116,29 +117,30 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return obs, float(reward), bool(reached), truncated, info
 
     def _observe(self) -> tuple[np.ndarray, dict[str, Any]]:
-        error = pose_error(self.target, self.arm.fkine(self.q))
-        obs = np.concatenate([self.q, np.clip(error[:3], -MAX_POSITION_ERROR_M, MAX_POSITION_ERROR_M), error[3:]])
-        info = {
-            "position_error_m": float(np.linalg.norm(error[:3])),
-            "rotation_error_rad": float(np.linalg.norm(error[3:])),
-        }
-        return obs.astype(np.float32), info
+        error = pose_error(self.target, self.arm.fkine(self.q)).tolist()
+        cap = MAX_POSITION_ERROR_M
+        position = [min(max(e, -cap), cap) for e in error[:3]]
+        obs = np.array(self.q.tolist() + position + error[3:], dtype=np.float32)
+        info = {"position_error_m": math.hypot(*error[:3]), "rotation_error_rad": math.hypot(*error[3:])}
+        return obs, info
 
 
 def pose_error(target: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """6-vector from ``pose`` to ``target`` (4x4 each): position difference and the rotation vector
     of ``R_target Rᵀ`` (world frame, angle in [0, π])."""
     R = target[:3, :3] @ pose[:3, :3].T
-    skew = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    sine2 = float(np.linalg.norm(skew))  # 2 sin(angle)
-    angle = math.atan2(sine2, float(np.trace(R)) - 1.0)
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
+    skew = (r21 - r12, r02 - r20, r10 - r01)
+    sine2 = math.hypot(*skew)  # 2 sin(angle)
+    angle = math.atan2(sine2, r00 + r11 + r22 - 1.0)
     if sine2 > 1e-9:
-        rotvec = skew * (angle / sine2)
+        rotvec = [c * (angle / sine2) for c in skew]
     elif angle < 1.0:
-        rotvec = 0.5 * skew  # tiny rotation
+        rotvec = [0.5 * c for c in skew]  # tiny rotation
     else:
         # a half turn: the axis is the column of R + I with the largest norm
         axes = R + np.eye(3)
         axis = axes[:, int(np.argmax(np.linalg.norm(axes, axis=0)))]
-        rotvec = math.pi * axis / np.linalg.norm(axis)
-    return np.concatenate([target[:3, 3] - pose[:3, 3], rotvec])
+        rotvec = (math.pi * axis / np.linalg.norm(axis)).tolist()
+    (dx, dy, dz) = (target[:3, 3] - pose[:3, 3]).tolist()
+    return np.array([dx, dy, dz, *rotvec])

@@ -83,6 +83,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
     ) -> None:
         self.sensors = _checked_sensors(sensors)
+        self._readers = [_READERS[name] for name in self.sensors]
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InputError(f"render_mode {render_mode!r}: None or 'rgb_array'")
         self.render_mode = render_mode
@@ -141,8 +142,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         c, s = math.cos(start[2]), math.sin(start[2])
         self.goal_odom = (c * dx + s * dy, -s * dx + c * dy)
         self.steps = 0
-        self.distance_m = self._true_distance()
         self.track = [(float(start[0]), float(start[1]))]
+        self.distance_m = self._true_distance()
         return self._observe(), self._info()
 
     def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
@@ -187,7 +188,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         for _ in range(self.substeps):
             model.step(1.0 / spec.PHYSICS_RATE)
         self.steps += 1
-        self.track.append((float(model.pose[0]), float(model.pose[1])))
+        x, y, _ = model.pose.tolist()
+        self.track.append((x, y))
         return model
 
     def _model(self) -> CreateModel:
@@ -230,10 +232,12 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
 
     # ----------------------------------------------------------------------------- readings
     def _observe(self) -> np.ndarray:
-        return observation(self._model(), self.sensors, self.lidar_index, self.goal_odom)
+        """The chosen sensors, read in the order of :data:`SENSORS` (their noise draws in that order)."""
+        model, index, goal = self._model(), self.lidar_index, self.goal_odom
+        return np.concatenate([read(model, index, goal) for read in self._readers]).astype(np.float32)
 
     def _true_distance(self) -> float:
-        x, y, _ = self._model().pose
+        x, y = self.track[-1]  # where the body is now
         return math.hypot(self.goal_xy[0] - x, self.goal_xy[1] - y)
 
     def _info(self, bumped: bool = False) -> dict[str, Any]:
@@ -244,17 +248,6 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
             "bumped": bumped,
             "is_success": self.distance_m <= self.goal_radius_m,
         }
-
-
-def observation(
-    model: CreateModel, sensors: Sequence[str], lidar_index: np.ndarray, goal_odom: tuple[float, float]
-) -> np.ndarray:
-    """The observation vector of ``model`` now: the ``sensors`` read in the order of :data:`SENSORS`."""
-    parts = []
-    for name in SENSORS:
-        if name in sensors:
-            parts.append(_READERS[name](model, lidar_index, goal_odom))
-    return np.concatenate(parts).astype(np.float32)
 
 
 def _lidar(model: CreateModel, index: np.ndarray, _goal: Any) -> np.ndarray:
