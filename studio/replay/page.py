@@ -22,6 +22,7 @@ from nicegui import run, ui
 from sim_runtime.errors import InputError
 from sim_tools.cli import executable_command
 from studio.arm.scene import ArmScene
+from studio.create.sim_view import LAYERS  # the replay shows the layers of the live Create view
 from studio.replay.frames import Replay
 from studio.replay.view import ReplayView
 from studio.shell import svg
@@ -33,17 +34,6 @@ FRAME_PERIOD_S = 0.04
 """Playback redraws at most this often (25 frames/s)."""
 SPEEDS = {"rewind": -0.25, "slow": 0.25, "play": 1.0}
 SPEED_TEXT = {0.0: "paused", 1.0: "playing", 0.25: "playing at ¼ speed", -0.25: "backwards at ¼ speed"}
-LAYERS = {
-    "lidar": "LIDAR",
-    "sonar": "Sonar",
-    "wall": "IR wall",
-    "bump": "Bump",
-    "cliff": "Cliff",
-    "camera": "Camera",
-    "track": "Track",
-    "fields": "Virtual-wall fields",
-    "grid": "Grid",
-}
 KEY_STEPS = {"ArrowLeft": -1, "ArrowUp": -1, "ArrowRight": 1, "ArrowDown": 1}
 """The original's keys: up and left step one frame back, down and right one forward."""
 OPENED_KEPT = 4
