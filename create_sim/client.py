@@ -291,11 +291,14 @@ class CreateRobot:
         try:
             self._send_stop()
         finally:
+            spinning = False
             if self._executor is not None:
                 self._executor.shutdown(timeout_sec=2.0)
                 if self._thread is not None:  # always, with an executor
-                    self._thread.join(timeout=2.0)
-            if self._owned_node:
+                    self._thread.join(timeout=10.0)
+                    # a node destroyed under a thread still spinning it crashes the process: leave it
+                    spinning = self._thread.is_alive()
+            if self._owned_node and not spinning:
                 self.node.destroy_node()
             if self._owns_rclpy and rclpy.ok():
                 rclpy.shutdown()

@@ -295,8 +295,9 @@ class MatlabBridge:
             self._busy.release()
         if self._executor is not None:
             self._executor.shutdown(timeout_sec=2.0)
-            self._spinner.join(timeout=2.0)  # a thread still inside rclpy at exit aborts the process
-            self.node.destroy_node()
+            self._spinner.join(timeout=10.0)  # a thread still inside rclpy at exit aborts the process
+            if not self._spinner.is_alive():  # and a node destroyed under it crashes it
+                self.node.destroy_node()
 
 
 def _family(host: str) -> socket.AddressFamily:

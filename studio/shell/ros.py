@@ -165,6 +165,8 @@ class StudioRos:
     def shutdown(self) -> None:
         if self.context.ok():
             rclpy.shutdown(context=self.context)
-        self._thread.join(timeout=2.0)
+        self._thread.join(timeout=10.0)
+        if self._thread.is_alive():  # still inside the executor: destroying under it would crash the process
+            return
         self.executor.shutdown()
         self.node.destroy_node()
