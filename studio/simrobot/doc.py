@@ -36,7 +36,7 @@ from simrobot_sim.world_file import (
 BLANK_SIZE_M = (3.0, 2.0)
 BLANK_RESOLUTION = 0.01
 ROBOT_COLOURS = ((1.0, 1.0, 0.0), (0.0, 0.6, 1.0), (1.0, 0.3, 0.3), (0.2, 0.8, 0.2), (0.8, 0.4, 1.0), (1.0, 0.6, 0.0))
-"""Colours given to new robots in turn (the first is the seed's yellow)."""
+"""Colours given to new robots in turn (the first is the original's yellow)."""
 
 
 def blank_walls(width_m: float, height_m: float, resolution: float) -> np.ndarray:

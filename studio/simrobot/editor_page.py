@@ -1,4 +1,4 @@
-"""The SIMROBOT editor page (the seed's Editor window): bitmap, robots, sensors, world file, run.
+"""The SIMROBOT editor page (the original's Editor window): bitmap, robots, sensors, world file, run.
 
 The world in memory is a :class:`studio.simrobot.doc.WorldDraft`; validation and "Run it" go
 through ``simrobot_world``'s own loader and placement, so the page says what the command line says.

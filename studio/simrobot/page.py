@@ -1,4 +1,4 @@
-"""The SIMROBOT simulator page (the seed's Simulator window): watch a running world, run/pause/step,
+"""The SIMROBOT simulator page (the original's Simulator window): watch a running world, run/pause/step,
 real-time factor, a robot's info with power and clear crash, draw tracks to PNG.
 
 The view redraws at most every FRAME_PERIOD_S and only when a new ``robots`` message came in. The
