@@ -57,7 +57,7 @@ def shared_files(top: str) -> list[tuple[str, list[str]]]:
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 RAY = ["ray>=2.60"]
-RL = ["gymnasium>=1.0", "pettingzoo>=1.24"]
+RL = ["gymnasium>=1.0", "pettingzoo>=1.24", "cma>=3.3"]
 
 
 def package_version() -> str:

@@ -106,6 +106,9 @@ def _import_ray() -> Any:
     # Ray 2.60 turns token authentication on for new local clusters and writes ~/.ray/auth_token;
     # a cluster this process starts for itself needs none.
     os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    # Ray's driver swaps Python's crash handler (faulthandler) for its own, which writes to Ray's
+    # session log, closed at ray.shutdown: a later crash of the caller's process printed nothing.
+    os.environ.setdefault("RAY_DISABLE_FAILURE_SIGNAL_HANDLER", "1")
     try:
         import ray
     except ImportError:

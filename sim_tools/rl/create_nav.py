@@ -83,7 +83,6 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
     ) -> None:
         self.sensors = _checked_sensors(sensors)
-        self._readers = [_READERS[name] for name in self.sensors]
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InputError(f"render_mode {render_mode!r}: None or 'rgb_array'")
         self.render_mode = render_mode
@@ -233,8 +232,9 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
     # ----------------------------------------------------------------------------- readings
     def _observe(self) -> np.ndarray:
         """The chosen sensors, read in the order of :data:`SENSORS` (their noise draws in that order)."""
-        model, index, goal = self._model(), self.lidar_index, self.goal_odom
-        return np.concatenate([read(model, index, goal) for read in self._readers]).astype(np.float32)
+        model = self._model()
+        raw = {name: _RAW[name](model, self.lidar_index) for name in self.sensors}
+        return observation(raw, self.goal_odom)
 
     def _true_distance(self) -> float:
         x, y = self.track[-1]  # where the body is now
@@ -250,30 +250,37 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         }
 
 
-def _lidar(model: CreateModel, index: np.ndarray, _goal: Any) -> np.ndarray:
-    lo, hi = model.LIDAR_RANGE
-    return np.clip(model.lidar()[index], lo, hi)  # +inf (no return) → max range
+def observation(raw: dict[str, np.ndarray], goal_odom: tuple[float, float]) -> np.ndarray:
+    """The observation vector from raw readings, as the env and ``policy_controller`` (from the ROS
+    world's messages) both build it. ``raw``: sensor name → reading, in :data:`SENSORS` order:
+    ``lidar`` the chosen beams' ranges (m, +inf no return), ``sonar`` [front, left, back, right]
+    (m, ±inf), ``bump`` [left, right] (0/1), ``cliff`` 4 signals (%), ``goal`` the odometry pose
+    (x, y, θ); ``goal_odom`` the goal in the odometry frame."""
+    parts = [_SHAPE[name](np.asarray(value, dtype=float), goal_odom) for name, value in raw.items()]
+    return np.concatenate(parts).astype(np.float32)
 
 
-def _sonar(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
-    return np.clip(model.sonar(), 0.0, model.SONAR_RANGE[1])  # -inf (too close) → 0, +inf → max
-
-
-def _bump(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
-    return np.array(model.bumps(), dtype=float)
-
-
-def _cliff(model: CreateModel, _index: Any, _goal: Any) -> np.ndarray:
-    return model.cliff_signals()
-
-
-def _goal(model: CreateModel, _index: Any, goal_odom: tuple[float, float]) -> np.ndarray:
-    x, y, th = model.odometry_pose
+def _goal(odom: np.ndarray, goal_odom: tuple[float, float]) -> np.ndarray:
+    x, y, th = odom.tolist()
     dx, dy = goal_odom[0] - x, goal_odom[1] - y
     return np.array([min(math.hypot(dx, dy), MAX_GOAL_DISTANCE_M), wrap_angle(math.atan2(dy, dx) - th)])
 
 
-_READERS = {"lidar": _lidar, "sonar": _sonar, "bump": _bump, "cliff": _cliff, "goal": _goal}
+_SHAPE = {
+    "lidar": lambda r, _g: np.clip(r, *CreateModel.LIDAR_RANGE),  # +inf (no return) → max range
+    "sonar": lambda r, _g: np.clip(r, 0.0, CreateModel.SONAR_RANGE[1]),  # -inf (too close) → 0, +inf → max
+    "bump": lambda r, _g: r,
+    "cliff": lambda r, _g: r,
+    "goal": _goal,
+}
+#: How the env reads each sensor's raw reading from the model (``index``: the chosen LIDAR beams).
+_RAW = {
+    "lidar": lambda model, index: model.lidar()[index],
+    "sonar": lambda model, _index: model.sonar(),
+    "bump": lambda model, _index: np.array(model.bumps(), dtype=float),
+    "cliff": lambda model, _index: model.cliff_signals(),
+    "goal": lambda model, _index: model.odometry_pose,
+}
 
 
 def _checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:
