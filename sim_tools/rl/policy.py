@@ -108,18 +108,13 @@ class MlpPolicy:
     def save(self, path: str | Path) -> Path:
         """Write the policy file (``.npz``); returns its path."""
         path = Path(path)
-        arrays = {f"w{i}": w for i, w in enumerate(self.weights)} | {f"b{i}": b for i, b in enumerate(self.biases)}
         meta = {"format": FORMAT, "env_id": self.env_id, "env_kwargs": self.env_kwargs}
+        arrays: dict[str, Any] = {f"w{i}": w for i, w in enumerate(self.weights)}
+        arrays |= {f"b{i}": b for i, b in enumerate(self.biases)}
+        arrays |= {"obs_offset": self.obs_offset, "obs_scale": self.obs_scale}
+        arrays |= {"act_low": self.act_low, "act_high": self.act_high, "meta": np.array(json.dumps(meta))}
         with path.open("wb") as f:
-            np.savez(
-                f,
-                **arrays,
-                obs_offset=self.obs_offset,
-                obs_scale=self.obs_scale,
-                act_low=self.act_low,
-                act_high=self.act_high,
-                meta=np.array(json.dumps(meta)),
-            )
+            np.savez(f, **arrays)
         return path
 
 
