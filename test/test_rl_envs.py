@@ -19,8 +19,9 @@ from sim_tools.adapters.contract import EpisodeData
 from sim_tools.adapters.create.world import COVERAGE_CELL_M, create_area_covered_m2
 from sim_tools.rl.arm_reach import ArmReachEnv, pose_error
 from sim_tools.rl.create_cover import CreateCoverEnv, disc_cells
-from sim_tools.rl.create_nav import SENSORS, CreateNavEnv
+from sim_tools.rl.create_nav import CreateNavEnv
 from sim_tools.rl.create_regions import FloorRegions
+from sim_tools.rl.create_sensors import SENSORS
 
 NOISY = str(config_path("create/example_config.txt"))
 

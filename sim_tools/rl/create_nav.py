@@ -39,16 +39,18 @@ from create_sim import spec
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.mapfile import load_map
 from create_sim.model import CreateModel
-from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
 from sim_tools.adapters.create.world import random_create_poses
 from sim_tools.rl.create_regions import map_regions
+from sim_tools.rl.create_sensors import (
+    DEFAULT_SENSORS,
+    MAX_GOAL_DISTANCE_M,
+    checked_sensors,
+    lidar_index,
+    observation,
+)
 
-SENSORS = ("lidar", "sonar", "bump", "cliff", "goal")
-DEFAULT_SENSORS = ("lidar", "bump", "goal")
-#: The goal distance an observation reports at most (m).
-MAX_GOAL_DISTANCE_M = 20.0
 PROGRESS_REWARD = 10.0  # per metre closer to the goal
 STEP_COST = 0.01
 GOAL_REWARD = 10.0
@@ -82,12 +84,10 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         max_steps: int = 600,
         render_mode: str | None = None,
     ) -> None:
-        self.sensors = _checked_sensors(sensors)
+        self.sensors = checked_sensors(sensors)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise InputError(f"render_mode {render_mode!r}: None or 'rgb_array'")
         self.render_mode = render_mode
-        if not 1 <= lidar_beams <= CreateModel.LIDAR_BEAMS:
-            raise InputError(f"lidar_beams {lidar_beams}: 1 to {CreateModel.LIDAR_BEAMS}")
         self.map_file = str(map_file if map_file is not None else config_path("create/example.map"))
         self.map = load_map(self.map_file)
         self.noise = load_config(config_file) if config_file is not None else NoiseConfig()
@@ -95,7 +95,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.goal_radius_m = float(goal_radius_m)
         self.substeps = max(1, round(control_period_s * spec.PHYSICS_RATE))
         self.max_steps = int(max_steps)
-        self.lidar_index = np.linspace(0, CreateModel.LIDAR_BEAMS - 1, lidar_beams).round().astype(int)
+        self.lidar_index = lidar_index(lidar_beams)
         self.action_space = spaces.Box(
             np.array([-CreateModel.MAX_WHEEL_SPEED, -MAX_W], dtype=np.float32),
             np.array([CreateModel.MAX_WHEEL_SPEED, MAX_W], dtype=np.float32),
@@ -250,29 +250,6 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         }
 
 
-def observation(raw: dict[str, np.ndarray], goal_odom: tuple[float, float]) -> np.ndarray:
-    """The observation vector from raw readings, as the env and ``policy_controller`` (from the ROS
-    world's messages) both build it. ``raw``: sensor name → reading, in :data:`SENSORS` order:
-    ``lidar`` the chosen beams' ranges (m, +inf no return), ``sonar`` [front, left, back, right]
-    (m, ±inf), ``bump`` [left, right] (0/1), ``cliff`` 4 signals (%), ``goal`` the odometry pose
-    (x, y, θ); ``goal_odom`` the goal in the odometry frame."""
-    parts = [_SHAPE[name](np.asarray(value, dtype=float), goal_odom) for name, value in raw.items()]
-    return np.concatenate(parts).astype(np.float32)
-
-
-def _goal(odom: np.ndarray, goal_odom: tuple[float, float]) -> np.ndarray:
-    x, y, th = odom.tolist()
-    dx, dy = goal_odom[0] - x, goal_odom[1] - y
-    return np.array([min(math.hypot(dx, dy), MAX_GOAL_DISTANCE_M), wrap_angle(math.atan2(dy, dx) - th)])
-
-
-_SHAPE = {
-    "lidar": lambda r, _g: np.clip(r, *CreateModel.LIDAR_RANGE),  # +inf (no return) → max range
-    "sonar": lambda r, _g: np.clip(r, 0.0, CreateModel.SONAR_RANGE[1]),  # -inf (too close) → 0, +inf → max
-    "bump": lambda r, _g: r,
-    "cliff": lambda r, _g: r,
-    "goal": _goal,
-}
 #: How the env reads each sensor's raw reading from the model (``index``: the chosen LIDAR beams).
 _RAW = {
     "lidar": lambda model, index: model.lidar()[index],
@@ -281,11 +258,3 @@ _RAW = {
     "cliff": lambda model, _index: model.cliff_signals(),
     "goal": lambda model, _index: model.odometry_pose,
 }
-
-
-def _checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:
-    chosen = tuple(sensors)
-    unknown = [s for s in chosen if s not in SENSORS]
-    if unknown or not chosen:
-        raise InputError(f"sensors {list(chosen)}: choose one or more of {list(SENSORS)}")
-    return tuple(s for s in SENSORS if s in chosen)
