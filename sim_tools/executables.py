@@ -9,6 +9,10 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "create_world": ("create_sim.world_node:main", "iRobot Create world: one robot, map, sensors, odometry"),
     "create_teleop": ("create_sim.teleop:main", "drive the Create from the keyboard"),
     "create_bump_turn": ("create_sim.bump_turn:main", "example Create controller: drive, back up and turn on a bump"),
+    "policy_controller": (
+        "sim_tools.rl.policy_controller:main",
+        "a learned Create policy (a policy file of sim_tools.rl) driving a create_world",
+    ),
     "simrobot_world": ("simrobot_sim.world_node:main", "SIMROBOT world: many robots on a bitmap map (world_file)"),
     "simrobot_avoid": ("simrobot_sim.avoid:main", "SIMROBOT's demo obstacle avoidance driving one robot"),
     "arm": ("arm_sim.arm_node:main", "serial arm(s) from a DH robot config: joints, trajectories, meshes"),

@@ -77,7 +77,8 @@ def check_parameters(
 
 def _probe(fail: Fail, k: int, ep: Any) -> dict[str, Any] | None:
     """The controller's declared parameters, built with their defaults (the sweep's 1 for a
-    float parameter would be refused before it is widened), else with the sweep's values."""
+    float parameter would be refused before it is widened), else with the sweep's values (a node
+    whose defaults are not enough)."""
     import dataclasses
 
     from sim_tools.batch.episode import probe_controller
@@ -85,12 +86,12 @@ def _probe(fail: Fail, k: int, ep: Any) -> dict[str, Any] | None:
     bare = dataclasses.replace(ep, params={}, controller={**ep.controller, "parameters": {}})
     try:
         return probe_controller(bare)
-    except InputError as err:
-        raise fail(f"controllers[{k}].use", str(err)) from None
     except Exception:
-        pass  # perhaps it needs the sweep's values
+        pass  # perhaps it needs the sweep's values (policy_controller needs its policy file)
     try:
         return probe_controller(ep)
+    except InputError as err:
+        raise fail(f"controllers[{k}].use", str(err)) from None
     except BaseException as err:  # a student's constructor or main() raising, sys.exit included
         if isinstance(err, KeyboardInterrupt):
             raise

@@ -24,12 +24,19 @@ RESERVED = {
     "config_file": "the world's config",
     "initial_pose": "the sweep's poses",
 }
-CONTROLLERS = {"create_bump_turn": "create_sim.bump_turn:BumpTurnNode"}
+CONTROLLERS = {
+    "create_bump_turn": "create_sim.bump_turn:BumpTurnNode",
+    "policy_controller": "sim_tools.rl.policy_controller:PolicyControllerNode",
+}
 WORLD_NODE_NAME = "create_world"
 NODE_EXECUTABLES = {
     "create_world": ("create_sim.world_node:CreateWorldNode", "[--ros-args -p NAME:=VALUE ...]"),
     "create_teleop": ("create_sim.teleop:TeleopNode", "[--ros-args -p NAME:=VALUE ...]  (in a terminal)"),
     "create_bump_turn": ("create_sim.bump_turn:BumpTurnNode", "[--ros-args -r __ns:=/ROBOT -p NAME:=VALUE ...]"),
+    "policy_controller": (
+        "sim_tools.rl.policy_controller:PolicyControllerNode",
+        "--ros-args -p policy:=FILE.npz -p goal:=[X,Y] [-r __ns:=/ROBOT]",
+    ),
 }
 ROBOT_NAMESPACES = False
 #: Side of the floor squares counted by ``area_covered_m2`` (m).
