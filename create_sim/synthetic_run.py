@@ -4,29 +4,40 @@ The pure :class:`~create_sim.model.CreateModel` drives a bump-and-turn pattern i
 physics rate, and every topic a ``create_world`` publishes is written at the world's default rate with
 the world's message types (log time = sim time, as the demos record), plus the controller's
 ``cmd_vel`` whenever it changes. A 10-minute run has ~400,000 messages, as a real recording.
+
+The per-step writing (:func:`bag_topics`, :func:`write_latched`, :func:`write_due`) is shared with
+the learning environments' episode recorder (``sim_tools.rl.record``); with ``full=True`` a bag also
+holds what a recorded ``create_world`` has beyond the sensors: ``/tf`` (``odom → base_link``),
+``/tf_static``, ``/robot_description`` and the walls' occupancy grid on ``/map``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped, Twist, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from create_sim.geometry import rasterise_walls
 from create_sim.mapfile import CreateMap, parse_map
-from create_sim.model import CreateModel
+from create_sim.model import BeaconSighting, CreateModel
 from create_sim.spec import BEACONS_NS, CLIFF_NAMES, DEFAULT_RATES, PHYSICS_RATE, SONAR_NAMES
-from create_sim.world_node import map_markers
+from create_sim.urdf import create_urdf
+from create_sim.world_node import map_markers, sensor_transforms
 from sim_runtime.bag.writer import BagWriter, qos_profiles_yaml
-from sim_runtime.msgs import float32_array, pose_msg, set_planar_pose
+from sim_runtime.msgs import color_msg, float32_array, occupancy_grid_msg, pose_msg, set_planar_pose
+from sim_runtime.tf import TFMessage, transform_msg
 
 PHYSICS_HZ = round(PHYSICS_RATE)
 STEP_NS = 1_000_000_000 // PHYSICS_HZ
@@ -51,8 +62,28 @@ virtwall -2.3 1.8 -0.8 1
 FORWARD_M_S = 0.3
 TURN_RAD_S = 1.5
 
+MAP_RESOLUTION_M = 0.05  # create_world's default map_resolution
+
 Put = Callable[[str, int, object], None]
 """Writes one message: topic, log time (ns), message."""
+
+
+class Sensed(Protocol):
+    """What the messages read from a Create: a :class:`CreateModel`, or a recorder's view of one."""
+
+    @property
+    def pose(self) -> np.ndarray: ...
+    @property
+    def odometry_pose(self) -> np.ndarray: ...
+    @property
+    def velocity(self) -> tuple[float, float]: ...
+    def bumps(self) -> tuple[bool, bool]: ...
+    def wall_sensor(self) -> bool: ...
+    def virtual_wall(self) -> bool: ...
+    def cliff_signals(self) -> np.ndarray: ...
+    def sonar(self) -> np.ndarray: ...
+    def lidar(self) -> np.ndarray: ...
+    def camera(self) -> list[BeaconSighting]: ...
 
 
 def _stamp(t_ns: int) -> Time:
@@ -66,11 +97,19 @@ def _detector(t_ns: int, frame: str, on: bool, kind: int = Range.INFRARED) -> Ra
     return msg
 
 
-def _topics() -> dict[str, tuple[str, str]]:
-    """Topic → (type, offered QoS) of everything a run writes."""
+def world_topics(full: bool = False) -> dict[str, tuple[str, str]]:
+    """Topic → (type, offered QoS) of everything a run writes (``full``: also TF, the robot
+    description and the occupancy grid, when tf2_msgs is importable for the TF ones)."""
     latched = qos_profiles_yaml([{"history": "keep_last", "depth": 1, "durability": "transient_local"}])
     qos = qos_profiles_yaml([{}])
+    extra = {
+        "/robot_description": ("std_msgs/msg/String", latched),
+        "/map": ("nav_msgs/msg/OccupancyGrid", latched),
+    }
+    if TFMessage is not None:
+        extra |= {"/tf": ("tf2_msgs/msg/TFMessage", qos), "/tf_static": ("tf2_msgs/msg/TFMessage", latched)}
     return {
+        **(extra if full else {}),
         "/map_markers": ("visualization_msgs/msg/MarkerArray", latched),
         "/cmd_vel": ("geometry_msgs/msg/Twist", qos),
         "/clock": ("rosgraph_msgs/msg/Clock", qos),
@@ -121,46 +160,99 @@ def write_create_run(
     # Chunks close every half second of the run, as the recorder's flush interval does in real time.
     clock = {"now": 0.0}
     with BagWriter(folder, clock=lambda: clock["now"]) as bag:
-        ids = {name: bag.add_topic(name, kind, q) for name, (kind, q) in _topics().items()}
-
-        def put(topic: str, t_ns: int, msg: object) -> None:
-            bag.write(ids[topic], t_ns, serialize_message(msg))
-
-        put("/map_markers", t0, map_markers(world, _stamp(t0)))
+        put = bag_topics(bag)
+        write_latched(put, world, t0)
         model.set_velocity(*controller.command)
-        put("/cmd_vel", t0, _twist(*controller.command))
+        put("/cmd_vel", t0, twist_msg(*controller.command))
         for k in range(round(duration_s * PHYSICS_HZ) + 1):
             clock["now"] = k / PHYSICS_HZ
             if k:
                 model.step(1.0 / PHYSICS_HZ)
-            _write_step(put, model, controller, k, t0 + k * STEP_NS)
+            t_ns = t0 + k * STEP_NS
+            write_due(put, model, k, t_ns, on_state=partial(_drive, put, model, controller, k=k, t_ns=t_ns))
     return Path(folder)
 
 
-def _write_step(put: Put, model: CreateModel, controller: _BumpTurn, k: int, t_ns: int) -> None:
-    """Everything due at physics step ``k``, in the world's order."""
+def _drive(put: Put, model: CreateModel, controller: _BumpTurn, bumps: tuple[bool, bool], k: int, t_ns: int) -> None:
+    """The controller's turn at a bumper reading: a new command is sent (and taken) at once."""
+    command = controller.update(bumps, k)
+    if command != model.command:
+        model.set_velocity(*command)
+        put("/cmd_vel", t_ns, twist_msg(*command))
+
+
+def bag_topics(bag: BagWriter, *, full: bool = False) -> Put:
+    """Add a world's topics (:func:`world_topics`) to ``bag``; the function writing a message on one."""
+    ids = {name: bag.add_topic(name, kind, q) for name, (kind, q) in world_topics(full).items()}
+
+    def put(topic: str, t_ns: int, msg: object) -> None:
+        bag.write(ids[topic], t_ns, serialize_message(msg))
+
+    return put
+
+
+def write_latched(
+    put: Put, world: CreateMap, t_ns: int, *, full: bool = False, extra_markers: Sequence[Marker] = ()
+) -> None:
+    """What a world publishes once at start: its map's markers (and ``extra_markers`` with them);
+    ``full``: also the sensor mounts, the robot description and the occupancy grid."""
+    markers = map_markers(world, _stamp(t_ns))
+    markers.markers.extend(extra_markers)
+    put("/map_markers", t_ns, markers)
+    if not full:
+        return
+    if TFMessage is not None:
+        transforms = sensor_transforms("")
+        for t in transforms:
+            t.header.stamp = _stamp(t_ns)
+        put("/tf_static", t_ns, TFMessage(transforms=transforms))
+    put("/robot_description", t_ns, String(data=create_urdf("")))
+    raster = rasterise_walls(world.walls, MAP_RESOLUTION_M)
+    origin = (raster.origin_x_m, raster.origin_y_m)
+    put("/map", t_ns, occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, _stamp(t_ns)))
+
+
+def write_due(
+    put: Put,
+    model: Sensed,
+    k: int,
+    t_ns: int,
+    *,
+    full: bool = False,
+    on_state: Callable[[tuple[bool, bool]], None] | None = None,
+) -> None:
+    """Everything due at physics step ``k`` (at log time ``t_ns``), in the world's order; ``on_state``
+    sees the bumpers first at each state tick (a controller's turn); ``full``: ``/tf`` too."""
     if k % EVERY["clock"] == 0:
         put("/clock", t_ns, Clock(clock=_stamp(t_ns)))
     if k % EVERY["state"] == 0:
         bumps = model.bumps()
-        command = controller.update(bumps, k)
-        if command != model.command:
-            model.set_velocity(*command)
-            put("/cmd_vel", t_ns, _twist(*command))
+        if on_state is not None:
+            on_state(bumps)
         _state_messages(put, model, t_ns, bumps)
+        if full and TFMessage is not None:
+            put("/tf", t_ns, _odom_tf(model, t_ns))
     if k % EVERY["sonar"] == 0:
         _sonar_messages(put, model, t_ns)
     if k % EVERY["scan"] == 0:
         put("/scan", t_ns, _scan(model, t_ns))
     if k % EVERY["camera"] == 0:
-        put("/camera/beacons", t_ns, _camera(model))
+        put("/camera/beacons", t_ns, _camera(model, t_ns))
     if k % EVERY["buttons"] == 0:
         put("/buttons", t_ns, Joy(buttons=[0, 0]))
     if k % EVERY["battery"] == 0:
         put("/battery_state", t_ns, BatteryState(voltage=CreateModel.BATTERY_VOLTAGE))
 
 
-def _sonar_messages(put: Put, model: CreateModel, t_ns: int) -> None:
+def _odom_tf(model: Sensed, t_ns: int) -> object:
+    """``odom → base_link`` at the odometry pose, as the world sends it with each odometry."""
+    x, y, theta = model.odometry_pose.tolist()
+    t = transform_msg("odom", "base_link", x, y, yaw=theta)
+    t.header.stamp = _stamp(t_ns)
+    return TFMessage(transforms=[t])
+
+
+def _sonar_messages(put: Put, model: Sensed, t_ns: int) -> None:
     lo, hi = CreateModel.SONAR_RANGE
     for name, value in zip(SONAR_NAMES, model.sonar().tolist(), strict=True):
         msg = Range(radiation_type=Range.ULTRASOUND, min_range=lo, max_range=hi, range=value)
@@ -168,7 +260,7 @@ def _sonar_messages(put: Put, model: CreateModel, t_ns: int) -> None:
         put(f"/sonar/{name}", t_ns, msg)
 
 
-def _scan(model: CreateModel, t_ns: int) -> LaserScan:
+def _scan(model: Sensed, t_ns: int) -> LaserScan:
     lo, hi = CreateModel.LIDAR_RANGE
     msg = LaserScan(
         angle_min=-CreateModel.LIDAR_FOV / 2,
@@ -182,22 +274,26 @@ def _scan(model: CreateModel, t_ns: int) -> LaserScan:
     return msg
 
 
-def _camera(model: CreateModel) -> MarkerArray:
+def _camera(model: Sensed, t_ns: int) -> MarkerArray:
+    """The beacons in sight, in the ``camera`` frame, as the world draws them."""
     markers = []
     for i, s in enumerate(model.camera()):
-        m = Marker(ns=BEACONS_NS, id=i, type=Marker.SPHERE, text=s.id)
+        m = Marker(ns=BEACONS_NS, id=i, type=Marker.SPHERE, text=s.id, scale=Vector3(x=0.1, y=0.1, z=0.1))
         m.pose = pose_msg(s.distance * math.cos(s.angle), s.distance * math.sin(s.angle), 0.0)
+        m.color = color_msg(*s.rgb)
+        m.header.stamp, m.header.frame_id = _stamp(t_ns), "camera"
         markers.append(m)
     return MarkerArray(markers=markers)
 
 
-def _twist(v: float, w: float) -> Twist:
+def twist_msg(v: float, w: float) -> Twist:
+    """A ``cmd_vel`` message."""
     msg = Twist()
     msg.linear.x, msg.angular.z = float(v), float(w)
     return msg
 
 
-def _state_messages(put: Put, model: CreateModel, t_ns: int, bumps: tuple[bool, bool]) -> None:
+def _state_messages(put: Put, model: Sensed, t_ns: int, bumps: tuple[bool, bool]) -> None:
     """The 50 Hz topics: odometry, ground truth, bumpers, wall, virtual wall, cliffs."""
     odom = Odometry(child_frame_id="base_link")
     odom.header.stamp, odom.header.frame_id = _stamp(t_ns), "odom"

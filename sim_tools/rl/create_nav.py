@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -105,6 +105,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.model: CreateModel | None = None
         self.track: list[tuple[float, float]] = []
         self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
+        #: Called after each physics step (the episode recorder, ``sim_tools.rl.record``, hooks in here).
+        self.on_physics_step: Callable[[CreateModel], None] | None = None
 
     # ----------------------------------------------------------------------------- spaces
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -186,6 +188,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         model.set_velocity(float(action[0]), float(action[1]))
         for _ in range(self.substeps):
             model.step(1.0 / spec.PHYSICS_RATE)
+            if self.on_physics_step is not None:
+                self.on_physics_step(model)
         self.steps += 1
         x, y, _ = model.pose.tolist()
         self.track.append((x, y))
