@@ -310,20 +310,29 @@ class CreateModel:
             -np.inf,
         )
 
-    def lidar(self) -> np.ndarray:
-        """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m."""
+    def lidar(self, beams: np.ndarray | None = None) -> np.ndarray:
+        """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m.
+
+        ``beams`` (integer indices into the 681): only those beams, cast alone, ``lidar()[beams]``
+        exactly, noise draws included (all 681 are drawn, so the stream advances the same).
+        """
         x, y, th = self._pose
         lo, hi = self.LIDAR_RANGE
+        noise = self._noise("lidar", self.LIDAR_BEAMS)
+        cos_off, sin_off = self._lidar_fan
+        if beams is not None:
+            cos_off, sin_off, noise = cos_off[beams], sin_off[beams], noise[beams]
         scan = range_fan(
             self.grid,
             x + self.RADIUS * math.cos(th),
             y + self.RADIUS * math.sin(th),
             th,
-            *self._lidar_fan,
+            cos_off,
+            sin_off,
             0.0,
             lo,
             hi,
-            self._noise("lidar", self.LIDAR_BEAMS),
+            noise,
             lo,
         )
         return scan.astype(np.float32)

@@ -256,7 +256,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
 
 #: How the env reads each sensor's raw reading from the model (``index``: the chosen LIDAR beams).
 _RAW = {
-    "lidar": lambda model, index: model.lidar()[index],
+    "lidar": lambda model, index: model.lidar(index),
     "sonar": lambda model, _index: model.sonar(),
     "bump": lambda model, _index: np.array(model.bumps(), dtype=float),
     "cliff": lambda model, _index: model.cliff_signals(),
