@@ -21,9 +21,11 @@ from pathlib import Path
 from typing import Any, overload
 
 import gymnasium as gym
+import numba
 import numpy as np
 from gymnasium import spaces
 
+from arm_sim import kinematics as kin
 from arm_sim.arm import Arm
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
@@ -74,6 +76,9 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(low, high, shape=(n + 6,), dtype=np.float32)
         self.q = self.arm.mid_range()
         self.target = self.arm.fkine(self.q)
+        # the kernels' arguments, built once: the chain's arrays and the joint limits
+        self._chain = tuple(self.arm.chain)
+        self._limits = (self.arm.velocity_limits, self.arm.lower, self.arm.upper)
 
     @overload
     def _joints(self, q: None, what: str) -> None: ...
@@ -103,44 +108,91 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._observe()
 
     def step(self, action: np.ndarray):
-        limit = self.arm.velocity_limits
-        qd = np.minimum(np.maximum(np.asarray(action, dtype=float), -limit), limit)
-        self.q = np.minimum(np.maximum(self.q + qd * self.dt, self.arm.lower), self.arm.upper)
+        # one kernel: the joints moved within their limits, the flange's error, the observation
+        self.q, obs, position, rotation = _reach_step(
+            self.q, np.asarray(action, dtype=float), self.dt, *self._limits, self.target, *self._chain
+        )
         self.steps += 1
-        obs, info = self._observe()
-        reached = info["position_error_m"] <= self.tolerance_m and info["rotation_error_rad"] <= self.tolerance_rad
-        reward = -(info["position_error_m"] + ROTATION_WEIGHT * info["rotation_error_rad"])
+        reached = position <= self.tolerance_m and rotation <= self.tolerance_rad
+        reward = -(position + ROTATION_WEIGHT * rotation)
         if reached:
             reward += REACH_REWARD
-        info["is_success"] = reached
+        info = {"position_error_m": position, "rotation_error_rad": rotation, "is_success": reached}
         truncated = self.steps >= self.max_steps and not reached
-        return obs, float(reward), bool(reached), truncated, info
+        return obs, reward, reached, truncated, info
 
     def _observe(self) -> tuple[np.ndarray, dict[str, Any]]:
-        error = pose_error(self.target, self.arm.fkine(self.q)).tolist()
-        cap = MAX_POSITION_ERROR_M
-        position = [min(max(e, -cap), cap) for e in error[:3]]
-        obs = np.array(self.q.tolist() + position + error[3:], dtype=np.float32)
-        info = {"position_error_m": math.hypot(*error[:3]), "rotation_error_rad": math.hypot(*error[3:])}
-        return obs, info
+        obs, position, rotation = _observation(self.q, self.target, *self._chain)
+        return obs, {"position_error_m": position, "rotation_error_rad": rotation}
 
 
 def pose_error(target: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """6-vector from ``pose`` to ``target`` (4x4 each): position difference and the rotation vector
     of ``R_target Rᵀ`` (world frame, angle in [0, π])."""
-    R = target[:3, :3] @ pose[:3, :3].T
-    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
-    skew = (r21 - r12, r02 - r20, r10 - r01)
-    sine2 = math.hypot(*skew)  # 2 sin(angle)
-    angle = math.atan2(sine2, r00 + r11 + r22 - 1.0)
+    error = np.empty(6)
+    _pose_error_into(error, np.ascontiguousarray(target, dtype=float), np.ascontiguousarray(pose, dtype=float))
+    return error
+
+
+@numba.njit(cache=True)
+def _pose_error_into(out, target, pose):
+    R = np.empty((3, 3))  # R_target R_poseᵀ
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = target[i, 0] * pose[j, 0] + target[i, 1] * pose[j, 1] + target[i, 2] * pose[j, 2]
+    sx, sy, sz = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+    sine2 = math.hypot(math.hypot(sx, sy), sz)  # 2 sin(angle)
+    angle = math.atan2(sine2, R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
     if sine2 > 1e-9:
-        rotvec = [c * (angle / sine2) for c in skew]
+        k = angle / sine2
+        out[3], out[4], out[5] = sx * k, sy * k, sz * k
     elif angle < 1.0:
-        rotvec = [0.5 * c for c in skew]  # tiny rotation
+        out[3], out[4], out[5] = 0.5 * sx, 0.5 * sy, 0.5 * sz  # tiny rotation
     else:
         # a half turn: the axis is the column of R + I with the largest norm
-        axes = R + np.eye(3)
-        axis = axes[:, int(np.argmax(np.linalg.norm(axes, axis=0)))]
-        rotvec = (math.pi * axis / np.linalg.norm(axis)).tolist()
-    (dx, dy, dz) = (target[:3, 3] - pose[:3, 3]).tolist()
-    return np.array([dx, dy, dz, *rotvec])
+        best, norm = 0, -1.0
+        for j in range(3):
+            c = math.hypot(math.hypot(R[0, j] + (j == 0), R[1, j] + (j == 1)), R[2, j] + (j == 2))
+            if c > norm:
+                best, norm = j, c
+        for i in range(3):
+            out[3 + i] = math.pi * (R[i, best] + (i == best)) / norm
+    for i in range(3):
+        out[i] = target[i, 3] - pose[i, 3]
+
+
+@numba.njit(cache=True)
+def _observation(q, target, dh, base, modified):
+    """(observation float32, position error m, rotation error rad) at joints ``q``."""
+    n = q.shape[0]
+    error = np.empty(6)
+    _pose_error_into(error, target, kin.fk(q, kin.Chain(dh, base, modified)))
+    obs = np.empty(n + 6, dtype=np.float32)
+    obs[:n] = q
+    for i in range(3):
+        obs[n + i] = min(max(error[i], -MAX_POSITION_ERROR_M), MAX_POSITION_ERROR_M)
+        obs[n + 3 + i] = error[3 + i]
+    position = math.hypot(math.hypot(error[0], error[1]), error[2])
+    return obs, position, math.hypot(math.hypot(error[3], error[4]), error[5])
+
+
+@numba.njit(cache=True)
+def _reach_step(q, action, dt, velocity_limits, lower, upper, target, dh, base, modified):
+    """Joint velocities ``action`` (clipped to their limits) for ``dt``, the joints held in their
+    limits (NaN stays NaN, as numpy's clip keeps it): (new joints, then :func:`_observation`'s)."""
+    moved = np.empty(q.shape[0])
+    for i in range(q.shape[0]):
+        limit = velocity_limits[i]
+        qd = action[i]
+        if qd > limit:
+            qd = limit
+        elif qd < -limit:
+            qd = -limit
+        x = q[i] + qd * dt
+        if x < lower[i]:
+            x = lower[i]
+        elif x > upper[i]:
+            x = upper[i]
+        moved[i] = x
+    obs, position, rotation = _observation(moved, target, dh, base, modified)
+    return moved, obs, position, rotation
