@@ -76,6 +76,25 @@ def _axes_marker(frame_id: str, ns: str, pose: np.ndarray, stamp) -> Marker:
     return m
 
 
+def arm_markers(arm: Arm, label: str, frame_id: str, alpha: float, stamp) -> MarkerArray:
+    """An arm's ``robot_markers``: every element's marker with its static fields (poses are filled
+    at publish time, :func:`patched_markers`), then its base's axes."""
+    markers = []
+    for k, element in enumerate(arm.elements):
+        m = Marker(ns=mesh_marker_ns(label), id=k, action=Marker.ADD)
+        m.header.frame_id = frame_id
+        m.color = _color(element.element.color, alpha)
+        if element.placeholder:
+            m.type = Marker.CUBE
+            m.scale.x = m.scale.y = m.scale.z = PLACEHOLDER_SIZE
+        else:
+            m.type = Marker.MESH_RESOURCE
+            m.mesh_resource = mesh_uri(element.element.mesh)
+            m.scale.x = m.scale.y = m.scale.z = element.element.scale
+        markers.append(m)
+    return MarkerArray(markers=[*markers, _axes_marker(frame_id, f"{label}/axes", arm.base, stamp)])
+
+
 def _set_pose(marker_or_pose, xyz, quat) -> None:
     pose = marker_or_pose.pose
     pose.position.x, pose.position.y, pose.position.z = float(xyz[0]), float(xyz[1]), float(xyz[2])
@@ -196,21 +215,9 @@ class ArmInstance:
 
     def _build_markers(self, alpha: float) -> MarkerArray:
         """Every element's marker with its static fields; poses are filled at publish time."""
-        markers = []
-        for k, element in enumerate(self.arm.elements):
-            m = Marker(ns=mesh_marker_ns(self.label), id=k, action=Marker.ADD)
-            m.header.frame_id = self.node.frame_id
-            m.color = _color(element.element.color, alpha)
-            if element.placeholder:
-                m.type = Marker.CUBE
-                m.scale.x = m.scale.y = m.scale.z = PLACEHOLDER_SIZE
-            else:
-                m.type = Marker.MESH_RESOURCE
-                m.mesh_resource = mesh_uri(element.element.mesh)
-                m.scale.x = m.scale.y = m.scale.z = element.element.scale
-            markers.append(m)
-        self.axes = _axes_marker(self.node.frame_id, f"{self.label}/axes", self.arm.base, self.node.stamp())
-        return MarkerArray(markers=[*markers, self.axes])
+        markers = arm_markers(self.arm, self.label, self.node.frame_id, alpha, self.node.stamp())
+        self.axes = markers.markers[-1]
+        return markers
 
     def static_transforms(self) -> list:
         """The fixed joints of this arm's URDF (world -> base_link, link_n -> tool0), for /tf_static."""

@@ -142,3 +142,31 @@ def test_bags_are_never_overwritten_and_only_create_envs_are_recorded(tmp_path):
     RecordEpisodeBags(gymnasium.make("robot_sims/CreateNav-v0"), tmp_path, name_prefix="other").close()
     with pytest.raises(InputError, match="CartPoleEnv"):
         RecordEpisodeBags(gymnasium.make("CartPole-v1"), tmp_path / "cartpole")
+
+
+def test_a_recorded_arm_reach_episode_is_a_bag_of_the_arm_worlds_topics_that_replay_and_rerun_draw(tmp_path):
+    from sim_tools.rerun_view.convert import main
+
+    env = RecordEpisodeBags(gymnasium.make("robot_sims/ArmReach-v0", max_steps=20), tmp_path)
+    env.reset(seed=SEED)
+    for _ in range(20):
+        env.step(np.full(env.action_space.shape, 0.5, dtype=np.float32))  # some joints reach a limit
+    env.close()
+    (bag,) = env.recorded
+    reader = open_bag(bag)
+    arm_topics = {"/joint_states", "/end_effector_pose", "/robot_markers", "/robot_description", "/tf", "/tf_static"}
+    assert arm_topics | {"/clock", "/target_pose"} == set(reader.topics)
+    last = last_messages(bag)
+    assert last["/clock"].log_time_ns == 20 * 50_000_000  # 20 steps of 0.05 s
+    assert list(last["/joint_states"].msg.position) == env.unwrapped.q.tolist()
+    assert sum(1 for _ in reader.messages(topics=["/joint_states"])) == 50 + 1  # 50 Hz over 1 s, and t = 0
+    arm = env.unwrapped.arm
+    at_limit = np.isclose(env.unwrapped.q, arm.upper)
+    assert at_limit.any() and not at_limit.all()
+    assert np.array_equal(last["/joint_states"].msg.velocity, np.where(at_limit, 0.0, 0.5))  # a held joint stands
+    replay = Replay.open(bag)
+    frame = replay.frame(replay.end_ns)
+    assert [q for _name, q in frame.joints[""]] == env.unwrapped.q.tolist() and len(frame.arm_groups) == 1
+    main([str(bag), "-o", str(tmp_path / "arm.rrd"), "--no-progress"])
+    assert "/world/poses/target_pose" in load_entities(tmp_path / "arm.rrd")
+    assert yaml.safe_load((bag / EPISODE_FILE).read_text())["steps"] == 20

@@ -6,7 +6,8 @@ picks into its own rosbag2 bag folder ``<folder>/<name_prefix>-episode-<n>`` (MC
 types, frames and default rates a recorded ``create_world`` has (``create_sim.synthetic_run``
 writes them), the actions on ``/cmd_vel``, CreateNav's goal region on ``/map_markers`` (ns
 ``goal``), and next to the bag's ``metadata.yaml`` an ``episode.yaml`` with the seed, return and
-outcome.
+outcome. ``ArmReach-v0`` episodes are written as an ``arm`` world's topics
+(:mod:`sim_tools.rl.record_arm`).
 
 Timing: the env calls the recorder after every physics step (``CreateNavEnv.on_physics_step``), so
 each message is written at the sim time the world would publish it (log time = header stamp = sim
@@ -38,8 +39,10 @@ from create_sim.synthetic_run import PHYSICS_HZ, STEP_NS, bag_topics, twist_msg,
 from sim_runtime.bag.writer import BagWriter
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import color_msg
+from sim_tools.rl.arm_reach import ArmReachEnv
 from sim_tools.rl.create_cover import CreateCoverEnv
 from sim_tools.rl.create_nav import GOAL_COLOR, CreateNavEnv
+from sim_tools.rl.record_arm import ArmEpisodeBag, meshed_arm
 
 #: The file next to a bag's metadata.yaml that says how its episode went.
 EPISODE_FILE = "episode.yaml"
@@ -62,10 +65,9 @@ class RecordEpisodeBags(gym.Wrapper):
         compression: str = "zstd",
     ) -> None:
         super().__init__(env)
-        if not isinstance(env.unwrapped, CreateNavEnv):
-            raise InputError(
-                f"RecordEpisodeBags records CreateNav and CreateCover envs, not {type(env.unwrapped).__name__}"
-            )
+        if not isinstance(env.unwrapped, CreateNavEnv | ArmReachEnv):
+            kind = type(env.unwrapped).__name__
+            raise InputError(f"RecordEpisodeBags records CreateNav, CreateCover and ArmReach envs, not {kind}")
         self.folder = Path(folder)
         taken = sorted(self.folder.glob(f"{name_prefix}-episode-*"))
         if taken:
@@ -76,26 +78,32 @@ class RecordEpisodeBags(gym.Wrapper):
         self.compression = compression
         self.episode_id = -1
         self.recorded: list[Path] = []
-        self._episode: _EpisodeBag | None = None
+        self._episode: _EpisodeBag | ArmEpisodeBag | None = None
+        #: The arm with its meshes (for its robot_markers), loaded once.
+        self._meshed = meshed_arm(env.unwrapped) if isinstance(env.unwrapped, ArmReachEnv) else None
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         self._finish({"finished": False})  # the episode before was cut short
         obs, info = self.env.reset(seed=seed, options=options)
         self.episode_id += 1
         if self.episode_trigger(self.episode_id):
-            path = self.folder / f"{self.name_prefix}-episode-{self.episode_id}"
-            nav = self.env.unwrapped
-            assert isinstance(nav, CreateNavEnv)  # checked in __init__
-            self._episode = _EpisodeBag(path, nav, seed, self.compression)
+            self._episode = self._start(self.folder / f"{self.name_prefix}-episode-{self.episode_id}", seed)
         return obs, info
+
+    def _start(self, path: Path, seed: int | None) -> _EpisodeBag | ArmEpisodeBag:
+        env = self.env.unwrapped
+        if isinstance(env, ArmReachEnv) and self._meshed is not None:
+            return ArmEpisodeBag(path, env, self._meshed, seed, self.compression)
+        assert isinstance(env, CreateNavEnv)  # checked in __init__
+        return _EpisodeBag(path, env, seed, self.compression)
 
     def step(self, action: Any):
         episode = self._episode
         if episode is not None:
-            episode.command(action)
+            episode.before_step(action)
         obs, reward, terminated, truncated, info = self.env.step(action)
         if episode is not None:
-            episode.summary["return"] += float(reward)
+            episode.after_step(action, float(reward))
             if terminated or truncated:
                 self._finish(_outcome(info, terminated, truncated))
         return obs, reward, terminated, truncated, info
@@ -105,14 +113,17 @@ class RecordEpisodeBags(gym.Wrapper):
         super().close()
 
     def _finish(self, outcome: dict[str, Any]) -> None:
+        """Close the episode's bag and write its episode.yaml beside metadata.yaml."""
         if self._episode is not None:
-            self.recorded.append(self._episode.close(outcome))
+            folder, summary = self._episode.close()
+            (folder / EPISODE_FILE).write_text(yaml.safe_dump({**summary, **outcome}, sort_keys=False))
+            self.recorded.append(folder)
             self._episode = None
 
 
 def _outcome(info: dict[str, Any], terminated: bool, truncated: bool) -> dict[str, Any]:
     outcome = {"finished": True, "terminated": bool(terminated), "truncated": bool(truncated)}
-    for key in ("is_success", "bumped", "distance_m", "area_covered_m2"):
+    for key in ("is_success", "bumped", "distance_m", "area_covered_m2", "position_error_m", "rotation_error_rad"):
         if key in info:
             outcome[key] = info[key].item() if isinstance(info[key], np.generic) else info[key]
     return outcome
@@ -144,23 +155,24 @@ class _EpisodeBag:
             "return": 0.0,
         }
 
-    def command(self, action: Any) -> None:
+    def before_step(self, action: Any) -> None:
         """The action as a controller's ``cmd_vel``, at the start of the control period it drives."""
         self.put("/cmd_vel", self.k * STEP_NS, twist_msg(float(action[0]), float(action[1])))
+
+    def after_step(self, _action: Any, reward: float) -> None:
+        self.summary["return"] += reward  # the messages were written at each physics step
 
     def _physics_step(self, _model: CreateModel) -> None:
         self.k += 1
         self.sensed.sync()
         write_due(self.put, self.sensed, self.k, self.k * STEP_NS, full=True)
 
-    def close(self, outcome: dict[str, Any]) -> Path:
-        """Unhook, close the bag and write its episode.yaml; the bag folder."""
+    def close(self) -> tuple[Path, dict[str, Any]]:
+        """Unhook and close the bag: its folder and the episode's summary."""
         if self.env.on_physics_step == self._physics_step:
             self.env.on_physics_step = None
         self.bag.close()
-        summary = {**self.summary, "steps": self.env.steps, **outcome}
-        (self.bag.folder / EPISODE_FILE).write_text(yaml.safe_dump(summary, sort_keys=False))
-        return self.bag.folder
+        return self.bag.folder, {**self.summary, "steps": self.env.steps}
 
 
 def _shadow(env: CreateNavEnv) -> CreateModel:
