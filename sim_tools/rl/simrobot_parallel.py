@@ -124,6 +124,13 @@ class SimrobotParallelEnv(ParallelEnv):
         self._sensors_of: list[list[int]] = [[] for _ in self.possible_agents]
         for k, sensor in enumerate(self._template.sensors):
             self._sensors_of[sensor.robot].append(k)
+        #: Per robot (sensor number, range) when its only sensor is an ultrasonic one, else None.
+        self._one_echo = [
+            (ks[0], self._template.sensors[ks[0]].range)
+            if len(ks) == 1 and self._template.sensors[ks[0]].kind == "ultrasonic"
+            else None
+            for ks in self._sensors_of
+        ]
         self.world = self._template
         self._steps = 0
 
@@ -160,35 +167,40 @@ class SimrobotParallelEnv(ParallelEnv):
     ) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]:
         """Set every live agent's wheel speeds, advance the world one ``dt``, read the sensors."""
         world = self.world
-        for agent in self.agents:
-            i = world.index[agent]
-            left, right = np.clip(np.asarray(actions[agent], dtype=float), -self.max_wheel_speed, self.max_wheel_speed)
-            world.set_wheel_speeds(i, float(left), float(right))
+        live = [world.index[agent] for agent in self.agents]
+        if live:  # one clip for every agent's pair (each was clipped alone: the same numbers)
+            limit = self.max_wheel_speed
+            wheels = np.clip(np.array([actions[agent] for agent in self.agents], dtype=float), -limit, limit)
+            for i, (left, right) in zip(live, wheels.tolist(), strict=True):
+                world.set_wheel_speeds(i, left, right)
         before = world.poses()
         crashed = set(world.step().tolist())
         after = world.poses()
         self._steps += 1
         truncate = self._steps >= self.max_steps
         obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
-        for agent in self.agents:
-            i = world.index[agent]
+        start, end = before.tolist(), after.tolist()  # plain floats: cheaper per agent than numpy rows
+        for agent, i in zip(self.agents, live, strict=True):
             obs[agent] = self._observe(i)
-            rewards[agent] = -self.crash_penalty if i in crashed else self._progress(i, before[i], after[i])
+            rewards[agent] = -self.crash_penalty if i in crashed else self._progress(i, start[i], end[i])
             terms[agent] = i in crashed
             truncs[agent] = truncate and i not in crashed
             infos[agent] = {"pose": after[i].copy()}
         self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
         return obs, rewards, terms, truncs, infos
 
-    def _progress(self, i: int, before: np.ndarray, after: np.ndarray) -> float:
+    def _progress(self, i: int, before: list[float], after: list[float]) -> float:
         # forward distance this step over the largest possible one
-        robot = self.spec_file.robots[i]
-        forward = (after[0] - before[0]) * math.cos(before[2]) + (after[1] - before[1]) * math.sin(before[2])
-        return float(forward / (robot.R * self.max_wheel_speed * self.world.dt))
+        (x0, y0, heading), (x1, y1, _) = before, after
+        forward = (x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)
+        return float(forward / (self.spec_file.robots[i].R * self.max_wheel_speed * self.world.dt))
 
     def _observe(self, i: int) -> np.ndarray:
         # robot i's sensors, normalised (see the module's docstring)
         world = self.world
+        echo = self._one_echo[i]
+        if echo is not None:  # the usual robot: one number
+            return np.array([min(world.nearest(echo[0])[0] / echo[1], 1.0)], dtype=np.float32)
         parts = []
         for k in self._sensors_of[i]:
             sensor = world.sensors[k]
