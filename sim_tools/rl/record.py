@@ -50,7 +50,7 @@ GOAL_NS = "goal"
 
 
 class RecordEpisodeBags(gym.Wrapper):
-    """Write episodes of a Create env as bag folders (see the module's docstring).
+    """Write episodes of a CreateNav, CreateCover or ArmReach env as bag folders (see the module's docstring).
 
     ``episode_trigger(n)`` (n = 0, 1, … counted from the first reset) says whether episode ``n`` is
     recorded: by default every one. ``recorded`` lists the bag folders written so far.
