@@ -40,7 +40,7 @@ architecture: venv
 	$(PY) docs/make_architecture.py
 
 bench: venv
-	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "roboticstoolbox-python unavailable: bench/arm.py skips its columns"
+	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "a baseline (roboticstoolbox-python, ir-sim) unavailable: bench/arm.py and bench/envs.py skip its columns"
 	set -e; for script in $(filter-out bench/soak.py bench/_%.py,$(wildcard bench/*.py)); do echo "== $$script"; $(PY) $$script; done
 
 # Mutation fuzzer over every input format: 100,000 inputs or 15 minutes on 2 worker processes;

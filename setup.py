@@ -122,8 +122,8 @@ setup(
         "ray": RAY,
         # Learning environments (docs/learning.md): `gymnasium.make("robot_sims/CreateNav-v0")`.
         "rl": RL,
-        # Optional baseline for bench/arm.py (the benchmark skips its columns when missing).
-        "bench": ["roboticstoolbox-python"],
+        # Optional baselines: bench/arm.py's and bench/envs.py's (each skips its columns when missing).
+        "bench": ["roboticstoolbox-python", "ir-sim"],
     },
     entry_points={
         "console_scripts": ["robot_sims = sim_tools.cli:main"],
