@@ -170,3 +170,21 @@ def test_a_recorded_arm_reach_episode_is_a_bag_of_the_arm_worlds_topics_that_rep
     main([str(bag), "-o", str(tmp_path / "arm.rrd"), "--no-progress"])
     assert "/world/poses/target_pose" in load_entities(tmp_path / "arm.rrd")
     assert yaml.safe_load((bag / EPISODE_FILE).read_text())["steps"] == 20
+
+
+def test_robot_sims_replay_plays_a_recorded_episode_back_on_the_worlds_topics(episode, executor, make_node):
+    from geometry_msgs.msg import PoseStamped
+    from rosgraph_msgs.msg import Clock
+
+    from sim_runtime.bag.replay import play_bag
+    from sim_runtime.testing import Collector, spin_until
+
+    bag, info, steps, _rewards = episode
+    node = make_node("rollout_listener")
+    poses = Collector(node, PoseStamped, "/overhead_pose", 1000)
+    clock = Collector(node, Clock, "/clock", 1000)
+    stats = play_bag(bag, executor, wait_for_subscribers=1, rate=4.0, topics=["/overhead_pose", "/clock"])
+    assert stats.published == (5 * steps + 1) + (10 * steps + 1)
+    assert spin_until(executor, lambda: len(poses.msgs) == 5 * steps + 1 and len(clock.msgs) == 10 * steps + 1)
+    assert (poses.last.pose.position.x, poses.last.pose.position.y) == tuple(info["pose"][:2].tolist())
+    assert clock.last.clock.sec * 10**9 + clock.last.clock.nanosec == steps * 100_000_000
