@@ -200,9 +200,22 @@ def _in_processes(make: Callable[[], Run], steps: int, processes: int) -> float:
     return total
 
 
-def vector_run(workers: int, random: bool = True) -> tuple[Run, Callable[[], int]]:
-    """(run, close → episodes ended) of the vector Create env: random actions (episodes end and
-    reset), or every sub-env on the slow circle (none ends: the bare models' work)."""
+def cpu_seconds(pid: int) -> float:
+    """CPU time (user + system) of process ``pid`` so far (Linux)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _spin(steps: int) -> None:
+    # the machine's own speed-up from a second process, nothing of ours in it
+    for _ in range(steps):
+        sum(range(2000))
+
+
+def vector_run(workers: int, random: bool = True) -> tuple[Run, Callable[[], int], Callable[[], float]]:
+    """(run, close → episodes ended, CPU clock of every process stepping it) of the vector Create
+    env: random actions (episodes end and reset), or every sub-env on the slow circle (none ends:
+    the bare models' work)."""
     envs = vector_create_nav(VECTOR_ENVS, workers=workers, sensors=("lidar", "bump", "goal"), max_steps=10**9)
     if random:
         envs.reset(seed=0)
@@ -222,7 +235,10 @@ def vector_run(workers: int, random: bool = True) -> tuple[Run, Callable[[], int
         envs.close()
         return ended[0]
 
-    return run, close
+    def cpu_clock() -> float:
+        return time.process_time() + sum(cpu_seconds(process.pid) for process in envs._processes)
+
+    return run, close, cpu_clock
 
 
 def bare_models_run() -> Run:
@@ -261,35 +277,53 @@ def many_robots_world(folder: Path, n: int, threads: int) -> Path:
     return path
 
 
-def cores_table(steps: int, folder: Path) -> None:
-    print(f"\n2. one core and two (wall time, best of several, taking turns); {load()}")
-    print(f"{'env':<52}{'1 core':>10}{'2 cores':>10}{'ratio':>7}  goal (2 cores)")
-    for name, env_class in (("CreateNav-v0, 1 env per process", CreateNavEnv), ("ArmReach-v0", None)):
-        make = (lambda: arm_pair()[0]) if env_class is None else (lambda c=env_class: create_pair(c)[0])
-        scale = 10 if env_class is None else 1
-        one = two = 0.0
-        for _ in range(2):  # taking turns, so both see the same load
-            one, two = max(one, _in_processes(make, steps * scale, 1)), max(two, _in_processes(make, steps * scale, 2))
-        print(f"{name:<52}{one:>10,.0f}{two:>10,.0f}{two / one:>7.2f}")
-    (one_run, one_close), (two_run, two_close) = vector_run(1), vector_run(2)
-    both = [VECTOR_ENVS * r for r in rates([one_run, two_run], steps // VECTOR_ENVS * 2, time.perf_counter, 6)]
+def row(name: str, one: float, two: float, goal: str = "", digits: int = 0) -> None:
+    print(f"{name:<52}{one:>10,.{digits}f}{two:>10,.{digits}f}{two / one:>7.2f}  {goal}".rstrip())
+
+
+def processes_row(name: str, make: Callable[[], Run], steps: int) -> None:
+    """One process, then two at once, each stepping its own (taking turns twice: the same load)."""
+    one = two = 0.0
+    for _ in range(2):
+        one = max(one, _in_processes(make, steps, 1))
+        two = max(two, _in_processes(make, steps, 2))
+    row(name, one, two)
+
+
+def vector_rows(steps: int) -> None:
+    """The vector Create env on 1 and 2 workers (the goal), and its cost over the bare models."""
+    (one_run, one_close, _), (two_run, two_close, two_cpu) = vector_run(1), vector_run(2)
+    vector_steps = steps // VECTOR_ENVS * 2
+    both = [VECTOR_ENVS * r for r in rates([one_run, two_run], vector_steps, time.perf_counter, 6)]
+    per_cpu_second = VECTOR_ENVS * rate(two_run, vector_steps, two_cpu)
     ended = one_close() + two_close()
-    name = f"vector CreateNav-v0 x {VECTOR_ENVS}, random actions, LIDAR"
     met = "met" if both[1] >= GOAL_VECTOR else "NOT met"
-    print(f"{name:<52}{both[0]:>10,.0f}{both[1]:>10,.0f}{both[1] / both[0]:>7.2f}  >= {GOAL_VECTOR:,.0f}: {met}")
+    row(f"vector CreateNav-v0 x {VECTOR_ENVS}, random actions, LIDAR", *both, f">= {GOAL_VECTOR:,.0f}: {met}")
     print(f"  ({ended} episodes ended and were reset during these runs)")
-    run, close = vector_run(1, random=False)
-    circling, bare = (VECTOR_ENVS * r for r in rates([run, bare_models_run()], steps // VECTOR_ENVS * 2, repeats=6))
+    print(
+        f"  2 workers: {1e6 / per_cpu_second:.0f} us of CPU per env step (both processes): two idle cores"
+        f" would make ~{2 * per_cpu_second:,.0f} env steps/s (a projection, not a measurement)"
+    )
+    run, close, _ = vector_run(1, random=False)
+    circling, bare = (VECTOR_ENVS * r for r in rates([run, bare_models_run()], vector_steps, repeats=6))
     close()
     print(
         f"  the same on the slow circle (no resets), one process, CPU time: {circling:,.0f} env steps/s;"
         f" {VECTOR_ENVS} bare models doing that work {bare:,.0f}/s: cost {bare / circling - 1:+.0%}"
     )
+
+
+def cores_table(steps: int, folder: Path) -> None:
+    print(f"\n2. one core and two (wall time, best of several, taking turns); {load()}")
+    print(f"{'env':<52}{'1 core':>10}{'2 cores':>10}{'ratio':>7}  goal (2 cores)")
+    processes_row("the machine now: a pure-Python loop (2.00 if idle)", lambda: _spin, steps)
+    processes_row("CreateNav-v0, 1 env per process", lambda: create_pair(CreateNavEnv)[0], steps)
+    processes_row("ArmReach-v0, 1 env per process", lambda: arm_pair()[0], steps * 10)
+    vector_rows(steps)
     worlds = [simrobot_pair(many_robots_world(folder, 1000, threads))[0] for threads in (1, 2)]
     sim = rates(worlds, 5, time.perf_counter)
     met = "met" if sim[1] >= GOAL_SIMROBOT else "NOT met"
-    name = "SIMROBOT ParallelEnv, 1,000 agents (steps/s)"
-    print(f"{name:<52}{sim[0]:>10,.1f}{sim[1]:>10,.1f}{sim[1] / sim[0]:>7.2f}  >= {GOAL_SIMROBOT:.0f}: {met}")
+    row("SIMROBOT ParallelEnv, 1,000 agents (threads 1, 2)", *sim, f">= {GOAL_SIMROBOT:.0f}: {met}", 1)
 
 
 # ------------------------------------------------------------------------------------ 3. IR-SIM
