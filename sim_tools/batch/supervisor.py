@@ -333,6 +333,14 @@ def _warm_up(ep: Any) -> None:
         pass
 
 
+def no_core_files() -> None:
+    """A crash of this process (a student's controller segfaulting) leaves its Python stack in the
+    log, not a core file of hundreds of MB wherever the system puts cores."""
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+
+
 def worker_main(fd: int, parent: int) -> None:
     """A worker: announce itself, then run the episodes it is sent until its socket closes."""
     import faulthandler
@@ -341,6 +349,7 @@ def worker_main(fd: int, parent: int) -> None:
     conn = Connection(fd)
     _watch_parent(parent)
     faulthandler.enable()  # a segfault writes the Python stack to fd 2: the episode's log
+    no_core_files()
     from sim_tools.batch.episode import isolate_process
 
     isolate_process()

@@ -113,7 +113,10 @@ def _worker(
     os.dup2(fd, 2)
     import faulthandler
 
+    from sim_tools.batch.supervisor import no_core_files
+
     faulthandler.enable()
+    no_core_files()  # the inputs crashing it on purpose are reported with their stacks
     faulthandler.register(signal.SIGUSR1, all_threads=True)  # the parent asks for our stacks before killing a hang
     warnings.simplefilter("ignore")
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
