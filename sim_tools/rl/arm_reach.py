@@ -25,7 +25,6 @@ import numba
 import numpy as np
 from gymnasium import spaces
 
-from arm_sim import kinematics as kin
 from arm_sim.arm import Arm
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
@@ -76,8 +75,7 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self.observation_space = spaces.Box(low, high, shape=(n + 6,), dtype=np.float32)
         self.q = self.arm.mid_range()
         self.target = self.arm.fkine(self.q)
-        # the kernels' arguments, built once: the chain's arrays and the joint limits
-        self._chain = tuple(self.arm.chain)
+        # the limits as the step's kernel takes them, gathered once
         self._limits = (self.arm.velocity_limits, self.arm.lower, self.arm.upper)
 
     @overload
@@ -108,10 +106,9 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._observe()
 
     def step(self, action: np.ndarray):
-        # one kernel: the joints moved within their limits, the flange's error, the observation
-        self.q, obs, position, rotation = _reach_step(
-            self.q, np.asarray(action, dtype=float), self.dt, *self._limits, self.target, *self._chain
-        )
+        # kernels: the joints moved within their limits, then the flange's error and the observation
+        self.q = _moved(self.q, np.asarray(action, dtype=float), self.dt, *self._limits)
+        obs, position, rotation = _observation(self.q, self.target, self.arm.fkine(self.q))
         self.steps += 1
         reached = position <= self.tolerance_m and rotation <= self.tolerance_rad
         reward = -(position + ROTATION_WEIGHT * rotation)
@@ -122,7 +119,7 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         return obs, reward, reached, truncated, info
 
     def _observe(self) -> tuple[np.ndarray, dict[str, Any]]:
-        obs, position, rotation = _observation(self.q, self.target, *self._chain)
+        obs, position, rotation = _observation(self.q, self.target, self.arm.fkine(self.q))
         return obs, {"position_error_m": position, "rotation_error_rad": rotation}
 
 
@@ -134,6 +131,9 @@ def pose_error(target: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return error
 
 
+# The kernels here call no other package's kernels (the flange pose comes from Arm.fkine): numba's
+# cache of a sim_tools kernel is checked against sim_tools' and sim_runtime's sources only
+# (sim_runtime.numba_cache), so one calling into arm_sim could run stale code after arm_sim changed.
 @numba.njit(cache=True)
 def _pose_error_into(out, target, pose):
     R = np.empty((3, 3))  # R_target R_poseᵀ
@@ -162,11 +162,12 @@ def _pose_error_into(out, target, pose):
 
 
 @numba.njit(cache=True)
-def _observation(q, target, dh, base, modified):
-    """(observation float32, position error m, rotation error rad) at joints ``q``."""
+def _observation(q, target, flange):
+    """(observation float32, position error m, rotation error rad) at joints ``q``, the flange at
+    ``flange`` (4x4)."""
     n = q.shape[0]
     error = np.empty(6)
-    _pose_error_into(error, target, kin.fk(q, kin.Chain(dh, base, modified)))
+    _pose_error_into(error, target, flange)
     obs = np.empty(n + 6, dtype=np.float32)
     obs[:n] = q
     for i in range(3):
@@ -177,9 +178,9 @@ def _observation(q, target, dh, base, modified):
 
 
 @numba.njit(cache=True)
-def _reach_step(q, action, dt, velocity_limits, lower, upper, target, dh, base, modified):
-    """Joint velocities ``action`` (clipped to their limits) for ``dt``, the joints held in their
-    limits (NaN stays NaN, as numpy's clip keeps it): (new joints, then :func:`_observation`'s)."""
+def _moved(q, action, dt, velocity_limits, lower, upper):
+    """The joints after velocities ``action`` (clipped to their limits) for ``dt``, held in their
+    limits (NaN stays NaN, as numpy's clip keeps it)."""
     moved = np.empty(q.shape[0])
     for i in range(q.shape[0]):
         limit = velocity_limits[i]
@@ -194,5 +195,4 @@ def _reach_step(q, action, dt, velocity_limits, lower, upper, target, dh, base, 
         elif x > upper[i]:
             x = upper[i]
         moved[i] = x
-    obs, position, rotation = _observation(moved, target, dh, base, modified)
-    return moved, obs, position, rotation
+    return moved
