@@ -69,3 +69,33 @@ def test_bad_worker_counts_and_action_rows_are_input_errors() -> None:
     with pytest.raises(InputError, match="2 rows"):
         envs.step(np.zeros((3, 2), dtype=np.float32))
     envs.close()
+
+
+def test_a_worker_process_that_dies_is_named_in_an_error_and_close_still_works() -> None:
+    envs = vector_create_nav(3, workers=3, **SETTINGS)
+    envs.reset(seed=0)
+    workers = list(envs._processes)
+    workers[1].kill()  # as a crash would end it
+    workers[1].join()
+    with pytest.raises(RuntimeError, match="worker process 2 has died"):
+        envs.step(np.zeros((3, 2), dtype=np.float32))
+    envs.close()
+    assert not any(process.is_alive() for process in workers)
+    with pytest.raises(RuntimeError, match="after close"):
+        envs.step(np.zeros((3, 2), dtype=np.float32))
+
+
+def test_ctrl_c_in_the_middle_of_a_step_closes_the_workers_rather_than_leave_their_replies_unread(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    envs = vector_create_nav(2, workers=2, **SETTINGS)
+    envs.reset(seed=0)
+    workers = list(envs._processes)
+
+    def interrupted(_actions: np.ndarray) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(envs._local, "step", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        envs.step(np.zeros((2, 2), dtype=np.float32))
+    assert envs.closed and not any(process.is_alive() for process in workers)

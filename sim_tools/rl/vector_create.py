@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import multiprocessing
+import signal
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from typing import Any
@@ -113,6 +114,7 @@ class _Batch:
 
 def _serve(conn: Connection, count: int, env_kwargs: dict[str, Any]) -> None:
     """A worker process: its batch's commands from the pipe until ``close`` (or the pipe closes)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's to handle (it closes us)
     batch = _Batch(count, env_kwargs)
     while True:
         try:
@@ -129,6 +131,23 @@ def _serve(conn: Connection, count: int, env_kwargs: dict[str, Any]) -> None:
             conn.send(reply)
         except Exception as exc:  # an exception that does not pickle: its text then
             conn.send(("error", RuntimeError(repr(exc))))
+
+
+def _send(pipe: Connection, message: tuple) -> bool:
+    """Whether ``message`` reached the worker (False: its process is gone)."""
+    try:
+        pipe.send(message)
+    except OSError:
+        return False
+    return True
+
+
+def _receive(pipe: Connection) -> tuple[str, Any]:
+    """The worker's reply: ("ok", value), ("error", exception) or ("gone", None)."""
+    try:
+        return pipe.recv()
+    except (EOFError, OSError):
+        return "gone", None
 
 
 class CreateNavVectorEnv(VectorEnv):
@@ -173,19 +192,26 @@ class CreateNavVectorEnv(VectorEnv):
 
     def _all(self, command: str, local_args: tuple, remote_args: Sequence[tuple]) -> list[Any]:
         """Every batch's ``command``: the workers' sent first, so they run while this one does."""
-        for pipe, args in zip(self._pipes, remote_args, strict=True):
-            pipe.send((command, args))
+        if self.closed:
+            raise RuntimeError("CreateNavVectorEnv: used after close()")
+        try:
+            return self._exchange(command, local_args, remote_args)
+        except (KeyboardInterrupt, SystemExit):
+            self.close()  # interrupted mid-exchange: the workers' replies would come out of step
+            raise
+
+    def _exchange(self, command: str, local_args: tuple, remote_args: Sequence[tuple]) -> list[Any]:
+        sent = [_send(pipe, (command, args)) for pipe, args in zip(self._pipes, remote_args, strict=True)]
         results: list[Any] = []
-        errors: list[BaseException] = []
+        errors: list[Any] = []
         try:
             results.append(getattr(self._local, command)(*local_args))
         except Exception as exc:
             errors.append(exc)
-        for k, pipe in enumerate(self._pipes, start=1):
-            try:
-                status, value = pipe.recv()
-            except (EOFError, OSError):
-                status, value = "error", RuntimeError(f"CreateNavVectorEnv: worker process {k} has died")
+        for k, (pipe, delivered) in enumerate(zip(self._pipes, sent, strict=True), start=1):
+            status, value = _receive(pipe) if delivered else ("gone", None)
+            if status == "gone":
+                value = RuntimeError(f"CreateNavVectorEnv: worker process {k} has died")
             (results if status == "ok" else errors).append(value)
         if errors:
             raise errors[0]
@@ -228,6 +254,10 @@ class CreateNavVectorEnv(VectorEnv):
     def render(self) -> tuple[Any, ...] | None:
         """Every sub-env's frame (``render_mode="rgb_array"``), else None."""
         return self.call("render") if self.render_mode == "rgb_array" else None
+
+    def __del__(self) -> None:
+        if hasattr(self, "_pipes") and not self.closed:
+            self.close()
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the worker processes (terminated if one does not finish in time) and the sub-envs."""
