@@ -1,0 +1,62 @@
+"""The learning example learns: a short CMA-ES run beats random actions, and the shipped trained
+policy (examples/learning/create_nav_policy.npz) reaches more goals than random actions and than
+bump-and-turn. The training code is the example's own (examples/learning/train_create_nav.py)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim_tools.rl.policy import load_policy
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "learning"
+sys.path.insert(0, str(EXAMPLE))  # the example is a script, not a package
+import train_create_nav as example  # noqa: E402
+
+#: An easy fixed task for the short run: the goal 1.6 m away, 90° to the right of the start heading.
+START, GOAL = (-1.0, -1.0, np.pi / 2), (0.5, -0.5)
+SHORT = {"start": START, "goal": GOAL, "max_steps": 100}
+SEEDS = range(example.EVAL_SEED0, example.EVAL_SEED0 + 10)
+
+
+def test_a_few_generations_of_cma_es_give_a_policy_whose_return_beats_random_actions():
+    config = example.TrainConfig(episodes=1, popsize=8, max_generations=4, env_overrides=SHORT)
+    policy, history = example.train(config, log=lambda _line: None)
+    env = example.make_env(**SHORT)
+    trained = example.rollout(env, example.PolicyController(policy), seed=0)
+    randoms = [example.rollout(env, example.RandomController(env), seed).ret for seed in range(5)]
+    assert len(history) == 4
+    assert trained.ret > max(randoms) + 1.0, (trained, randoms)
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    policy = load_policy(EXAMPLE / "create_nav_policy.npz")
+    env = example.make_env(**policy.env_kwargs)
+    return policy, env
+
+
+def test_the_shipped_policy_file_names_its_env_and_options(shipped):
+    policy, env = shipped
+    assert policy.env_id == "robot_sims/CreateNav-v0"
+    assert policy.env_kwargs == example.ENV_KWARGS
+    assert policy.weights[0].shape[0] == env.observation_space.shape[0]
+
+
+def test_the_shipped_policy_reaches_more_goals_than_random_actions_and_bump_and_turn(shipped):
+    policy, env = shipped
+    learned = example.evaluate(example.PolicyController(policy), SEEDS, env)
+    rivals = [example.evaluate(c, SEEDS, env) for c in (example.RandomController(env), example.BumpTurnController(env))]
+    assert all(learned["success_rate"] > r["success_rate"] for r in rivals), (learned, rivals)
+    assert all(learned["mean_return"] > r["mean_return"] for r in rivals), (learned, rivals)
+
+
+def test_played_on_after_bumps_as_in_a_batch_the_shipped_policy_reaches_more_goals_than_bump_and_turn(shipped):
+    policy, env = shipped
+    learned = example.evaluate(example.PolicyController(policy), SEEDS, env, bumps_end=False)
+    bump_turn = example.evaluate(example.BumpTurnController(env), SEEDS, env, bumps_end=False)
+    assert learned["success_rate"] > bump_turn["success_rate"], (learned, bump_turn)
+    assert learned["mean_bumps"] < bump_turn["mean_bumps"], (learned, bump_turn)
