@@ -122,9 +122,10 @@ class CreateModel:
         self._pose = list(self.initial_pose)  # plain floats: cheaper than numpy scalars per step
         self._command = (0.0, 0.0)
         self._velocity = (0.0, 0.0)
-        self._odom_pose = np.zeros(3)
-        self._odom_totals = np.zeros(2)
-        self._odom_variance = np.zeros(2)  # of the summed distance and turn
+        # plain floats: numpy's small-array arithmetic cost half of every physics step
+        self._odom_pose = (0.0, 0.0, 0.0)
+        self._odom_totals = (0.0, 0.0)
+        self._odom_variance = (0.0, 0.0)  # of the summed distance and turn
 
     @property
     def pose(self) -> np.ndarray:
@@ -207,15 +208,16 @@ class CreateModel:
             turn += self._noise("odometry") * abs(turn)
         x, y, th = self._odom_pose
         mid = th + 0.5 * turn
-        self._odom_pose[:] = (x + dist * math.cos(mid), y + dist * math.sin(mid), wrap_angle(th + turn))
-        self._odom_totals += (dist, turn)
+        self._odom_pose = (x + dist * math.cos(mid), y + dist * math.sin(mid), wrap_angle(th + turn))
+        self._odom_totals = (self._odom_totals[0] + dist, self._odom_totals[1] + turn)
         if std != 0.0:
-            self._odom_variance += ((std * dist) ** 2, (std * turn) ** 2)
+            var_dist, var_turn = self._odom_variance
+            self._odom_variance = (var_dist + (std * dist) ** 2, var_turn + (std * turn) ** 2)
 
     @property
     def odometry_pose(self) -> np.ndarray:
         """[x, y, θ] dead-reckoned from the noisy wheel odometry, from (0, 0, 0) at reset."""
-        return self._odom_pose.copy()
+        return np.array(self._odom_pose)
 
     @property
     def odometry_variance(self) -> tuple[float, float]:
