@@ -40,9 +40,24 @@ def warm_replay() -> None:
     _message_records(np.frombuffer(bytes(9), dtype=np.uint8))  # chunks without message indexes
 
 
+def warm_learning() -> None:
+    """The learning environments' own kernels (the arm's step), where Gymnasium is installed."""
+    import importlib.util
+
+    if importlib.util.find_spec("gymnasium") is None:
+        return
+    from sim_tools.rl.arm_reach import ArmReachEnv
+
+    env = ArmReachEnv()
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+
+
 def warmers() -> dict[str, Callable[[], None]]:
-    """Every registered simulator's warm-up by its name, then the bag readers' (``replay``)."""
-    return {**{name: part.warm_up for name, part in world_parts().items()}, "replay": warm_replay}
+    """Every registered simulator's warm-up by its name, then the bag readers' (``replay``) and the
+    learning environments' (``learning``)."""
+    parts = {name: part.warm_up for name, part in world_parts().items()}
+    return {**parts, "replay": warm_replay, "learning": warm_learning}
 
 
 def main() -> int:
