@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -58,6 +59,12 @@ def _real_node(executable: str):
         return cls(WorldSpec(walls=np.zeros((10, 10), dtype=bool), robots=(RobotSpec("r", (0.05, 0.05)),)))
     if executable == "create_world":
         return cls(parameter_overrides=[Parameter("map_file", value="")])
+    if executable == "policy_controller":  # it needs a policy file to start
+        from sim_tools.rl.policy import MlpPolicy
+
+        path = Path(tempfile.mkdtemp()) / "policy.npz"
+        MlpPolicy.zeros(3, (), [-1.0, -1.0], [1.0, 1.0], env_id="robot_sims/CreateNav-v0").save(path)
+        return cls(parameter_overrides=[Parameter("policy", value=str(path))])
     return cls()
 
 
