@@ -263,38 +263,51 @@ def _args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--hidden", type=int, nargs="*", default=list(HIDDEN), help="hidden layer sizes (none: linear)")
     parser.add_argument("--eval-episodes", type=int, default=50, help="held-out seeds for the final table")
     parser.add_argument("--evaluate", type=Path, help="only evaluate this policy file")
+    parser.add_argument(
+        "--noise", type=Path, help="a noise config to train (and also evaluate) with; the policy file does not keep it"
+    )
     return parser.parse_args(argv)
 
 
-def report(policy: MlpPolicy, episodes: int, log: Callable[[str], None] = print) -> None:
+def report(policy: MlpPolicy, episodes: int, noise: Path | None = None, log: Callable[[str], None] = print) -> None:
     """The policy against bump-and-turn and random actions on the same held-out seeds, both ways
-    of counting bumps."""
-    env = make_env()
+    of counting bumps; noise-free, and with the ``noise`` config if given."""
     seeds = range(EVAL_SEED0, EVAL_SEED0 + episodes)
-    rivals: dict[str, Controller] = {
-        "policy": PolicyController(policy),
-        "bump_turn": BumpTurnController(env),
-        "random": RandomController(env),
-    }
-    for bumps_end, title in ((True, "a bump ends the episode (the env)"), (False, "bumps counted (as batch)")):
-        log(f"{episodes} seeds, 60 s, {title}:")
-        for name, controller in rivals.items():
-            r = evaluate(controller, seeds, env, bumps_end)
-            log(
-                f"  {name:10s} success {100 * r['success_rate']:5.1f} %  return {r['mean_return']:7.2f}  "
-                f"time to goal {r['mean_time_to_goal_s']:5.1f} s  bumps {r['mean_bumps']:.2f}"
-            )
+    envs = {"noise-free": make_env()} | ({f"noise {noise}": make_env(config_file=noise)} if noise else {})
+    for label, env in envs.items():
+        rivals: dict[str, Controller] = {
+            "policy": PolicyController(policy),
+            "bump_turn": BumpTurnController(env),
+            "random": RandomController(env),
+        }
+        for bumps_end, title in ((True, "a bump ends the episode (the env)"), (False, "bumps counted (as batch)")):
+            log(f"{episodes} seeds, 60 s, {label}, {title}:")
+            for name, controller in rivals.items():
+                r = evaluate(controller, seeds, env, bumps_end)
+                log(
+                    f"  {name:10s} success {100 * r['success_rate']:5.1f} %  return {r['mean_return']:7.2f}  "
+                    f"time to goal {r['mean_time_to_goal_s']:5.1f} s  bumps {r['mean_bumps']:.2f}"
+                )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _args(argv)
     if args.evaluate is not None:
-        report(load_policy(args.evaluate), args.eval_episodes)
+        report(load_policy(args.evaluate), args.eval_episodes, args.noise)
         return 0
-    config = TrainConfig(args.minutes, args.seed, tuple(args.hidden), args.episodes, args.popsize, workers=args.workers)
+    overrides = {"config_file": str(args.noise)} if args.noise else {}
+    config = TrainConfig(
+        args.minutes,
+        args.seed,
+        tuple(args.hidden),
+        args.episodes,
+        args.popsize,
+        workers=args.workers,
+        env_overrides=overrides,
+    )
     policy, _ = train(config)
     print(f"wrote {policy.save(args.out)}")
-    report(policy, args.eval_episodes)
+    report(policy, args.eval_episodes, args.noise)
     return 0
 
 
