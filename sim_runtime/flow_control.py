@@ -18,11 +18,11 @@ a recorder that falls behind then says so (lost samples in its log and the bag's
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
 from builtin_interfaces.msg import Time
-from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import TimeReference
@@ -41,6 +41,9 @@ WINDOW_STEPS = 20
 REPORT_EVERY = 5
 #: Wall seconds without a report, while the world waits, after which the recorder is not waited for.
 STALL_SECONDS = 2.0
+#: Wall seconds between two looks at the reporters matched: a world takes a few steps at most
+#: in that time (far fewer than WINDOW_STEPS), so it holds for a new recorder before it is a window ahead.
+POLL_SECONDS = 0.0005
 
 
 def _ns(stamp: Time) -> int:
@@ -63,23 +66,27 @@ class RecorderGate:
         self._recorders: dict[str, _Progress] = {}
         self._matched = 0  # recorders whose reporter matched us, reporting or not yet
         self._matched_at = 0.0
-        node.create_subscription(
-            TimeReference,
-            PROGRESS_TOPIC,
-            self._on_progress,
-            PROGRESS_QOS,
-            event_callbacks=SubscriptionEventCallbacks(matched=self._on_matched),
-        )
+        self._polled_at = -math.inf
+        # The matched count is polled, not taken from a "matched" event callback: rclpy's
+        # EventsExecutor can crash the process later when an entity with event callbacks is
+        # destroyed while it goes on spinning (worlds are, in sweeps, the studio and tests).
+        self._subscription = node.create_subscription(TimeReference, PROGRESS_TOPIC, self._on_progress, PROGRESS_QOS)
 
-    def _on_matched(self, status) -> None:
+    def _poll_matched(self) -> None:
+        """At most every :data:`POLL_SECONDS`: has a recorder come or gone?"""
+        now = time.monotonic()
+        if now - self._polled_at < POLL_SECONDS:
+            return
+        self._polled_at = now
+        count = self._subscription.get_publisher_count()
         # A recorder announces itself as it subscribes to /clock, before its first report.
-        if status.current_count > self._matched:
-            self._matched_at = time.monotonic()
-        elif status.current_count < self._matched:  # a recorder stopped: forget it at once
+        if count > self._matched:
+            self._matched_at = now
+        elif count < self._matched:  # a recorder stopped: forget it at once
             present = self._present()
             for name in [n for n in self._recorders if n not in present]:
                 del self._recorders[name]
-        self._matched = status.current_count
+        self._matched = count
 
     def _present(self) -> set[str]:
         """Fully qualified names of the recorders now on the graph."""
@@ -104,6 +111,7 @@ class RecorderGate:
     @property
     def attached(self) -> bool:
         """Whether any recorder is attached (a cheap test before :meth:`holds`)."""
+        self._poll_matched()
         return bool(self._matched or self._recorders)
 
     def holds(self, sim_time: float) -> bool:

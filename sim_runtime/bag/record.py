@@ -104,6 +104,10 @@ class _Subscribed:
     publisher_count: int
 
 
+def _ignore(_data: bytes) -> None:
+    """The callback of a retired subscription."""
+
+
 def _is_hidden(topic: str) -> bool:
     return any(part.startswith("_") for part in topic.split("/"))
 
@@ -127,9 +131,16 @@ class Recorder(Node):
         clock: str = "auto",
         discovery_period: float = 0.2,
         node_name: str = "recorder",
+        count_lost: bool = False,
         **node_kwargs: Any,
     ) -> None:
         super().__init__(node_name, **node_kwargs)
+        #: Count the messages DDS reports lost (QoS event callbacks). Only for a recorder in a
+        #: process of its own (``robot_sims record``): rclpy's EventsExecutor can crash the process
+        #: later when an entity with event callbacks is destroyed while it goes on spinning, as a
+        #: recorder inside a sweep, the demo or a test is.
+        self._count_lost = count_lost
+        self._retired: list[Any] = []  # subscriptions with event callbacks, muted, kept until exit
         if clock not in ("auto", "sim", "wall"):
             raise InputError(f"--clock {clock!r}: expected auto, sim or wall")
         self.writer = writer
@@ -274,16 +285,27 @@ class Recorder(Node):
         # sent in that instant may be recorded twice).
         sub.subscription = self._subscribe(sub.msg_type, name, sub.topic_id, qos)
         sub.qos = qos
-        self.destroy_subscription(old)
+        self._retire(old)
+
+    def _retire(self, old: Any) -> None:
+        """Drop a subscription; one with event callbacks is muted instead, and lives on until the
+        process ends (destroying it under a spinning EventsExecutor can crash the process)."""
+        if not self._count_lost:
+            self.destroy_subscription(old)
+            return
+        old.callback = _ignore
+        self._retired.append(old)
 
     def _subscribe(self, msg_type: Any, name: str, tid: int, qos: QoSProfile) -> Any:
-        """A raw subscription to ``name`` that counts the messages DDS reports lost."""
+        """A raw subscription to ``name``; with ``count_lost``, counting the messages DDS reports lost."""
+        callback = self._latched_or_plain(name, tid, qos)
+        if not self._count_lost:
+            return self.create_subscription(msg_type, name, callback, qos, raw=True)
 
         def lost(status: Any) -> None:  # rmw_message_lost_status_t (rclpy's stub types it loosely)
             self._on_lost(name, status.total_count_change)
 
         events = SubscriptionEventCallbacks(message_lost=lost)
-        callback = self._latched_or_plain(name, tid, qos)
         return self.create_subscription(msg_type, name, callback, qos, raw=True, event_callbacks=events)
 
     def _on_lost(self, name: str, count: int) -> None:
@@ -501,7 +523,7 @@ def main(args: Sequence[str] | None = None) -> int:
         return 2
     recorder = None
     try:
-        recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock)
+        recorder = Recorder(writer, opts.topics, exclude=opts.exclude, clock=opts.clock, count_lost=True)
         executor = make_executor()
         executor.add_node(recorder)
         print(f"recording to {writer.folder} (Ctrl-C to stop)", file=sys.stderr)
