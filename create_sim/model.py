@@ -48,6 +48,18 @@ class BeaconSighting:
     angle: float
 
 
+def odometry_origin(
+    pose: tuple[float, float, float], odometry: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """Where the odometry frame's origin is in the map (``map → odom``: x, y, yaw), from the true
+    pose and the odometry pose of one instant."""
+    x, y, theta = pose
+    odom_x, odom_y, odom_theta = odometry
+    yaw = theta - odom_theta
+    c, s = math.cos(yaw), math.sin(yaw)
+    return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
+
+
 class CreateModel:
     """Kinematics, wall physics and every sensor of one Create in a map."""
 

@@ -35,7 +35,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
-from create_sim.model import BeaconSighting, CreateModel
+from create_sim.model import BeaconSighting, CreateModel, odometry_origin
 from create_sim.spec import (
     BEACON_IDS_NS,
     BEACONS_NS,
@@ -645,9 +645,7 @@ class CreateWorldNode(SimWorldNode):
     def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float) -> tuple[float, float, float]:
         """Ground truth ``map → odom`` (x, y, yaw): where the odometry frame's origin really is."""
         x, y, theta = self.model.pose.tolist()
-        yaw = theta - odom_theta
-        c, s = math.cos(yaw), math.sin(yaw)
-        return x - (c * odom_x - s * odom_y), y - (s * odom_x + c * odom_y), yaw
+        return odometry_origin((x, y, theta), (odom_x, odom_y, odom_theta))
 
     def _publish_static_transforms(self) -> None:
         self.tf.send_static(sensor_transforms(self.prefix), self.stamp())

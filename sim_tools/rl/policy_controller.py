@@ -24,9 +24,10 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Illuminance, LaserScan, Range
 
+from create_sim.model import odometry_origin
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.errors import InputError
-from sim_runtime.msgs import time_from_msg
+from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
@@ -105,12 +106,12 @@ class PolicyControllerNode(CheckedNode):
         """The first overhead pose: where the robot starts, to put the goal in the odometry frame."""
         if self.first_truth is None:
             p, q = msg.pose.position, msg.pose.orientation
-            self.first_truth = (p.x, p.y, 2.0 * math.atan2(q.z, q.w))
+            self.first_truth = (p.x, p.y, yaw_from_quaternion(q))
             self._arrived("goal", 0, msg.header.stamp, truth=True)
 
     def on_odom(self, msg: Odometry) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        self.raw["goal"] = np.array([p.x, p.y, 2.0 * math.atan2(q.z, q.w)])
+        self.raw["goal"] = np.array([p.x, p.y, yaw_from_quaternion(q)])
         self._arrived("goal", 0, msg.header.stamp)
 
     def _arrived(self, part: str, i: int, stamp: Any, truth: bool = False) -> None:
@@ -140,11 +141,8 @@ def goal_in_odom(
     goal_map: tuple[float, float], truth: tuple[float, float, float], odom: np.ndarray
 ) -> tuple[float, float]:
     """The map-frame goal in the odometry frame, given the true pose and the odometry of one instant."""
-    # map → base from the truth, odom → base from the odometry: map → odom = truth ∘ odom⁻¹
-    yaw = truth[2] - float(odom[2])
+    ox, oy, yaw = odometry_origin(truth, (float(odom[0]), float(odom[1]), float(odom[2])))
     c, s = math.cos(yaw), math.sin(yaw)
-    ox = truth[0] - (c * odom[0] - s * odom[1])
-    oy = truth[1] - (s * odom[0] + c * odom[1])
     dx, dy = goal_map[0] - ox, goal_map[1] - oy
     return (c * dx + s * dy, -s * dx + c * dy)
 
