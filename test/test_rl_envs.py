@@ -16,9 +16,9 @@ from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
 from sim_tools.adapters.contract import EpisodeData
-from sim_tools.adapters.create.world import COVERAGE_CELL_M, create_area_covered_m2
+from sim_tools.adapters.create.world import COVERAGE_CELL_M, coverage_disc, create_area_covered_m2
 from sim_tools.rl.arm_reach import ArmReachEnv, pose_error
-from sim_tools.rl.create_cover import CreateCoverEnv, disc_cells
+from sim_tools.rl.create_cover import CreateCoverEnv
 from sim_tools.rl.create_nav import CreateNavEnv
 from sim_tools.rl.create_regions import FloorRegions
 from sim_tools.rl.create_sensors import SENSORS
@@ -75,7 +75,7 @@ def test_create_cover_counts_the_area_as_the_batch_metric_does_and_rewards_it():
     assert info["area_covered_m2"] == pytest.approx(create_area_covered_m2(data))
     assert info["area_covered_m2"] > 0.5
     # reset counts the start's cells unrewarded; each step pays 100 per m² it adds, a bump costs 10
-    at_start = len(disc_cells(CreateModel.RADIUS, COVERAGE_CELL_M)) * COVERAGE_CELL_M**2
+    at_start = len(coverage_disc(CreateModel.RADIUS)) * COVERAGE_CELL_M**2
     paid = 100.0 * (info["area_covered_m2"] - at_start) - 0.01 * len(rewards) - 10.0 * info["bumped"]
     assert sum(rewards) == pytest.approx(paid)
 

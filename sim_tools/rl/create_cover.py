@@ -19,18 +19,10 @@ import numpy as np
 
 from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
-from sim_tools.adapters.create.world import COVERAGE_CELL_M
+from sim_tools.adapters.create.world import COVERAGE_CELL_M, COVERAGE_KEY_SPAN, coverage_disc
 from sim_tools.rl.create_nav import BUMP_PENALTY, STEP_COST, TRACK_COLOR, CreateNavEnv
 
 AREA_REWARD = 100.0  # per m² newly covered (one 5 cm square: 0.25)
-
-
-def disc_cells(radius_m: float, cell_m: float) -> np.ndarray:
-    """(k, 2) cell offsets whose centre is within ``radius_m`` of a cell's centre."""
-    reach = int(math.ceil(radius_m / cell_m)) + 1
-    di, dj = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
-    inside = (np.hypot(di, dj) * cell_m <= radius_m).ravel()
-    return np.column_stack([di.ravel()[inside], dj.ravel()[inside]])
 
 
 class CreateCoverEnv(CreateNavEnv):
@@ -40,20 +32,23 @@ class CreateCoverEnv(CreateNavEnv):
         if "goal" in sensors:
             raise InputError("sensors: CreateCover has no goal (choose from lidar, sonar, bump, cliff)")
         super().__init__(*args, sensors=sensors, **kwargs)
-        self._disc = disc_cells(CreateModel.RADIUS, COVERAGE_CELL_M)
-        self.covered: set[tuple[int, int]] = set()
+        self._disc = coverage_disc(CreateModel.RADIUS)
+        #: The cells covered so far (their keys, as ``create_area_covered_m2`` counts them).
+        self.covered: set[int] = set()
+        self._last_cell = -1
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         obs, _info = super().reset(seed=seed, options=options)
         self.covered = set()
+        self._last_cell = -1
         self._cover()
         return obs, self._cover_info(False)
 
     def step(self, action: np.ndarray):
-        model = self._advance(action)
-        obs = self._observe()
+        bumps = self._advance(action).bumps()
+        obs = self._observe(bumps)
         reward = AREA_REWARD * self._cover() - STEP_COST
-        bumped = any(model.bumps())
+        bumped = bumps[0] or bumps[1]
         if bumped:
             reward -= BUMP_PENALTY
         truncated = self.steps >= self.max_steps and not bumped
@@ -61,10 +56,13 @@ class CreateCoverEnv(CreateNavEnv):
 
     def _cover(self) -> float:
         """Add the cells under the body now; the area newly covered (m²)."""
-        x, y, _ = self._model().pose
-        here = np.floor(np.array([x, y]) / COVERAGE_CELL_M).astype(np.int64)
+        x, y, _ = self._model().pose.tolist()
+        cell = math.floor(x / COVERAGE_CELL_M) * COVERAGE_KEY_SPAN + math.floor(y / COVERAGE_CELL_M)
+        if cell == self._last_cell:  # most steps end on the cell they began on: nothing new
+            return 0.0
+        self._last_cell = cell
         before = len(self.covered)
-        self.covered.update(map(tuple, (self._disc + here).tolist()))
+        self.covered.update((self._disc + cell).tolist())
         return (len(self.covered) - before) * COVERAGE_CELL_M**2
 
     def _drawn(self) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, float, float]]]:

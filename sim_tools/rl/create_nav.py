@@ -46,9 +46,9 @@ from sim_tools.rl.create_regions import map_regions
 from sim_tools.rl.create_sensors import (
     DEFAULT_SENSORS,
     MAX_GOAL_DISTANCE_M,
+    WRITE,
     checked_sensors,
     lidar_index,
-    observation,
 )
 
 PROGRESS_REWARD = 10.0  # per metre closer to the goal
@@ -102,6 +102,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         )
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._obs_size = low.shape[0]
+        self._parts = [(_RAW.get(name), WRITE[name]) for name in self.sensors]  # read None: the bumps
         self.model: CreateModel | None = None
         self.track: list[tuple[float, float]] = []
         self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
@@ -145,7 +147,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.steps = 0
         self.track = [(float(start[0]), float(start[1]))]
         self.distance_m = self._true_distance()
-        return self._observe(), self._info()
+        return self._observe(self.model.bumps()), self._info()
 
     def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
         """The fixed ones, the rest drawn from the env's seeded stream: clear of the walls, the goal
@@ -169,11 +171,11 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return far and (regions.region(start[0], start[1]) < 0 or regions.connected(start, goal))
 
     def step(self, action: np.ndarray):
-        model = self._advance(action)
-        obs = self._observe()
+        bumps = self._advance(action).bumps()
+        obs = self._observe(bumps)
         before, self.distance_m = self.distance_m, self._true_distance()
         reward = PROGRESS_REWARD * (before - self.distance_m) - STEP_COST
-        bumped = any(model.bumps())
+        bumped = bumps[0] or bumps[1]
         reached = self.distance_m <= self.goal_radius_m
         if reached:
             reward += GOAL_REWARD
@@ -186,10 +188,14 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         """One control period at the action's (v, ω), the track extended."""
         model = self._model()
         model.set_velocity(float(action[0]), float(action[1]))
-        for _ in range(self.substeps):
-            model.step(1.0 / spec.PHYSICS_RATE)
-            if self.on_physics_step is not None:
-                self.on_physics_step(model)
+        dt, hook = 1.0 / spec.PHYSICS_RATE, self.on_physics_step
+        if hook is None:
+            for _ in range(self.substeps):
+                model.step(dt)
+        else:
+            for _ in range(self.substeps):
+                model.step(dt)
+                hook(model)
         self.steps += 1
         x, y, _ = model.pose.tolist()
         self.track.append((x, y))
@@ -234,11 +240,16 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return self._walls_image
 
     # ----------------------------------------------------------------------------- readings
-    def _observe(self) -> np.ndarray:
-        """The chosen sensors, read in the order of :data:`SENSORS` (their noise draws in that order)."""
-        model = self._model()
-        raw = {name: _RAW[name](model, self.lidar_index) for name in self.sensors}
-        return observation(raw, self.goal_odom)
+    def _observe(self, bumps: tuple[bool, bool]) -> np.ndarray:
+        """The chosen sensors, read in the order of :data:`SENSORS` (their noise draws in that order)
+        and written as :func:`~sim_tools.rl.create_sensors.observation` writes them; ``bumps``: the
+        bumpers, already read for the step's end (they draw no noise)."""
+        model, index, goal = self._model(), self.lidar_index, self.goal_odom
+        out = np.empty(self._obs_size, np.float32)
+        at = 0
+        for read, write in self._parts:
+            at = write(out, at, bumps if read is None else read(model, index), goal)
+        return out
 
     def _true_distance(self) -> float:
         x, y = self.track[-1]  # where the body is now
@@ -254,11 +265,11 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         }
 
 
-#: How the env reads each sensor's raw reading from the model (``index``: the chosen LIDAR beams).
+#: How the env reads each sensor's raw reading from the model (``index``: the chosen LIDAR beams;
+#: the bumpers are read once per step, by the step).
 _RAW = {
     "lidar": lambda model, index: model.lidar(index),
     "sonar": lambda model, _index: model.sonar(),
-    "bump": lambda model, _index: np.array(model.bumps(), dtype=float),
     "cliff": lambda model, _index: model.cliff_signals(),
     "goal": lambda model, _index: model.odometry_pose,
 }

@@ -6,8 +6,10 @@ messages). Imports neither Gymnasium nor ROS.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
+import numba
 import numpy as np
 
 from create_sim.model import CreateModel
@@ -20,29 +22,71 @@ DEFAULT_SENSORS = ("lidar", "bump", "goal")
 MAX_GOAL_DISTANCE_M = 20.0
 
 
-def observation(raw: dict[str, np.ndarray], goal_odom: tuple[float, float]) -> np.ndarray:
+def observation(raw: dict[str, Any], goal_odom: tuple[float, float]) -> np.ndarray:
     """The observation vector from raw readings, as the env and ``policy_controller`` (from the ROS
     world's messages) both build it. ``raw``: sensor name → reading, in :data:`SENSORS` order:
     ``lidar`` the chosen beams' ranges (m, +inf no return), ``sonar`` [front, left, back, right]
     (m, ±inf), ``bump`` [left, right] (0/1), ``cliff`` 4 signals (%), ``goal`` the odometry pose
     (x, y, θ); ``goal_odom`` the goal in the odometry frame."""
-    parts = [_SHAPE[name](np.asarray(value, dtype=float), goal_odom) for name, value in raw.items()]
-    return np.concatenate(parts).astype(np.float32)
+    values = {name: np.asarray(value, dtype=float) for name, value in raw.items()}
+    out = np.empty(sum(PART_SIZES.get(name) or len(value) for name, value in values.items()), np.float32)
+    at = 0
+    for name, value in values.items():
+        at = WRITE[name](out, at, value, goal_odom)
+    return out
 
 
-def _goal(odom: np.ndarray, goal_odom: tuple[float, float]) -> np.ndarray:
+def _ranges(lo: float, hi: float) -> Callable[[np.ndarray, int, np.ndarray, Any], int]:
+    """A part of ranges kept within [lo, hi] (+inf, no return → hi; -inf, too close → lo)."""
+
+    def write(out: np.ndarray, at: int, value: np.ndarray, _goal: tuple[float, float]) -> int:
+        return _clip_into(out, at, value, lo, hi)
+
+    return write
+
+
+@numba.njit(cache=True)
+def _clip_into(out: np.ndarray, at: int, value: np.ndarray, lo: float, hi: float) -> int:
+    """``out[at:at + n] = clip(value, lo, hi)``, n = len(value), in the value's precision (as
+    ``np.clip`` then a cast), NaN kept; the index after. One kernel call: numpy's two ufunc calls
+    with their scalar conversions cost twice as much on every env step."""
+    for i in range(value.shape[0]):
+        v = value[i]
+        out[at + i] = v if v != v else min(max(v, value.dtype.type(lo)), value.dtype.type(hi))
+    return at + value.shape[0]
+
+
+def _as_is(out: np.ndarray, at: int, value: np.ndarray, _goal: tuple[float, float]) -> int:
+    end = at + value.shape[0]
+    out[at:end] = value
+    return end
+
+
+def _bump(out: np.ndarray, at: int, value: Sequence[bool], _goal: tuple[float, float]) -> int:
+    out[at], out[at + 1] = value  # (left, right): a tuple of bools, as the model gives them, or an array
+    return at + 2
+
+
+def _goal(out: np.ndarray, at: int, odom: np.ndarray, goal_odom: tuple[float, float]) -> int:
     x, y, th = odom.tolist()
     dx, dy = goal_odom[0] - x, goal_odom[1] - y
-    return np.array([min(math.hypot(dx, dy), MAX_GOAL_DISTANCE_M), wrap_angle(math.atan2(dy, dx) - th)])
+    out[at] = min(math.hypot(dx, dy), MAX_GOAL_DISTANCE_M)
+    out[at + 1] = wrap_angle(math.atan2(dy, dx) - th)
+    return at + 2
 
 
-_SHAPE = {
-    "lidar": lambda r, _g: np.clip(r, *CreateModel.LIDAR_RANGE),  # +inf (no return) → max range
-    "sonar": lambda r, _g: np.clip(r, 0.0, CreateModel.SONAR_RANGE[1]),  # -inf (too close) → 0, +inf → max
-    "bump": lambda r, _g: r,
-    "cliff": lambda r, _g: r,
+#: How each part is written into the observation vector: ``write(out, at, reading, goal_odom)`` → the
+#: index after the part. Each part goes straight into the float32 vector: this runs on every env
+#: step, where a concatenation of per-part arrays cost more than the env's own reads.
+WRITE: dict[str, Callable[[np.ndarray, int, Any, tuple[float, float]], int]] = {
+    "lidar": _ranges(*CreateModel.LIDAR_RANGE),
+    "sonar": _ranges(0.0, CreateModel.SONAR_RANGE[1]),
+    "bump": _bump,
+    "cliff": _as_is,
     "goal": _goal,
 }
+#: Each part's length (the LIDAR's: the beams chosen).
+PART_SIZES = {"sonar": 4, "bump": 2, "cliff": 4, "goal": 2}
 
 
 def checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:

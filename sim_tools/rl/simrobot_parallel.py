@@ -133,6 +133,9 @@ class SimrobotParallelEnv(ParallelEnv):
         ]
         self.world = self._template
         self._steps = 0
+        self._poses = self.world.poses().tolist()
+        #: Per robot, the most it can move in a step (m): wheel radius * top wheel speed * dt.
+        self._best_step_m = [r.R * self.max_wheel_speed * self._template.dt for r in self.spec_file.robots]
 
     def observation_space(self, agent: str) -> spaces.Box:
         """The agent's sensors, normalised to 0-1."""
@@ -156,6 +159,8 @@ class SimrobotParallelEnv(ParallelEnv):
             self.world = self._fresh_template()
         self.agents = list(self.possible_agents)
         self._steps = 0
+        #: Every robot's pose (x, y, heading) where the last step (or the reset) left it.
+        self._poses: list[list[float]] = self.world.poses().tolist()
         return {a: self._observe(i) for i, a in enumerate(self.possible_agents)}, {a: {} for a in self.agents}
 
     def _fresh_template(self) -> SimrobotWorld:
@@ -166,34 +171,33 @@ class SimrobotParallelEnv(ParallelEnv):
         self, actions: dict[str, np.ndarray]
     ) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]:
         """Set every live agent's wheel speeds, advance the world one ``dt``, read the sensors."""
-        world = self.world
-        live = [world.index[agent] for agent in self.agents]
-        if live:  # one clip for every agent's pair (each was clipped alone: the same numbers)
-            limit = self.max_wheel_speed
-            wheels = np.clip(np.array([actions[agent] for agent in self.agents], dtype=float), -limit, limit)
-            for i, (left, right) in zip(live, wheels.tolist(), strict=True):
-                world.set_wheel_speeds(i, left, right)
-        before = world.poses()
+        world, agents, limit = self.world, self.agents, self.max_wheel_speed
+        live = [world.index[agent] for agent in agents]
+        for agent, i in zip(agents, live, strict=True):
+            left, right = actions[agent]  # clipped one by one in plain floats: cheaper than numpy for a pair
+            world.set_wheel_speeds(i, min(max(float(left), -limit), limit), min(max(float(right), -limit), limit))
         crashed = set(world.step().tolist())
-        after = world.poses()
+        after = world.poses()  # a fresh array: its rows go to the infos as they are
+        start, end = self._poses, after.tolist()  # plain floats: cheaper per agent than numpy rows
+        self._poses = end
         self._steps += 1
         truncate = self._steps >= self.max_steps
         obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
-        start, end = before.tolist(), after.tolist()  # plain floats: cheaper per agent than numpy rows
-        for agent, i in zip(self.agents, live, strict=True):
+        for agent, i in zip(agents, live, strict=True):
+            hit = i in crashed
             obs[agent] = self._observe(i)
-            rewards[agent] = -self.crash_penalty if i in crashed else self._progress(i, start[i], end[i])
-            terms[agent] = i in crashed
-            truncs[agent] = truncate and i not in crashed
-            infos[agent] = {"pose": after[i].copy()}
-        self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
+            rewards[agent] = -self.crash_penalty if hit else self._progress(i, start[i], end[i])
+            terms[agent] = hit
+            truncs[agent] = truncate and not hit
+            infos[agent] = {"pose": after[i]}
+        self.agents = [a for a in agents if not (terms[a] or truncs[a])]
         return obs, rewards, terms, truncs, infos
 
     def _progress(self, i: int, before: list[float], after: list[float]) -> float:
         # forward distance this step over the largest possible one
         (x0, y0, heading), (x1, y1, _) = before, after
         forward = (x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)
-        return float(forward / (self.spec_file.robots[i].R * self.max_wheel_speed * self.world.dt))
+        return forward / self._best_step_m[i]
 
     def _observe(self, i: int) -> np.ndarray:
         # robot i's sensors, normalised (see the module's docstring)

@@ -41,6 +41,8 @@ NODE_EXECUTABLES = {
 ROBOT_NAMESPACES = False
 #: Side of the floor squares counted by ``area_covered_m2`` (m).
 COVERAGE_CELL_M = 0.05
+#: A coverage cell (i, j) is the int64 key i·COVERAGE_KEY_SPAN + j: unique while |j| < 2^23 cells (400 km).
+COVERAGE_KEY_SPAN = 1 << 24
 
 
 # ---------------------------------------------------------------------------------- the world
@@ -183,17 +185,20 @@ def create_min_clearance_m(data: EpisodeData) -> float:
 
 def create_area_covered_m2(data: EpisodeData, cell_m: float = COVERAGE_CELL_M) -> float:
     """Floor area the body passed over (m²), counted in ``cell_m`` squares whose centre it covered."""
-    radius = float(data.info["radius_m"])
-    reach = int(math.ceil(radius / cell_m)) + 1
-    span = 1 << 24  # cell (i, j) -> the int64 key i·span + j, unique while |j| < 2^23 cells (400 km)
     ij = np.floor(np.column_stack([data.arrays["x"], data.arrays["y"]]) / cell_m).astype(np.int64)
-    keys = np.unique(ij[:, 0] * span + ij[:, 1])
-    di, dj = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
-    # a cell counts when its centre is within the radius of a sample's cell centre
-    disc = (np.hypot(di, dj) * cell_m <= radius).ravel()
-    offsets = di.ravel()[disc] * span + dj.ravel()[disc]
+    keys = np.unique(ij[:, 0] * COVERAGE_KEY_SPAN + ij[:, 1])
+    offsets = coverage_disc(float(data.info["radius_m"]), cell_m)
     covered = np.unique((keys[:, None] + offsets[None, :]).ravel())
     return float(len(covered) * cell_m * cell_m)
+
+
+def coverage_disc(radius_m: float, cell_m: float = COVERAGE_CELL_M) -> np.ndarray:
+    """The key offsets (see :data:`COVERAGE_KEY_SPAN`) of the cells a body of ``radius_m`` covers
+    from a cell: those whose centre is within the radius of that cell's centre."""
+    reach = int(math.ceil(radius_m / cell_m)) + 1
+    di, dj = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
+    disc = (np.hypot(di, dj) * cell_m <= radius_m).ravel()
+    return di.ravel()[disc] * COVERAGE_KEY_SPAN + dj.ravel()[disc]
 
 
 def create_goal_time_s(data: EpisodeData, center: list[float], radius_m: float = 0.3) -> float:
