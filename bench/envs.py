@@ -3,7 +3,9 @@ on one core and on two, and against IR-SIM's environment step.
 
     .venv/bin/python bench/envs.py            # ~2 min; --quick: fewer steps, ~40 s
 
-1. **Wrapper cost** (one core, CPU time of this process, best of 6, env and bare taking turns):
+1. **Wrapper cost** (one core, CPU time of this process; env and bare take turns in short chunks,
+   the cost is the median of the pairs' time ratios: this machine's speed drifts by tens of per
+   cent within a minute, and a pair of chunks sees one speed):
    each env's step against the bare model doing the same work through its own API —
    ``CreateNav-v0`` (24 LIDAR beams, bumpers, goal) and ``CreateCover-v0`` (24 beams, bumpers):
    the command, 10 physics steps of ``CreateModel``, the same sensor reads; ``ArmReach-v0``
@@ -159,8 +161,26 @@ def simrobot_pair(world_file: str | Path = "simrobot/demo.yaml") -> tuple[Run, R
     return wrapped, bare
 
 
+def paired_cost(wrapped: Run, bare: Run, steps: int, chunk: int) -> tuple[float, float, float]:
+    """(env steps/s, bare steps/s, cost) from short chunks of ``chunk`` steps, env and bare taking
+    turns: the cost is the median over the pairs of (env time / bare time) - 1 (each pair ran at
+    one moment of the machine's speed, which drifts by tens of per cent here), the rates the
+    medians over the chunks."""
+    wrapped(chunk), bare(chunk)
+    env_times, bare_times = [], []
+    for _ in range(max(1, steps // chunk)):
+        for run, times in ((wrapped, env_times), (bare, bare_times)):
+            t = time.process_time()
+            run(chunk)
+            times.append(time.process_time() - t)
+    env_s, bare_s = np.array(env_times), np.array(bare_times)
+    cost = float(np.median(env_s / bare_s)) - 1.0
+    return chunk / float(np.median(env_s)), chunk / float(np.median(bare_s)), cost
+
+
 def wrapper_table(steps: int) -> None:
-    print(f"1. wrapper cost, one core (CPU time, best of 6 x {steps // 2:,} steps, taking turns); {load()}")
+    print("1. wrapper cost, one core (CPU time; env and bare take turns in chunks of 50 steps, the cost the")
+    print(f"   median of the pairs' time ratios, {3 * steps:,} steps each); {load()}")
     print(f"{'env':<44}{'env steps/s':>13}{'bare model':>13}{'cost':>8}   goal <= {GOAL_COST:.0%}")
     nav, cover, (arm, arm_bare, fkine), sim = (
         create_pair(CreateNavEnv),
@@ -175,8 +195,7 @@ def wrapper_table(steps: int) -> None:
         ("SIMROBOT ParallelEnv (demo, 4 agents)", *sim, 1),
     ]
     for name, wrapped, bare, scale in rows:
-        env_rate, bare_rate = rates([wrapped, bare], steps * scale // 2, repeats=6)
-        cost = bare_rate / env_rate - 1.0
+        env_rate, bare_rate, cost = paired_cost(wrapped, bare, 3 * steps * scale, 50 * scale)
         met = "met" if cost <= GOAL_COST else "NOT met"
         print(f"{name:<44}{env_rate:>13,.0f}{bare_rate:>13,.0f}{cost:>+8.0%}   {met}")
     print(f"{'  (ArmReach-v0: Arm.fkine alone)':<44}{'':>13}{rate(fkine, steps * 10):>13,.0f}")

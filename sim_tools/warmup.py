@@ -41,16 +41,20 @@ def warm_replay() -> None:
 
 
 def warm_learning() -> None:
-    """The learning environments' own kernels (the arm's step), where Gymnasium is installed."""
+    """The learning environments' own kernels (the arm's step, the Create observation's clip in
+    both precisions: the env's float32 LIDAR, ``policy_controller``'s float64), where Gymnasium
+    is installed."""
     import importlib.util
 
     if importlib.util.find_spec("gymnasium") is None:
         return
     from sim_tools.rl.arm_reach import ArmReachEnv
+    from sim_tools.rl.create_nav import CreateNavEnv
+    from sim_tools.rl.create_sensors import SENSORS
 
-    env = ArmReachEnv()
-    env.reset(seed=0)
-    env.step(env.action_space.sample())
+    for env in (ArmReachEnv(), CreateNavEnv(sensors=SENSORS)):
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
 
 
 def warmers() -> dict[str, Callable[[], None]]:

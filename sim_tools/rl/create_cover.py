@@ -56,7 +56,7 @@ class CreateCoverEnv(CreateNavEnv):
 
     def _cover(self) -> float:
         """Add the cells under the body now; the area newly covered (m²)."""
-        x, y, _ = self._model().pose.tolist()
+        x, y = self.track[-1]  # where the body is now
         cell = math.floor(x / COVERAGE_CELL_M) * COVERAGE_KEY_SPAN + math.floor(y / COVERAGE_CELL_M)
         if cell == self._last_cell:  # most steps end on the cell they began on: nothing new
             return 0.0
@@ -70,7 +70,7 @@ class CreateCoverEnv(CreateNavEnv):
 
     def _cover_info(self, bumped: bool) -> dict[str, Any]:
         return {
-            "pose": self._model().pose,
+            "pose": self._pose,
             "area_covered_m2": len(self.covered) * COVERAGE_CELL_M**2,
             "bumped": bumped,
         }

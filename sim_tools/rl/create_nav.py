@@ -106,6 +106,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self._parts = [(_RAW.get(name), WRITE[name]) for name in self.sensors]  # read None: the bumps
         self.model: CreateModel | None = None
         self.track: list[tuple[float, float]] = []
+        self._pose = np.zeros(3)  # the true pose after the last step or reset
         self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
         #: Called after each physics step (the episode recorder, ``sim_tools.rl.record``, hooks in here).
         self.on_physics_step: Callable[[CreateModel], None] | None = None
@@ -146,6 +147,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.goal_odom = (c * dx + s * dy, -s * dx + c * dy)
         self.steps = 0
         self.track = [(float(start[0]), float(start[1]))]
+        self._pose = self.model.pose
         self.distance_m = self._true_distance()
         return self._observe(self.model.bumps()), self._info()
 
@@ -187,7 +189,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
     def _advance(self, action: np.ndarray) -> CreateModel:
         """One control period at the action's (v, ω), the track extended."""
         model = self._model()
-        model.set_velocity(float(action[0]), float(action[1]))
+        v, w = np.asarray(action).tolist()  # plain floats (a float32 pair's values exactly)
+        model.set_velocity(v, w)
         dt, hook = 1.0 / spec.PHYSICS_RATE, self.on_physics_step
         if hook is None:
             for _ in range(self.substeps):
@@ -197,7 +200,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
                 model.step(dt)
                 hook(model)
         self.steps += 1
-        x, y, _ = model.pose.tolist()
+        self._pose = model.pose  # the info's (a fresh array each step)
+        x, y, _ = self._pose.tolist()
         self.track.append((x, y))
         return model
 
@@ -244,7 +248,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         """The chosen sensors, read in the order of :data:`SENSORS` (their noise draws in that order)
         and written as :func:`~sim_tools.rl.create_sensors.observation` writes them; ``bumps``: the
         bumpers, already read for the step's end (they draw no noise)."""
-        model, index, goal = self._model(), self.lidar_index, self.goal_odom
+        model, index, goal = self.model, self.lidar_index, self.goal_odom
         out = np.empty(self._obs_size, np.float32)
         at = 0
         for read, write in self._parts:
@@ -257,7 +261,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def _info(self, bumped: bool = False) -> dict[str, Any]:
         return {
-            "pose": self._model().pose,
+            "pose": self._pose,
             "goal": np.array(self.goal_xy),
             "distance_m": self.distance_m,
             "bumped": bumped,

@@ -131,9 +131,12 @@ class SimrobotParallelEnv(ParallelEnv):
             else None
             for ks in self._sensors_of
         ]
+        #: The same when every robot has one ultrasonic sensor (the usual world), else None.
+        self._echoes = [e for e in self._one_echo if e is not None] if None not in self._one_echo else None
         self.world = self._template
         self._steps = 0
-        self._poses = self.world.poses().tolist()
+        #: Every robot's pose (x, y, heading) where the last step (or the reset) left it.
+        self._poses: list[list[float]] = self.world.poses().tolist()
         #: Per robot, the most it can move in a step (m): wheel radius * top wheel speed * dt.
         self._best_step_m = [r.R * self.max_wheel_speed * self._template.dt for r in self.spec_file.robots]
 
@@ -159,8 +162,7 @@ class SimrobotParallelEnv(ParallelEnv):
             self.world = self._fresh_template()
         self.agents = list(self.possible_agents)
         self._steps = 0
-        #: Every robot's pose (x, y, heading) where the last step (or the reset) left it.
-        self._poses: list[list[float]] = self.world.poses().tolist()
+        self._poses = self.world.poses().tolist()
         return {a: self._observe(i) for i, a in enumerate(self.possible_agents)}, {a: {} for a in self.agents}
 
     def _fresh_template(self) -> SimrobotWorld:
@@ -174,8 +176,8 @@ class SimrobotParallelEnv(ParallelEnv):
         world, agents, limit = self.world, self.agents, self.max_wheel_speed
         live = [world.index[agent] for agent in agents]
         for agent, i in zip(agents, live, strict=True):
-            left, right = actions[agent]  # clipped one by one in plain floats: cheaper than numpy for a pair
-            world.set_wheel_speeds(i, min(max(float(left), -limit), limit), min(max(float(right), -limit), limit))
+            left, right = np.asarray(actions[agent]).tolist()  # plain floats: cheaper than numpy for a pair
+            world.set_wheel_speeds(i, min(max(left, -limit), limit), min(max(right, -limit), limit))
         crashed = set(world.step().tolist())
         after = world.poses()  # a fresh array: its rows go to the infos as they are
         start, end = self._poses, after.tolist()  # plain floats: cheaper per agent than numpy rows
@@ -183,9 +185,9 @@ class SimrobotParallelEnv(ParallelEnv):
         self._steps += 1
         truncate = self._steps >= self.max_steps
         obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
-        for agent, i in zip(agents, live, strict=True):
+        for agent, i, seen in zip(agents, live, self._observe_all(live), strict=True):
             hit = i in crashed
-            obs[agent] = self._observe(i)
+            obs[agent] = seen
             rewards[agent] = -self.crash_penalty if hit else self._progress(i, start[i], end[i])
             terms[agent] = hit
             truncs[agent] = truncate and not hit
@@ -198,6 +200,16 @@ class SimrobotParallelEnv(ParallelEnv):
         (x0, y0, heading), (x1, y1, _) = before, after
         forward = (x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)
         return forward / self._best_step_m[i]
+
+    def _observe_all(self, robots: list[int]) -> list[np.ndarray]:
+        """The robots' observations; when each has one ultrasonic sensor (the usual world), rows of
+        one array made at once (an array per robot costs more than its sensor read)."""
+        echoes = self._echoes
+        if echoes is None:
+            return [self._observe(i) for i in robots]
+        world = self.world
+        values = [min(world.nearest(echoes[i][0])[0] / echoes[i][1], 1.0) for i in robots]
+        return list(np.array(values, dtype=np.float32).reshape(-1, 1))
 
     def _observe(self, i: int) -> np.ndarray:
         # robot i's sensors, normalised (see the module's docstring)
