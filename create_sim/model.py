@@ -28,8 +28,14 @@ from create_sim import spec
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
 from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
-from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance
-from create_sim.sensing import bumper_hits, camera_view, cliff_windows_crossed, range_fan, virtual_wall_seen
+from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance_unpacked
+from create_sim.sensing import (
+    bumper_hits_unpacked,
+    camera_view,
+    cliff_windows_crossed,
+    range_fan_unpacked,
+    virtual_wall_seen,
+)
 from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import compiled_aside
@@ -198,7 +204,7 @@ class CreateModel:
             raise ValueError(f"time step {dt} must be finite, >= 0 and <= {self.MAX_STEP_S:g} s")
         x0, y0, th0 = self._pose
         v, w = self._command
-        x1, y1, th1 = advance(self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
+        x1, y1, th1 = advance_unpacked(*self.grid, x0, y0, th0, v, w, dt, self.RADIUS, self.FRICTION)
         self._pose = [x1, y1, th1]
         dx = x1 - x0
         dy = y1 - y0
@@ -264,7 +270,7 @@ class CreateModel:
     def bumps(self) -> tuple[bool, bool]:
         """(left, right) bumpers; a hit in front presses both."""
         x, y, th = self._pose
-        left, right = bumper_hits(self.grid, x, y, th, self.RADIUS + CONTACT_SKIN, self.BUMP_FRONT_HALF)
+        left, right = bumper_hits_unpacked(*self.grid, x, y, th, self.RADIUS + CONTACT_SKIN, self.BUMP_FRONT_HALF)
         return bool(left), bool(right)
 
     def cliff_signals(self) -> np.ndarray:
@@ -311,8 +317,8 @@ class CreateModel:
         """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
-        return range_fan(
-            self.grid,
+        return range_fan_unpacked(
+            *self.grid,
             x,
             y,
             th,
@@ -336,8 +342,8 @@ class CreateModel:
         cos_off, sin_off = self._lidar_fan
         if beams is not None:
             cos_off, sin_off, noise = cos_off[beams], sin_off[beams], noise[beams]
-        scan = range_fan(
-            self.grid,
+        scan = range_fan_unpacked(
+            *self.grid,
             x + self.RADIUS * math.cos(th),
             y + self.RADIUS * math.sin(th),
             th,

@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-from create_sim.geometry import grid_cast, grid_cast_fan, grid_contacts, new_contacts
+from create_sim.geometry import SegmentGrid, grid_cast, grid_cast_fan, grid_contacts, new_contacts
 from sim_runtime.angles import wrap_angle_jit as wrap_angle
 
 
@@ -105,6 +105,32 @@ def range_fan(grid, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, to
 
 
 @numba.njit(cache=True)
+def range_fan_unpacked(
+    segments,
+    origin_x_m,
+    origin_y_m,
+    cell_m,
+    nx,
+    ny,
+    cell_start,
+    cell_items,
+    ox,
+    oy,
+    heading,
+    cos_off,
+    sin_off,
+    offset,
+    lo,
+    hi,
+    noise,
+    too_close,
+):
+    """:func:`range_fan` called as ``range_fan_unpacked(*grid, …)`` (see ``physics.advance_unpacked``)."""
+    grid = SegmentGrid(segments, origin_x_m, origin_y_m, cell_m, nx, ny, cell_start, cell_items)
+    return range_fan(grid, ox, oy, heading, cos_off, sin_off, offset, lo, hi, noise, too_close)
+
+
+@numba.njit(cache=True)
 def bumper_hits(grid, x, y, heading, reach, front_half):
     """(left, right) bumpers pressed by walls within ``reach`` of the centre (x, y).
 
@@ -124,6 +150,15 @@ def bumper_hits(grid, x, y, heading, reach, front_half):
         elif -0.5 * math.pi < phi <= -front_half:
             right = True
     return left, right
+
+
+@numba.njit(cache=True)
+def bumper_hits_unpacked(
+    segments, origin_x_m, origin_y_m, cell_m, nx, ny, cell_start, cell_items, x, y, heading, reach, front_half
+):
+    """:func:`bumper_hits` called as ``bumper_hits_unpacked(*grid, …)`` (see ``physics.advance_unpacked``)."""
+    grid = SegmentGrid(segments, origin_x_m, origin_y_m, cell_m, nx, ny, cell_start, cell_items)
+    return bumper_hits(grid, x, y, heading, reach, front_half)
 
 
 @numba.njit(cache=True)
