@@ -154,6 +154,9 @@ VIRTUAL_WALL_HALOS_NS = "virtual_wall_halos"
 """``map_markers`` namespace of the virtual walls' halos (a LINE_STRIP circle each)."""
 VIRTUAL_WALL_FIELDS_NS = "virtual_wall_fields"
 """``map_markers`` namespace of the virtual walls' fields (a closed LINE_STRIP triangle each)."""
+MAP_NAMESPACES = (WALLS_NS, LINES_NS, BEACONS_NS, BEACON_IDS_NS, VIRTUAL_WALL_HALOS_NS, VIRTUAL_WALL_FIELDS_NS)
+"""Every namespace of a map's own ``map_markers``; markers of other namespaces (a learning env's
+goal region) are drawn beside the map."""
 WALL_RGB = (0.1, 0.1, 0.1)
 """Colour (rgb 0..1) of the walls' markers."""
 LINE_RGB = (0.2, 0.2, 0.9)

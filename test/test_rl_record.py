@@ -16,8 +16,11 @@ from sim_runtime.bag.reader import open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import yaw_from_quaternion
 from sim_runtime.paths import config_path
-from sim_tools.rl.record import EPISODE_FILE, RecordEpisodeBags
+from sim_tools.rl.create_nav import GOAL_COLOR
+from sim_tools.rl.record import EPISODE_FILE, GOAL_NS, RecordEpisodeBags
+from studio.replay.draw import markers_svg
 from studio.replay.frames import Replay
+from studio.shell.svg import View, rgb_hex
 
 SEED = 7
 ACTION = np.array([0.3, 0.4], dtype=np.float32)
@@ -116,6 +119,10 @@ def test_the_track_picture_and_the_studio_replay_draw_a_recorded_episode(episode
     frame = replay.frame(replay.end_ns)
     assert frame.map is not None and len(frame.robots) == 1
     assert frame.robots[0].pose[:2] == pytest.approx(info["pose"][:2].tolist())
+    # the goal region, which is no part of the map, drawn beside it in the env's goal colour
+    assert frame.map_extras is not None and [m.ns for m in frame.map_extras.markers] == [GOAL_NS]
+    drawn = markers_svg(View(), frame.map_extras)
+    assert drawn.count("<polyline") == 1 and rgb_hex(GOAL_COLOR) in drawn
 
 
 def test_only_triggered_episodes_are_recorded_and_an_episode_cut_short_says_so(tmp_path):

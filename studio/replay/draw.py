@@ -47,7 +47,8 @@ def drawn_track(track: np.ndarray | None) -> np.ndarray | None:
 
 
 def markers_svg(view: svg.View, markers) -> str:
-    """Line and point markers (SIMROBOT's ``/robots`` outlines) in their colours, on the map."""
+    """Line and point markers (SIMROBOT's ``/robots`` outlines, a learning env's goal region) in
+    their colours, on the map."""
     parts = []
     for m in markers.markers:
         if m.action != 0 or not m.points:

@@ -24,7 +24,7 @@ from nav_msgs.msg import OccupancyGrid
 from visualization_msgs.msg import MarkerArray
 
 from create_sim.mapfile import CreateMap
-from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
+from create_sim.spec import CLIFF_NAMES, MAP_NAMESPACES, SONAR_NAMES
 from sim_runtime.bag.cdr import track_positions
 from sim_runtime.bag.index import BagIndex
 from sim_runtime.bag.reader import BagMessage, CorruptMessage, UnknownMessageType
@@ -107,6 +107,7 @@ class Frame:
     map: CreateMap | None = None
     grid: OccupancyGrid | None = None  # SIMROBOT's map
     outlines: MarkerArray | None = None  # /robots
+    map_extras: MarkerArray | None = None  # map_markers beyond the map's own (a learning env's goal region)
     arm_groups: list[Group] = field(default_factory=list)  # what the arm view draws, as live
 
 
@@ -205,7 +206,7 @@ class Replay:
             self.frames = np.unique(np.concatenate([ti.times for ti in index.by_topic.values()] or [np.zeros(0, int)]))
         for robot in self.robots:
             self._load_track(robot)
-        self._maps: dict[str, CreateMap] = {}
+        self._maps: dict[str, tuple[CreateMap, MarkerArray | None]] = {}
         self._decoded: OrderedDict[tuple[str, int], tuple[BagMessage, Any]] = OrderedDict()
         self._groups: dict[str, tuple[int, Group]] = {}  # marker topic -> (position, its group)
 
@@ -304,10 +305,10 @@ class Replay:
         latest = [
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
         ]
-        create_map = None
+        create_map, extras = None, None
         markers = [t for t in state if basename(t) == "map_markers"]
         if markers:
-            create_map = self._create_map(state[markers[0]], decoded[markers[0]])
+            create_map, extras = self._create_map(state[markers[0]], decoded[markers[0]])
         grids = [t for t, kind in index.topics.items() if kind == "nav_msgs/msg/OccupancyGrid" and t in decoded]
         outlines = [t for t in decoded if basename(t) == ROBOTS_TOPIC and index.topics[t].endswith("/MarkerArray")]
         return Frame(
@@ -321,6 +322,7 @@ class Replay:
             map=create_map,
             grid=decoded[grids[0]] if grids else None,
             outlines=decoded[outlines[0]] if outlines else None,
+            map_extras=extras,
             arm_groups=arm_groups,
         )
 
@@ -350,13 +352,15 @@ class Replay:
             self._decoded.move_to_end(key)
         return found
 
-    def _create_map(self, m: BagMessage, msg) -> CreateMap | None:
+    def _create_map(self, m: BagMessage, msg) -> tuple[CreateMap | None, MarkerArray | None]:
+        """The map a ``map_markers`` message holds, and its markers beyond the map's own (None: none)."""
         from studio.create.ros_client import map_from_markers
 
         key = f"{m.topic}@{m.log_time_ns}"
         if key not in self._maps and msg is not None:
-            self._maps[key] = map_from_markers(msg)
-        return self._maps.get(key)
+            extras = [marker for marker in msg.markers if marker.ns not in MAP_NAMESPACES]
+            self._maps[key] = (map_from_markers(msg), MarkerArray(markers=extras) if extras else None)
+        return self._maps.get(key, (None, None))
 
     def _robot_frame(self, robot: Robot, state: dict, decoded: dict, t_ns: int) -> RobotFrame:
         rf = RobotFrame(robot)

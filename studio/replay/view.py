@@ -74,8 +74,9 @@ class ReplayView(ZoomableView):
             f'<g class="view" data-centre-x="{float(v.centre_x)!r}" data-centre-y="{float(v.centre_y)!r}" '
             f'data-scale="{float(v.scale)!r}" data-t="{frame.t_ns}"/>'
         ]
-        if frame.outlines is not None:
-            parts.append(markers_svg(v, frame.outlines))
+        for markers in (frame.outlines, frame.map_extras):
+            if markers is not None:
+                parts.append(markers_svg(v, markers))
         for i, rf in enumerate(frame.robots):
             if rf.robot.kind != "create":
                 parts.append(small_robot_svg(v, rf))
