@@ -1,6 +1,8 @@
 """The learning example learns: a short CMA-ES run beats random actions, and the shipped trained
 policy (examples/learning/create_nav_policy.npz) reaches more goals than random actions and than
-bump-and-turn. The training code is the example's own (examples/learning/train_create_nav.py)."""
+bump-and-turn; the one trained with the example noise (create_nav_policy_noisy.npz) does so with
+that noise, where the noise-free one falls behind it. The training code is the example's own
+(examples/learning/train_create_nav.py)."""
 
 from __future__ import annotations
 
@@ -10,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sim_runtime.paths import config_path
 from sim_tools.rl.policy import load_policy
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "learning"
@@ -60,3 +63,18 @@ def test_played_on_after_bumps_as_in_a_batch_the_shipped_policy_reaches_more_goa
     bump_turn = example.evaluate(example.BumpTurnController(env), SEEDS, env, bumps_end=False)
     assert learned["success_rate"] > bump_turn["success_rate"], (learned, bump_turn)
     assert learned["mean_bumps"] < bump_turn["mean_bumps"], (learned, bump_turn)
+
+
+def test_with_the_example_noise_the_noise_trained_policy_reaches_more_goals_than_the_noise_free_one_and_bump_and_turn():
+    noisy = example.make_env(config_file=str(config_path("create/example_config.txt")))
+    policies = [load_policy(EXAMPLE / name) for name in ("create_nav_policy_noisy.npz", "create_nav_policy.npz")]
+    trained, noise_free = (
+        example.evaluate(example.PolicyController(p), SEEDS, noisy, bumps_end=False) for p in policies
+    )
+    bump_turn = example.evaluate(example.BumpTurnController(noisy), SEEDS, noisy, bumps_end=False)
+    assert trained["success_rate"] > max(noise_free["success_rate"], bump_turn["success_rate"]), (
+        trained,
+        noise_free,
+        bump_turn,
+    )
+    assert trained["mean_bumps"] < bump_turn["mean_bumps"], (trained, bump_turn)
