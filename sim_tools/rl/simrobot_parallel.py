@@ -117,6 +117,7 @@ class SimrobotParallelEnv(ParallelEnv):
             r.name: spaces.Box(0.0, 1.0, shape=(_observation_size(r),), dtype=np.float32) for r in self.spec_file.robots
         }
         self.agents: list[str] = []
+        self._live: list[int] = []  # the agents' robots' numbers in the world
         self._clearance = raycast.clearance_field(self.spec_file.walls)
         self._template = _world(self.spec_file)
         self._template.compile_kernels()
@@ -160,7 +161,7 @@ class SimrobotParallelEnv(ParallelEnv):
             self.world = _world(replace(self.spec_file, robots=self._random_robots()))
         else:
             self.world = self._fresh_template()
-        self.agents = list(self.possible_agents)
+        self._set_agents(list(self.possible_agents))
         self._steps = 0
         self._poses = self.world.poses().tolist()
         return {a: self._observe(i) for i, a in enumerate(self.possible_agents)}, {a: {} for a in self.agents}
@@ -173,8 +174,7 @@ class SimrobotParallelEnv(ParallelEnv):
         self, actions: dict[str, np.ndarray]
     ) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]:
         """Set every live agent's wheel speeds, advance the world one ``dt``, read the sensors."""
-        world, agents, limit = self.world, self.agents, self.max_wheel_speed
-        live = [world.index[agent] for agent in agents]
+        world, agents, live, limit = self.world, self.agents, self._live, self.max_wheel_speed
         for agent, i in zip(agents, live, strict=True):
             left, right = np.asarray(actions[agent]).tolist()  # plain floats: cheaper than numpy for a pair
             world.set_wheel_speeds(i, min(max(left, -limit), limit), min(max(right, -limit), limit))
@@ -192,8 +192,14 @@ class SimrobotParallelEnv(ParallelEnv):
             terms[agent] = hit
             truncs[agent] = truncate and not hit
             infos[agent] = {"pose": after[i]}
-        self.agents = [a for a in agents if not (terms[a] or truncs[a])]
+        if crashed or truncate:
+            self._set_agents([a for a in agents if not (terms[a] or truncs[a])])
         return obs, rewards, terms, truncs, infos
+
+    def _set_agents(self, agents: list[str]) -> None:
+        """The live agents, and their robots' numbers in the world."""
+        self.agents = agents
+        self._live = [self.world.index[agent] for agent in agents]
 
     def _progress(self, i: int, before: list[float], after: list[float]) -> float:
         # forward distance this step over the largest possible one
