@@ -324,11 +324,12 @@ def vector_rows(steps: int) -> None:
         f" would make ~{2 * per_cpu_second:,.0f} env steps/s (a projection, not a measurement)"
     )
     run, close, _ = vector_run(1, random=False)
-    circling, bare = (VECTOR_ENVS * r for r in rates([run, bare_models_run()], vector_steps, repeats=6))
+    circling, bare, cost = paired_cost(run, bare_models_run(), vector_steps, 2)
     close()
     print(
-        f"  the same on the slow circle (no resets), one process, CPU time: {circling:,.0f} env steps/s;"
-        f" {VECTOR_ENVS} bare models doing that work {bare:,.0f}/s: cost {bare / circling - 1:+.0%}"
+        f"  the same on the slow circle (no resets), one process, CPU time in paired chunks: "
+        f"{VECTOR_ENVS * circling:,.0f} env steps/s; {VECTOR_ENVS} bare models doing that work "
+        f"{VECTOR_ENVS * bare:,.0f}/s: cost {cost:+.0%}"
     )
 
 
