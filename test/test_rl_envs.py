@@ -61,8 +61,10 @@ def test_create_cover_passes_gymnasiums_env_checker():
     _checked(CreateCoverEnv(config_file=NOISY, sensors=("lidar", "sonar", "bump", "cliff")))
 
 
-def test_create_cover_counts_the_area_as_the_batch_metric_does_and_rewards_it():
-    env = CreateCoverEnv(start=(-1.5, -1.0, 0.0), max_steps=80)
+# (0.02, -0.02) is on the cell whose key is -1
+@pytest.mark.parametrize("start", [(-1.5, -1.0, 0.0), (0.02, -0.02, 0.0)])
+def test_create_cover_counts_the_area_as_the_batch_metric_does_and_rewards_it(start):
+    env = CreateCoverEnv(start=start, max_steps=80)
     env.reset(seed=0)
     rewards = []
     for _ in range(80):

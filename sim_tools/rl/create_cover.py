@@ -35,12 +35,12 @@ class CreateCoverEnv(CreateNavEnv):
         self._disc = coverage_disc(CreateModel.RADIUS)
         #: The cells covered so far (their keys, as ``create_area_covered_m2`` counts them).
         self.covered: set[int] = set()
-        self._last_cell = -1
+        self._last_cell: int | None = None  # the cell the last count was made on
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         obs, _info = super().reset(seed=seed, options=options)
         self.covered = set()
-        self._last_cell = -1
+        self._last_cell = None
         self._cover()
         return obs, self._cover_info(False)
 
