@@ -92,6 +92,13 @@ WRITE: dict[str, Callable[[np.ndarray, int, Any, tuple[float, float]], int]] = {
 PART_SIZES = {"sonar": 4, "bump": 2, "cliff": 4, "goal": 2}
 
 
+def blank_readings(sensors: Sequence[str], beams: int) -> dict[str, np.ndarray]:
+    """Zero readings of each sensor's shape (``beams`` LIDAR ranges; the goal's is the odometry
+    pose, x y θ): what :func:`observation` takes, to compile its kernels before the first reading."""
+    sizes = {"lidar": beams, "goal": 3}
+    return {name: np.zeros(sizes.get(name) or PART_SIZES[name]) for name in sensors}
+
+
 def checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:
     chosen = tuple(sensors)
     unknown = [s for s in chosen if s not in SENSORS]

@@ -31,7 +31,7 @@ from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
-from sim_tools.rl.create_sensors import DEFAULT_SENSORS, checked_sensors, lidar_index, observation
+from sim_tools.rl.create_sensors import DEFAULT_SENSORS, blank_readings, checked_sensors, lidar_index, observation
 from sim_tools.rl.policy import MlpPolicy, load_policy
 
 #: The environments whose policies this node runs.
@@ -68,6 +68,9 @@ class PolicyControllerNode(CheckedNode):
         self.first_truth: tuple[float, float, float] | None = None
         self.next_act_s = 0.0
         self.actions = 0
+        # the observation's kernels compiled (or loaded from numba's cache) now, not at the first
+        # control instant: a world at real time would run on meanwhile
+        observation(blank_readings(self.sensors, len(self.beams)), (0.0, 0.0))
         self._subscribe()
 
     def _subscribe(self) -> None:
