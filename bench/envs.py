@@ -11,7 +11,8 @@ on one core and on two, and against IR-SIM's environment step.
    the command, 10 physics steps of ``CreateModel``, the same sensor reads; ``ArmReach-v0``
    (IRB120): the joints integrated within their limits (numpy), ``Arm.fkine`` and ``pose_error``
    (``Arm.fkine`` alone is printed too); the SIMROBOT ``ParallelEnv`` (demo world, 4 agents):
-   ``set_wheel_speeds`` per robot, ``SimrobotWorld.step`` and every sensor read.
+   ``set_wheel_speeds`` per robot, ``SimrobotWorld.step`` and every sensor read; the same with
+   1,000 agents (the empty map of item 2).
 2. **One core and two** (wall time, best of several, taking turns): a Gymnasium env on two cores is two processes,
    each stepping its own env (a user training two runs); the vector Create env
    (``gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=32, workers=1 or 2)``, random actions,
@@ -199,6 +200,13 @@ def wrapper_table(steps: int) -> None:
         met = "met" if cost <= GOAL_COST else "NOT met"
         print(f"{name:<44}{env_rate:>13,.0f}{bare_rate:>13,.0f}{cost:>+8.0%}   {met}")
     print(f"{'  (ArmReach-v0: Arm.fkine alone)':<44}{'':>13}{rate(fkine, steps * 10):>13,.0f}")
+    with tempfile.TemporaryDirectory() as folder:  # the same at scale: chunks of 2 steps
+        many = simrobot_pair(many_robots_world(Path(folder), 1000, 1))
+        env_rate, bare_rate, cost = paired_cost(*many, max(20, steps // 25), 2)
+    met = "met" if cost <= GOAL_COST else "NOT met"
+    print(
+        f"{'SIMROBOT ParallelEnv (1,000 agents, empty)':<44}{env_rate:>13,.1f}{bare_rate:>13,.1f}{cost:>+8.0%}   {met}"
+    )
 
 
 # ------------------------------------------------------------------------------------ 2. cores

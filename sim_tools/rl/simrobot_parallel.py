@@ -33,6 +33,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, ClassVar
 
+import numba
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
@@ -65,6 +66,29 @@ def _observation_size(robot: RobotSpec) -> int:
 def _normalised(distance: np.ndarray, max_range: float) -> np.ndarray:
     # distance / range in [0, 1]; no echo (inf) reads 1
     return np.minimum(distance / max_range, 1.0)
+
+
+@numba.njit(cache=True)
+def _clipped(wheels: np.ndarray, limit: float) -> np.ndarray:
+    """(n, 2) wheel speeds within ±limit, NaN kept (the world refuses it)."""
+    out = np.empty_like(wheels)
+    for i in range(wheels.shape[0]):
+        for j in range(2):
+            w = wheels[i, j]
+            out[i, j] = w if w != w else min(max(w, -limit), limit)
+    return out
+
+
+@numba.njit(cache=True)
+def _progress(before: np.ndarray, after: np.ndarray, best_step_m: np.ndarray) -> np.ndarray:
+    """Every robot's forward distance this step (along its heading before it) over the largest
+    possible one (``best_step_m``), from the poses (n, 3: x, y, heading) before and after."""
+    out = np.empty(before.shape[0])
+    for i in range(before.shape[0]):
+        heading = before[i, 2]
+        dx, dy = after[i, 0] - before[i, 0], after[i, 1] - before[i, 1]
+        out[i] = (dx * math.cos(heading) + dy * math.sin(heading)) / best_step_m[i]
+    return out
 
 
 def _world(spec: WorldSpec) -> SimrobotWorld:
@@ -136,10 +160,10 @@ class SimrobotParallelEnv(ParallelEnv):
         self._echoes = [e for e in self._one_echo if e is not None] if None not in self._one_echo else None
         self.world = self._template
         self._steps = 0
-        #: Every robot's pose (x, y, heading) where the last step (or the reset) left it.
-        self._poses: list[list[float]] = self.world.poses().tolist()
+        #: Every robot's pose (x, y, heading) where the last step (or the reset) left it, (n, 3).
+        self._poses: np.ndarray = self.world.poses()
         #: Per robot, the most it can move in a step (m): wheel radius * top wheel speed * dt.
-        self._best_step_m = [r.R * self.max_wheel_speed * self._template.dt for r in self.spec_file.robots]
+        self._best_step_m = np.array([r.R * self.max_wheel_speed * self._template.dt for r in self.spec_file.robots])
 
     def observation_space(self, agent: str) -> spaces.Box:
         """The agent's sensors, normalised to 0-1."""
@@ -163,7 +187,7 @@ class SimrobotParallelEnv(ParallelEnv):
             self.world = self._fresh_template()
         self._set_agents(list(self.possible_agents))
         self._steps = 0
-        self._poses = self.world.poses().tolist()
+        self._poses = self.world.poses()
         return {a: self._observe(i) for i, a in enumerate(self.possible_agents)}, {a: {} for a in self.agents}
 
     def _fresh_template(self) -> SimrobotWorld:
@@ -175,23 +199,25 @@ class SimrobotParallelEnv(ParallelEnv):
     ) -> tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]:
         """Set every live agent's wheel speeds, advance the world one ``dt``, read the sensors."""
         world, agents, live, limit = self.world, self.agents, self._live, self.max_wheel_speed
-        for agent, i in zip(agents, live, strict=True):
-            left, right = np.asarray(actions[agent]).tolist()  # plain floats: cheaper than numpy for a pair
-            world.set_wheel_speeds(i, min(max(left, -limit), limit), min(max(right, -limit), limit))
+        # every live agent's pair at once (a robot's pair clipped alone gives the same numbers)
+        wheels = np.array([actions[agent] for agent in agents], dtype=float).reshape(len(agents), 2)
+        for i, (left, right) in zip(live, _clipped(wheels, limit).tolist(), strict=True):
+            world.set_wheel_speeds(i, left, right)
         crashed = set(world.step().tolist())
-        after = world.poses()  # a fresh array: its rows go to the infos as they are
-        start, end = self._poses, after.tolist()  # plain floats: cheaper per agent than numpy rows
-        self._poses = end
+        before, after = self._poses, world.poses()  # a fresh array: its rows go to the infos as they are
+        self._poses = after
         self._steps += 1
         truncate = self._steps >= self.max_steps
+        progress = _progress(before, after, self._best_step_m).tolist()
+        rows = list(after.copy())  # the infos' own (the next step starts from ``after``)
         obs, rewards, terms, truncs, infos = {}, {}, {}, {}, {}
         for agent, i, seen in zip(agents, live, self._observe_all(live), strict=True):
             hit = i in crashed
             obs[agent] = seen
-            rewards[agent] = -self.crash_penalty if hit else self._progress(i, start[i], end[i])
+            rewards[agent] = -self.crash_penalty if hit else progress[i]
             terms[agent] = hit
             truncs[agent] = truncate and not hit
-            infos[agent] = {"pose": after[i]}
+            infos[agent] = {"pose": rows[i]}
         if crashed or truncate:
             self._set_agents([a for a in agents if not (terms[a] or truncs[a])])
         return obs, rewards, terms, truncs, infos
@@ -200,12 +226,6 @@ class SimrobotParallelEnv(ParallelEnv):
         """The live agents, and their robots' numbers in the world."""
         self.agents = agents
         self._live = [self.world.index[agent] for agent in agents]
-
-    def _progress(self, i: int, before: list[float], after: list[float]) -> float:
-        # forward distance this step over the largest possible one
-        (x0, y0, heading), (x1, y1, _) = before, after
-        forward = (x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)
-        return forward / self._best_step_m[i]
 
     def _observe_all(self, robots: list[int]) -> list[np.ndarray]:
         """The robots' observations; when each has one ultrasonic sensor (the usual world), rows of
