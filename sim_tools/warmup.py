@@ -42,8 +42,8 @@ def warm_replay() -> None:
 
 def warm_learning() -> None:
     """The learning environments' own kernels (the arm's step, the Create observation's clip in
-    both precisions: the env's float32 LIDAR, ``policy_controller``'s float64), where Gymnasium
-    is installed."""
+    both precisions: the env's float32 LIDAR, ``policy_controller``'s float64; the SIMROBOT env's
+    wheels and rewards), where Gymnasium (and PettingZoo) is installed."""
     import importlib.util
 
     if importlib.util.find_spec("gymnasium") is None:
@@ -55,6 +55,12 @@ def warm_learning() -> None:
     for env in (ArmReachEnv(), CreateNavEnv(sensors=SENSORS)):
         env.reset(seed=0)
         env.step(env.action_space.sample())
+    if importlib.util.find_spec("pettingzoo") is not None:
+        from sim_tools.rl.simrobot_parallel import SimrobotParallelEnv
+
+        agents = SimrobotParallelEnv()
+        agents.reset(seed=0)
+        agents.step({agent: agents.action_space(agent).sample() for agent in agents.agents})
 
 
 def warmers() -> dict[str, Callable[[], None]]:
