@@ -547,6 +547,18 @@ class SensorInfo:
     angle_increment: float = 0.0
 
 
+@numba.njit(cache=True)
+def _world_poses(pose: np.ndarray, resolution: float, origin: np.ndarray) -> np.ndarray:
+    """Poses (n, 3) in cells → metres (x, y; heading as is). A kernel: the world's step records
+    them every step, and numpy's three small array operations cost more than the arithmetic."""
+    out = np.empty_like(pose)
+    for i in range(pose.shape[0]):
+        out[i, 0] = pose[i, 0] * resolution + origin[0]
+        out[i, 1] = pose[i, 1] * resolution + origin[1]
+        out[i, 2] = pose[i, 2]
+    return out
+
+
 class PoseHistory:
     """Every robot's pose per step in bounded memory: a ring of fixed-size chunks (float32
     x, y, heading). Memory is ``capacity`` steps x robots x 12 bytes at most."""
@@ -918,9 +930,7 @@ class SimrobotWorld:
     # -- state (SI units) -------------------------------------------------------------------
     def poses(self) -> np.ndarray:
         """World poses (n, 3): x, y in metres, heading in radians [-pi, pi)."""
-        out = self._robots.pose.copy()
-        out[:, :2] = out[:, :2] * self.resolution + self.origin
-        return out
+        return _world_poses(self._robots.pose, self.resolution, self.origin)
 
     def body_velocity(self, i: int) -> tuple[float, float, float]:
         """Forward, lateral (m/s) and yaw rate (rad/s) the robot is moving with (0 when stopped)."""
