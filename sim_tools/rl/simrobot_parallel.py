@@ -204,7 +204,7 @@ class SimrobotParallelEnv(ParallelEnv):
         for i, (left, right) in zip(live, _clipped(wheels, limit).tolist(), strict=True):
             world.set_wheel_speeds(i, left, right)
         crashed = set(world.step().tolist())
-        before, after = self._poses, world.poses()  # a fresh array: its rows go to the infos as they are
+        before, after = self._poses, world.poses()
         self._poses = after
         self._steps += 1
         truncate = self._steps >= self.max_steps
