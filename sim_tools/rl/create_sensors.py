@@ -15,6 +15,7 @@ import numpy as np
 from create_sim.model import CreateModel
 from sim_runtime.angles import wrap_angle_jit
 from sim_runtime.errors import InputError
+from sim_tools.rl.kernels import clip_into
 
 SENSORS = ("lidar", "sonar", "bump", "cliff", "goal")
 DEFAULT_SENSORS = ("lidar", "bump", "goal")
@@ -40,20 +41,9 @@ def _ranges(lo: float, hi: float) -> Callable[[np.ndarray, int, np.ndarray, Any]
     """A part of ranges kept within [lo, hi] (+inf, no return → hi; -inf, too close → lo)."""
 
     def write(out: np.ndarray, at: int, value: np.ndarray, _goal: tuple[float, float]) -> int:
-        return _clip_into(out, at, value, lo, hi)
+        return clip_into(out, at, value, lo, hi)
 
     return write
-
-
-@numba.njit(cache=True)
-def _clip_into(out: np.ndarray, at: int, value: np.ndarray, lo: float, hi: float) -> int:
-    """``out[at:at + n] = clip(value, lo, hi)``, n = len(value), in the value's precision (as
-    ``np.clip`` then a cast), NaN kept; the index after. One kernel call: numpy's two ufunc calls
-    with their scalar conversions cost twice as much on every env step."""
-    for i in range(value.shape[0]):
-        v = value[i]
-        out[at + i] = v if v != v else min(max(v, value.dtype.type(lo)), value.dtype.type(hi))
-    return at + value.shape[0]
 
 
 def _as_is(out: np.ndarray, at: int, value: np.ndarray, _goal: tuple[float, float]) -> int:

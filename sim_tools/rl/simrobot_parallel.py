@@ -42,6 +42,7 @@ from PIL import Image
 from sim_runtime.errors import InputError
 from sim_runtime.paths import resolve_input_file
 from sim_runtime.track_plot import draw_tracks
+from sim_tools.rl.kernels import clip_into
 from simrobot_sim import raycast
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec, load_world
@@ -66,17 +67,6 @@ def _observation_size(robot: RobotSpec) -> int:
 def _normalised(distance: np.ndarray, max_range: float) -> np.ndarray:
     # distance / range in [0, 1]; no echo (inf) reads 1
     return np.minimum(distance / max_range, 1.0)
-
-
-@numba.njit(cache=True)
-def _clipped(wheels: np.ndarray, limit: float) -> np.ndarray:
-    """(n, 2) wheel speeds within ±limit, NaN kept (the world refuses it)."""
-    out = np.empty_like(wheels)
-    for i in range(wheels.shape[0]):
-        for j in range(2):
-            w = wheels[i, j]
-            out[i, j] = w if w != w else min(max(w, -limit), limit)
-    return out
 
 
 @numba.njit(cache=True)
@@ -201,7 +191,8 @@ class SimrobotParallelEnv(ParallelEnv):
         world, agents, live, limit = self.world, self.agents, self._live, self.max_wheel_speed
         # every live agent's pair at once (a robot's pair clipped alone gives the same numbers)
         wheels = np.array([actions[agent] for agent in agents], dtype=float).reshape(len(agents), 2)
-        for i, (left, right) in zip(live, _clipped(wheels, limit).tolist(), strict=True):
+        clip_into(wheels.reshape(-1), 0, wheels.reshape(-1), -limit, limit)  # in place (NaN kept: the world refuses it)
+        for i, (left, right) in zip(live, wheels.tolist(), strict=True):
             world.set_wheel_speeds(i, left, right)
         crashed = set(world.step().tolist())
         before, after = self._poses, world.poses()
