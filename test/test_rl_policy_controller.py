@@ -15,8 +15,9 @@ from sim_runtime.paths import config_path
 from sim_runtime.testing import spin_until
 from sim_tools.adapters.contract import world_part
 from sim_tools.rl.create_nav import CreateNavEnv
+from sim_tools.rl.create_sensors import goal_in_odom
 from sim_tools.rl.policy import MlpPolicy
-from sim_tools.rl.policy_controller import PolicyControllerNode, goal_in_odom
+from sim_tools.rl.policy_controller import PolicyControllerNode
 
 START = (-1.5, -1.0, 0.3)
 GOAL = (1.0, 0.5)

@@ -48,6 +48,7 @@ from sim_tools.rl.create_sensors import (
     MAX_GOAL_DISTANCE_M,
     WRITE,
     checked_sensors,
+    goal_in_odom,
     lidar_index,
 )
 
@@ -142,9 +143,8 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.start_pose = tuple(float(v) for v in start)
         self.goal_xy = (float(goal[0]), float(goal[1]))
         # The goal in the odometry frame (odometry starts at (0, 0, 0) on the start pose).
-        dx, dy = self.goal_xy[0] - start[0], self.goal_xy[1] - start[1]
-        c, s = math.cos(start[2]), math.sin(start[2])
-        self.goal_odom = (c * dx + s * dy, -s * dx + c * dy)
+        x, y, theta = self.start_pose
+        self.goal_odom = goal_in_odom(self.goal_xy, (x, y, theta), np.zeros(3))
         self.steps = 0
         self.track = [(float(start[0]), float(start[1]))]
         self._pose = self.model.pose

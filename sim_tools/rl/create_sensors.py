@@ -12,7 +12,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from create_sim.model import CreateModel
+from create_sim.model import CreateModel, odometry_origin
 from sim_runtime.angles import wrap_angle_jit
 from sim_runtime.errors import InputError
 from sim_tools.rl.kernels import clip_into
@@ -87,6 +87,18 @@ def blank_readings(sensors: Sequence[str], beams: int) -> dict[str, np.ndarray]:
     pose, x y θ): what :func:`observation` takes, to compile its kernels before the first reading."""
     sizes = {"lidar": beams, "goal": 3}
     return {name: np.zeros(sizes.get(name) or PART_SIZES[name]) for name in sensors}
+
+
+def goal_in_odom(
+    goal_map: tuple[float, float], truth: tuple[float, float, float], odom: np.ndarray
+) -> tuple[float, float]:
+    """The map-frame goal in the odometry frame, given the true pose and the odometry of one instant
+    (the env's at reset: the start pose and (0, 0, 0); ``policy_controller``'s: the world's first
+    overhead pose and odometry)."""
+    ox, oy, yaw = odometry_origin(truth, (float(odom[0]), float(odom[1]), float(odom[2])))
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = goal_map[0] - ox, goal_map[1] - oy
+    return (c * dx + s * dy, -s * dx + c * dy)
 
 
 def checked_sensors(sensors: Sequence[str]) -> tuple[str, ...]:

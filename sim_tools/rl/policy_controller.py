@@ -24,14 +24,20 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Illuminance, LaserScan, Range
 
-from create_sim.model import odometry_origin
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
-from sim_tools.rl.create_sensors import DEFAULT_SENSORS, blank_readings, checked_sensors, lidar_index, observation
+from sim_tools.rl.create_sensors import (
+    DEFAULT_SENSORS,
+    blank_readings,
+    checked_sensors,
+    goal_in_odom,
+    lidar_index,
+    observation,
+)
 from sim_tools.rl.policy import MlpPolicy, load_policy
 
 #: The environments whose policies this node runs.
@@ -138,16 +144,6 @@ class PolicyControllerNode(CheckedNode):
         cmd.linear.x, cmd.angular.z = float(v), float(w)
         self.cmd_pub.publish(cmd)
         self.actions += 1
-
-
-def goal_in_odom(
-    goal_map: tuple[float, float], truth: tuple[float, float, float], odom: np.ndarray
-) -> tuple[float, float]:
-    """The map-frame goal in the odometry frame, given the true pose and the odometry of one instant."""
-    ox, oy, yaw = odometry_origin(truth, (float(odom[0]), float(odom[1]), float(odom[2])))
-    c, s = math.cos(yaw), math.sin(yaw)
-    dx, dy = goal_map[0] - ox, goal_map[1] - oy
-    return (c * dx + s * dy, -s * dx + c * dy)
 
 
 def _checked_policy(path: str) -> MlpPolicy:
