@@ -6,6 +6,7 @@ that noise, where the noise-free one falls behind it. The training code is the e
 
 from __future__ import annotations
 
+import signal
 import sys
 from pathlib import Path
 
@@ -78,3 +79,16 @@ def test_with_the_example_noise_the_noise_trained_policy_reaches_more_goals_than
         bump_turn,
     )
     assert trained["mean_bumps"] < bump_turn["mean_bumps"], (trained, bump_turn)
+
+
+def test_the_training_pools_workers_end_on_sigterm_even_when_the_program_catches_sigterm():
+    caught = signal.signal(signal.SIGTERM, lambda *_: None)  # as rclpy and our executables do
+    try:
+        pool = example._pool(example.TrainConfig(workers=1, env_overrides=SHORT))
+    finally:
+        signal.signal(signal.SIGTERM, caught)
+    try:  # train() leaves the pool by terminate(), which hung when a worker had inherited the handler
+        assert pool.apply(signal.getsignal, (signal.SIGTERM,)) == signal.SIG_DFL
+    finally:
+        pool.close()  # ends the workers whatever their handlers
+        pool.join()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import signal
+
 import gymnasium
 import numpy as np
 import pytest
@@ -99,3 +101,19 @@ def test_ctrl_c_in_the_middle_of_a_step_closes_the_workers_rather_than_leave_the
     with pytest.raises(KeyboardInterrupt):
         envs.step(np.zeros((2, 2), dtype=np.float32))
     assert envs.closed and not any(process.is_alive() for process in workers)
+
+
+def test_a_worker_ends_on_sigterm_even_when_the_program_it_was_forked_from_catches_sigterm() -> None:
+    caught = signal.signal(signal.SIGTERM, lambda *_: None)  # as rclpy and our executables do
+    try:
+        envs = vector_create_nav(2, workers=2, **SETTINGS)
+    finally:
+        signal.signal(signal.SIGTERM, caught)
+    try:
+        envs.reset(seed=0)  # the worker is serving (a signal before it set its own would find the parent's)
+        worker = envs._processes[0]
+        worker.terminate()  # what close() does to a worker that does not finish in time
+        worker.join(10.0)
+        assert worker.exitcode == -signal.SIGTERM
+    finally:
+        envs.close()  # a worker that outlived SIGTERM still ends on "close"

@@ -32,6 +32,7 @@ from gymnasium import spaces
 
 from sim_tools.rl.create_nav import CreateNavEnv
 from sim_tools.rl.policy import MlpPolicy, load_policy
+from sim_tools.rl.vector_create import worker_signals
 
 ENV_ID = "robot_sims/CreateNav-v0"
 #: The env's options, saved in the policy file (the ROS policy controller rebuilds the observation
@@ -176,6 +177,7 @@ _WORKER: dict[str, Any] = {}
 
 
 def _init_worker(hidden: tuple[int, ...], env_overrides: dict[str, Any]) -> None:
+    worker_signals()  # the pool's terminate() ends us even when this program caught SIGTERM
     env = make_env(**env_overrides)
     _WORKER.update(env=env, policy=new_policy(env, hidden))
 

@@ -112,9 +112,18 @@ class _Batch:
         return [getattr(env, name)(*args, **kwargs) for env in self.envs]
 
 
+def worker_signals() -> None:
+    """Signals in a worker process forked to step envs: Ctrl-C ignored (the caller handles it and
+    closes its workers), SIGTERM back to its default, ending the process. A forked worker inherits
+    its parent's handlers, and rclpy's (or an executable's stop flag) only take note of SIGTERM: a
+    worker stuck in a step would outlive ``terminate()``, and whoever joins it would wait forever."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _serve(conn: Connection, count: int, env_kwargs: dict[str, Any]) -> None:
     """A worker process: its batch's commands from the pipe until ``close`` (or the pipe closes)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the caller's to handle (it closes us)
+    worker_signals()
     batch = _Batch(count, env_kwargs)
     while True:
         try:
