@@ -74,19 +74,30 @@ class Workspace:
         return path
 
     def files(self, suffixes: tuple[str, ...]) -> list[str]:
-        """Workspace files with one of ``suffixes`` (a few levels deep), for the file pickers."""
+        """Workspace files with one of ``suffixes`` (a few levels deep), for the file pickers: a
+        link is listed under its own name only if it leads to a file inside the workspace (a link
+        out of it, or to nothing, is left out: opening it would be refused)."""
         found = []
-        for dirpath, dirnames, filenames in os.walk(self.root):
-            depth = len(Path(dirpath).relative_to(self.root).parts)
+        for dirpath, dirnames, filenames in os.walk(self.root):  # links to folders are not entered
+            folder = Path(dirpath)
+            depth = len(folder.relative_to(self.root).parts)
             dirnames[:] = sorted(d for d in dirnames if not d.startswith(".") and depth < 3)
             found += [
-                self.relative(Path(dirpath) / f)
+                (folder / f).relative_to(self.root).as_posix()
                 for f in sorted(filenames)
-                if f.endswith(suffixes) and not f.startswith(".")
+                if f.endswith(suffixes) and not f.startswith(".") and self.inside(folder / f)
             ]
             if len(found) > 500:
                 break
         return found
+
+    def inside(self, path: Path) -> bool:
+        """Whether ``path`` is, or links to, an existing file in the workspace."""
+        try:
+            target = path.resolve(strict=True)
+        except (OSError, RuntimeError):  # dangling, a loop of links, unreadable
+            return False
+        return self.root in target.parents and target.is_file()
 
     def new_folder_name(self, stem: str) -> str:
         """``stem_1``, ``stem_2``, … : the first name not taken (the original's SimulatorOutputData_* rule)."""
