@@ -105,6 +105,7 @@ setup(
         "test": [
             *ROS_WHEELS,
             "pytest",
+            "pytest-timeout",  # a hung test fails with every thread's stack (pyproject.toml: timeout)
             "hypothesis",
             "ruff",
             "mypy",  # `make lint` type-checks every package (settings in pyproject.toml)

@@ -188,3 +188,24 @@ def test_a_player_refused_for_its_options_or_a_topic_name_leaves_no_node_behind(
     player = Player(bag, node_name="refused_player")  # the name is free again
     assert "refused_player" in probe.get_node_names()
     player.destroy_node()
+
+
+def test_stopping_a_looping_replay_at_any_moment_ends_its_threads(executor, tmp_path):
+    import random
+    import threading
+
+    bag = make_bag(tmp_path / "bag", n=3)
+    rng = random.Random(7)
+    for i in range(40):
+        player = Player(bag, topics=["/rp/chatter"], loop=True, rate=1000.0, node_name=f"stop_player_{i}")
+        executor.add_node(player)
+        player.start()
+        # At rate 1000 a pass of the 3-message bag lasts ~3 ms: random stops land anywhere in a
+        # pass, in the reader's end mark and between passes (where the hang of old was).
+        time.sleep(rng.uniform(0.0, 0.02))
+        player.stop()
+        assert not player._thread.is_alive(), f"stop {i}: the player thread is still running"
+        assert player.finished.done()
+        executor.remove_node(player)
+        player.destroy_node()
+    assert not [t for t in threading.enumerate() if t.name in ("bag-player", "bag-reader") and t.is_alive()]

@@ -61,6 +61,8 @@ _READ_AHEAD = 64  # batches
 SWITCH_INTERVAL = 0.0005
 # Within this of a deadline, time.sleep (precise) instead of a condition wait (wakeable).
 _FINE_NS = 2_000_000
+# How long stop() waits for the playing thread (its waits are bounded at 0.1 s: this is a ceiling).
+_STOP_JOIN_S = 5.0
 
 
 def replay_qos(offered_yaml: str) -> QoSProfile:
@@ -202,8 +204,11 @@ class Player(Node):
         with self._cond:
             self._stop = True
             self._cond.notify_all()
-        if self._thread is not None:
-            self._thread.join()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            # Every wait of the playing thread is bounded (≤ 0.1 s) and looks at `_stop`.
+            self._thread.join(timeout=_STOP_JOIN_S)
+            if self._thread.is_alive():
+                self.get_logger().error(f"replay: the player thread did not end within {_STOP_JOIN_S} s of stop()")
 
     def _srv_pause(self, _req: Any, res: Any) -> Any:
         self.set_paused(True)
@@ -233,11 +238,16 @@ class Player(Node):
         self._thread.start()
 
     def _messages(self) -> Iterator[BagMessage]:
-        """The messages to play, read ahead by a thread so chunk decoding never delays one."""
+        """The messages to play, read ahead by a thread so chunk decoding never delays one.
+
+        Neither side waits without a timeout: either may see `stop()` first (the reader may
+        return without its end mark), and a pass abandoned early (stop, an error) ends its reader.
+        """
         batches: queue.Queue[list[BagMessage] | BaseException | None] = queue.Queue(maxsize=_READ_AHEAD)
+        abandoned = threading.Event()
 
         def put(item: list[BagMessage] | BaseException | None) -> bool:
-            while not self._stop:
+            while not (self._stop or abandoned.is_set()):
                 try:
                     batches.put(item, timeout=0.1)
                     return True
@@ -254,19 +264,27 @@ class Player(Node):
                         if not put(batch):
                             return
                         batch = []
-                put(batch)
-                put(None)
+                if put(batch):
+                    put(None)
             except BaseException as exc:
                 put(exc)
 
         threading.Thread(target=read, name="bag-reader", daemon=True).start()
-        while True:
-            item = batches.get()
-            if item is None:
-                return
-            if isinstance(item, BaseException):
-                raise item
-            yield from item
+        try:
+            while True:
+                try:
+                    item = batches.get(timeout=0.1)
+                except queue.Empty:
+                    if self._stop:
+                        return
+                    continue
+                if item is None:
+                    return
+                if isinstance(item, BaseException):
+                    raise item
+                yield from item
+        finally:
+            abandoned.set()
 
     def _wait(self, bag_ns: int, consume_step: bool = True) -> str:
         """Sleep until bag time `bag_ns` is due, unless paused, stepped or stopped.
@@ -337,7 +355,7 @@ class Player(Node):
                     self.stats.published += 1
                     if how == "due":
                         self.stats.lateness_ns.append(time.perf_counter_ns() - self._wall(m.log_time_ns))
-                if not self.loop:
+                if not self.loop or self._stop:  # a pass may end on stop() without a _wait seeing it
                     return
         except Exception as exc:
             self.get_logger().error(f"replay failed: {exc!r}")
