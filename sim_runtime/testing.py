@@ -13,10 +13,14 @@ from rclpy.subscription import Subscription
 
 from sim_runtime.run import drain, make_executor
 
-__all__ = ["Collector", "TfBuffer", "drain", "make_executor", "spin_until", "wait_for_match"]
+__all__ = ["WAIT_CEILING_S", "Collector", "TfBuffer", "drain", "make_executor", "spin_until", "wait_for_match"]
+
+#: How long a wait gives up after, in wall seconds: a ceiling for a busy machine, not a speed
+#: claim (a wait that succeeds returns as soon as its predicate holds).
+WAIT_CEILING_S = 30.0
 
 
-def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) -> bool:
+def spin_until(executor, predicate: Callable[[], bool], timeout: float = WAIT_CEILING_S) -> bool:
     """Spin ``executor`` until ``predicate()`` is true or ``timeout`` wall seconds pass."""
     deadline = time.monotonic() + timeout
     while not predicate():
@@ -26,7 +30,9 @@ def spin_until(executor, predicate: Callable[[], bool], timeout: float = 5.0) ->
     return True
 
 
-def wait_for_match(executor, endpoint: Publisher | Subscription, count: int = 1, timeout: float = 5.0) -> bool:
+def wait_for_match(
+    executor, endpoint: Publisher | Subscription, count: int = 1, timeout: float = WAIT_CEILING_S
+) -> bool:
     """Spin until a publisher has ``count`` subscribers, or a subscription ``count`` publishers."""
     if isinstance(endpoint, Publisher):
         return spin_until(executor, lambda: endpoint.get_subscription_count() >= count, timeout)

