@@ -9,6 +9,7 @@ and ``chromium-driver``; ``STUDIO_SCREENSHOTS=1`` also saves the page into docs/
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -178,3 +179,30 @@ def test_an_element_can_be_hidden_and_made_transparent(browser):
     ActionChains(browser).move_to_element_with_offset(slider, 0, 0).click().perform()  # half way
     opacity = base + "let m = null; found.traverse(o => { if (o.material) m = o.material; }); return m && m.opacity;"
     wait(browser, lambda d: d.execute_script(base + "return found.visible;") and 0.3 < d.execute_script(opacity) < 0.7)
+
+
+def test_an_arm_world_that_ends_with_an_error_says_so_on_the_arm_page_only(browser, studio_url, workspace):
+    (workspace / "broken_arm.yaml").write_text("joints: 7\n")  # a YAML file, not a robot config
+    browser.get(studio_url + "/arm")
+    click(browser, ".studio-new-arm-world .q-item")
+    type_into(browser, ".studio-arm-config", "broken_arm.yaml")
+    type_into(browser, ".studio-arm-ns", "/armbroken")
+    click(browser, ".studio-arm-start")
+    error = wait(browser, lambda d: "error" in (t := text_of(d, ".studio-arm-world-error")) and t, timeout=60.0)
+    assert error.startswith("/armbroken: error: ") and "broken_arm.yaml" in error
+    browser.get(studio_url + "/")  # the Create Simulator page: its worlds only
+    wait(browser, lambda d: "Robot (namespace)" in text_of(d, "body"))
+    time.sleep(1.5)  # three of the page's refreshes, each of which would show an ended world
+    assert "armbroken" not in text_of(browser, "body")
+
+
+def test_a_namespace_that_is_not_a_ros_name_is_refused_in_a_sentence(browser, studio_url):
+    browser.get(studio_url + "/arm")
+    click(browser, ".studio-new-arm-world .q-item")
+    type_into(browser, ".studio-arm-ns", "bad name!")
+    click(browser, ".studio-arm-start")
+    error = wait(browser, lambda d: "error" in (t := text_of(d, ".studio-arm-world-error")) and t, timeout=30.0)
+    assert error == (
+        "error: namespace '/bad name!' is not a ROS name (it holds ' ', '!'): type letters, digits and _ "
+        "between slashes, each part starting with a letter or _ (for example /create2)"
+    )

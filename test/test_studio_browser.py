@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 import os
+import pty
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -452,6 +454,56 @@ def test_ctrl_c_stops_the_studio_and_its_world_with_status_0_within_5_s(browser,
     assert worlds_in(domain) == []
 
 
+def test_closing_the_studios_terminal_stops_every_world_and_finishes_the_recording(browser, tmp_path):
+    domain = studio_domain(62)  # the other studio modules use 50-55 and 60
+    port = free_port()
+    terminal, studio_side = pty.openpty()  # the studio's output is a terminal that then goes away
+    output: list[bytes] = []
+    studio = subprocess.Popen(
+        [sys.executable, "-m", "studio", "--workspace", str(tmp_path), "--port", str(port)],
+        stdout=studio_side, stderr=studio_side, cwd=ROOT, env=studio_env(domain), start_new_session=True,
+    )  # fmt: skip
+    os.close(studio_side)
+    reader = threading.Thread(target=read_terminal, args=(terminal, output), daemon=True)
+    reader.start()
+    try:
+        wait(browser, lambda d: accepts_connections(port), timeout=60.0)
+        open_page(browser, f"http://127.0.0.1:{port}/")
+        find(browser, ".studio-new-world").click()
+        click(browser, ".studio-start-world")
+        wait(browser, lambda d: b"studio: following" in b"".join(output), timeout=60.0)
+        find(browser, ".studio-record").click()
+        wait(browser, lambda d: find(d, ".studio-record-label").text.startswith("recording to"), timeout=40.0)
+        bag = tmp_path / "studio_data" / "SimulatorOutputData_1"
+        wait(browser, lambda d: any(bag.glob("*.mcap")), timeout=20.0)
+        assert len(worlds_in(domain)) == 1 and len(worlds_in(domain, b"studio_record_")) == 1
+        os.close(terminal)  # the terminal window closes: its output goes nowhere, then the hang-up
+        reader.join(timeout=5.0)
+        os.killpg(studio.pid, signal.SIGHUP)
+        status = studio.wait(timeout=30.0)
+    finally:
+        if studio.poll() is None:
+            os.killpg(studio.pid, signal.SIGKILL)
+            studio.wait()
+    shown = b"".join(output).decode(errors="replace")
+    assert status == 0, shown[-3000:]
+    assert worlds_in(domain) == [] and worlds_in(domain, b"studio_record_") == []
+    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["message_count"] > 0  # the recorder finished its bag (metadata written at its end)
+
+
+def read_terminal(fd: int, output: list[bytes]) -> None:
+    """What the studio writes to its terminal, until the terminal closes."""
+    while True:
+        try:
+            chunk = os.read(fd, 4096)
+        except OSError:
+            return
+        if not chunk:
+            return
+        output.append(chunk)
+
+
 def accepts_connections(port: int) -> bool:
     try:
         socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
@@ -460,8 +512,8 @@ def accepts_connections(port: int) -> bool:
     return True
 
 
-def worlds_in(domain: int) -> list[int]:
-    """Process ids of the create_world processes running on ROS domain ``domain``."""
+def worlds_in(domain: int, program: bytes = b"create_world") -> list[int]:
+    """Process ids of the ``program`` processes (create_world) running on ROS domain ``domain``."""
     found = []
     for proc in Path("/proc").iterdir():
         try:
@@ -469,6 +521,6 @@ def worlds_in(domain: int) -> list[int]:
             cmdline = (proc / "cmdline").read_bytes()
         except (OSError, ValueError):
             continue
-        if f"ROS_DOMAIN_ID={domain}".encode() in env and b"create_world" in cmdline:
+        if f"ROS_DOMAIN_ID={domain}".encode() in env and program in cmdline:
             found.append(int(proc.name))
     return found

@@ -333,6 +333,12 @@ def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refu
     assert "already runs in /arm1" in studio.namespace_refusal("/arm1")  # any kind of world
     assert "a world in / would publish a second one" in studio.namespace_refusal("")
     assert studio.namespace_refusal("/create2") is None
+    for bad, why in (
+        ("/bad name!", "it holds ' ', '!'"),
+        ("/a//b", "it has an empty part"),
+        ("/2nd", "its part '2nd' starts"),
+    ):
+        assert f"namespace {bad!r} is not a ROS name ({why}" in studio.namespace_refusal(bad)  # not rcl's C path
     assert studio.clock_owner() == "/create1"
     assert (studio.clock_of("/create1"), studio.clock_of("/arm1")) == ("/clock", "/arm1/clock")  # for controllers
     studio.ros = FakeGraph([])

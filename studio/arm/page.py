@@ -23,7 +23,7 @@ from sim_runtime.paths import mesh_path
 from studio.arm.joints import ArmJoints
 from studio.arm.meshes import DISPLAY_FACES
 from studio.arm.motion import ArmMotion
-from studio.arm.page_base import arm_ros, made_arm_ros
+from studio.arm.page_base import arm_ros, arm_worlds, made_arm_ros
 from studio.arm.ros_client import Group
 from studio.arm.scene import MESH_ROUTE, MESHES, ArmScene
 from studio.arm.worlds import ArmWorlds
@@ -142,10 +142,10 @@ class ArmPage(ArmJoints, ArmMotion, ArmWorlds):
             self.arm_select.set_options({p: p or "/" for p in names}, value=value)
             self.selected = value
         self.no_arm.set_visibility(not names)
-        for key, world in list(self.studio.worlds.items()):
-            if key.startswith("arm:") and not world.running and world not in self.endings_shown:
+        for ns, world in list(arm_worlds(self.studio).items()):
+            if not world.running and world not in self.endings_shown:
                 self.endings_shown.add(world)
-                self.world_label.set_text(f"{key[4:] or '/'}: {world.error_line()}")
+                self.world_label.set_text(f"{ns or '/'}: {world.error_line()}")
         listed = tuple((k, s.name) for k, s in self.view.shown.items())
         if listed != self.listed:
             self.listed = listed

@@ -30,6 +30,16 @@ def arm_ros(studio: Studio) -> ArmRos | None:
     return made
 
 
+def arm_worlds(studio: Studio) -> dict[str, Child]:
+    """namespace → arm world the studio started: a table of the arm family's own (the Create
+    page shows the end of its own worlds only), which the studio's namespace checks and Ctrl-C see."""
+    table = studio.families.get("arm_worlds")
+    if not isinstance(table, dict):
+        table = studio.families["arm_worlds"] = {}
+        studio.family_worlds.append(table)
+    return table
+
+
 class ArmPageBase:
     """The state the parts share."""
 

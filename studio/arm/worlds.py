@@ -9,7 +9,7 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
 from sim_tools.cli import executable_command
-from studio.arm.page_base import ArmPageBase
+from studio.arm.page_base import ArmPageBase, arm_worlds
 from studio.shell.app import Studio
 from studio.shell.kit import stop_started_world
 from studio.shell.processes import Child, clock_topic, namespace_args, yaml_string
@@ -69,7 +69,6 @@ class ArmWorlds(ArmPageBase):
         except InputError as err:
             self.world_label.set_text(f"error: {err}")
             return
-        key = f"arm:{ns}"
         ros = self.ros()
         refusal = studio.namespace_refusal(ns) or (
             f"an arm world already runs in {ns or '/'}: give another namespace"
@@ -86,7 +85,7 @@ class ArmWorlds(ArmPageBase):
             cwd=studio.workspace.root,
             clock=clock_topic(ns, owns_clock),
         )
-        studio.worlds[key] = child
+        arm_worlds(studio)[ns] = child
         self.world_label.set_text(f"starting an arm world in {ns or '/'}…")
         for _ in range(400):
             await asyncio.sleep(0.05)
@@ -113,4 +112,4 @@ class ArmWorlds(ArmPageBase):
         if ros is not None and ns in ros.arms:
             # The world node's namespace: a scene arm (/csa) belongs to the world in /.
             ns = ros.arms[ns].world_ns
-        stop_started_world(self.studio.worlds, f"arm:{ns}")
+        stop_started_world(arm_worlds(self.studio), ns)

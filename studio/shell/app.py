@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import os
+import re
+import signal
 import socket
 import sys
 from collections.abc import Callable
@@ -30,7 +32,7 @@ class Studio:
     workspace: Workspace
     controllers: dict[str, str]
     ros: StudioRos | None = None  # the studio's ROS client (the entry point's kind) once the app has started
-    worlds: dict[str, Child] = field(default_factory=dict)  # namespace → world the studio started
+    worlds: dict[str, Child] = field(default_factory=dict)  # namespace → Create world the studio started
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
     selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
@@ -53,7 +55,7 @@ class Studio:
         started = dict(self.worlds)
         for table in self.family_worlds:
             started.update(table)
-        return {key.removeprefix("arm:"): child for key, child in started.items() if child.running}
+        return {ns: child for ns, child in started.items() if child.running}
 
     def graph_worlds(self) -> list[tuple[str, str]]:
         """``(clock topic, namespace)`` of every world on the domain, started here or not."""
@@ -62,6 +64,9 @@ class Studio:
     def namespace_refusal(self, ns: str) -> str | None:
         """Why a new world may not start in ``ns`` (None: it may): a world already runs there, or
         in the root where ``/clock`` is taken (a root world cannot move its clock)."""
+        problem = namespace_problem(ns)
+        if problem:
+            return problem
         where = ns or "/"
         child = self.world_children().get(ns)
         if child is not None:
@@ -108,6 +113,33 @@ class Studio:
             *(child for table in self.family_worlds for child in table.values()),
         ]
         stop_all([child for child in children if child is not None], patient=self.recorder)
+
+
+NAMESPACE_PART = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+"""One part of a ROS namespace between slashes (rcl's rule): a world given another would end
+with rcl's own message, which quotes a C source file."""
+
+
+def namespace_problem(ns: str) -> str | None:
+    """Why ``ns`` (``/a/b`` or '' for the root) is not a ROS namespace, as a sentence saying what
+    to type instead (None: it is one)."""
+    if not ns:
+        return None
+    bad = next((part for part in ns.removeprefix("/").split("/") if not NAMESPACE_PART.fullmatch(part)), None)
+    if bad is None:
+        return None
+    if not bad:
+        what = "it has an empty part (//)"
+    elif bad[0].isdigit():
+        what = f"its part {bad!r} starts with a digit"
+    else:
+        what = "it holds " + ", ".join(
+            sorted({repr(c) for c in bad if not (c.isascii() and (c.isalnum() or c == "_"))})
+        )
+    return (
+        f"namespace {ns!r} is not a ROS name ({what}): type letters, digits and _ between slashes, "
+        "each part starting with a letter or _ (for example /create2)"
+    )
 
 
 def world_namespaces(graph: list[tuple[str, str]]) -> set[str]:
@@ -200,6 +232,17 @@ def prepare(argv: list[str] | None) -> tuple[argparse.Namespace, Studio] | int:
     return options, Studio(workspace=workspace, controllers=controllers)
 
 
+def hang_up(_signum: int, _frame: object) -> None:
+    """SIGHUP (the terminal closed: an SSH drop, ``tmux kill-session``) ends the studio as Ctrl-C
+    does: every world, controller and recorder stops and the bag is finished. The worlds run in
+    sessions of their own, so nothing else would stop them. A closed terminal takes the studio's
+    output with it: the lines still to come go nowhere instead of failing the shutdown."""
+    for fd in (1, 2):
+        if os.isatty(fd):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    os.kill(os.getpid(), signal.SIGINT)  # uvicorn's own Ctrl-C: the app's shutdown, then ours
+
+
 def run(argv: list[str] | None, load_pages: Callable[[], Pages]) -> int:
     """Serve the pages ``load_pages()`` returns (loaded once the options are checked) until Ctrl-C."""
     prepared = prepare(argv)
@@ -223,6 +266,7 @@ def run(argv: list[str] | None, load_pages: Callable[[], Pages]) -> int:
 
     app.on_startup(startup)
     app.on_shutdown(shutdown)
+    signal.signal(signal.SIGHUP, hang_up)
     for register in pages.register:
         register(studio)
     where = f"http://{options.host}:{options.port}/ (workspace {studio.workspace.root})"
