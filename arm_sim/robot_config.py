@@ -51,12 +51,14 @@ from typing import Any
 import numpy as np
 
 from sim_runtime.inputfile import resolved
-from sim_runtime.yamlfile import FieldReader, load_yaml
+from sim_runtime.yamlfile import FieldReader, field_name, load_yaml, short
 
 MAX_JOINTS = 100
 """Most joints a config may declare (a guard against a typo such as 6000)."""
 MAX_LIMIT = 1e6
 """Largest |joint limit| (rad or m) and joint speed (rad/s or m/s) a config may hold."""
+MAX_NAME_CHARS = 200
+"""Longest robot name (it becomes part of topic and frame names)."""
 MIN_VELOCITY = 1e-9
 """Slowest joint speed limit (rad/s or m/s)."""
 
@@ -149,10 +151,10 @@ def read_transform(reader: FieldReader, value: Any, where: str) -> np.ndarray:
 def read_color(reader: FieldReader, value: Any, where: str) -> tuple[float, float, float, float]:
     """RGB or RGBA in 0..1 -> RGBA tuple."""
     if not isinstance(value, (list, tuple)) or len(value) not in (3, 4):
-        raise reader.error(where, f"expected [r, g, b] or [r, g, b, a] in 0..1, got {value!r}")
+        raise reader.error(where, f"expected [r, g, b] or [r, g, b, a] in 0..1, got {short(value)}")
     rgba = reader.vector(value, where)
     if ((rgba < 0) | (rgba > 1)).any():
-        raise reader.error(where, f"colour components must be in 0..1, got {value!r}")
+        raise reader.error(where, f"colour components must be in 0..1, got {short(value)}")
     if len(rgba) == 3:
         rgba = np.append(rgba, 1.0)
     r, g, b, a = (float(c) for c in rgba)
@@ -184,19 +186,21 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
     raw = load_yaml(path, "robot config")
     r = FieldReader(path, expressions=True)
     raw = r.mapping(raw, "<top level>")
-    unknown = set(raw) - KNOWN_FIELDS
+    unknown = [k for k in raw if k not in KNOWN_FIELDS]
     if unknown:
-        raise r.error(sorted(unknown)[0], f"unknown field; known fields: {sorted(KNOWN_FIELDS)}")
+        raise r.error(field_name(unknown[0]), f"unknown field; known fields: {sorted(KNOWN_FIELDS)}")
 
-    name = str(r.require(raw, "name"))
-    mesh_folder = resolved(path.parent / str(raw.get("mesh_folder", ".")))
+    name = r.text(r.require(raw, "name"), "name")
+    if len(name) > MAX_NAME_CHARS:
+        raise r.error("name", f"at most {MAX_NAME_CHARS} characters, got {len(name)}")
+    mesh_folder = resolved(path.parent / r.text(raw.get("mesh_folder", "."), "mesh_folder"))
     dof = r.integer(r.require(raw, "dof"), "dof", minimum=1, maximum=MAX_JOINTS)
     base = read_transform(r, raw.get("base", {}), "base")
     types = _read_joint_types(r, r.require(raw, "joint_types"), dof)
     names = _read_joint_names(r, raw.get("joint_names", [f"joint_{i + 1}" for i in range(dof)]), dof)
     modified = raw.get("modified_dh", False)
     if not isinstance(modified, bool):
-        raise r.error("modified_dh", f"expected true or false, got {modified!r}")
+        raise r.error("modified_dh", f"expected true or false, got {short(modified)}")
     params = _read_dh(r, r.mapping(r.require(raw, "dh"), "dh"), dof)
     position, velocity = _read_limits(r, r.mapping(r.require(raw, "limits"), "limits"), dof)
     dynamics = _read_dynamics(r, raw.get("dynamics"), dof)
@@ -224,21 +228,26 @@ def load_robot_config(path: str | os.PathLike[str]) -> RobotConfig:
 
 
 def _read_joint_types(r: FieldReader, raw: Any, dof: int) -> str:
-    types = "".join(map(str, raw)) if isinstance(raw, (list, tuple)) else str(raw)
+    if isinstance(raw, (list, tuple)) and len(raw) == dof:
+        types = "".join(r.text(t, f"joint_types[{i}]") for i, t in enumerate(raw))
+    elif isinstance(raw, str):
+        types = raw
+    else:
+        raise r.error("joint_types", f"expected {dof} joint types (a string such as 'rrp' or a list), got {short(raw)}")
     if len(types) != dof:
-        raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {types!r}")
+        raise r.error("joint_types", f"expected {dof} joint types (dof), got {len(types)}: {short(types)}")
     for i, t in enumerate(types):
         if t not in "rp":
-            raise r.error(f"joint_types[{i}]", f"unknown joint type {t!r}; use 'r' (revolute) or 'p' (prismatic)")
+            raise r.error(f"joint_types[{i}]", f"unknown joint type {short(t)}; use 'r' (revolute) or 'p' (prismatic)")
     return types
 
 
 def _read_joint_names(r: FieldReader, raw: Any, dof: int) -> tuple[str, ...]:
     if not isinstance(raw, (list, tuple)) or len(raw) != dof:
-        raise r.error("joint_names", f"expected {dof} names (dof), got {raw!r}")
-    names = tuple(str(n) for n in raw)
+        raise r.error("joint_names", f"expected {dof} names (dof), got {short(raw)}")
+    names = tuple(r.text(n, f"joint_names[{i}]") for i, n in enumerate(raw))
     if len(set(names)) != dof:
-        raise r.error("joint_names", f"names must be unique, got {list(names)}")
+        raise r.error("joint_names", f"names must be unique, got {short(list(names))}")
     return names
 
 
@@ -257,7 +266,7 @@ def _read_limits(r: FieldReader, limits: dict, dof: int) -> tuple[np.ndarray, np
     """(position (dof, 2) [min, max], velocity (dof,)) limits."""
     position = r.require(limits, "position", "limits.")
     if not isinstance(position, (list, tuple)) or len(position) != dof:
-        raise r.error("limits.position", f"expected {dof} [min, max] pairs (dof), got {position!r}")
+        raise r.error("limits.position", f"expected {dof} [min, max] pairs (dof), got {short(position)}")
     position = np.array([r.vector(p, f"limits.position[{i}]", 2) for i, p in enumerate(position)])
     for i, (lo, hi) in enumerate(position):
         if not lo < hi:
@@ -289,11 +298,11 @@ def _read_dynamics(r: FieldReader, raw: Any, dof: int) -> Dynamics:
             raise r.error(f"dynamics.mass[{i}]", f"must be >= 0, got {m}")
     cog_raw = r.require(raw, "cog", "dynamics.")
     if not isinstance(cog_raw, (list, tuple)) or len(cog_raw) != dof:
-        raise r.error("dynamics.cog", f"expected {dof} [x, y, z] vectors (dof), got {cog_raw!r}")
+        raise r.error("dynamics.cog", f"expected {dof} [x, y, z] vectors (dof), got {short(cog_raw)}")
     cog = np.array([r.vector(c, f"dynamics.cog[{i}]", 3) for i, c in enumerate(cog_raw)])
     inertia_raw = r.require(raw, "inertia", "dynamics.")
     if not isinstance(inertia_raw, (list, tuple)) or len(inertia_raw) != dof:
-        raise r.error("dynamics.inertia", f"expected {dof} 3x3 matrices (dof), got {inertia_raw!r}")
+        raise r.error("dynamics.inertia", f"expected {dof} 3x3 matrices (dof), got {short(inertia_raw)}")
     inertia = np.array([r.matrix(m, f"dynamics.inertia[{i}]", 3, 3) for i, m in enumerate(inertia_raw)])
     for i, m in enumerate(inertia):
         if not np.allclose(m, m.T) or np.linalg.eigvalsh(m).min() < -1e-12:
@@ -303,26 +312,26 @@ def _read_dynamics(r: FieldReader, raw: Any, dof: int) -> Dynamics:
 
 def _read_links(r: FieldReader, raw: Any, dof: int, mesh_folder: Path) -> tuple[tuple[MeshElement, ...], ...]:
     if not isinstance(raw, (list, tuple)):
-        raise r.error("links", f"expected a list of links, got {raw!r}")
+        raise r.error("links", f"expected a list of links, got {short(raw)}")
     links: list[tuple[MeshElement, ...] | None] = [None] * (dof + 1)
     for i, entry in enumerate(raw):
         where = f"links[{i}]"
         entry = r.mapping(entry, where)
         number = r.require(entry, "link", f"{where}.")
         if isinstance(number, bool) or not isinstance(number, int) or not 0 <= number <= dof:
-            raise r.error(f"{where}.link", f"expected a link number 0..{dof} (0 = base), got {number!r}")
+            raise r.error(f"{where}.link", f"expected a link number 0..{dof} (0 = base), got {short(number)}")
         if links[number] is not None:
             raise r.error(f"{where}.link", f"link {number} is listed twice")
         elements = r.require(entry, "elements", f"{where}.")
         if not isinstance(elements, (list, tuple)) or not elements:
-            raise r.error(f"{where}.elements", f"expected a non-empty list of elements, got {elements!r}")
+            raise r.error(f"{where}.elements", f"expected a non-empty list of elements, got {short(elements)}")
         parsed = []
         for j, element in enumerate(elements):
             ewhere = f"{where}.elements[{j}]"
             element = r.mapping(element, ewhere)
             mesh = r.require(element, "mesh", f"{ewhere}.")
             if not isinstance(mesh, str) or not mesh:
-                raise r.error(f"{ewhere}.mesh", f"expected an STL file name, got {mesh!r}")
+                raise r.error(f"{ewhere}.mesh", f"expected an STL file name, got {short(mesh)}")
             color = read_color(r, element.get("color", [0.7, 0.7, 0.7]), f"{ewhere}.color")
             scale = r.number(element.get("scale", 1.0), f"{ewhere}.scale")
             if scale <= 0:

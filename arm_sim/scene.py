@@ -29,7 +29,7 @@ from arm_sim.robot_config import read_color, read_transform
 from arm_sim.stl import load_stl
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import file_problem, resolved, shown
-from sim_runtime.yamlfile import FieldReader, load_yaml
+from sim_runtime.yamlfile import FieldReader, field_name, load_yaml, short
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
@@ -68,9 +68,9 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
     raw = load_yaml(path, "scene file")
     r = FieldReader(path, expressions=True)
     raw = r.mapping(raw if raw is not None else {}, "<top level>")
-    unknown = set(raw) - {"objects", "arms"}
+    unknown = [k for k in raw if k not in ("objects", "arms")]
     if unknown:
-        raise r.error(sorted(unknown)[0], "unknown field; known fields: ['arms', 'objects']")
+        raise r.error(field_name(unknown[0]), "unknown field; known fields: ['arms', 'objects']")
     objects = []
     names: set[str] = set()
     for i, entry in enumerate(_list(r, raw.get("objects", []), "objects")):
@@ -79,7 +79,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         name = _name(r, entry, where, names)
         mesh = r.require(entry, "mesh", f"{where}.")
         if not isinstance(mesh, str) or not mesh:
-            raise r.error(f"{where}.mesh", f"expected an STL file name, got {mesh!r}")
+            raise r.error(f"{where}.mesh", f"expected an STL file name, got {short(mesh)}")
         mesh_path = resolved(path.parent / mesh)
         scale = r.number(entry.get("scale", 1.0), f"{where}.scale")
         if scale <= 0:
@@ -102,7 +102,7 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
         name = _name(r, entry, where, arm_names)
         config = r.require(entry, "config", f"{where}.")
         if not isinstance(config, str) or not config:
-            raise r.error(f"{where}.config", f"expected a robot config file name, got {config!r}")
+            raise r.error(f"{where}.config", f"expected a robot config file name, got {short(config)}")
         config_file = resolved(path.parent / config)
         problem = file_problem(config_file)  # a FIFO, a device, a name too long: never raises
         if problem is not None:
@@ -122,15 +122,15 @@ def _mesh(r: FieldReader, path: Path, where: str) -> np.ndarray:
 
 def _list(r: FieldReader, value, where: str) -> list:
     if not isinstance(value, list):
-        raise r.error(where, f"expected a list, got {value!r}")
+        raise r.error(where, f"expected a list, got {short(value)}")
     return value
 
 
 def _name(r: FieldReader, entry: dict, where: str, seen: set[str]) -> str:
     name = r.require(entry, "name", f"{where}.")
     if not isinstance(name, str) or not _NAME.match(name):
-        raise r.error(f"{where}.name", f"expected a name of letters, digits and _, got {name!r}")
+        raise r.error(f"{where}.name", f"expected a name of letters, digits and _, got {short(name)}")
     if name in seen:
-        raise r.error(f"{where}.name", f"name {name!r} is used twice")
+        raise r.error(f"{where}.name", f"name {short(name)} is used twice")
     seen.add(name)
     return name

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim_runtime.yamlfile import FieldReader, load_yaml
+from sim_runtime.yamlfile import FieldReader, load_yaml, short
 
 MAX_POINTS = 100_000
 
@@ -48,7 +48,7 @@ def load_trajectory(path: str | os.PathLike[str]) -> JointTrajectoryFile:
             r.text(n, f"joint_names[{i}]") for i, n in enumerate(r.sequence(raw["joint_names"], "joint_names"))
         )
         if not names or len(set(names)) != len(names):
-            raise r.error("joint_names", f"expected distinct joint names, got {list(names)}")
+            raise r.error("joint_names", f"expected distinct joint names, got {short(list(names))}")
     points = r.sequence(r.require(raw, "points"), "points")
     if not points:
         raise r.error("points", "expected at least one point")

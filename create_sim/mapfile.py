@@ -29,9 +29,7 @@ import numpy as np
 
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import read_input_text
-
-MAX_COORDINATE_M = 1e6
-"""Largest |x| or |y| a map may hold (metres)."""
+from sim_runtime.limits import MAX_COORDINATE_M
 
 #: Unrecognised rows reported one by one; beyond these, one warning counts the rest.
 MAX_REPORTED_ROWS = 10

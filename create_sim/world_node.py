@@ -57,9 +57,9 @@ from create_sim.spec import (
 from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import announce_compiling
+from sim_runtime.limits import MAX_COORDINATE_M, all_within
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
-    all_finite,
     color_msg,
     command_ok,
     float32_array,
@@ -133,8 +133,9 @@ class CreateWorldNode(SimWorldNode):
         pose = declare(
             "initial_pose",
             [0.0, 0.0, 0.0],
-            lambda v: len(v) == 3 and all_finite(*v),
-            "initial pose [x, y, theta] in the map frame (m, rad); the reset service returns there",
+            lambda v: len(v) == 3 and all_within(v),
+            f"initial pose [x, y, theta] in the map frame (m, rad; each within ±{MAX_COORDINATE_M:g}, the maps' "
+            "bound); the reset service returns there",
         )
         self.cmd_vel_stamped = declare(
             "cmd_vel_stamped", False, None, "subscribe geometry_msgs/TwistStamped instead of Twist on cmd_vel"
@@ -387,8 +388,9 @@ class CreateWorldNode(SimWorldNode):
         if msg.header.frame_id not in ("", "map"):
             self.warn_throttled("set_pose", f"set_pose ignored: frame {msg.header.frame_id!r} is not 'map'")
             return
-        if not all_finite(p.x, p.y, yaw):
-            self.warn_throttled("set_pose", f"set_pose ignored: non-finite pose ({p.x}, {p.y}, {yaw})")
+        if not all_within((p.x, p.y, yaw)):
+            pose = f"({p.x:.6g}, {p.y:.6g}, {yaw:.6g})"
+            self.warn_throttled("set_pose", f"set_pose ignored: pose {pose} not finite within ±{MAX_COORDINATE_M:g}")
             return
         try:
             self.model.set_pose(p.x, p.y, yaw)

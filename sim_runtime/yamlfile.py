@@ -8,6 +8,7 @@ through them, so each rule (what a number is, what a bad key says) lives here on
 from __future__ import annotations
 
 import ast
+import datetime
 import math
 import operator
 import os
@@ -19,27 +20,88 @@ import numpy as np
 import yaml
 
 from sim_runtime.errors import InputError
-from sim_runtime.inputfile import read_input_text
+from sim_runtime.inputfile import read_input_text, shown
+from sim_runtime.limits import MAX_MAGNITUDE
+
+#: Most nodes the aliases of one YAML text may add to its tree (each ``*name`` counting as a copy
+#: of everything under its ``&name``). A file sharing a few defaults adds hundreds; a ~2 KB alias
+#: bomb ("billion laughs") adds billions, and formatting or walking that tree takes the machine.
+MAX_ALIAS_NODES = 100_000
 
 
 def load_yaml(path: str | os.PathLike[str], what: str) -> Any:
     """Parse the YAML file ``path`` (a ``what``, e.g. "world file", for messages).
 
-    A missing or unreadable file, a FIFO, device or directory, one that is not UTF-8 text, and a
-    YAML syntax error all become an :class:`InputError` naming the file (and the line, where YAML
-    knows it).
+    A missing or unreadable file, a FIFO, device or directory, one that is not UTF-8 text, a YAML
+    syntax error, aliases expanding beyond :data:`MAX_ALIAS_NODES` nodes and an alias inside its
+    own anchor all become an :class:`InputError` naming the file (and the line, where known).
     """
     path = Path(path)
-    text = read_input_text(path, what)
+    return parse_yaml(read_input_text(path, what), path)
+
+
+def parse_yaml(text: str, source: str | os.PathLike[str]) -> Any:
+    """Parse YAML ``text`` (from ``source``, for messages) as :func:`load_yaml` does: safe tags
+    only, alias expansion bounded before any value is built, every problem an InputError."""
+    loader = None
     try:
-        return yaml.safe_load(text)
+        loader = yaml.SafeLoader(text)  # it reads the text at once: a NUL is refused here
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_aliases(node, source)
+        return loader.construct_document(node)
+    except InputError:
+        raise
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
-        raise InputError.at(path, None if mark is None else mark.line + 1, f"invalid YAML: {exc}") from None
+        line = None if mark is None else mark.line + 1
+        raise InputError.at(shown(source), line, f"invalid YAML: {short_text(str(exc), 150)}") from None
     except RecursionError:
-        raise InputError.at(path, None, "invalid YAML: nested too deeply") from None
+        raise InputError.at(shown(source), None, "invalid YAML: nested too deeply") from None
     except (ValueError, TypeError, OverflowError) as exc:  # e.g. a date such as 2024-13-45
-        raise InputError.at(path, None, f"invalid YAML value: {exc}") from None
+        raise InputError.at(shown(source), None, f"invalid YAML value: {short_text(str(exc), 120)}") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.SequenceNode):
+        return node.value
+    if isinstance(node, yaml.MappingNode):
+        return [part for pair in node.value for part in pair]
+    return []
+
+
+def _check_aliases(root: yaml.Node, source: str | os.PathLike[str]) -> None:
+    """Refuse a node graph whose aliases expand to more than MAX_ALIAS_NODES extra nodes, or that
+    contains itself. The count runs over the composed graph, each node once (its expanded size
+    from its children's), so a bomb costs the size of its text, not of its expansion."""
+    size: dict[int, int] = {}
+    open_nodes: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, closing = stack.pop()
+        key = id(node)
+        if closing:
+            open_nodes.discard(key)
+            total = 1 + sum(size[id(child)] for child in _children(node))
+            size[key] = total
+            if total - len(size) > MAX_ALIAS_NODES:  # nodes seen so far bound this one's own
+                raise InputError.at(
+                    shown(source),
+                    node.start_mark.line + 1,
+                    f"YAML aliases expand to more than {MAX_ALIAS_NODES} nodes (an alias bomb?)",
+                )
+            continue
+        if key in size:
+            continue
+        if key in open_nodes:
+            raise InputError.at(shown(source), node.start_mark.line + 1, "a YAML alias refers to its own anchor")
+        open_nodes.add(key)
+        stack.append((node, True))
+        stack.extend((child, False) for child in _children(node) if id(child) not in size)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -93,9 +155,11 @@ def read_number(
     nonneg: bool = False,
     allow_inf: bool = False,
     expressions: bool = False,
+    limit: float | None = MAX_MAGNITUDE,
 ) -> float:
     """A YAML number as a float (ints beyond float range refused); with ``expressions``, also a
-    string such as ``-pi/2`` or ``165*deg``."""
+    string such as ``-pi/2`` or ``165*deg``. A finite number beyond ``±limit`` (by default
+    :data:`MAX_MAGNITUDE`, the maps' coordinate bound; None: any) is refused."""
     if isinstance(value, bool):
         raise InputError(f"{where}: expected a number, got {value!r}")
     if isinstance(value, (int, float)):
@@ -118,6 +182,8 @@ def read_number(
         raise InputError(f"{where}: must be > 0, got {_short(value)}")
     if nonneg and x < 0:
         raise InputError(f"{where}: must be >= 0, got {_short(value)}")
+    if limit is not None and math.isfinite(x) and abs(x) > limit:
+        raise InputError(f"{where}: beyond ±{limit:g}, got {_short(value)}")
     return x
 
 
@@ -157,10 +223,20 @@ def check_keys(entry: dict, allowed: set[str], where: str) -> None:
     odd = [k for k in entry if not isinstance(k, str)]
     if odd:
         raise InputError(f"{where}: field names must be text, got {_short(odd[0])}")
-    unknown = sorted(set(entry) - allowed)
+    unknown = [k for k in entry if k not in allowed]
     if unknown:
-        names = ", ".join(map(repr, unknown))
-        raise InputError(f"{where}: unknown field(s) {names}; allowed: {', '.join(sorted(allowed))}")
+        raise InputError(f"{where}: unknown field(s) {shown_names(unknown)}; allowed: {', '.join(sorted(allowed))}")
+
+
+def field_name(key: Any) -> str:
+    """A key of the file as a field name in a message: text as written (cut), anything else as a repr."""
+    return short_text(key, 40) if isinstance(key, str) else short(key, 40)
+
+
+def shown_names(names: list[Any], most: int = 3) -> str:
+    """The first ``most`` of ``names`` for a message, each cut short ("'a', 'b', … (12 in all)")."""
+    text = ", ".join(short(n, 30) for n in names[:most])
+    return text if len(names) <= most else f"{text}, … ({len(names)} in all)"
 
 
 def read_mapping(value: Any, where: str, allowed: set[str] | None = None) -> dict[str, Any]:
@@ -171,13 +247,67 @@ def read_mapping(value: Any, where: str, allowed: set[str] | None = None) -> dic
     return value
 
 
-def _short(value: Any, limit: int = 80) -> str:
-    """repr of a value for a message, cut to ``limit`` characters (a fuzzed file can hold megabytes)."""
-    try:
-        text = repr(value)
-    except (ValueError, RecursionError):  # ints beyond the repr digit limit, self-nesting lists
-        text = f"<{type(value).__name__}>"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+_SHORT_CHARS = 60  # of a value in a message: a file can hold megabytes in one field
+_SHORT_DEPTH = 8
+
+
+def short(value: Any, limit: int = _SHORT_CHARS) -> str:
+    """A repr of ``value`` for a message, at most ``limit`` characters, made with work of about
+    that size whatever the value (a list of a billion shared items, a 60 MB string, a 10,000-digit
+    integer, a list containing itself)."""
+    parts: list[str] = []
+    _emit(value, parts, [limit + 1], 0)
+    text = "".join(parts)
+    return text if len(text) <= limit else text[: max(limit - 3, 0)] + "..."
+
+
+def short_text(text: str, limit: int = _SHORT_CHARS) -> str:
+    """``text`` (not repr'd) cut to ``limit`` characters."""
+    return text if len(text) <= limit else text[: max(limit - 3, 0)] + "..."
+
+
+_short = short
+
+
+def _put(text: str, parts: list[str], budget: list[int]) -> None:
+    parts.append(text[: max(budget[0], 0)])
+    budget[0] -= len(text)
+
+
+def _emit(value: Any, parts: list[str], budget: list[int], depth: int) -> None:
+    if budget[0] <= 0:
+        return
+    if isinstance(value, (str, bytes)):
+        cut = value[: budget[0] + 1]
+        _put(repr(cut) if len(cut) == len(value) else repr(cut)[:-1], parts, budget)
+    elif isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64 * 3:
+        _put(f"<integer of {value.bit_length()} bits>", parts, budget)
+    elif value is None or isinstance(value, (bool, int, float, datetime.date)):
+        _put(repr(value), parts, budget)
+    elif isinstance(value, (list, tuple, set, frozenset, dict)):
+        _emit_container(value, parts, budget, depth)
+    else:
+        _put(f"<{type(value).__name__}>", parts, budget)
+
+
+def _emit_container(value: Any, parts: list[str], budget: list[int], depth: int) -> None:
+    opening, closing = "[]" if isinstance(value, list) else "()" if isinstance(value, tuple) else "{}"
+    if depth >= _SHORT_DEPTH:
+        _put(f"{opening}...{closing}", parts, budget)
+        return
+    _put(opening, parts, budget)
+    items = iter(value.items() if isinstance(value, dict) else value)
+    for i, item in enumerate(items):  # stops at the budget: never walks a huge container
+        if budget[0] <= 0:
+            return
+        if i:
+            _put(", ", parts, budget)
+        if isinstance(value, dict):
+            _emit(item[0], parts, budget, depth + 1)
+            _put(": ", parts, budget)
+            item = item[1]
+        _emit(item, parts, budget, depth + 1)
+    _put(closing, parts, budget)
 
 
 class FieldReader:
@@ -192,7 +322,7 @@ class FieldReader:
         self.expressions = expressions
 
     def where(self, field: str) -> str:
-        return f"{self.path}: {field}" if field else str(self.path)
+        return f"{shown(self.path)}: {field}" if field else shown(self.path)
 
     def error(self, field: str, message: str) -> InputError:
         return InputError(f"{self.where(field)}: {message}")
@@ -230,7 +360,7 @@ class FieldReader:
         return value
 
     def mapping(self, value: Any, field: str, allowed: set[str] | None = None) -> dict[str, Any]:
-        return read_mapping(value, self.where(field) if field else str(self.path), allowed)
+        return read_mapping(value, self.where(field), allowed)
 
     def require(self, mapping: dict, key: str, prefix: str = "") -> Any:
         if key not in mapping:

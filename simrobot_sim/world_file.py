@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -12,18 +13,26 @@ import numpy as np
 from PIL import Image
 
 from sim_runtime.errors import InputError
-from sim_runtime.inputfile import read_input_bytes
+from sim_runtime.inputfile import read_input_bytes, shown
 from sim_runtime.yamlfile import check_keys as _check_keys
 from sim_runtime.yamlfile import load_yaml
 from sim_runtime.yamlfile import read_bool as _bool
 from sim_runtime.yamlfile import read_number as _number
 from sim_runtime.yamlfile import read_pair as _pair
+from sim_runtime.yamlfile import short as _brief
+from sim_runtime.yamlfile import short_text
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
 
 #: The original's default robot outline (cells at 1 cm, heading east, pivot at 0,0), in metres.
 DEFAULT_SHAPE = ((-0.02, 0.03), (0.0, 0.04), (0.04, 0.0), (0.0, -0.04), (-0.02, -0.03))
+
+#: Most pixels a map image may have (8000 x 8000: 80 m square at the original's 1 cm a cell). A
+#: world holds several arrays per cell (the obstacle matrix, the robots' matrix, the sensors'
+#: distance fields): about MAP_BYTES_PER_PIXEL bytes a pixel, 2 GB at this limit.
+MAX_MAP_PIXELS = 64_000_000
+MAP_BYTES_PER_PIXEL = 30
 
 #: Highest robot count whose ids fit the original's uint8 matrix (ids 2-255).
 MAX_ROBOTS_UINT8 = 254
@@ -104,7 +113,7 @@ def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.nda
     data = read_input_bytes(path, "map image")
     try:
         img: Image.Image  # a file as opened, then maybe a converted copy
-        with Image.open(io.BytesIO(data)) as img:
+        with _open_image(path, data) as img:
             img.load()
             mode = img.mode
             if mode == "P":
@@ -120,18 +129,47 @@ def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.nda
             elif mode in ("RGB", "RGBA"):
                 rgb = np.asarray(img.convert("RGB"), dtype=np.int16)
                 if np.any(rgb[..., 0] != rgb[..., 1]) or np.any(rgb[..., 1] != rgb[..., 2]):
-                    raise InputError.at(path, None, f"colour image ({mode}): maps must be black and white or greyscale")
+                    raise InputError.at(
+                        shown(path), None, f"colour image ({mode}): maps must be black and white or greyscale"
+                    )
                 grey = rgb[..., 0].astype(np.uint8)
             else:
-                raise InputError.at(path, None, f"unsupported image mode {mode!r}: use a 1-bit or greyscale PNG/BMP")
+                raise InputError.at(
+                    shown(path), None, f"unsupported image mode {_brief(mode)}: use a 1-bit or greyscale PNG/BMP"
+                )
     except InputError:
         raise
     except Exception as exc:  # PIL raises many types for unreadable files
-        raise InputError.at(path, None, f"cannot read map image: {exc}") from exc
+        raise InputError.at(shown(path), None, f"cannot read map image: {short_text(str(exc), 120)}") from exc
     if grey.ndim != 2 or grey.size == 0:
-        raise InputError.at(path, None, f"map image has shape {grey.shape}, expected a 2-D image")
+        raise InputError.at(shown(path), None, f"map image has shape {grey.shape}, expected a 2-D image")
     # image rows run top-down; matrix y runs bottom-up
     return np.ascontiguousarray((grey < threshold)[::-1].T)
+
+
+def _open_image(path: Path, data: bytes) -> Image.Image:
+    """The image of ``data``, its header read and its size checked against MAX_MAP_PIXELS before
+    any pixel is decoded (Pillow's own "decompression bomb" check, at a higher count, never
+    speaks first)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        try:
+            img = Image.open(io.BytesIO(data))
+        except Image.DecompressionBombError:
+            raise InputError.at(shown(path), None, _too_large(None)) from None
+    width, height = img.size
+    if width * height > MAX_MAP_PIXELS:
+        img.close()
+        raise InputError.at(shown(path), None, _too_large(f"{width} x {height} = {width * height}"))
+    return img
+
+
+def _too_large(count: str | None) -> str:
+    size = "far more pixels than" if count is None else f"{count} pixels, beyond"
+    return (
+        f"map image has {size} the limit of {MAX_MAP_PIXELS} "
+        f"(about {MAP_BYTES_PER_PIXEL} bytes of memory each; see docs/file_formats.md)"
+    )
 
 
 _SENSOR_KEYS = {"name", "type", "position", "axis", "beamwidth", "range", "rays", "resolution"}
@@ -172,23 +210,25 @@ def _resolve_aliases(entry: dict, where: str) -> dict:
     for long, short in ROBOT_KEY_ALIASES.items():
         if long in out:
             if short in out:
-                raise InputError(f"{where}: {long!r} and {short!r} are the same field: give one")
+                raise InputError(f"{where}: {_brief(long)} and {_brief(short)} are the same field: give one")
             out[short] = out.pop(long)
     return out
 
 
 def _sensor(entry: Any, where: str) -> SensorSpec:
     if not isinstance(entry, dict):
-        raise InputError(f"{where}: expected a mapping, got {entry!r}")
+        raise InputError(f"{where}: expected a mapping, got {_brief(entry)}")
     _check_keys(entry, _SENSOR_KEYS, where)
     if "name" not in entry or not isinstance(entry["name"], str) or not entry["name"]:
-        raise InputError(f"{where}.name: required non-empty string, got {entry.get('name')!r}")
+        raise InputError(f"{where}.name: required non-empty string, got {_brief(entry.get('name'))}")
     name = entry["name"]
     if not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
-        raise InputError(f"{where}.name: {name!r} must be a ROS name (letters, digits, _; not starting with a digit)")
+        raise InputError(
+            f"{where}.name: {_brief(name)} must be a ROS name (letters, digits, _; not starting with a digit)"
+        )
     kind = entry.get("type", "ultrasonic")
     if kind not in SENSOR_TYPES:
-        raise InputError(f"{where}.type: unknown sensor type {kind!r}; expected one of {', '.join(SENSOR_TYPES)}")
+        raise InputError(f"{where}.type: unknown sensor type {_brief(kind)}; expected one of {', '.join(SENSOR_TYPES)}")
     # ``rays``; ``resolution`` is the original's name for it (a top-level resolution is m per cell)
     if "rays" in entry and "resolution" in entry:
         raise InputError(f"{where}: 'rays' and 'resolution' are the same field: give one")
@@ -196,11 +236,11 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
     rays = entry.get(rays_key, 30)
     if isinstance(rays, bool) or not isinstance(rays, int) or not 0 < rays <= MAX_RAYS:
         raise InputError(
-            f"{where}.{rays_key}: number of rays must be a positive integer (at most {MAX_RAYS}), got {rays!r}"
+            f"{where}.{rays_key}: number of rays must be a positive integer (at most {MAX_RAYS}), got {_brief(rays)}"
         )
     beamwidth = _number(entry.get("beamwidth", 60.0), f"{where}.beamwidth", nonneg=True)
     if beamwidth > 360.0:
-        raise InputError(f"{where}.beamwidth: at most 360 degrees, got {beamwidth!r}")
+        raise InputError(f"{where}.beamwidth: at most 360 degrees, got {_brief(beamwidth)}")
     return SensorSpec(
         name=name,
         kind=kind,
@@ -218,47 +258,49 @@ def _algorithm(entry: dict, where: str, base_dir: Path) -> str | None:
     if value is None:
         return None
     if not isinstance(value, str) or not value.endswith(".m"):
-        raise InputError(f"{where}.algorithm: expected the path of an m-file (e.g. alg2.m), got {value!r}")
+        raise InputError(f"{where}.algorithm: expected the path of an m-file (e.g. alg2.m), got {_brief(value)}")
     if entry.get("controller") is not None:
         raise InputError(f"{where}: give a controller or an algorithm, not both")
     path = Path(value).expanduser()
     path = path if path.is_absolute() else base_dir / path
     if not path.is_file():
-        raise InputError(f"{where}.algorithm: {str(path)!r}: no such file")
+        raise InputError(f"{where}.algorithm: {_brief(str(path))}: no such file")
     return str(path.resolve())
 
 
 def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
     if not isinstance(entry, dict):
-        raise InputError(f"{where}: expected a mapping, got {entry!r}")
+        raise InputError(f"{where}: expected a mapping, got {_brief(entry)}")
     _check_keys(entry, _ROBOT_KEYS, where)
     # errors name the key as the user wrote it
     key = {short: long for long, short in ROBOT_KEY_ALIASES.items() if long in entry}
     entry = _resolve_aliases(entry, where)
     name = entry.get("name")
     if not isinstance(name, str) or not name or not all(c.isalnum() or c == "_" for c in name) or name[0].isdigit():
-        raise InputError(f"{where}.name: required ROS name (letters, digits, _; no leading digit), got {name!r}")
-    where = f"{where} ({name!r})"
+        raise InputError(f"{where}.name: required ROS name (letters, digits, _; no leading digit), got {_brief(name)}")
+    where = f"{where} ({_brief(name)})"
     if "position" not in entry:
         raise InputError(f"{where}.position: required [x, y] in metres")
     color = entry.get("color", [1.0, 1.0, 0.0])
     if not isinstance(color, (list, tuple)) or len(color) != 3:
-        raise InputError(f"{where}.color: expected [r, g, b] in 0-1, got {color!r}")
+        raise InputError(f"{where}.color: expected [r, g, b] in 0-1, got {_brief(color)}")
     rgb = tuple(_number(c, f"{where}.color[{i}]") for i, c in enumerate(color))
     if any(c < 0 or c > 1 for c in rgb):
-        raise InputError(f"{where}.color: components must be in 0-1, got {color!r}")
+        raise InputError(f"{where}.color: components must be in 0-1, got {_brief(color)}")
     shape_in = entry.get("shape", [list(p) for p in DEFAULT_SHAPE])
     if not isinstance(shape_in, (list, tuple)) or len(shape_in) < 3:
-        raise InputError(f"{where}.shape: expected at least 3 [x, y] vertices (metres, pivot at 0,0), got {shape_in!r}")
+        raise InputError(
+            f"{where}.shape: expected at least 3 [x, y] vertices (metres, pivot at 0,0), got {_brief(shape_in)}"
+        )
     shape = tuple(_pair(p, f"{where}.shape[{i}]") for i, p in enumerate(shape_in))
     xs = [p[0] for p in shape]
     ys = [p[1] for p in shape]
     area = 0.5 * abs(sum(xs[i] * ys[(i + 1) % len(xs)] - xs[(i + 1) % len(xs)] * ys[i] for i in range(len(xs))))
     if area <= 0:
-        raise InputError(f"{where}.shape: polygon has zero area: {shape_in!r}")
+        raise InputError(f"{where}.shape: polygon has zero area: {_brief(shape_in)}")
     sensors_in = entry.get("sensors", [])
     if not isinstance(sensors_in, list):
-        raise InputError(f"{where}.sensors: expected a list, got {sensors_in!r}")
+        raise InputError(f"{where}.sensors: expected a list, got {_brief(sensors_in)}")
     sensors = tuple(_sensor(s, f"{where}.sensors[{i}]") for i, s in enumerate(sensors_in))
     seen: set[str] = set()
     for i, s in enumerate(sensors):
@@ -272,12 +314,12 @@ def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
             "clear_crash",
             "power",
         ):
-            raise InputError(f"{where}.sensors[{i}].name: {s.name!r} is used twice or clashes with a robot topic")
+            raise InputError(f"{where}.sensors[{i}].name: {_brief(s.name)} is used twice or clashes with a robot topic")
         seen.add(s.name)
     controller = entry.get("controller")
     if controller is not None and controller not in CONTROLLERS:
         known = ", ".join(CONTROLLERS)
-        raise InputError(f"{where}.controller: unknown controller {controller!r}; expected one of {known}")
+        raise InputError(f"{where}.controller: unknown controller {_brief(controller)}; expected one of {known}")
     lb = _number(entry.get("lb", 0.0), f"{where}.{key.get('lb', 'lb')}")
     return RobotSpec(
         name=name,
@@ -298,62 +340,67 @@ def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
 
 def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
     """Validate an already-parsed world-file mapping (see :func:`load_world` for the format)."""
+    shown_source = shown(source)  # a path of any length, cut for messages
     if not isinstance(data, dict):
-        raise InputError(f"{source}: the world file must be a YAML mapping, got {type(data).__name__}")
-    _check_keys(data, _WORLD_KEYS, source)
+        raise InputError(f"{shown_source}: the world file must be a YAML mapping, got {type(data).__name__}")
+    _check_keys(data, _WORLD_KEYS, shown_source)
     if "map" not in data or not isinstance(data["map"], str):
-        raise InputError(f"{source}: map: required path of a PNG/BMP image, got {data.get('map')!r}")
+        raise InputError(f"{shown_source}: map: required path of a PNG/BMP image, got {_brief(data.get('map'))}")
     map_path = Path(data["map"])
     if not map_path.is_absolute():
         map_path = base_dir / map_path
     try:
         walls = load_bitmap(map_path)
     except InputError as error:  # the image's own error, said to be the map field's
-        raise InputError(f"{source}: map: {error}") from None
+        raise InputError(f"{shown_source}: map: {error}") from None
     steps = data.get("steps_limit", math.inf)
     if isinstance(steps, str) and steps.strip().lower() in ("inf", ".inf", "infinity"):
         steps = math.inf
-    steps = _number(steps, f"{source}: steps_limit", allow_inf=True)
+    steps = _number(steps, f"{shown_source}: steps_limit", allow_inf=True, limit=None)
     if not steps > 0:
-        raise InputError(f"{source}: steps_limit: must be > 0 (or .inf), got {data.get('steps_limit')!r}")
+        raise InputError(f"{shown_source}: steps_limit: must be > 0 (or .inf), got {_brief(data.get('steps_limit'))}")
     if math.isfinite(steps):
         steps = float(max(1, math.floor(steps + 0.5)))  # MATLAB round: halves away from zero
     sensor_model = data.get("sensor_model", "exact")
     if sensor_model not in SENSOR_MODELS:
-        raise InputError(f"{source}: sensor_model: expected one of {', '.join(SENSOR_MODELS)}, got {sensor_model!r}")
+        raise InputError(
+            f"{shown_source}: sensor_model: expected one of {', '.join(SENSOR_MODELS)}, got {_brief(sensor_model)}"
+        )
     threads = data.get("threads", 0)
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
-        raise InputError(f"{source}: threads: expected an integer >= 0 (0 = all cores), got {threads!r}")
+        raise InputError(f"{shown_source}: threads: expected an integer >= 0 (0 = all cores), got {_brief(threads)}")
     history = data.get("history_steps", 10000)
     if isinstance(history, bool) or not isinstance(history, int) or history <= 0:
-        raise InputError(f"{source}: history_steps: must be a positive integer, got {history!r}")
+        raise InputError(f"{shown_source}: history_steps: must be a positive integer, got {_brief(history)}")
     robots_in = data.get("robots", [])
     if not isinstance(robots_in, list) or not robots_in:
-        raise InputError(f"{source}: robots: at least one robot is required")
-    robots = tuple(_robot(r, f"{source}: robots[{i}]", base_dir) for i, r in enumerate(robots_in))
-    resolution = _number(data.get("resolution", 0.01), f"{source}: resolution", positive=True)
+        raise InputError(f"{shown_source}: robots: at least one robot is required")
+    robots = tuple(_robot(r, f"{shown_source}: robots[{i}]", base_dir) for i, r in enumerate(robots_in))
+    resolution = _number(data.get("resolution", 0.01), f"{shown_source}: resolution", positive=True)
     map_size_m = math.hypot(*walls.shape) * resolution
     for i, r in enumerate(robots):
         reach = max(math.hypot(x, y) for x, y in r.shape) * r.scale
         if not reach <= map_size_m:  # also a size that overflowed to inf
             raise InputError(
-                f"{source}: robots[{i}] ({r.name!r}).shape: the robot ({reach:.4g} m from its pivot, "
+                f"{shown_source}: robots[{i}] ({_brief(r.name)}).shape: the robot ({reach:.4g} m from its pivot, "
                 f"scale {r.scale:g}) is larger than the map ({map_size_m:.4g} m across)"
             )
     names: dict[str, int] = {}
     for i, r in enumerate(robots):
         if r.name in names:
             first = names[r.name]
-            raise InputError(f"{source}: robots[{i}].name: duplicate robot name {r.name!r} (also robots[{first}])")
+            raise InputError(
+                f"{shown_source}: robots[{i}].name: duplicate robot name {_brief(r.name)} (also robots[{first}])"
+            )
         names[r.name] = i
     return WorldSpec(
         walls=walls,
         resolution=resolution,
-        origin=_pair(data.get("origin", [0.0, 0.0]), f"{source}: origin"),
-        dt=_number(data.get("dt", 1.0), f"{source}: dt", positive=True),
+        origin=_pair(data.get("origin", [0.0, 0.0]), f"{shown_source}: origin"),
+        dt=_number(data.get("dt", 1.0), f"{shown_source}: dt", positive=True),
         steps_limit=steps,
-        lockstep=_bool(data.get("lockstep", False), f"{source}: lockstep"),
-        lockstep_timeout=_number(data.get("lockstep_timeout", 5.0), f"{source}: lockstep_timeout", positive=True),
+        lockstep=_bool(data.get("lockstep", False), f"{shown_source}: lockstep"),
+        lockstep_timeout=_number(data.get("lockstep_timeout", 5.0), f"{shown_source}: lockstep_timeout", positive=True),
         history_steps=history,
         robots=robots,
         sensor_model=sensor_model,

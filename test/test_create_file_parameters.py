@@ -80,3 +80,11 @@ def test_skipped_rows_are_logged_on_rosout_by_the_node_not_printed_as_python_war
     assert spin_until(executor, skipped_row_logged)
     (line,) = [m for m in logged if "unrecognized row" in m.msg]
     assert line.level == Log.WARN
+
+
+@pytest.mark.parametrize("pose", [[1e308, 0.0, 0.0], [0.0, -2e6, 0.0], [0.0, 0.0, 1e300]])
+def test_an_initial_pose_beyond_the_maps_bound_is_refused_with_the_bound(ros, pose):
+    from sim_runtime.errors import InputError
+
+    with pytest.raises(InputError, match=r"'initial_pose'.*±1e\+06"):
+        CreateWorldNode(parameter_overrides=[Parameter("map_file", value=""), Parameter("initial_pose", value=pose)])

@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any
 
 import lz4.frame
-import yaml
 import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.reader import SeekingReader
@@ -42,6 +41,7 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import file_problem, is_regular_file, read_input_text, shown
+from sim_runtime.yamlfile import parse_yaml, short_text
 
 __all__ = ["Bag", "BagMessage", "BagWarning", "CorruptMessage", "UnknownMessageType", "open_bag"]
 
@@ -407,11 +407,12 @@ def open_bag(path: str | Path) -> Bag:
     files: list[Path] = []
     if is_regular_file(meta_path):
         try:
-            metadata = yaml.safe_load(read_input_text(meta_path, "metadata.yaml", errors="replace"))
+            metadata = parse_yaml(read_input_text(meta_path, "metadata.yaml", errors="replace"), meta_path)
             metadata = metadata["rosbag2_bagfile_information"]
             listed = [path / p for p in metadata.get("relative_file_paths") or []]
-        except (yaml.YAMLError, KeyError, TypeError, AttributeError, ValueError, RecursionError, OSError) as exc:
-            _warn(f"{meta_path}: unreadable ({type(exc).__name__}: {exc}); using the .mcap files in the folder")
+        except (KeyError, TypeError, AttributeError, ValueError, RecursionError, OSError) as exc:
+            reason = short_text(f"{type(exc).__name__}: {exc}", 200)  # an InputError (bad YAML, an alias bomb) included
+            _warn(f"{shown(meta_path)}: unreadable ({reason}); using the .mcap files in the folder")
             metadata, listed = None, []
         for f in listed:
             problem = file_problem(f)

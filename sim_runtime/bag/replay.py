@@ -36,7 +36,6 @@ from statistics import median
 from typing import Any
 
 import rclpy
-import yaml
 from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -49,6 +48,7 @@ from std_srvs.srv import SetBool, Trigger
 from sim_runtime.bag.reader import Bag, BagMessage, UnknownMessageType, message_class, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.run import init_ros, make_executor, split_ros_args
+from sim_runtime.yamlfile import parse_yaml
 
 __all__ = ["PlayStats", "Player", "main", "play_bag", "replay_qos"]
 
@@ -67,9 +67,11 @@ _STOP_JOIN_S = 5.0
 
 def replay_qos(offered_yaml: str) -> QoSProfile:
     """Publisher QoS from a topic's recorded offered_qos_profiles (rosbag2 YAML)."""
-    try:
-        profiles = yaml.safe_load(offered_yaml) or []
-    except yaml.YAMLError:
+    try:  # a bag is a file like any other: an alias bomb here is refused, not expanded
+        profiles = parse_yaml(offered_yaml, "offered_qos_profiles") or []
+    except InputError:
+        profiles = []
+    if not isinstance(profiles, list):
         profiles = []
     profiles = [p for p in profiles if isinstance(p, dict)]
 

@@ -253,3 +253,36 @@ def dump_yaml(tree: Any) -> str:
         return yaml.safe_dump(tree, allow_unicode=True, sort_keys=False)
     except (yaml.YAMLError, ValueError, TypeError, RecursionError):  # e.g. a tuple key
         return yaml.dump(tree, allow_unicode=True, sort_keys=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# Hostile YAML: alias bombs ("billion laughs") at any key of a document
+# ---------------------------------------------------------------------------------------------
+
+_BOMB_MARK = "__alias_bomb_here__"
+
+
+def alias_bomb(levels: int = 10, width: int = 10) -> str:
+    """A flow sequence of ``levels`` nested anchors, each ``width`` aliases of the one before: a
+    few hundred bytes of text standing for ``width ** levels`` values (10 x 10: 10 billion)."""
+    items = [f"&lol0 [{', '.join(['lol'] * width)}]"]
+    items += [f"&lol{k} [{', '.join([f'*lol{k - 1}'] * width)}]" for k in range(1, levels)]
+    return "[" + ", ".join(items) + "]"
+
+
+def yaml_paths(tree: Any) -> list[tuple]:
+    """Paths (key/index tuples) of every node of a YAML tree, the root (``()``) included."""
+    return _paths(tree)
+
+
+def bombed_yaml(tree: Any, path: tuple, levels: int = 10, width: int = 10) -> str:
+    """YAML text of ``tree`` with the value at ``path`` (``()``: the whole document; a key not in
+    the mapping there: a new key) replaced by :func:`alias_bomb`."""
+    import copy
+
+    if not path:
+        return alias_bomb(levels, width) + "\n"
+    tree = copy.deepcopy(tree)
+    _get(tree, path[:-1])[path[-1]] = _BOMB_MARK
+    text = dump_yaml(tree)
+    return text.replace(_BOMB_MARK, alias_bomb(levels, width), 1)
