@@ -27,12 +27,6 @@ from simrobot_sim import raycast
 from simrobot_sim.spec import sensor_mount
 from simrobot_sim.world_file import MAX_ROBOTS_UINT8, RobotSpec, WorldSpec
 
-# Threads that finished their share of a parallel pass sleep instead of spinning: on a machine
-# shared with other processes, spinning OpenMP threads take the cores the others need (measured
-# under load: 2 spinning threads ran 4x slower than one; sleeping ones 1.3x faster). Read when the
-# threads start (the first parallel pass); a setting of the user's own wins.
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
-
 _SQRT2 = math.sqrt(2.0)
 #: Below these many sensors (robots), sensing (motion) stays on one thread: such a pass takes
 #: well under a millisecond, about what handing it to the threads and back costs.
@@ -42,6 +36,18 @@ PARALLEL_MIN_ROBOTS = 256
 _CHUNKS_PER_THREAD = 4
 #: Side (cells) of the buckets used to find the robots a sensor may see.
 _BUCKET = 64
+
+
+def _use_threads(n: int) -> None:
+    """Run numba's parallel passes on ``n`` threads.
+
+    Threads that finished their share of a pass sleep instead of spinning: on a machine shared
+    with other processes, spinning OpenMP threads take the cores the others need (measured under
+    load: 2 spinning threads ran 4x slower than one; sleeping ones 1.3x faster). OpenMP reads
+    OMP_WAIT_POLICY once, when numba first starts its threads, which the first call here does:
+    set then, not when the model is imported; a setting of the user's own wins."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+    numba.set_num_threads(n)
 
 
 class RobotTable(NamedTuple):
@@ -430,7 +436,7 @@ def _sense_scratch(robots, sensors):
     candidates = raycast.Candidates(
         np.empty(n_rob), np.empty(n_rob), np.empty(n_rob), np.empty((n_rob, 4)), np.empty(n_rob, dtype=np.int64)
     )
-    scan = raycast.ScanScratch(np.empty(max_rays), np.empty(max_rays), np.empty((256, 3)))
+    scan = raycast.scan_scratch(max_rays)
     return SenseScratch(np.empty((max_rays, 2)), candidates, scan)
 
 
@@ -842,7 +848,7 @@ class SimrobotWorld:
         hit_by = np.zeros(len(self.names), dtype=np.int64)
         plan = self._plan
         if self.threads > 1 and len(self.names) >= PARALLEL_MIN_ROBOTS:
-            numba.set_num_threads(self.threads)
+            _use_threads(self.threads)
             chunks = self.threads * _CHUNKS_PER_THREAD
             _plan_moves_parallel(self.grid.shape, self._robots, self.dt, plan, chunks, self.outline_bodies)
         else:
@@ -861,7 +867,7 @@ class SimrobotWorld:
         if self.sensor_model == "original":
             _sense_original(self.grid, self._robots, self._sensors, self._readings, self.see_own_robot)
         elif self.threads > 1 and len(self.sensors) >= PARALLEL_MIN_SENSORS:
-            numba.set_num_threads(self.threads)
+            _use_threads(self.threads)
             chunks = min(self.threads * _CHUNKS_PER_THREAD, len(self.sensors))
             _sense_parallel(self._grid, self._robots, self._sensors, self._buckets(), self._readings, chunks)
         else:

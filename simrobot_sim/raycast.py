@@ -109,8 +109,9 @@ def no_candidates() -> Candidates:
     return Candidates(np.empty(0), np.empty(0), np.empty(0), np.empty((0, 4)), np.empty(0, dtype=np.int64))
 
 
+@numba.njit(cache=True)
 def scan_scratch(rays: int, discs: int = 256) -> ScanScratch:
-    """Scratch for scans of up to ``rays`` rays."""
+    """Scratch for scans of up to ``rays`` rays (kernels make theirs with it too)."""
     return ScanScratch(np.empty(rays), np.empty(rays), np.empty((discs, 3)))
 
 
@@ -566,7 +567,7 @@ def cast_scan_fast(grid, fan, robots, out_t, out_v):
     (:class:`Candidates`) are the robots it may see. Results go to ``out_t``/``out_v`` (``inf``/0
     for no hit within the range)."""
     n = fan.directions.shape[0]
-    cast_scan_fast_into(grid, fan, robots, out_t, out_v, ScanScratch(np.empty(n), np.empty(n), np.empty((256, 3))))
+    cast_scan_fast_into(grid, fan, robots, out_t, out_v, scan_scratch(n))
 
 
 @numba.njit(cache=True)
