@@ -193,6 +193,26 @@ def test_the_keyboard_drives_the_create_forward(browser, listener):
     assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
 
 
+def test_the_driving_keys_drive_without_scrolling_the_page(browser, listener):
+    executor, odom, _pose = listener
+    browser.execute_script("document.body.style.minHeight = '5000px'; window.scrollTo(0, 0)")  # a long page
+    wait(browser, lambda d: d.execute_script("return document.body.dataset.driving") == "1")
+    try:
+        ActionChains(browser).send_keys(Keys.ARROW_DOWN).send_keys(Keys.ARROW_DOWN).perform()
+        assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == pytest.approx(-0.2), timeout=15.0)
+        ActionChains(browser).send_keys(" ").perform()
+        assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+        assert browser.execute_script("return window.scrollY") == 0  # ↓ and Space scrolled 80 px and a screen
+        browser.execute_script("document.body.dataset.driving = ''")  # a page that drives nothing: keys scroll
+        ActionChains(browser).send_keys(Keys.ARROW_DOWN).perform()
+        wait(browser, lambda d: d.execute_script("return window.scrollY") > 0)
+    finally:
+        ActionChains(browser).send_keys(" ").perform()  # the last ↓ drove too
+        browser.execute_script("document.body.style.minHeight = ''; document.body.dataset.driving = '1'")
+        browser.execute_script("window.scrollTo(0, 0)")
+    assert spin_until(executor, lambda: odom.last.twist.twist.linear.x == 0.0, timeout=15.0)
+
+
 def test_a_key_press_steps_from_the_worlds_last_command_whoever_sent_it(browser, listener):
     executor, odom, _pose = listener
     ActionChains(browser).send_keys("w").send_keys("w").perform()

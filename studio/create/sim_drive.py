@@ -3,6 +3,8 @@ buttons, reset, speed, pause and step (the original's driving controls)."""
 
 from __future__ import annotations
 
+import json
+
 from nicegui import events, ui
 
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
@@ -31,6 +33,15 @@ REFOCUS_JS = (
 """Keys still drive after a click on a button, switch or checkbox: a clicked control gives the
 focus back at once, so Space stops the robot instead of pressing Record again. Only typing in a
 text field is left alone."""
+NO_SCROLL_JS = (
+    "<script>document.addEventListener('keydown', (e) => {"
+    " const f = document.activeElement;"
+    " if (!document.body.dataset.driving || e.ctrlKey || e.altKey || e.metaKey"
+    "  || (f && ['INPUT', 'SELECT', 'TEXTAREA'].includes(f.tagName))) return;"
+    " if (%s.includes(e.key.length > 1 ? e.key : e.key.toLowerCase())) e.preventDefault(); });</script>"
+)
+"""While the tab drives a robot, its driving keys do only that: the arrows and Space would also
+scroll the page (Space a whole screen) away from the view the student watches."""
 
 
 def command_steps(command: tuple[float, float]) -> list[int]:
@@ -44,10 +55,19 @@ class DrivePanel:
 
     def __init__(self, tab: SimTab) -> None:
         self.tab = tab
+        self.driving = False  # what the page was last told (its keys scroll it while False)
+
+    def show_driving(self) -> None:
+        """Tell the page whether its keys drive a robot now (then they do not scroll it)."""
+        driving = self.tab.picked() is not None
+        if driving != self.driving:
+            self.driving = driving
+            ui.run_javascript(f"document.body.dataset.driving = {json.dumps('1' if driving else '')}")
 
     def listen_to_keys(self) -> None:
         """The arrows/WASD, space, Escape and Enter anywhere on the page but in a text field."""
         ui.add_body_html(REFOCUS_JS)
+        ui.add_body_html(NO_SCROLL_JS % json.dumps(list(KEYS)))
         ui.keyboard(on_key=self.on_key, ignore=["input", "select", "textarea"])
 
     def build(self) -> None:

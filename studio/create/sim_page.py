@@ -130,6 +130,7 @@ class SimulatorPage:
         if st is not None and self.tab.selected is not None:
             self.status.set_content(status_html(self.tab.selected, st))
             self.drive.show_command(st.command)
+        self.drive.show_driving()
         self.world.show_endings()
         self.controller.show_state()
         if self.studio.recorder is not None:
