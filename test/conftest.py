@@ -16,7 +16,20 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+
+
+def _suite_domain() -> int:
+    """The run's ROS domain (1-100): from the process id, or under pytest-xdist from the
+    controller's and the worker's number, so parallel workers never share one. The studio
+    modules' domains (`studio_browser_support.studio_domain`, 101-201) lie above these."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ...
+    if not worker.startswith("gw"):
+        return 1 + os.getpid() % 100
+    # 37 apart: each worker's studio domains (an offset of 50-60 from its own) stay disjoint
+    return 1 + (os.getppid() + 37 * int(worker[2:])) % 100
+
+
+os.environ.setdefault("ROS_DOMAIN_ID", str(_suite_domain()))
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
 
