@@ -271,6 +271,13 @@ class CreateRobot:
         """The robot's clock (s): the newest stamp received."""
         return self._sim_time
 
+    def reading_age(self, topic: str) -> float:
+        """How long ago (s of sim time, ≥ 0) the newest message on ``topic`` was measured, by its stamp
+        (the first marker's for a MarkerArray; 0 for one without a stamp)."""
+        msg = self._msg(topic)
+        header = getattr(msg, "header", None) or next((m.header for m in getattr(msg, "markers", [])), None)
+        return 0.0 if header is None else max(self._sim_time - time_from_msg(header.stamp), 0.0)
+
     def pause(self, seconds: float) -> None:
         """Wait ``seconds`` of the robot's sim time (MATLAB ``pause`` for control loops)."""
         _check_finite(seconds=seconds)

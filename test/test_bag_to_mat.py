@@ -13,7 +13,7 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from rerun_test_helpers import Raw, stamp, write_bag
 from sensor_msgs.msg import JointState, LaserScan
-from std_msgs.msg import Bool
+from std_msgs.msg import Bool, String
 
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import quaternion_from_yaw
@@ -65,8 +65,21 @@ def bag(tmp_path):
         t = 100.0 + 0.1 * k  # recorded on the wall clock; stamped with sim time 0.1 k
         messages += [("/odom", odom(k), t), ("/overhead_pose", overhead(k), t), ("/r1/scan", scan(k), t)]
         messages += [("/arm/joint_states", joints(k), t), ("/r1/crashed", Bool(data=k == 3), t)]
+    # The MATLAB bridge's calls, recorded between the poses: none while pose 1 and 3 were the
+    # newest, one after pose 0, two after pose 2, one after pose 4.
+    for text, t in CALLS:
+        messages.append(("/matlab_calls", String(data=text), t))
+    messages.sort(key=lambda m: m[2])
     messages.append(("/exotic", Raw("no_such_pkg/msg/Thing", b"\x00\x01\x00\x00"), 101.0))
     return write_bag(tmp_path / "run.mcap", messages)
+
+
+CALLS = [
+    ("travelDist(0.200,0.500)", 100.05),
+    ("[0 0 0 0 0 0]= BumpsWheelDropsSensorsRoomba", 100.21),
+    ("[]= ReadSonar", 100.22),
+    ("[1.000 2.000 -0.500]]= OverheadLocalizationCreate", 100.45),
+]
 
 
 def test_a_bag_becomes_one_struct_per_topic_with_a_row_per_message(bag, capsys):
@@ -95,11 +108,18 @@ def test_a_bag_becomes_one_struct_per_topic_with_a_row_per_message(bag, capsys):
         "/r1/scan",
         "/arm/joint_states",
         "/r1/crashed",
+        "/matlab_calls",
     ]
-    # the original Create simulator's saved data: {time since start, x, y, angle, ''} per pose
+    assert list(d["matlab_calls"]["data"]) == [text for text, _t in CALLS]  # a string per message
+    # the original Create simulator's saved data: {time since start, x, y, angle, calls} per pose
     history = d["datahistory"]
     assert len(history) == STEPS and history[2][0] == pytest.approx(0.2) and history[2][1] == 3.0
     assert history[2][2] == 2.0 and history[2][3] == pytest.approx(-0.5)
+    # as the original's: the calls made while that pose was the newest; [] none, a text, a cell of texts
+    assert history[0][4] == "travelDist(0.200,0.500)"
+    assert np.size(history[1][4]) == 0 and np.size(history[3][4]) == 0
+    assert list(history[2][4]) == ["[0 0 0 0 0 0]= BumpsWheelDropsSensorsRoomba", "[]= ReadSonar"]
+    assert history[4][4] == "[1.000 2.000 -0.500]]= OverheadLocalizationCreate"
 
 
 def test_topic_names_become_unique_matlab_names():
@@ -134,6 +154,7 @@ def test_the_mat_file_loads_in_octave_with_the_same_numbers(bag, tmp_path):
             "--topics",
             "/odom",
             "/overhead_pose",
+            "/matlab_calls",
         ],
         capture_output=True,
         text=True,
@@ -143,6 +164,8 @@ def test_the_mat_file_loads_in_octave_with_the_same_numbers(bag, tmp_path):
     script = (
         f"d = load('{out}'); disp(size(d.odom.x)); printf('%.3f ', d.odom.x); printf('\\n');"
         "printf('%s\\n', class(d.datahistory)); printf('%.3f\\n', d.datahistory{3, 2}); disp(d.topics{2, 2});"
+        "c = d.datahistory{3, 5}; printf('%s|%s|%d|%s\\n', class(c), c{2}, isempty(d.datahistory{2, 5}), "
+        "d.datahistory{1, 5});"
     )
     octave = subprocess.run(["octave-cli", "--no-gui", "--eval", script], capture_output=True, text=True, timeout=60)
     assert octave.returncode == 0, octave.stderr
@@ -150,3 +173,5 @@ def test_the_mat_file_loads_in_octave_with_the_same_numbers(bag, tmp_path):
     assert lines[0].split() == ["5", "1"]
     assert lines[1].split() == ["0.000", "0.500", "1.000", "1.500", "2.000"]
     assert lines[2:5] == ["cell", "3.000", "/overhead_pose"]
+    # what the original's ReplayGUI shows: the call texts, several in a cell
+    assert lines[5] == "cell|[]= ReadSonar|1|travelDist(0.200,0.500)"

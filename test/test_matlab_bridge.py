@@ -49,9 +49,9 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 @pytest.fixture(scope="module")
 def world(tmp_path_factory):
     """create_world in /matlab at real time: a wall across the floor 0.6 m ahead of the robot, and
-    one along it 0.45 m to its right, meeting in a corner; a red beacon ahead on the floor."""
+    one along it 0.45 m to its right, meeting in a corner; a red beacon (tag 7) ahead on the floor."""
     map_file = tmp_path_factory.mktemp("matlab_map") / "walls.map"
-    map_file.write_text("wall 0.6 -0.45 0.6 3\nwall -3 -0.45 0.6 -0.45\nbeacon 0.5 0.13 [1 0 0] b1\n")
+    map_file.write_text("wall 0.6 -0.45 0.6 3\nwall -3 -0.45 0.6 -0.45\nbeacon 0.5 0.13 [1 0 0] 7\n")
     process = subprocess.Popen(
         executable_command("create_world", ["--ros-args", "-p", f"map_file:={map_file}", "-r", f"__ns:={NAMESPACE}"]),
         env=ENV,
@@ -245,9 +245,10 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
         "try, CreateRobot(1), catch e, printf('%s\\n', e.message), end; "
         f"s = CreateRobot({bridge_port}); "
         "[a, d, c] = CameraSensorCreate(s); printf('camera %d %d %.3f %.3f %.3f\\n', size(c), c(1), d, a); "
-        "b = ReadBeacon(s); printf('beacon %d %s %.3f\\n', size(b, 2), b{1, 1}, b{1, 4}); "
+        "[X, Y, Z, R, N] = ReadBeacon(s); printf('beacon %d %d %d %.3f %.3f\\n', size(X), N, X, Z); "
         "l = LidarSensorCreate(s); printf('lidar %d %d %.1f\\n', size(l), max(l)); "
         "r = ReadSonarMultiple(s); printf('sonars %d %d\\n', size(r)); "
+        "printf('nothing behind: %d %d\\n', isempty(ReadSonar(s, 4)), isempty(ReadSonarMultiple(s, 4))); "
         "o = cell(1, 23); [o{:}] = AllSensorsReadRoomba(s); printf('all %d\\n', sum(cellfun(@isscalar, o))); "
         # (the same connection: a second one would be refused while this one is open)
         "r = RoombaInit(s); OverheadLocalizationCreate(r); "
@@ -260,7 +261,9 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
     # The beacon 0.37 m ahead of the camera (0.13 m ahead of the centre) and 0.13 m to the left.
     distance, bearing = math.hypot(0.37, 0.13), math.atan2(0.13, 0.37)
     assert f"camera 1 3 1.000 {distance:.3f} {bearing:.3f}" in done.stdout
-    assert f"beacon 5 b1 {distance * math.cos(bearing):.3f}" in done.stdout
+    # ReadBeacon's five columns: X right, Z ahead of the camera; the tag's number as a number
+    assert f"beacon 1 1 7 {-distance * math.sin(bearing):.3f} {distance * math.cos(bearing):.3f}" in done.stdout
+    assert "nothing behind: 1 1" in done.stdout  # [] out of range, as the original
     assert "lidar 1 681 4.0" in done.stdout  # a row; rays with nothing in range read the 4 m limit
     assert "sonars 1 4" in done.stdout and "all 23" in done.stdout
     assert "RoombaInit gives serPort back: 1" in done.stdout
@@ -284,9 +287,11 @@ def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_rep
     sock, hello = connect(bridge_port)
     with sock:
         assert hello == f"{HELLO} {PROTOCOL_VERSION} create {NAMESPACE}"
-        assert ask(sock, "BumpsWheelDropsSensorsRoomba") == "ok\t0.0\t0.0\t0.0\t0.0\t0.0\t0.0"
-        assert ask(sock, "SetFwdVelAngVelCreate 0 0") == "ok"
-        assert ask(sock, "ReadSonar 4") == "ok\t3.0"  # nothing behind: the range limit
+        assert ask(sock, "@1 BumpsWheelDropsSensorsRoomba") == "@1 ok\t0.0\t0.0\t0.0\t0.0\t0.0\t0.0"
+        assert ask(sock, "@2 SetFwdVelAngVelCreate 0 0") == "@2 ok"
+        assert ask(sock, "@3 ReadSonar 4") == "@3 ok\t[]"  # nothing behind: [], as the original
+        # A version-1 line (no id) is answered without one.
+        assert ask(sock, "ReadSonar 4") == "ok\t[]"
         assert (
             ask(sock, "PowerOnTheMoon") == "error PowerOnTheMoon is not a function of the Create toolbox on this bridge"
         )
@@ -306,6 +311,29 @@ def test_the_protocol_greets_answers_each_call_and_turns_mistakes_into_error_rep
     sock, hello = connect(bridge_port)  # and serves the next program
     sock.close()
     assert hello.startswith(HELLO)
+
+
+def test_a_cancel_ends_a_blocking_call_with_the_robot_stopped_and_every_request_gets_its_one_reply(robot, bridge_port):
+    robot.reset()
+    sock, _hello = connect(bridge_port)
+    with sock:
+        sock.sendall(b"@1 travelDist 0.1 2\n")  # 20 s of driving
+        assert spin_until(robot.executor, robot.moving, timeout=10), "travelDist never drove"
+        sock.sendall(b"@1 cancel\n")  # what the m-file sends when Ctrl-C interrupts the call
+        assert spin_until(robot.executor, robot.standing, timeout=5), "the robot drove on after the cancel"
+        stopped_at = robot.track()[-1]
+        reply = sock.makefile("r")
+        assert reply.readline() == "@1 error travelDist: interrupted by the program; the robot stopped\n"
+        # A new request during a blocking call interrupts it too; then it is answered, once.
+        sock.sendall(b"@2 turnAngle 0.2 90\n")
+        assert spin_until(robot.executor, lambda: abs(robot.odom.last.twist.twist.angular.z) > 0.1, timeout=10)
+        sock.sendall(b"@3 OverheadLocalizationCreate\n")
+        assert reply.readline().startswith("@2 error turnAngle: interrupted")
+        x, y, _theta = (float(v) for v in reply.readline().removeprefix("@3 ok\t").split("\t"))
+        assert math.dist((x, y), stopped_at) < 0.01  # turning in place since the stop
+        sock.sendall(b"@3 cancel\n@4 ReadSonar 4\n")  # a cancel for a call answered: ignored, no reply
+        assert reply.readline() == "@4 ok\t[]\n"
+    assert spin_until(robot.executor, robot.standing, timeout=5)
 
 
 def test_the_bridge_refuses_to_listen_beyond_loopback():

@@ -17,6 +17,10 @@ classdef CreateRobot < handle
 %   then stopped. Units are the toolbox's: m, m/s, rad/s; turnAngle takes degrees.
 %   pause, tic and toc measure wall time: they match the robot's time when the world runs at
 %   real_time_factor 1 (the default).
+%
+%   Ctrl-C inside a call (travelDist, turnAngle, ...) cancels it: the robot stops and serPort
+%   stays usable, the next call answered as if nothing happened. A world that stops answering
+%   makes every call an error CreateRobot:bridge within about a second.
 
   properties (SetAccess = private)
     Port       % the bridge's TCP port
@@ -26,6 +30,9 @@ classdef CreateRobot < handle
 
   properties (Access = private)
     Socket
+    NextId = 0         % the id of the last request sent (one reply per request, matched by id)
+    Pending = 0        % the id of the request waiting for its reply (0: none)
+    Buffer = ''        % what the bridge sent that is not read yet
     RawRead = []       % Octave: instrument-control's own read/write/bytes-available, skipping
     RawWrite = []      %   the argument checks of read() and get() (a third of a call's time)
     RawAvailable = []
@@ -64,8 +71,8 @@ classdef CreateRobot < handle
       if strcmp(hello{1}, 'busy')
         error('CreateRobot:busy', '%s', strjoin(hello(2:end), ' '));
       end
-      if numel(hello) < 3 || ~strcmp(hello{1}, 'robot_sims-matlab') || ~strcmp(hello{2}, '1')
-        error('CreateRobot:protocol', 'not a robot_sims MATLAB bridge (protocol 1) at %s:%d: %s', ...
+      if numel(hello) < 3 || ~strcmp(hello{1}, 'robot_sims-matlab') || ~strcmp(hello{2}, '2')
+        error('CreateRobot:protocol', 'not a robot_sims MATLAB bridge (protocol 2) at %s:%d: %s', ...
               host, port, strjoin(hello, ' '));
       end
       obj.Namespace = strjoin(hello(4:end), ' ');
@@ -110,23 +117,51 @@ classdef CreateRobot < handle
 
     function travelDist(serPort, roombaSpeed, distance)
       % TRAVELDIST  Drive a distance in a straight line, then stop; returns when there.
-      %   travelDist(serPort, roombaSpeed, distance): roombaSpeed in m/s (0.025-0.5), distance in
-      %   m (negative = backwards), measured by odometry. A wall in the way stops the robot, and
-      %   then travelDist waits on, as on the real robot.
+      %   travelDist(serPort, roombaSpeed, distance): roombaSpeed in m/s (its magnitude, kept in
+      %   0.025-0.5), distance in m (negative = backwards), measured by odometry. A wall in the way
+      %   stops the robot, and then travelDist waits on, as on the real robot. Ctrl-C stops it.
       call(serPort, 'travelDist', roombaSpeed, distance);
     end
 
+    function TravelDistCreate(serPort, speed, distance)
+      % TRAVELDISTCREATE  travelDist under the name the 2023 toolbox added: the same call.
+      %   TravelDistCreate(serPort, speed, distance): speed in m/s (0.025-0.5), distance in m.
+      call(serPort, 'TravelDistCreate', speed, distance);
+    end
+
     function turnAngle(serPort, roombaSpeed, turnAngle)
-      % TURNANGLE  Turn in place by an angle, then stop; returns when turned.
-      %   turnAngle(serPort, roombaSpeed, turnAngle): roombaSpeed in rad/s (0.025-0.2), turnAngle
-      %   in degrees (counter-clockwise > 0), measured by odometry.
+      % TURNANGLE  Turn in place by an angle the short way round, then stop; returns when turned.
+      %   turnAngle(serPort, roombaSpeed, turnAngle): roombaSpeed in rad/s (its magnitude, kept in
+      %   0.025-0.2), turnAngle in degrees, measured by odometry. As the toolbox, the angle is
+      %   wrapped into [-180 180]: 270 turns 90 degrees clockwise, 360 does not turn; positive
+      %   turns counter-clockwise. Ctrl-C stops it.
       call(serPort, 'turnAngle', roombaSpeed, turnAngle);
+    end
+
+    function TurnCreate(serPort, speed, angle)
+      % TURNCREATE  turnAngle under the name the 2023 toolbox added: the same call.
+      %   TurnCreate(serPort, speed, angle): speed in rad/s (0-0.2), angle in degrees (+-360).
+      call(serPort, 'TurnCreate', speed, angle);
     end
 
     function BeepRoomba(serPort)
       % BEEPROOMBA  Beep (here: this computer's beep).
       call(serPort, 'BeepRoomba');
       beep;
+    end
+
+    function BeepCreate(serPort)
+      % BEEPCREATE  BeepRoomba under the name the 2023 toolbox added: the same call.
+      call(serPort, 'BeepCreate');
+      beep;
+    end
+
+    function DemoCmdsCreate(serPort, DemoNum)
+      % DEMOCMDSCREATE  The robot's built-in demos: as in the original simulator, none is run.
+      %   DemoCmdsCreate(serPort, DemoNum): DemoNum -1 (abort) to 9; anything else is an error.
+      call(serPort, 'DemoCmdsCreate', DemoNum);
+      fprintf('Demo number %.0f selected.\n', DemoNum)
+      disp('WARNING:Currently no simulator demo functionality.')
     end
 
     function SetLEDsRoomba(serPort, LED, Color, Intensity)
@@ -212,7 +247,8 @@ classdef CreateRobot < handle
     function distance = ReadSonar(serPort, sonarNum)
       % READSONAR  The distance (m) a sonar measures from the robot's edge.
       %   distance = ReadSonar(serPort, sonarNum): sonarNum 1 right, 2 front (the default), 3 left,
-      %   4 back. Range 0.02-3 m; with nothing in range it reads 3 (the range limit).
+      %   4 back. As the toolbox: [] when nothing is in range, i.e. no echo, 3 m or further, or
+      %   0.17 m or closer.
       if nargin < 2
         o = call(serPort, 'ReadSonar');
       else
@@ -222,11 +258,18 @@ classdef CreateRobot < handle
     end
 
     function distances = ReadSonarMultiple(serPort, varargin)
-      % READSONARMULTIPLE  Several sonars at once (m), as ReadSonar.
-      %   distances = ReadSonarMultiple(serPort) reads all four as [right front left back];
-      %   ReadSonarMultiple(serPort, 2, 3) reads the ones named, in that order.
+      % READSONARMULTIPLE  One sonar (m), as the toolbox: ReadSonarMultiple(serPort, sonarNum).
+      %   distance = ReadSonarMultiple(serPort, sonarNum): sonarNum 1 right, 2 front, 3 left,
+      %   4 back; [] when nothing is in range (closer than 0.17 m, further than 3 m).
+      %   Beyond the toolbox: ReadSonarMultiple(serPort) reads all four as [right front left
+      %   back], ReadSonarMultiple(serPort, 2, 3) those named, in that order; NaN where nothing
+      %   is in range.
       o = call(serPort, 'ReadSonarMultiple', varargin{:});
-      distances = reshape(o{1}, 1, []);
+      if numel(varargin) == 1
+        distances = o{1};
+      else
+        distances = reshape(o{1}, 1, []);
+      end
     end
 
     function ranges = LidarSensorCreate(serPort)
@@ -246,18 +289,38 @@ classdef CreateRobot < handle
       color = reshape(o{3}, [], 3);
     end
 
-    function beacons = ReadBeacon(serPort)
-      % READBEACON  The AR-tag beacons the camera sees: one row {id, X, Y, Z, rotation} per beacon.
-      %   beacons = ReadBeacon(serPort): a cell array N-by-5; X right, Y down, Z depth (m) in the
-      %   camera's frame; id as written in the map file.
+    function [X, Y, Z, ROT, Ntag] = ReadBeacon(serPort)
+      % READBEACON  The AR-tag beacons the camera sees, in the camera's frame.
+      %   [X, Y, Z, ROT, Ntag] = ReadBeacon(serPort): column vectors, a row per beacon: X right,
+      %   Y down (0: tags are level with the camera), Z ahead (m), ROT the tag's rotation (0:
+      %   upright), Ntag the tag's number (the map file's id; NaN for an id that is not a number).
+      %   Empty when the camera sees none.
       o = call(serPort, 'ReadBeacon');
-      rows = o{1};
-      if ~iscell(rows)
-        rows = {};
-      end
-      beacons = cell(numel(rows), 5);
-      for k = 1:numel(rows)
-        beacons(k, :) = reshape(rows{k}, 1, 5);
+      [X, Y, Z, ROT, Ntag] = deal(reshape(o{1}, [], 1), reshape(o{2}, [], 1), reshape(o{3}, [], 1), ...
+                                  reshape(o{4}, [], 1), reshape(o{5}, [], 1));
+    end
+
+    function depth_array = RealSenseDist(serPort)
+      % REALSENSEDIST  The RealSense depth camera: a column of 10, [dt; 9 depths] (s; m).
+      %   depth_array = RealSenseDist(serPort): dt is how old the reading is (s of the robot's
+      %   time); then the depth (distance along the heading, from the robot's centre) seen on 9
+      %   rays from 27 deg left to 27 deg right, left-most first: 0 when closer than 0.175 m, 10
+      %   when nothing is in range. The depths come from the LIDAR's rays at those bearings (it
+      %   sees 4 m from the front edge: beyond that, 10).
+      o = call(serPort, 'RealSenseDist');
+      depth_array = reshape(o{1}, [], 1);
+    end
+
+    function tags = RealSenseTag(serPort)
+      % REALSENSETAG  The AprilTags (the map's beacons) the camera sees: a row [dt id x y rot] each.
+      %   tags = RealSenseTag(serPort): dt how old the reading is (s), id the tag's number (NaN
+      %   for a map id that is not a number), x ahead of and y left of the camera (m), rot the
+      %   tag's rotation (0: upright). Empty when the camera sees none.
+      o = call(serPort, 'RealSenseTag');
+      if isempty(o{1})
+        tags = zeros(0, 5);
+      else
+        tags = reshape(o{1}, [], 5);
       end
     end
 
@@ -331,13 +394,20 @@ classdef CreateRobot < handle
         end
         varargin{k} = double(value);
       end
-      request = uint8([name, sprintf(' %.17g', varargin{:}), char(10)]);
-      if isempty(obj.RawWrite)
-        write(obj.Socket, request);
-      else
-        obj.RawWrite(obj.Socket, request);
-      end
+      id = obj.NextId + 1;
+      obj.NextId = id;
+      tag = sprintf('@%d ', id);
+      obj.Pending = id;
+      % Ctrl-C (or an error) before the reply came: tell the bridge, which ends the call and
+      % stops the robot; the reply it still sends has this id, and the next call skips it.
+      guard = onCleanup(@() abandon(obj, id));
+      send(obj, [tag, name, sprintf(' %.17g', varargin{:}), char(10)]);
       reply = readLine(obj);
+      while ~strncmp(reply, tag, numel(tag))
+        reply = readLine(obj);  % the reply to a call interrupted earlier
+      end
+      obj.Pending = 0;
+      reply = reply(numel(tag) + 1:end);
       if strncmp(reply, 'error ', 6)
         error('CreateRobot:bridge', '%s: %s', name, reply(7:end));
       elseif ~strncmp(reply, 'ok', 2)
@@ -350,22 +420,49 @@ classdef CreateRobot < handle
       end
     end
 
-    function line = readLine(obj)
-      % The bridge's next line, without its newline.
-      buffer = '';
-      while isempty(buffer) || buffer(end) ~= 10
-        if isempty(obj.RawRead)
-          data = read(obj.Socket, max(obj.Socket.NumBytesAvailable, 1));
-        else
-          data = obj.RawRead(obj.Socket, max(obj.RawAvailable(obj.Socket, 'NumBytesAvailable'), 1), -1000);
+    function abandon(obj, id)
+      % The call with this id ended without its reply (interrupted): cancel it at the bridge.
+      if obj.Pending == id && ~isempty(obj.Socket)
+        obj.Pending = 0;
+        try
+          send(obj, sprintf('@%d cancel\n', id));
+        catch
         end
-        if isempty(data)
-          obj.Socket = [];
-          error('CreateRobot:closed', 'the robot_sims MATLAB bridge closed the connection');
-        end
-        buffer = [buffer, char(reshape(data, 1, []))];
       end
-      line = buffer(1:end - 1);
+    end
+
+    function send(obj, line)
+      if isempty(obj.RawWrite)
+        write(obj.Socket, uint8(line));
+      else
+        obj.RawWrite(obj.Socket, uint8(line));
+      end
+    end
+
+    function line = readLine(obj)
+      % The bridge's next line, without its newline. Octave: reads of at most 20 ms each, so that
+      % Ctrl-C and signals are handled at once, not when the bridge answers.
+      eol = find(obj.Buffer == 10, 1);
+      while isempty(eol)
+        try
+          if isempty(obj.RawRead)
+            data = read(obj.Socket, max(obj.Socket.NumBytesAvailable, 1));
+            if isempty(data)
+              error('CreateRobot:closed', 'no data');
+            end
+          else
+            data = obj.RawRead(obj.Socket, max(obj.RawAvailable(obj.Socket, 'NumBytesAvailable'), 1), 20);
+          end
+        catch err
+          obj.Socket = [];
+          obj.Pending = 0;
+          error('CreateRobot:closed', 'the robot_sims MATLAB bridge closed the connection (%s)', err.message);
+        end
+        obj.Buffer = [obj.Buffer, char(reshape(data, 1, []))];
+        eol = find(obj.Buffer == 10, 1);
+      end
+      line = obj.Buffer(1:eol - 1);
+      obj.Buffer = obj.Buffer(eol + 1:end);
     end
   end
 end

@@ -5,14 +5,17 @@
 recording time for a message without a header), ``t_recorded`` (recording time, s since 1970),
 every numeric field of the message flattened with ``_`` (``pose_pose_position_x``; arrays as
 matrix rows, or a cell column when their length varies) and its strings once (the first
-message's). Poses also get ``x``, ``y``, ``theta`` (yaw, rad), velocities ``v``, ``omega``.
-``d.topics`` lists {struct name, topic, type}. A Create's ground truth (``overhead_pose``) is also
-written as the original simulator's ``datahistory`` cell array: {time, x, y, angle, ''} per row.
+message's; a cell column when they change, e.g. ``std_msgs/String``'s ``data``). Poses also get
+``x``, ``y``, ``theta`` (yaw, rad), velocities ``v``, ``omega``. ``d.topics`` lists {struct name,
+topic, type}. A Create's ground truth (``overhead_pose``) is also written as the original
+simulator's ``datahistory`` cell array: {time, x, y, angle, calls} per row, the calls from the
+MATLAB bridge's ``matlab_calls`` in the same namespace when the bag has it.
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import math
 import re
 import sys
@@ -98,7 +101,7 @@ class TopicTable:
         self.t: list[float] = []
         self.t_recorded: list[float] = []
         self.columns: dict[str, list[Any]] = {}
-        self.strings: dict[str, Any] = {}
+        self.strings: dict[str, list[Any]] = {}  # each message's
 
     def add(self, msg: Any, log_time_ns: int) -> None:
         """One message: its times and fields."""
@@ -116,7 +119,7 @@ class TopicTable:
                 fields[short] = fields[long]
         for key, value in fields.items():
             if isinstance(value, (str, list)):
-                self.strings.setdefault(key, value)
+                self.strings.setdefault(key, []).append(value)
             elif not key.startswith("header_stamp"):
                 self.columns.setdefault(key, []).append(value)
 
@@ -128,9 +131,23 @@ class TopicTable:
             if len(values) != len(self.t):
                 continue  # a field only some messages have (never for one message type)
             out[mat_name(key, taken)] = _stack(values)
-        for key, value in self.strings.items():
-            out[mat_name(key, taken)] = np.array(value, dtype=object) if isinstance(value, list) else value
+        for key, values in self.strings.items():
+            out[mat_name(key, taken)] = _strings(values) if len(values) == len(self.t) else _string(values[0])
         return out
+
+
+def _string(value: str | list[str]) -> Any:
+    return np.array(value, dtype=object) if isinstance(value, list) else value
+
+
+def _strings(values: list[Any]) -> Any:
+    """Once (the first message's) when every message has the same; else a cell column."""
+    if all(v == values[0] for v in values):
+        return _string(values[0])
+    cells = np.empty((len(values), 1), dtype=object)
+    for i, v in enumerate(values):
+        cells[i, 0] = _string(v)
+    return cells
 
 
 def _stack(values: list[Any]) -> np.ndarray:
@@ -165,15 +182,35 @@ def read_tables(bag_path: str | Path, topics: Iterable[str] | None = None) -> tu
     return kept, [f"{t}: {why}" for t, why in skipped.items()]
 
 
-def datahistory(table: TopicTable) -> np.ndarray:
+def datahistory(table: TopicTable, calls: TopicTable | None = None) -> np.ndarray:
     """The original Create simulator's saved data: a cell array, one row per pose, of {time since
-    the start (s), x (m), y (m), angle from +x (rad), function-call text ('' here)}."""
+    the start (s), x (m), y (m), angle from +x (rad), the toolbox calls made since the row began}.
+
+    As in the original, the calls column holds ``[]`` (none), the call's text (one) or a column
+    cell of texts (several). ``calls`` is the bridge's ``matlab_calls``: a call belongs to the
+    last pose recorded before it (the poses and calls were recorded by the same recorder, so
+    their recording times are in step; a call before the first pose goes to the first row).
+    """
     rows = np.empty((len(table.t), 5), dtype=object)
     start = table.t[0]
     x, y, theta = (table.columns[k] for k in ("x", "y", "theta"))
+    made: list[list[str]] = [[] for _ in table.t]
+    if calls is not None:
+        for text, when in zip(calls.strings.get("data", []), calls.t_recorded, strict=False):
+            made[max(bisect.bisect_right(table.t_recorded, when) - 1, 0)].append(str(text))
     for i, t in enumerate(table.t):
-        rows[i] = (t - start, x[i], y[i], theta[i], "")
+        rows[i] = (t - start, x[i], y[i], theta[i], _calls_cell(made[i]))
     return rows
+
+
+def _calls_cell(texts: list[str]) -> Any:
+    if not texts:
+        return np.zeros((0, 0))
+    if len(texts) == 1:
+        return texts[0]
+    cells = np.empty((len(texts), 1), dtype=object)
+    cells[:, 0] = texts
+    return cells
 
 
 def bag_to_mat(bag_path: str | Path, output: str | Path | None = None, topics: Iterable[str] | None = None) -> Path:
@@ -194,7 +231,9 @@ def bag_to_mat(bag_path: str | Path, output: str | Path | None = None, topics: I
     data["topics"] = listing
     ground_truth = [t for t in tables if t.topic.rpartition("/")[2] == "overhead_pose"]
     if len(ground_truth) == 1:
-        data["datahistory"] = datahistory(ground_truth[0])
+        namespace = ground_truth[0].topic.rpartition("/")[0]
+        calls = next((t for t in tables if t.topic == f"{namespace}/matlab_calls"), None)
+        data["datahistory"] = datahistory(ground_truth[0], calls)
     path = Path(bag_path)
     out = Path(output) if output else path.parent / f"{path.stem if path.suffix == '.mcap' else path.name}.mat"
     try:

@@ -5,23 +5,38 @@ bridge makes it on a :class:`create_sim.client.CreateRobot` in the robot's names
 outputs back. It listens on loopback only (a program on the same machine; nothing else can drive
 the robot) and serves one program at a time.
 
-Protocol, version 1 (UTF-8 text, one line each way, ``\\n``-terminated):
+Protocol, version 2 (UTF-8 text, one line each way, ``\\n``-terminated):
 
-- On connect the bridge sends ``robot_sims-matlab 1 create <namespace>`` (name, protocol version,
+- On connect the bridge sends ``robot_sims-matlab 2 create <namespace>`` (name, protocol version,
   toolbox, robot namespace). While another program is connected it sends ``busy <message>``
   instead and closes the connection: one program at a time, a second is refused, not queued.
-- The program sends a request: the toolbox function's name and its numeric arguments after
-  ``serPort``, separated by spaces (``SetFwdVelAngVelCreate 0.2 0.5``; ``Inf``/``NaN`` allowed).
-- The bridge answers ``ok`` followed by each output as one JSON value, tab-separated
-  (``ok\\t0\\t1\\t0\\t0\\t0\\t0``; a command answers a bare ``ok``), or ``error <message>``, which
-  the m-file raises as a MATLAB error with that message (identifier ``CreateRobot:bridge``).
+- The program sends a request: ``@<id>`` (a number it has not used before), the toolbox
+  function's name and its numeric arguments after ``serPort``, separated by spaces
+  (``@7 SetFwdVelAngVelCreate 0.2 0.5``; ``Inf``/``NaN`` allowed).
+- The bridge answers ``@<id> ok`` followed by each output as one JSON value, tab-separated
+  (``@7 ok\\t0\\t1\\t0\\t0\\t0\\t0``; a command answers a bare ``@7 ok``), or
+  ``@<id> error <message>``, which the m-file raises as a MATLAB error with that message
+  (identifier ``CreateRobot:bridge``). One request, one reply, always: a program that lost a
+  reply (Ctrl-C while it waited) skips replies to other ids until its own comes.
+- ``@<id> cancel`` (the m-file sends it when a call of its is interrupted): a blocking call
+  (``travelDist``, ``turnAngle``) still running ends at once, the robot stopped, and answers
+  ``@<id> error interrupted``; any new request during a blocking call does the same. A cancel
+  for a call already answered is ignored; a cancel gets no reply of its own.
 - ``bye`` ends the program's session (so does closing the socket).
+- Version 1 lines (without ``@<id>``) are still served, answered without an id.
 
 However the session ends (``bye``, the socket closed, Octave killed, Ctrl-C'd MATLAB clearing
 ``serPort``), the robot is stopped (zero velocity, confirmed by its odometry); a program lost
 during a blocking call (``travelDist``, ``turnAngle``) is noticed within milliseconds, not at the
 call's end. ``DistanceSensorRoomba`` and ``AngleSensorRoomba`` count from the program's
 connection, as after ``RoombaInit``.
+
+A world that stops answering (killed, hung) turns every call into an error within a second:
+after :data:`WORLD_QUIET` s without odometry the bridge asks the world node for a parameter, and
+without a reply in :data:`WORLD_ANSWER` s the call fails (a paused world answers, so its frozen
+readings are served). Each call is also published on ``matlab_calls`` (``std_msgs/String``) as
+the original simulator wrote it into its saved data; record it beside ``overhead_pose`` and
+``bag_to_mat`` fills ``datahistory``'s fifth column.
 
 From Python (the studio)::
 
@@ -47,30 +62,47 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Sequence
 from typing import Any
 
 import rclpy
 from nav_msgs.msg import Odometry
+from rcl_interfaces.srv import GetParameters
+from rclpy.client import Client
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from std_msgs.msg import String
 
 from create_sim.client import STOP_CONFIRM_TIMEOUT, CreateRobot
 from sim_runtime.errors import InputError
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
-from sim_tools.matlab.calls import run_call
+from sim_tools.matlab.calls import call_text, run_call
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 HELLO = "robot_sims-matlab"
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 47800
 POLL = 0.002  # s, wall: how often a blocking call checks its goal and that its program is still there
 LISTENING = re.compile(r"listening on ([\d.:a-f\[\]]+):(\d+)")
+# s, wall. The world publishes odometry at 50 Hz of sim time, every 20 ms at real time: after
+# WORLD_QUIET s without any the bridge asks the world node whether it is there (a paused or very
+# slow world answers) and gives it WORLD_ANSWER s to reply; together under the second a program
+# waits at most before a dead world is an error.
+WORLD_QUIET = 0.3
+WORLD_ANSWER = 0.5
 
 
 class ProgramLost(Exception):
     """The program's connection closed (it ended, or Octave/MATLAB was killed)."""
+
+
+class Interrupted(Exception):
+    """During a blocking call the program sent a line: it cancelled the call (Ctrl-C) or moved on."""
+
+
+class WorldLost(RuntimeError):
+    """The world stopped publishing and does not answer."""
 
 
 def check_loopback(host: str) -> None:
@@ -106,6 +138,15 @@ def reply_error(error: BaseException) -> str:
     return "error " + " ".join(text.split())  # one line
 
 
+def split_id(line: str) -> tuple[str, str]:
+    """``@7 Name a1 …`` → (``"@7 "``, ``"Name a1 …"``): the reply's prefix and the request; a
+    version-1 line without an id gives an empty prefix."""
+    if line.startswith("@"):
+        ident, _, rest = line.partition(" ")
+        return ident + " ", rest.strip()
+    return "", line
+
+
 def parse_request(line: str) -> tuple[str, list[float]]:
     """``Name a1 a2 …`` → (name, numeric arguments); ValueError naming what is wrong."""
     words = line.split()
@@ -118,14 +159,13 @@ def parse_request(line: str) -> tuple[str, list[float]]:
 
 
 class Session:
-    """One program's connection: requests in, replies out, the robot stopped at the end."""
+    """One program's connection: requests in, one reply each out, the robot stopped at the end."""
 
-    def __init__(self, conn: socket.socket, robot: CreateRobot, stop: Callable[[], None]) -> None:
+    def __init__(self, conn: socket.socket, bridge: MatlabBridge) -> None:
         self.conn = conn
-        self.robot = robot
-        self._stop = stop
+        self.bridge = bridge
         self._buffer = b""
-        self.armed = False  # while True, a lost program aborts a blocking call
+        self.armed = False  # while True (a call runs), a line from the program interrupts it
 
     def serve(self, namespace: str) -> None:
         self._send(f"{HELLO} {PROTOCOL_VERSION} create {namespace}")
@@ -135,20 +175,34 @@ class Session:
             pass
         finally:
             self.armed = False
-            self._stop()
+            self.bridge.stop_robot()
 
     def _loop(self) -> None:
         while (line := self._read_line()) != "bye":
+            prefix, request = split_id(line)
+            if request == "cancel":
+                continue  # the call it cancels was answered already
+            self._send(prefix + self.answer(request))
+
+    def answer(self, request: str) -> str:
+        """The reply (without id) to one request."""
+        try:
+            name, args = parse_request(request)
+            self.bridge.check_world()
             self.armed = True
             try:
-                name, args = parse_request(line)
-                reply = reply_ok(run_call(self.robot, name, args))
-            except ProgramLost:
-                raise
-            except Exception as error:  # the program's mistake or the robot's: the program's error()
-                reply = reply_error(error)
-            self.armed = False
-            self._send(reply)
+                outputs = run_call(self.bridge.robot, name, args)
+            finally:
+                self.armed = False
+        except (ProgramLost, OSError):
+            raise
+        except Interrupted:
+            self.bridge.stop_robot()
+            return f"error {name}: interrupted by the program; the robot stopped"
+        except Exception as error:  # the program's mistake or the robot's: the program's error()
+            return reply_error(error)
+        self.bridge.publish_call(name, args, outputs)
+        return reply_ok(outputs)
 
     def _read_line(self) -> str:
         while b"\n" not in self._buffer:
@@ -162,17 +216,21 @@ class Session:
     def _send(self, line: str) -> None:
         self.conn.sendall(line.encode() + b"\n")
 
-    def check_lost(self) -> None:
-        """Raise ProgramLost if, during a call, the program's connection has closed."""
+    def poll(self) -> None:
+        """During a call: ProgramLost if the connection has closed, Interrupted if a line came."""
         if not self.armed:
             return
         try:
-            if self.conn.recv(1, socket.MSG_PEEK | socket.MSG_DONTWAIT) == b"":
-                raise ProgramLost
+            chunk = self.conn.recv(65536, socket.MSG_DONTWAIT)
         except BlockingIOError:
             return
         except OSError:
             raise ProgramLost from None
+        if not chunk:
+            raise ProgramLost
+        self._buffer += chunk
+        if b"\n" in self._buffer:
+            raise Interrupted
 
 
 class MatlabBridge:
@@ -190,16 +248,23 @@ class MatlabBridge:
         check_loopback(host)
         self._server = socket.create_server((host, port), family=_family(host))
         self._executor: SingleThreadedExecutor | None = None
+        self._spinning = threading.Event()  # cleared to end the spinner thread
         if node is None:
             node = self._own_node(namespace)
         self.node = node
         self._odom: Odometry | None = None
         self._odom_time = 0.0  # monotonic, when it came
+        self._world_answered = 0.0  # monotonic, when the world last answered a probe
+        self._odom_topic = node.resolve_topic_name("odom")
+        self._probes: dict[str, Client] = {}
         node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        self._calls = node.create_publisher(String, "matlab_calls", 100)
         self.robot = CreateRobot(node=node, spin=self._spin)
         self._busy = threading.Lock()
         self._session: Session | None = None
         self._closed = threading.Event()
+        if self._executor is not None:
+            self._spinner.start()
 
     def _own_node(self, namespace: str) -> Node:
         if not rclpy.ok():
@@ -209,19 +274,77 @@ class MatlabBridge:
         node = Node("matlab_bridge", namespace=namespace)
         self._executor = SingleThreadedExecutor()
         self._executor.add_node(node)
-        self._spinner = threading.Thread(target=self._executor.spin, daemon=True, name="matlab_bridge_spin")
-        self._spinner.start()
+        self._spinning.set()
+        self._spinner = threading.Thread(target=self._spin_executor, daemon=True, name="matlab_bridge_spin")
         return node
+
+    def _spin_executor(self) -> None:
+        # Our own loop rather than executor.spin(): close() ends it and joins the thread before
+        # shutting the executor down, so no spin is inside the executor as it is torn down (that
+        # race gave "'NoneType' object has no attribute 'trigger'" at exit).
+        assert self._executor is not None
+        while self._spinning.is_set() and self._executor.context.ok():
+            self._executor.spin_once(timeout_sec=0.05)
 
     def _on_odom(self, msg: Odometry) -> None:
         self._odom, self._odom_time = msg, time.monotonic()
 
     def _spin(self) -> None:
-        """While a call blocks: the executor thread brings the messages; give up if the program is gone."""
+        """While a call blocks: the executor thread brings the messages; give up if the program
+        is gone or has interrupted the call, or the world is."""
         threading.Event().wait(POLL)
         session = self._session
         if session is not None:
-            session.check_lost()
+            session.poll()
+        self.check_world()
+
+    def check_world(self) -> None:
+        """WorldLost if the world has been quiet for WORLD_QUIET s and does not answer a probe."""
+        if self._odom is None:
+            return  # no world heard yet: the client waits for its first messages, and says so
+        heard = max(self._odom_time, self._world_answered)
+        if time.monotonic() - heard < WORLD_QUIET:
+            return
+        world = self._world_node()
+        if world is not None and self._answers(world):
+            self._world_answered = time.monotonic()
+            return
+        silent = f"no reply from its node {world} in {WORLD_ANSWER} s" if world else "no node publishes it"
+        raise WorldLost(
+            f"the world of {self.node.get_namespace()} stopped answering: no odometry for "
+            f"{time.monotonic() - self._odom_time:.1f} s and {silent} (is create_world still running?)"
+        )
+
+    def _world_node(self) -> str | None:
+        """The full name of the node publishing the robot's odometry (None: there is none)."""
+        for info in self.node.get_publishers_info_by_topic(self._odom_topic):
+            if info.node_name != self.node.get_name():
+                return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+        return None
+
+    def _answers(self, world: str) -> bool:
+        """Whether ``world`` answers a parameter request within WORLD_ANSWER s."""
+        client = self._probes.get(world)
+        if client is None:
+            client = self._probes[world] = self.node.create_client(GetParameters, f"{world}/get_parameters")
+        if not client.service_is_ready():
+            return False
+        answered = threading.Event()
+        future = client.call_async(GetParameters.Request(names=["real_time_factor"]))
+        future.add_done_callback(lambda _f: answered.set())
+        if answered.wait(WORLD_ANSWER):
+            return True
+        client.remove_pending_request(future)
+        return False
+
+    def publish_call(self, name: str, args: Sequence[float], outputs: list[Any]) -> None:
+        """The call on ``matlab_calls``, as the original's saved data writes it."""
+        try:
+            text = call_text(name, args, outputs)
+        except (ValueError, TypeError, IndexError) as error:  # a record, never the program's failure
+            _log(f"cannot write {name}'s call for matlab_calls: {error}")
+            return
+        self._calls.publish(String(data=text))
 
     def stop_robot(self) -> None:
         """Zero velocity, repeated until the robot's odometry reports it standing (at most 1 s)."""
@@ -275,7 +398,7 @@ class MatlabBridge:
             _log(f"a program connected to {self.node.get_namespace()}")
             if self._odom is not None:  # (without a robot yet, the program's first call will say so)
                 self.robot.distance_sensor(), self.robot.angle_sensor()  # count from here, as after RoombaInit
-            self._session = Session(conn, self.robot, self.stop_robot)
+            self._session = Session(conn, self)
             self._session.serve(self.node.get_namespace())
             _log("the program ended: robot stopped")
         finally:
@@ -285,6 +408,8 @@ class MatlabBridge:
 
     def close(self) -> None:
         """Stop listening, end the program's session (stopping the robot) and the node."""
+        if self._closed.is_set():
+            return
         self._closed.set()
         self._server.close()
         session = self._session
@@ -294,9 +419,10 @@ class MatlabBridge:
         if self._busy.acquire(timeout=5.0):
             self._busy.release()
         if self._executor is not None:
-            self._executor.shutdown(timeout_sec=2.0)
+            self._spinning.clear()
             self._spinner.join(timeout=10.0)  # a thread still inside rclpy at exit aborts the process
             if not self._spinner.is_alive():  # and a node destroyed under it crashes it
+                self._executor.shutdown(timeout_sec=2.0)
                 self.node.destroy_node()
 
 
@@ -338,6 +464,10 @@ def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = Non
 
 
 def _interrupt(_signum: int, _frame: object) -> None:
+    """The first SIGINT or SIGTERM ends the bridge (through close(), which stops the robot); any
+    later one is ignored, so that it cannot cut the stop short (nor print a traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
 
 
@@ -350,16 +480,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--host", default=DEFAULT_HOST, help="loopback address to listen on (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; 0 = any free)")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    # SIGTERM ends like Ctrl-C: through close(), which stops the robot; a second is ignored.
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         bridge = MatlabBridge(args.namespace, args.host, args.port)
     except InputError as error:
         print(f"matlab_bridge: error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        return 130  # ended while starting: no robot driven yet
     # A program waits on each reply: hand the interpreter to the session thread sooner than the
     # default 5 ms when the spinner thread is busy with the robot's messages (p99 latency).
     sys.setswitchinterval(0.0005)
-    # SIGTERM ends like Ctrl-C: through close(), which stops the robot.
-    signal.signal(signal.SIGTERM, _interrupt)
     print(f"matlab_bridge: listening on {bridge.host}:{bridge.port} for {bridge.node.get_namespace()}", flush=True)
     try:
         bridge.serve_forever()

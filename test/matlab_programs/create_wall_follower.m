@@ -4,8 +4,8 @@ function create_wall_follower(serPort)
 %   Its Python twin is create_wall_follower.py.
 tic
 while toc < 5
-    right = ReadSonar(serPort, 1);
-    front = ReadSonar(serPort, 2);
+    right = sonar(serPort, 1);
+    front = sonar(serPort, 2);
     if front < 0.25
         SetFwdVelAngVelCreate(serPort, 0, 0.6);
     else
@@ -14,4 +14,13 @@ while toc < 5
     pause(0.05);
 end
 SetFwdVelAngVelCreate(serPort, 0, 0);
+end
+
+function d = sonar(serPort, number)
+% The toolbox's ReadSonar says [] with nothing in range (0.17 m or closer, 3 m or further):
+% read that as 3 m, as the course's programs do.
+d = ReadSonar(serPort, number);
+if isempty(d)
+    d = 3;
+end
 end

@@ -8,12 +8,13 @@ import time
 
 from create_sim.client import CreateRobot
 
-NOTHING = 3.0  # what ReadSonar says with nothing in range (the client says None)
+NOTHING = 3.0  # what the m-file reads ReadSonar's [] as
+TOOLBOX_MIN = 0.17  # m: the toolbox's ReadSonar says [] this close or closer (the client: the reading)
 
 
 def sonar(robot: CreateRobot, number: int) -> float:
     reading = robot.read_sonar(number)
-    return NOTHING if reading is None else reading
+    return NOTHING if reading is None or reading <= TOOLBOX_MIN else reading
 
 
 with CreateRobot(namespace=sys.argv[1]) as robot:
