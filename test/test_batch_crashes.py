@@ -167,29 +167,43 @@ class HangsWhenBuilt(Node):
 """
 
 
-def _constructor_sweep(folder: Path, student: str) -> Path:
+def _constructor_sweep(folder: Path, student: str, extra: str = "") -> Path:
     (folder / "builders.py").write_text(CONSTRUCTORS, encoding="utf-8")
-    body = f"worlds: [{{map: create/example.map}}]\ncontrollers: [builders:{student}]\nduration_s: 1\n"
+    body = f"worlds: [{{map: create/example.map}}]\ncontrollers: [builders:{student}]\nduration_s: 1\n{extra}"
     return write_sweep(folder, "sweep.yaml", body)
 
 
-def test_a_controller_that_calls_os_exit_while_it_is_built_is_one_error_not_the_end_of_the_cli(
+def test_a_controller_that_calls_os_exit_while_it_is_built_is_one_error_naming_it_not_the_end_of_the_cli(
     tmp_path: Path,
 ) -> None:
     sweep = _constructor_sweep(tmp_path, "ExitsWhenBuilt")
     done = batch(str(sweep), "--out", "out", cwd=tmp_path, timeout=120)
     assert done.returncode == 2, done.stderr
     (line,) = done.stderr.strip().splitlines()
-    assert line.startswith(f"error: {sweep}: checking the sweep") and "exited with code 5" in line
-    assert "building" in line  # its last output is quoted
+    assert line.startswith(f"error: {sweep}: field 'controllers[0]' (builders:ExitsWhenBuilt): ")
+    assert "the check's process exited with code 5 while building it" in line
+    assert "its last output: building" in line  # its own output, quoted
     assert not (tmp_path / "out").exists()
 
 
-def test_a_controller_whose_constructor_never_returns_is_stopped_at_the_checks_time_limit(tmp_path: Path) -> None:
+def test_a_controller_whose_constructor_never_returns_is_stopped_at_the_sweeps_time_limit(tmp_path: Path) -> None:
     from sim_runtime.errors import InputError
     from sim_tools.batch.isolated_load import load_sweep_isolated
 
-    sweep = _constructor_sweep(tmp_path, "HangsWhenBuilt")
-    with pytest.raises(InputError, match="did not finish in 20 s"):
-        load_sweep_isolated(str(sweep), out=str(tmp_path / "out"), timeout_s=20)
+    sweep = _constructor_sweep(tmp_path, "HangsWhenBuilt", "time_limit_s: 4\n")
+    expected = r"field 'controllers\[0\]' \(builders:HangsWhenBuilt\): time limit 4.0 s: stopped while building it"
+    with pytest.raises(InputError, match=expected):
+        load_sweep_isolated(str(sweep), out=str(tmp_path / "out"))
     assert not (tmp_path / "out").exists()
+
+
+def test_a_limit_stop_names_the_students_line_and_the_sim_time_it_got_to(one_worker) -> None:
+    out, _ = one_worker
+    by_name = {r["controller"].split(":")[1]: r for r in rows(out / "episodes.csv")}
+    for name, lines in (("Hangs", (66, 67)), ("Hogs", (73, 74))):  # its loop, wherever the stop found it
+        row = by_name[name]
+        stopped = f"the episode was stopped at sim time {float(row['sim_time_s']):g} s, in misbehaving.py:"
+        assert any(f"{stopped}{n} in fail" in row["error"] for n in lines), row
+        assert 0.5 <= float(row["sim_time_s"]) < 1.0  # fail_at 0.5 s, the episode 1 s
+        assert "stopped at a limit; sim time" in (out / "logs" / f"{row['key']}.log").read_text()  # every stack
+    assert "(in misbehaving.py:61 in fail)" in by_name["Crashes"]["error"]  # from the crash's Python stack

@@ -189,8 +189,86 @@ def test_without_a_grid_each_controller_and_world_gets_a_box_with_its_reached_co
     fig = output.figure(rows, [], "goal_time_s")
     ticks = [t.get_text() for t in fig.axes[0].get_xticklabels()]
     assert ticks == ["ours\nmap\n1/3 reached", "alice\nmap\n1/1 reached"]
-    assert fig.get_suptitle().endswith("; 1 failed, not drawn")
+    assert fig.get_suptitle().endswith("; 1 failed (x at the foot)")
     assert output.plot_columns(rows) == ["distance_m", "goal_reached", "goal_time_s"]
+
+
+def failing_class(students: int, broken: int) -> list[dict]:
+    """A class's rows: every broken student's two episodes failed, each with a reason of its own."""
+    rows = []
+    for s in range(students):
+        for seed in range(2):
+            i = len(rows)
+            if s < broken:
+                row = episode(i, status="error", controller=f"student{s:02d}")
+                row["error"] = f"ValueError: bug number {s} (at student{s:02d}.py:{10 + s}) [log: logs/k{i}.log]"
+            else:
+                row = episode(i, controller=f"student{s:02d}", distance_m=float(s + seed))
+            rows.append(row)
+    return rows
+
+
+def test_summary_txt_lists_every_failure_with_its_reason_and_the_terminal_says_how_many_more(tmp_path: Path) -> None:
+    rows = failing_class(30, 5)
+    path = output.write_summary(rows, [], tmp_path)
+    text = path.read_text()
+    assert path == tmp_path / "summary.txt"
+    assert text.startswith("60 episodes: 50 ok, 10 failed\n")
+    for s in range(5):
+        assert text.count(f"ValueError: bug number {s} (at student{s:02d}.py:{10 + s})") == 2
+    terminal = io.StringIO()
+    output.summary(rows, [], terminal, full=path)
+    shown = terminal.getvalue()
+    assert shown.count("ValueError: bug number") == 5
+    assert f"... and 5 more failed episodes: every one in {path}" in shown
+
+
+def test_summary_txt_gives_each_groups_spread_min_max_and_sd(tmp_path: Path) -> None:
+    rows = [episode(i, distance_m=d) for i, d in enumerate([1.0, 2.0, 4.0])]
+    text = output.write_summary(rows, [], tmp_path).read_text()
+    spread = text[text.index("spread per group") :].splitlines()
+    assert spread[1].split() == ["controller", "world", "metric", "n", "mean", "sd", "min", "max"]
+    assert spread[2].split() == ["ours", "map", "distance_m", "3", "2.333", "1.528", "1", "4"]
+
+
+def test_the_summary_says_which_controllers_a_grid_parameter_was_not_applied_to() -> None:
+    rows = [episode(0, controller="alice", p_turn=0.5, distance_m=1.0), episode(1, distance_m=2.0)]
+    out = io.StringIO()
+    output.summary(rows, ["turn"], out, applies={"alice": ["turn"], "ours": []})
+    assert "grid turn: swept for alice; not for ours (it does not declare it: run once" in out.getvalue()
+    assert ["ours", "map", "-", "1", "2"] in [line.split() for line in out.getvalue().splitlines()]  # no value
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_a_student_whose_every_episode_failed_is_a_cross_at_the_foot_with_the_reason_in_the_legend() -> None:
+    rows = failing_class(3, 1)
+    fig = output.figure(rows, [], "distance_m")
+    ax = fig.axes[0]
+    ticks = [t.get_text() for t in ax.get_xticklabels()]
+    assert ticks == ["student00\nmap", "student01\nmap", "student02\nmap"]  # the broken one keeps its place
+    (legend,) = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == "student00 / map: 2 failed: ValueError: bug number 0 (at student00.py:10)"
+    crosses = [c for c in ax.collections if c.get_label() == legend]
+    assert len(crosses[0].get_offsets()) == 2
+    assert all(0.5 <= x <= 1.5 for x, _ in crosses[0].get_offsets())  # under the first box
+
+
+@pytest.mark.usefixtures("close_figures")
+def test_against_a_grid_failures_are_crosses_at_their_value_and_an_unswept_controller_a_dashed_line() -> None:
+    rows = [
+        episode(0, controller="alice", p_turn=0.5, distance_m=1.0),
+        episode(1, controller="alice", p_turn=1.5, distance_m=3.0),
+        episode(2, status="error", controller="bob", p_turn=1.5),
+        episode(3, controller="ours", distance_m=2.0),
+    ]
+    ax = output.figure(rows, ["turn"], "distance_m").axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "ours / map (not swept over turn)" in labels
+    assert "bob / map: 1 failed: RuntimeError: boom" in labels
+    (cross,) = [c for c in ax.collections if c.get_label().startswith("bob")]
+    assert [x for x, _ in cross.get_offsets()] == [1.5]
+    dashed = [line for line in ax.lines if line.get_label().startswith("ours")]
+    assert list(dashed[0].get_ydata()) == [2.0, 2.0]
 
 
 def test_plots_writes_a_png_per_column(tmp_path: Path) -> None:

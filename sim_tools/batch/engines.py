@@ -11,6 +11,7 @@ orders them.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
@@ -32,6 +33,8 @@ RAY_OBJECT_STORE_BYTES = 100 * 1024 * 1024
 LOG_FOLDER = "logs"
 #: An episode's log sent back from a Ray node is cut to its last this many bytes.
 RAY_LOG_BYTES = 1 << 20
+#: Wall seconds to wait, after Ray's shutdown, for its workers to end and their scratch to go.
+SCRATCH_WAIT_S = 15.0
 #: Fields of an episode's world that are file paths (a Ray node may have them elsewhere).
 WORLD_PATH_KEYS = ("map", "config", "world_file", "robot_config")
 
@@ -90,6 +93,7 @@ def run_ray(
     # Ray ships a folder only for a whole job (ray.init), not per task: a Ray started elsewhere
     # (the caller's own ray.init) keeps its own runtime_env.
     ship = (episodes[0].search_path, _config_root()) if address and started_here else None
+    before = set(_scratch_root().glob("*"))
     if started_here:
         _init_ray(ray, address, workers, _runtime_env(episodes[0], folder) if ship else None)
     try:
@@ -100,6 +104,9 @@ def run_ray(
     finally:
         if started_here:
             ray.shutdown()
+            # Ray ends its workers without their exit handlers: their scratch folders (on this
+            # machine) go once they are gone, after Ctrl-C too
+            _remove_scratch(set(_scratch_root().glob("*")) - before, SCRATCH_WAIT_S)
 
 
 def _import_ray() -> Any:
@@ -219,16 +226,35 @@ def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> d
     return result
 
 
+def _scratch_root() -> Path:
+    """Where Ray workers on this machine keep their episodes' output (a folder per worker pid)."""
+    return Path(tempfile.gettempdir()) / f"robot_sims_batch_{os.getuid()}"
+
+
 def _ray_scratch() -> Path:
     """This Ray worker's folder for its episodes' output; those of Ray workers now gone (Ray ends
     them without running their exit handlers) are removed."""
-    root = Path(tempfile.gettempdir()) / f"robot_sims_batch_{os.getuid()}"
-    for old in root.glob("*"):
-        if old.name.isdigit() and not _alive(int(old.name)):
-            shutil.rmtree(old, ignore_errors=True)
+    root = _scratch_root()
+    _remove_scratch(set(root.glob("*")), 0.0)
     here = root / str(os.getpid())
     here.mkdir(parents=True, exist_ok=True)
     return here
+
+
+def _remove_scratch(folders: set[Path], wait_s: float) -> None:
+    """Remove each of ``folders`` whose Ray worker (its name, a pid) is gone, waiting up to
+    ``wait_s`` for them to go; the root too once empty."""
+    deadline = time.monotonic() + wait_s
+    left = {f for f in folders if f.name.isdigit()}
+    while left:
+        for folder in [f for f in left if not _alive(int(f.name))]:
+            shutil.rmtree(folder, ignore_errors=True)
+            left.discard(folder)
+        if not left or time.monotonic() > deadline:
+            break
+        time.sleep(0.1)
+    with contextlib.suppress(OSError):
+        _scratch_root().rmdir()  # only when empty
 
 
 def _alive(pid: int) -> bool:

@@ -22,6 +22,9 @@ from __future__ import annotations
 import functools
 import os
 import random
+import sys
+import sysconfig
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -33,7 +36,7 @@ import numpy as np
 from sim_runtime.errors import InputError
 from sim_tools.adapters.contract import EpisodeData, world_part
 from sim_tools.batch.metrics import compute, load_callable
-from sim_tools.batch.plan import Episode
+from sim_tools.batch.plan import STOP_MARK, Episode
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
@@ -49,6 +52,17 @@ WORLD_NODE: dict[str, Any] = {**LEAN_NODE, "use_global_arguments": False}
 
 _domain_id: int | None = None
 _logging_keeper: Any = None
+#: The episode running in this process (what a limit stop reports: its sim time).
+_running: _EpisodeRun | None = None
+#: Our packages: an error's line is the innermost one outside them (and outside Python's and
+#: the installed libraries'), the student's.
+_OURS = tuple(
+    str(Path(__file__).resolve().parents[2] / name) + os.sep
+    for name in ("sim_tools", "sim_runtime", "create_sim", "simrobot_sim", "arm_sim", "studio")
+)
+_LIBRARIES = tuple(
+    {str(Path(sysconfig.get_paths()[k]).resolve()) + os.sep for k in ("stdlib", "platstdlib", "purelib", "platlib")}
+)
 
 
 def isolate_process(worker: int | None = None) -> int:
@@ -88,6 +102,8 @@ def base_row(ep: Episode) -> dict[str, Any]:
 
 def run_episode(ep: Episode) -> dict[str, Any]:
     """Run ``ep``; returns ``{"row": table row, "timing": {...}}`` whatever happens."""
+    global _running
+    _running = None
     if _domain_id is None:
         isolate_process()
     timing: dict[str, Any] = {"episode": ep.index, "pid": os.getpid()}
@@ -103,18 +119,71 @@ def run_episode(ep: Episode) -> dict[str, Any]:
         row.update(metrics)
     except Exception as exc:
         message = f"{type(exc).__name__}: {exc}".strip().replace("\n", " ")
-        if not isinstance(exc, InputError | ImportError):
-            where = traceback.extract_tb(exc.__traceback__)[-1]
-            message += f" (at {Path(where.filename).name}:{where.lineno})"
+        if not isinstance(exc, InputError | ImportError) and not getattr(exc, "located", False):
+            message += at_line(exc)
         row.update(status="error", error=message)
+        reached = sim_time_now()
+        if reached is not None:
+            row["sim_time_s"] = round(reached, 9)
     timing["total_s"] = time.perf_counter() - start
     return {"row": row, "timing": timing}
 
 
+def user_frame(exc: BaseException) -> traceback.FrameSummary | None:
+    """The innermost frame of ``exc``'s stack in a user's file (not ours, Python's or an
+    installed library's); None when it has none."""
+    return _user_of(traceback.extract_tb(exc.__traceback__))
+
+
+def is_user_file(filename: str) -> bool:
+    """A file of a user's code: not ours, Python's or an installed library's."""
+    if filename.startswith("<"):
+        return False
+    path = str(Path(filename).resolve())
+    return not path.startswith(_OURS) and not path.startswith(_LIBRARIES)
+
+
+def _user_of(frames: traceback.StackSummary | list[traceback.FrameSummary]) -> traceback.FrameSummary | None:
+    return next((frame for frame in reversed(frames) if is_user_file(frame.filename)), None)
+
+
+def at_line(exc: BaseException) -> str:
+    """`` (at student.py:12)``: the student's line, else the innermost line of the stack."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    frame = _user_of(frames) or (frames[-1] if frames else None)
+    return f" (at {Path(frame.filename).name}:{frame.lineno})" if frame is not None else ""
+
+
+def sim_time_now() -> float | None:
+    """The sim time the running (or last) episode of this process got to, None before its world."""
+    world = getattr(_running, "world", None)
+    return None if world is None else float(world.sim_time)
+
+
+def report_limit_stop(out: Any) -> None:
+    """Write the sim time and every thread's stack to ``out`` (a limit stop's signal handler in a
+    worker: the supervisor quotes it in the row before it kills the process)."""
+    frames = sys._current_frames()
+    names = {t.ident: t.name for t in threading.enumerate()}
+    now = sim_time_now()
+    lines = [f"{STOP_MARK}; sim time {'-' if now is None else f'{now:.6f}'} s"]
+    for ident, frame in frames.items():
+        stack = traceback.extract_stack(frame)
+        user = _user_of(stack)
+        where = f"{Path(user.filename).name}:{user.lineno} in {user.name}" if user else "-"
+        lines.append(f"thread {names.get(ident, ident)}: at {where}")
+        lines += [line.rstrip() for line in traceback.format_list(stack)]
+    lines.append("=== end")
+    out.write("\n".join(lines) + "\n")
+    out.flush()
+
+
 # -------------------------------------------------------------------------------- simulation
 def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, Any]]:
+    global _running
     t0 = time.perf_counter()
     episode = _EpisodeRun(ep)
+    _running = episode
     try:
         episode.set_up()
         t1 = time.perf_counter()

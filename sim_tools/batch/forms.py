@@ -148,6 +148,12 @@ class EpisodeContext:
 
 
 # ------------------------------------------------------------------------------------ a main()
+class MainStuck(RuntimeError):
+    """``main`` did not come back to a spin call in :data:`TURN_TIMEOUT` (the message says where it is)."""
+
+    located = True  # the message names the student's line: no "(at forms.py:...)" after it
+
+
 class NotSpinning(RuntimeError):
     """``main`` did not spin a node in time (it may be waiting for something only a world sends)."""
 
@@ -214,13 +220,28 @@ class MainRunner:
             self.parked = False
             self.cond.notify_all()
             if not self.cond.wait_for(lambda: self.parked or self.ended, timeout=TURN_TIMEOUT):
-                raise RuntimeError(
+                raise MainStuck(
                     f"{self.target} ran {TURN_TIMEOUT:g} s of wall time without coming back to a spin call "
-                    "(a loop that never spins, or a wait that needs another thread spinning)"
+                    f"(a loop that never spins, or a wait that needs another thread spinning){self._where()}, "
+                    f"at sim time {sim_time:g} s"
                 )
             if self.error is not None:
                 raise self.error
             return True
+
+    def _where(self) -> str:
+        """`` in student.py:12 (loop)``: where ``main``'s thread is now, in the student's code."""
+        import sys
+        import traceback
+        from pathlib import Path
+
+        from sim_tools.batch.episode import is_user_file
+
+        ident = self.thread.ident if self.thread is not None else None
+        frame = sys._current_frames().get(ident) if ident is not None else None
+        stack = traceback.extract_stack(frame) if frame is not None else []
+        user = next((f for f in reversed(stack) if is_user_file(f.filename)), None)
+        return f"; main() is at {Path(user.filename).name}:{user.lineno} in {user.name}" if user else ""
 
     def stop(self) -> None:
         """End the episode for ``main``: its spin calls return (``spin_once`` raises rclpy's

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
 import sys
 import time
 from collections.abc import Iterable
@@ -80,10 +81,14 @@ def _column_order(rows: list[dict[str, Any]]) -> list[str]:
     return first + params + status + rest
 
 
-def table_rows(log: ResultLog, keys: Iterable[str]) -> list[dict[str, Any]]:
+def table_rows(
+    log: ResultLog, keys: Iterable[str], extra: dict[str, dict[str, Any]] | None = None
+) -> list[dict[str, Any]]:
     """The logged rows of ``keys`` (the sweep's episodes, in order; missing ones are left out),
-    each "time to" metric preceded by its ``<event>_reached`` column (:func:`with_reached`)."""
-    return [with_reached(log.rows[k]) for k in keys if k in log.rows]
+    each "time to" metric preceded by its ``<event>_reached`` column (:func:`with_reached`);
+    ``extra`` rows (refused controllers' error rows) take the place of logged ones."""
+    extra = extra or {}
+    return [with_reached(extra.get(k) or log.rows[k]) for k in keys if k in extra or k in log.rows]
 
 
 def with_reached(row: dict[str, Any]) -> dict[str, Any]:
@@ -175,27 +180,104 @@ def _number(value: float, unit: str = "") -> str:
     return "nan" if _nan(value) else f"{value:.4g}" + (f" {unit}" if unit else "")
 
 
-def summary(rows: list[dict[str, Any]], grid_keys: list[str], out: TextIO = sys.stdout) -> None:
-    """Episodes ok/failed, the mean of each metric per controller × world × grid point, then how
-    many episodes reached each "time to" metric's event and how many NaN any other metric has."""
+#: Failed episodes the terminal's summary lists (``summary.txt`` lists every one).
+SHOWN_FAILURES = 5
+
+
+def summary(
+    rows: list[dict[str, Any]],
+    grid_keys: list[str],
+    out: TextIO = sys.stdout,
+    *,
+    applies: dict[str, list[str]] | None = None,
+    shown_failures: int | None = SHOWN_FAILURES,
+    full: Path | None = None,
+) -> None:
+    """Episodes ok/failed and the failures (the first ``shown_failures``, None: all, then how many
+    more and where they all are: ``full``), which grid parameters each controller was swept over
+    (``applies``), the mean of each metric per controller × world × grid point, then how many
+    episodes reached each "time to" metric's event and how many NaN any other metric has."""
     ok = [r for r in rows if r.get("status") == "ok"]
     failed = [r for r in rows if r.get("status") != "ok"]
     print(f"{len(rows)} episodes: {len(ok)} ok, {len(failed)} failed", file=out)
-    for row in failed[:5]:
+    listed = failed if shown_failures is None else failed[:shown_failures]
+    for row in listed:
         print(f"  episode {row['episode']} ({row['controller']} on {row['world']}): {row.get('error')}", file=out)
+    if len(listed) < len(failed):
+        where = f": every one in {full}" if full is not None else ""
+        print(f"  ... and {len(failed) - len(listed)} more failed episodes{where}", file=out)
+    for line in grid_note(grid_keys, applies or {}):
+        print(line, file=out)
     metrics = metric_columns(rows)
     if not ok or not metrics:
         return
     lines = _group_table(rows, grid_keys, metrics, with_failed=bool(failed))
-    widths = [max(len(line[i]) for line in lines) for i in range(len(lines[0]))]
     time_to = any(reached_column(m) for m in metrics)
     print("mean per group" + (" (a time: over the episodes that reached it)" if time_to else "") + ":", file=out)
-    for line in lines:
-        print("  " + "  ".join(cell.rjust(w) for cell, w in zip(line, widths, strict=True)), file=out)
+    _print_table(lines, out)
     for m in metrics:
         note = _nan_note(ok, m)
         if note:
             print(note, file=out)
+
+
+def _print_table(lines: list[list[str]], out: TextIO) -> None:
+    widths = [max(len(line[i]) for line in lines) for i in range(len(lines[0]))]
+    for line in lines:
+        print("  " + "  ".join(cell.rjust(w) for cell, w in zip(line, widths, strict=True)), file=out)
+
+
+def grid_note(grid_keys: list[str], applies: dict[str, list[str]]) -> list[str]:
+    """Per grid parameter, the controllers swept over it and those that do not declare it (they
+    run once per world × pose × seed, not once per value of a parameter they never read)."""
+    out = []
+    for key in grid_keys:
+        swept = [c for c, keys in applies.items() if key in keys]
+        not_swept = [c for c, keys in applies.items() if key not in keys]
+        if not_swept:
+            out.append(
+                f"grid {key}: swept for {', '.join(swept) or 'none'}; not for {', '.join(not_swept)} "
+                "(it does not declare it: run once, not once per value)"
+            )
+    return out
+
+
+def write_summary(
+    rows: list[dict[str, Any]], grid_keys: list[str], folder: Path, applies: dict[str, list[str]] | None = None
+) -> Path:
+    """``summary.txt``: the summary with every failure and its reason, then the spread of each
+    metric per group (n, mean, sd, min, max over the ok episodes)."""
+    import io
+
+    text = io.StringIO()
+    summary(rows, grid_keys, text, applies=applies, shown_failures=None)
+    metrics = metric_columns(rows)
+    ok = [r for r in rows if r.get("status") == "ok"]
+    if ok and metrics:
+        print("spread per group (over its ok episodes; sd: sample standard deviation):", file=text)
+        _print_table(_spread_table(rows, grid_keys, metrics), text)
+    path = folder / "summary.txt"
+    path.write_text(text.getvalue(), encoding="utf-8")
+    return path
+
+
+def _spread_table(rows: list[dict[str, Any]], grid_keys: list[str], metrics: list[str]) -> list[list[str]]:
+    lines = [["controller", "world", *grid_keys, "metric", "n", "mean", "sd", "min", "max"]]
+    for label, members in _groups(rows, grid_keys).items():
+        good = [r for r in members if r.get("status") == "ok"]
+        if not good:
+            lines.append([*label, "(none ok)", "0", "-", "-", "-", "-"])
+            continue
+        for m in metrics:
+            values = _finite(good, m)
+            sd = (
+                math.sqrt(sum((v - _mean(values)) ** 2 for v in values) / (len(values) - 1))
+                if len(values) > 1
+                else math.nan
+            )
+            spread = [_mean(values), sd, min(values, default=math.nan), max(values, default=math.nan)]
+            lines.append([*label, m, str(len(values)), *(_number(v) if values else "-" for v in spread)])
+    return lines
 
 
 def _group_table(
@@ -232,7 +314,7 @@ def _groups(rows: list[dict[str, Any]], grid_keys: list[str]) -> dict[tuple[str,
     groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
     for row in rows:
         label = (row["controller"], row["world"], *(_param(row, k) for k in grid_keys))
-        groups.setdefault(tuple(map(str, label)), []).append(row)
+        groups.setdefault(tuple("-" if v is None else str(v) for v in label), []).append(row)
     return groups
 
 
@@ -309,14 +391,17 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
     """One column of the ok episodes, nothing averaged away: against the first grid parameter (a
     line of means per controller × world over the episodes' dots), a column of panels per value of
     the second, a row per combination of the others; without a grid a box per controller × world.
+    A controller that is not swept over the first grid parameter is a dashed line at its mean.
 
     A ``<event>_reached`` column is drawn as the share of episodes (%); a "time to" metric shows
-    the episodes that reached, and every title says how many of how many those are."""
+    the episodes that reached, and every title says how many of how many those are. Failed
+    episodes are crosses at the foot of their place, their reason in the legend: a student whose
+    every episode failed is still in the figure."""
     plt = _pyplot()
     ok = [r for r in rows if r.get("status") == "ok"]
-    col_values = _values(ok, grid_keys[1]) if len(grid_keys) > 1 else [None]
-    row_values = list(itertools.product(*(_values(ok, k) for k in grid_keys[2:])))
-    series = list(dict.fromkeys((r["controller"], r["world"]) for r in ok))
+    col_values = _values(rows, grid_keys[1]) if len(grid_keys) > 1 else [None]
+    row_values = list(itertools.product(*(_values(rows, k) for k in grid_keys[2:])))
+    series = list(dict.fromkeys((r["controller"], r["world"]) for r in rows))
     width = 1.2 + PANEL_SIZE[0] * len(col_values) if grid_keys else 1.2 + BOX_WIDTH * len(series)
     fig, axes = plt.subplots(
         len(row_values),
@@ -331,10 +416,13 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
             facet = dict(zip(grid_keys[2:], row_value, strict=True))
             if len(grid_keys) > 1:
                 facet = {grid_keys[1]: col_value, **facet}
-            members = [r for r in ok if all(_param(r, k) == v for k, v in facet.items())]
+            # a controller not swept over a parameter (it does not declare it) is in every panel of it
+            members = [r for r in rows if all(_param(r, k) in (v, None) for k, v in facet.items())]
             ax = axes[i][j]
-            _panel(ax, members, ok, grid_keys[:1], column, series)
-            ax.set_title(_panel_title(facet, members, column), fontsize="medium")
+            _panel(ax, [r for r in members if r.get("status") == "ok"], ok, rows, grid_keys[:1], column, series)
+            ax.set_title(
+                _panel_title(facet, [r for r in members if r.get("status") == "ok"], column), fontsize="medium"
+            )
             if i == len(row_values) - 1 and grid_keys:
                 ax.set_xlabel(_axis_label(grid_keys[0]))
         axes[i][0].set_ylabel(_axis_label(column, share=_is_share(column, ok)))
@@ -342,11 +430,63 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
     if grid_keys and reached_column(column):  # room at the foot for the reached counts
         bottom, top = axes[0][0].get_ylim()
         axes[0][0].set_ylim(bottom - 0.2 * (top - bottom), top)
-    if len(series) > 1 and grid_keys:
+    for i, row_value in enumerate(row_values):  # after the value axis: crosses sit at its foot
+        for j, col_value in enumerate(col_values):
+            facet = dict(zip(grid_keys[2:], row_value, strict=True))
+            if len(grid_keys) > 1:
+                facet = {grid_keys[1]: col_value, **facet}
+            failed = [
+                r for r in rows if r.get("status") != "ok" and all(_param(r, k) in (v, None) for k, v in facet.items())
+            ]
+            _failures(axes[i][j], failed, rows, grid_keys[:1], series, legend=(i, j) == (0, len(col_values) - 1))
+    handles, _ = axes[0][-1].get_legend_handles_labels()
+    if handles and (len(series) > 1 or any(r.get("status") != "ok" for r in rows)):
         axes[0][-1].legend(fontsize="small")
     fig.suptitle(_figure_title(rows, ok, column))
     fig.tight_layout()
     return fig
+
+
+_REFUSED = re.compile(r"^refused before the sweep: field '[^']*': ")
+#: A failure's reason in a plot's legend is cut to this many characters (the table has it whole).
+LEGEND_REASON = 60
+
+
+def _failures(
+    ax: Axes,
+    failed: list[dict[str, Any]],
+    rows: list[dict[str, Any]],
+    x_key: list[str],
+    series: list[tuple[str, str]],
+    legend: bool,
+) -> None:
+    """Failed episodes as crosses at the foot of the panel: under their controller × world's box,
+    or at their grid value in its colour; each series' most common reason in the legend."""
+    foot = ax.get_xaxis_transform()  # x in data, y in axes fractions
+    xs = _values(rows, x_key[0]) if x_key else []
+    numeric = bool(xs) and all(_is_number(x) for x in xs)
+    for k, s in enumerate(series):
+        mine = [r for r in failed if (r["controller"], r["world"]) == s]
+        if not mine:
+            continue
+        if x_key:
+            spots = [_param(r, x_key[0]) for r in mine]
+            if any(v is None for v in spots):  # not swept over it: its crosses span the axis
+                spots = [xs[i % len(xs)] for i in range(len(mine))] if xs else [0.0] * len(mine)
+            positions = [v if numeric else xs.index(v) for v in spots]
+            colour = f"C{k}"
+        else:
+            positions = [k + 1 + 0.25 * ((i * 0.618) % 1 - 0.5) for i in range(len(mine))]
+            colour = "C3"
+        label = f"{s[0]} / {s[1]}: {len(mine)} failed: {_reason(mine)}" if legend else None
+        ax.scatter(positions, [0.04] * len(mine), transform=foot, marker="x", s=36, color=colour, label=label)
+
+
+def _reason(failed: list[dict[str, Any]]) -> str:
+    """The most common error of ``failed``, without its log file, cut for a legend."""
+    reasons = [_REFUSED.sub("refused: ", str(r.get("error", "")).split(" [log: ")[0]) for r in failed]
+    reason = max(set(reasons), key=reasons.count)
+    return reason if len(reason) <= LEGEND_REASON else reason[: LEGEND_REASON - 1] + "…"
 
 
 def _is_share(column: str, ok: list[dict[str, Any]]) -> bool:
@@ -359,7 +499,7 @@ def _values(ok: list[dict[str, Any]], key: str) -> list[Any]:
     """The grid parameter's values, sorted when they are numbers, else in the sweep's order."""
     values: list[Any] = []
     for row in ok:
-        if _param(row, key) not in values:
+        if _param(row, key) is not None and _param(row, key) not in values:
             values.append(_param(row, key))
     return sorted(values) if all(_is_number(v) for v in values) else values
 
@@ -368,6 +508,7 @@ def _panel(
     ax: Axes,
     members: list[dict[str, Any]],
     ok: list[dict[str, Any]],
+    rows: list[dict[str, Any]],
     x_key: list[str],
     column: str,
     series: list[tuple[str, str]],
@@ -392,11 +533,18 @@ def _panel(
         ax.set_xticks(positions, [_series_tick(s, g, column) for s, g in zip(series, groups, strict=True)])
         ax.tick_params(axis="x", labelsize="small")
         return
-    xs = _values(ok, x_key[0])
+    xs = _values(rows, x_key[0])
     numeric = all(_is_number(x) for x in xs)
     positions = xs if numeric else list(range(len(xs)))
     for k, (controller, world) in enumerate(series):
         mine = [r for r in members if (r["controller"], r["world"]) == (controller, world)]
+        flat = [r for r in mine if _param(r, x_key[0]) is None]
+        if flat:  # not swept over it: one level, a dashed line across
+            values = _shares(flat, column) if share else _finite(flat, column)
+            if values:
+                label = f"{controller} / {world} (not swept over {x_key[0]})"
+                ax.axhline(_mean(values), linestyle="--", color=f"C{k}", label=label)
+            continue
         per_x = [[r for r in mine if _param(r, x_key[0]) == x] for x in xs]
         data = [_shares(g, column) if share else _finite(g, column) for g in per_x]
         if not share:
@@ -404,6 +552,8 @@ def _panel(
             ax.scatter([p for p, _ in dots], [v for _, v in dots], s=9, alpha=0.3, color=f"C{k}", linewidths=0)
         means = [_mean(d) for d in data]
         line = "-" if numeric else "none"  # no line between unordered values
+        if not mine:
+            continue
         ax.plot(positions, means, marker="o", linestyle=line, color=f"C{k}", label=f"{controller} / {world}")
         if reached_column(column) and len(series) <= MAX_COUNTED_SERIES:
             _reached_counts(ax, positions, per_x, data, k)
@@ -459,7 +609,7 @@ def _figure_title(rows: list[dict[str, Any]], ok: list[dict[str, Any]], column: 
     else:
         missing = len(ok) - len(_finite(ok, column))
         title += f" ({missing} NaN not drawn)" if missing else ""
-    return title + (f"; {failed} failed, not drawn" if failed else "")
+    return title + (f"; {failed} failed (x at the foot)" if failed else "")
 
 
 def _axis_label(name: str, share: bool = False) -> str:

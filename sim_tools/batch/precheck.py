@@ -11,7 +11,10 @@ the world's by building the first world once, only when a parameter is not a con
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from sim_runtime.errors import InputError
@@ -19,6 +22,7 @@ from sim_tools.adapters.contract import world_part, world_parts
 from sim_tools.batch.plan import Episode
 
 Fail = Callable[[str, str], InputError]
+Stage = Callable[[int, str, str], None]
 
 #: Parameters every sweep sets itself, and the field that says them (each simulator adds its
 #: world's: its adapter's ``RESERVED``).
@@ -38,17 +42,49 @@ def reserved() -> dict[str, str]:
     return out
 
 
-def check_world_files(fail: Fail, worlds: list[tuple[str, dict[str, Any]]]) -> None:
-    """Parse every world's files once: a bad one fails the sweep at its field."""
+class Refused(Exception):
+    """A controller that cannot run: the sweep's field that names it, and why."""
+
+    def __init__(self, field: str, reason: str) -> None:
+        super().__init__(f"field '{field}': {reason}")
+        self.field, self.reason = field, reason
+
+
+@dataclass
+class Checked:
+    """What :func:`check_sweep` learnt: the grid's values (widened, see :func:`check_parameters`),
+    per working controller the grid parameters it is swept over, and the broken controllers."""
+
+    grid_values: list[list[Any]]
+    applies: dict[int, list[str]] = field(default_factory=dict)
+    broken: dict[int, Refused] = field(default_factory=dict)
+
+
+def check_world_files(fail: Fail, worlds: list[tuple[str, dict[str, Any]]], strict: bool) -> list[str]:
+    """Parse every world's files once: a bad one fails the sweep at its field. What a parser warns
+    about (a map row it skips, with file:line) fails it too when ``strict``; else it is returned,
+    for the terminal."""
+    said: list[str] = []
     for k, (simulator, world) in enumerate(worlds):
         for key, parse in world_part(simulator).WORLD_FILES.items():
             path = world.get(key)
             if not path:
                 continue
-            try:
-                parse(path)
-            except (InputError, OSError, ValueError) as err:
-                raise fail(f"worlds[{k}].{key}", " ".join(str(err).split())) from None  # one line
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    parse(path)
+                except (InputError, OSError, ValueError) as err:
+                    raise fail(f"worlds[{k}].{key}", " ".join(str(err).split())) from None  # one line
+            lines = [" ".join(str(w.message).split()) for w in caught]
+            if lines and strict:
+                raise fail(
+                    f"worlds[{k}].{key}",
+                    "; ".join(lines) + " (a row with a typo would be left out of every episode; fix it, or "
+                    "set file_warnings: warn to run with it skipped)",
+                )
+            said += [f"warning: worlds[{k}].{key}: {line}" for line in lines]
+    return said
 
 
 def check_parameters(
@@ -56,29 +92,51 @@ def check_parameters(
     episodes: list[Any],
     grid_keys: list[str],
     grid_values: list[list[Any]],
-) -> list[list[Any]]:
+    checked: Checked,
+    stage: Stage,
+) -> None:
     """Check the controllers' forms and that every parameter the sweep sets is someone's;
-    ``episodes`` holds one episode per controller (the sweep's first values). Returns the grid
-    values with whole numbers made floats where the controllers declare a float (rclpy refuses
-    an integer for a double parameter)."""
-    declared = [_probe(fail, k, ep) for k, ep in enumerate(episodes)]
-    world = _WorldParameters(episodes[0])
+    ``episodes`` holds one episode per controller (the sweep's first values). A controller that
+    cannot be built goes to ``checked.broken`` (the others are checked on). Sets the grid values
+    with whole numbers made floats where the controllers declare a float (rclpy refuses an
+    integer for a double parameter), and which grid parameters each controller is swept over:
+    those it declares or the world has (all of them when its form cannot tell)."""
+    declared: dict[int, dict[str, Any] | None] = {}
     for k, ep in enumerate(episodes):
+        if k in checked.broken:
+            continue
+        stage(k, ep.controller["label"], "building it")
+        try:
+            declared[k] = _probe(k, ep)
+        except Refused as refused:
+            checked.broken[k] = refused
+    stage(-1, "", "checking the parameters")  # no controller's code runs from here on
+    world = _WorldParameters(episodes[0])
+    working = list(declared)
+    for k in working:
+        ep = episodes[k]
         parameters = ep.controller["parameters"]
         for name in list(parameters):
             where = f"controllers[{k}].parameters.{name}"
             _check_name(fail, where, name, [declared[k]], [ep.controller["label"]], world)
             parameters[name] = _widened(parameters[name], [declared[k]], name)
-    targets = [ep.controller["label"] for ep in episodes]
-    for name in grid_keys:
-        _check_name(fail, f"grid.{name}", name, declared, targets, world)
-    return [[_widened(v, declared, name) for v in values] for name, values in zip(grid_keys, grid_values, strict=True)]
+    found = [declared[k] for k in working]
+    if working:
+        targets = [episodes[k].controller["label"] for k in working]
+        for name in grid_keys:
+            _check_name(fail, f"grid.{name}", name, found, targets, world)
+    checked.grid_values = [
+        [_widened(v, found, name) for v in values] for name, values in zip(grid_keys, grid_values, strict=True)
+    ]
+    for k in working:
+        mine = declared[k]
+        checked.applies[k] = [n for n in grid_keys if mine is None or n in mine or world.has(n)]
 
 
-def _probe(fail: Fail, k: int, ep: Any) -> dict[str, Any] | None:
+def _probe(k: int, ep: Any) -> dict[str, Any] | None:
     """The controller's declared parameters, built with their defaults (the sweep's 1 for a
     float parameter would be refused before it is widened), else with the sweep's values (a node
-    whose defaults are not enough)."""
+    whose defaults are not enough); :class:`Refused` when it cannot be built."""
     import dataclasses
 
     from sim_tools.batch.episode import probe_controller
@@ -88,17 +146,27 @@ def _probe(fail: Fail, k: int, ep: Any) -> dict[str, Any] | None:
         return probe_controller(bare)
     except Exception:
         pass  # perhaps it needs the sweep's values (policy_controller needs its policy file)
+    except SystemExit:
+        pass  # the same again, to report it
     try:
         return probe_controller(ep)
     except InputError as err:
-        raise fail(f"controllers[{k}].use", str(err)) from None
+        raise Refused(f"controllers[{k}].use", str(err)) from None
     except BaseException as err:  # a student's constructor or main() raising, sys.exit included
         if isinstance(err, KeyboardInterrupt):
             raise
-        where = f"controllers[{k}].use" if isinstance(err, InputError) else f"controllers[{k}]"
-        raise fail(
-            where, f"{ep.controller['label']} failed before its first step: {type(err).__name__}: {err}"
+        what = f"SystemExit: it called sys.exit({err.code!r})" if isinstance(err, SystemExit) else _text(err)
+        raise Refused(
+            f"controllers[{k}]", f"{ep.controller['label']} failed before its first step: {what}{_student_line(err)}"
         ) from None
+
+
+def _student_line(err: BaseException) -> str:
+    """`` (at student.py:12)``: the innermost line of the error's stack in a user's file."""
+    from sim_tools.batch.episode import user_frame
+
+    frame = user_frame(err)
+    return f" (at {Path(frame.filename).name}:{frame.lineno})" if frame is not None else ""
 
 
 class _WorldParameters:
@@ -159,11 +227,14 @@ def check_sweep(
     grid: tuple[list[str], list[list[Any]]],
     seed: int,
     search_path: str,
-) -> list[list[Any]]:
-    """Everything above, for :func:`sim_tools.batch.sweep.load_sweep`; returns the grid values
-    (see :func:`check_parameters`)."""
-    check_world_files(fail, worlds)
+    broken: dict[int, Refused],
+    stage: Stage,
+) -> Checked:
+    """Everything above but the files (:func:`check_world_files`), for
+    :func:`sim_tools.batch.sweep.load_sweep`; ``broken`` holds the controllers already refused."""
     keys, values = grid
     first = {k: v[0] for k, v in zip(keys, values, strict=True)}
     episodes = [Episode(0, simulator, worlds[0][1], c, first, None, seed, 1.0, (), search_path) for c in controllers]
-    return check_parameters(fail, episodes, keys, values)
+    checked = Checked(values, broken=dict(broken))
+    check_parameters(fail, episodes, keys, values, checked, stage)
+    return checked

@@ -25,19 +25,21 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
-import traceback
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
+
+from sim_tools.batch.plan import STOP_MARK
 
 OnResult = Callable[[dict[str, Any]], None]
 LogPath = Callable[[Any], Path]
@@ -48,6 +50,15 @@ START_TIMEOUT_S = 180.0
 MEMORY_POLL_S = 0.05
 #: How often a worker checks that its supervisor is still there (s).
 ORPHAN_POLL_S = 0.5
+#: Wall seconds a worker stopped at a limit gets to write its stacks and sim time before SIGKILL
+#: (its Python-level report; then, if none came, faulthandler's), and over the memory limit.
+REPORT_WAIT_S = (1.0, 0.3)
+#: The signals that make a worker report (Python's handler: stacks and sim time; faulthandler's:
+#: the C-level dump, when Python code cannot run).
+REPORT_SIGNAL, DUMP_SIGNAL = signal.SIGUSR1, signal.SIGUSR2
+_FAULT_FRAME = re.compile(r'File "([^"]+)", line (\d+) in (\S+)')
+_STOP_LINE = re.compile(r"sim time (\S+) s")
+_THREAD_LINE = re.compile(r"^thread (.+): at (\S+:\d+ in \S+)$")
 _PACKAGE_ROOT = str(Path(__file__).resolve().parent.parent.parent)
 
 
@@ -127,11 +138,12 @@ class _Worker:
         self.started = time.monotonic()
         self.ready = False
         self.episode: Any = None
+        self.log: Path | None = None
         self.since = 0.0
         self.deadline = float("inf")
 
     def send(self, ep: Any, log: Path, limits: Limits) -> None:
-        self.episode, self.since = ep, time.monotonic()
+        self.episode, self.since, self.log = ep, time.monotonic(), log
         self.deadline = self.since + limits.time_limit_s
         self.conn.send((ep, str(log)))
 
@@ -247,7 +259,8 @@ class Supervisor:
         if worker.episode is None:
             return  # an idle worker died (the OOM killer's choice?): the next episode starts a new one
         seconds = time.monotonic() - worker.since
-        on_result(error_result(worker.take(), exit_reason(code), worker.process.pid, seconds))
+        note = _crash_note(worker.log)
+        on_result(error_result(worker.take(), exit_reason(code) + note, worker.process.pid, seconds))
 
     def _retire(self, worker: _Worker) -> None:
         worker.kill()
@@ -263,13 +276,93 @@ class Supervisor:
             if worker.episode is None:
                 continue
             if now > worker.deadline:
-                reason = f"time limit {limits.time_limit_s:.1f} s: the episode was stopped"
+                reason, wait_s = f"time limit {limits.time_limit_s:.1f} s: the episode was stopped", REPORT_WAIT_S[0]
             elif limits.memory_limit_mb is not None and _resident_mb(worker.process.pid) > limits.memory_limit_mb:
-                reason = f"memory limit {limits.memory_limit_mb:g} MB: the episode was stopped"
+                reason, wait_s = (
+                    f"memory limit {limits.memory_limit_mb:g} MB: the episode was stopped",
+                    REPORT_WAIT_S[1],
+                )
             else:
                 continue
+            sim_time, where = _stop_report(worker, wait_s)
             self._retire(worker)
-            on_result(error_result(worker.take(), reason, worker.process.pid, now - worker.since))
+            result = error_result(
+                worker.take(), reason + _stop_note(sim_time, where), worker.process.pid, now - worker.since
+            )
+            if sim_time is not None:
+                result["row"]["sim_time_s"] = sim_time
+            on_result(result)
+
+
+def _stop_report(worker: _Worker, wait_s: float) -> tuple[float | None, str]:
+    """Ask a worker stopped at a limit where it is (its report goes to the episode's log) and
+    read the answer: the sim time (None: unknown) and the student's line (``""``: unknown)."""
+    log = worker.log
+    if log is None:
+        return None, ""
+    start = log.stat().st_size if log.exists() else 0
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.kill(worker.process.pid, REPORT_SIGNAL)
+    end = time.monotonic() + wait_s
+    text = ""
+    while time.monotonic() < end:
+        text = _read_from(log, start)
+        if "=== end" in text:
+            break
+        time.sleep(0.02)
+    else:  # no Python code ran (stuck in C): faulthandler writes from the signal itself
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.kill(worker.process.pid, DUMP_SIGNAL)
+        time.sleep(0.2)
+        text = _read_from(log, start)
+    return _parse_report(text)
+
+
+def _read_from(log: Path, start: int) -> str:
+    try:
+        with log.open("rb") as f:
+            f.seek(start)
+            return f.read(1 << 20).decode(errors="replace")
+    except OSError:
+        return ""
+
+
+def _parse_report(text: str) -> tuple[float | None, str]:
+    """The sim time and the student's line of a stop report, else of faulthandler's dump."""
+    sim_time: float | None = None
+    if STOP_MARK in text:
+        block = text[text.rindex(STOP_MARK) :]
+        match = _STOP_LINE.search(block.splitlines()[0])
+        with contextlib.suppress(ValueError, AttributeError):
+            sim_time = float(match.group(1))  # type: ignore[union-attr]
+        threads = [m.groups() for m in map(_THREAD_LINE.match, block.splitlines()) if m]
+        threads.sort(key=lambda t: t[0] != "MainThread")
+        return sim_time, next((where for _, where in threads), "")
+    return sim_time, _fault_line(text)
+
+
+def _fault_line(text: str) -> str:
+    """The innermost user frame of a faulthandler dump (its frames come innermost first)."""
+    from sim_tools.batch.episode import is_user_file
+
+    for path, line, func in _FAULT_FRAME.findall(text):
+        if is_user_file(path):
+            return f"{Path(path).name}:{line} in {func}"
+    return ""
+
+
+def _stop_note(sim_time: float | None, where: str) -> str:
+    said = [f"at sim time {sim_time:g} s" if sim_time is not None else "", f"in {where}" if where else ""]
+    return (" " + ", ".join(s for s in said if s)) if any(said) else ""
+
+
+def _crash_note(log: Path | None) -> str:
+    """`` (in student.py:12 in fail)`` from the crash's Python stack in the log (faulthandler's)."""
+    if log is None:
+        return ""
+    size = log.stat().st_size if log.exists() else 0
+    where = _fault_line(_read_from(log, max(0, size - 65536)))
+    return f" (in {where})" if where else ""
 
 
 # --------------------------------------------------------------------------------- worker side
@@ -287,8 +380,9 @@ def _watch_parent(parent: int) -> None:
 
 def _exit_result(ep: Any, exc: BaseException, seconds: float) -> dict[str, Any]:
     """``sys.exit`` (or another BaseException) in a controller: the episode's row."""
-    frames = traceback.extract_tb(exc.__traceback__)
-    where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
+    from sim_tools.batch.episode import at_line
+
+    where = at_line(exc)
     if isinstance(exc, SystemExit):
         what = f"SystemExit: the controller called sys.exit({exc.code!r})"
     else:
@@ -333,6 +427,19 @@ def _warm_up(ep: Any) -> None:
         pass
 
 
+def _report_stop(signum: int, frame: Any) -> None:
+    """The supervisor is about to stop this worker at a limit: write where it is to fd 2 (the
+    episode's log), with ``os.write``, as the interrupted code may be in the middle of a print."""
+    import io
+
+    from sim_tools.batch.episode import report_limit_stop
+
+    out = io.StringIO()
+    report_limit_stop(out)
+    with contextlib.suppress(OSError):
+        os.write(2, out.getvalue().encode(errors="replace"))
+
+
 def no_core_files() -> None:
     """A crash of this process (a student's controller segfaulting) leaves its Python stack in the
     log, not a core file of hundreds of MB wherever the system puts cores."""
@@ -349,6 +456,8 @@ def worker_main(fd: int, parent: int) -> None:
     conn = Connection(fd)
     _watch_parent(parent)
     faulthandler.enable()  # a segfault writes the Python stack to fd 2: the episode's log
+    faulthandler.register(DUMP_SIGNAL, all_threads=True)  # a limit stop, stuck in C code
+    signal.signal(REPORT_SIGNAL, _report_stop)  # a limit stop: stacks and sim time to the log
     no_core_files()
     from sim_tools.batch.episode import isolate_process
 

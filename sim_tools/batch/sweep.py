@@ -20,11 +20,17 @@ time_limit_s: 180            # wall seconds per episode (default max(60, 3 x dur
 memory_limit_mb: 2000        # an episode's process may use this much memory (default: no limit)
 metrics: [distance_m, bumps, {goal_time_s: {center: [3, 1], radius_m: 0.4}}, my_metrics:score]
 keep_bags: none              # none | all | failures
+file_warnings: error         # error (default) | warn: a map row that does not parse
 out: out/batch/my_sweep      # default out/batch/<sweep file name>
 ```
 
 Paths in the sweep are relative to the sweep file, else to the shipped ``config/``. A bad sweep
-raises :class:`InputError` naming the file and the field.
+raises :class:`InputError` naming the file and the field; so do two controllers or worlds of one
+name, a seed, pose or grid value given twice (rows of one would be taken for the other's), a row
+of a world's file that its parser skips (``file_warnings: warn`` only shows it) and a start pose
+outside a world's walls or inside one. Controllers that cannot be imported or built are collected,
+not stopped at: every broken one is named in one error (or, ``broken_as_rows``, kept in
+:attr:`Sweep.broken` for error rows).
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ from __future__ import annotations
 import itertools
 import math
 import os
+import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,9 +48,13 @@ from sim_runtime.inputfile import file_problem, shown
 from sim_runtime.paths import config_path
 from sim_runtime.yamlfile import load_yaml
 from sim_tools.adapters.contract import world_part, world_parts
-from sim_tools.batch.plan import Episode, Sweep
+from sim_tools.batch.plan import Broken, Episode, Sweep
 
 __all__ = ["Episode", "Sweep", "default_time_limit", "executable_controllers", "load_sweep", "world_keys"]
+
+Stage = Callable[[int, str, str], None]
+"""Told ``(controller index, its name, what is being done)`` before a controller's code runs
+(:mod:`.isolated_load` names the controller whose check crashed or hung)."""
 
 TOP_KEYS = {
     "worlds",
@@ -59,8 +71,10 @@ TOP_KEYS = {
     "time_limit_s",
     "memory_limit_mb",
     "name",
+    "file_warnings",
 }
 KEEP_BAGS = ("none", "all", "failures")
+FILE_WARNINGS = ("error", "warn")
 TOP = "(top level)"
 TRANSPORTS = ("auto", "direct", "ros")
 
@@ -163,13 +177,14 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         kind = "ours"
     elif ":" in use:
         target, kind = use, "user"
-        _importable(r, use, f"{where}.use")
     else:
         raise r.fail(where, f"{use!r}: not one of our controllers ({', '.join(ours)}) nor module:name")
     transport = entry.get("transport", "auto")
     if transport not in TRANSPORTS:
         raise r.fail(f"{where}.transport", f"{transport!r}: expected one of {', '.join(TRANSPORTS)}")
     parameters = r.mapping(entry.get("parameters", {}), f"{where}.parameters")
+    if "name" in entry and (not isinstance(entry["name"], str) or not entry["name"].strip()):
+        raise r.fail(f"{where}.name", f"{entry['name']!r}: expected a name (text)")
     return {
         "label": str(entry.get("name", use)),
         "target": target,
@@ -187,6 +202,19 @@ def _importable(r: _Reader, target: str, where: str) -> None:
         load_callable(target, str(r.source.resolve().parent))
     except Exception as exc:
         raise r.fail(where, f"cannot import {target!r}: {type(exc).__name__}: {exc}") from None
+    except SystemExit as exc:  # a student's module that exits when imported
+        raise r.fail(where, f"cannot import {target!r}: it called sys.exit({exc.code!r}) when imported") from None
+
+
+def _unique(r: _Reader, names: list[Any], where: list[str], what: str, hint: str) -> None:
+    """Every name once: two rows of one name would be averaged, or share a key, as one."""
+    seen: dict[Any, int] = {}
+    for k, name in enumerate(names):
+        key = repr(name)
+        if key in seen:
+            first = where[seen[key]]
+            raise r.fail(where[k], f"{what} {name!r} is given twice (also at {first}): {hint}")
+        seen[key] = k
 
 
 def _seeds(r: _Reader, value: Any) -> list[int]:
@@ -195,7 +223,11 @@ def _seeds(r: _Reader, value: Any) -> list[int]:
         count = r.integer(value.get("count"), "seeds.count", minimum=1)
         start = r.integer(value.get("start", 0), "seeds.start")
         return list(range(start, start + count))
-    return [r.integer(s, f"seeds[{k}]") for k, s in enumerate(r.listing(value, "seeds"))]
+    seeds = [r.integer(s, f"seeds[{k}]") for k, s in enumerate(r.listing(value, "seeds"))]
+    _unique(
+        r, seeds, [f"seeds[{k}]" for k in range(len(seeds))], "seed", "each seed once (a seed twice is the same run)"
+    )
+    return seeds
 
 
 def _poses(r: _Reader, value: Any, simulator: str) -> list[Any]:
@@ -216,7 +248,28 @@ def _poses(r: _Reader, value: Any, simulator: str) -> list[Any]:
         if not isinstance(pose, list) or len(pose) != 3:
             raise r.fail(f"poses[{k}]", f"{pose!r}: expected [x, y, theta] (m, m, rad)")
         poses.append(tuple(r.number(v, f"poses[{k}]") for v in pose))
+    _unique(
+        r, poses, [f"poses[{k}]" for k in range(len(poses))], "pose", "each pose once (a pose twice is the same run)"
+    )
     return poses
+
+
+def _check_poses(r: _Reader, simulator: str, worlds: list[tuple[str, dict[str, Any]]], poses: list[Any]) -> None:
+    """Each fixed start pose inside every world's walls and clear of them (the adapter's
+    ``pose_problem``): a robot placed outside the map drives in the void and gives ``ok`` rows."""
+    problem_of = getattr(world_part(simulator), "pose_problem", None)
+    if problem_of is None:
+        return
+    for k, pose in enumerate(poses):
+        if not isinstance(pose, tuple) or (pose and pose[0] == "random"):
+            continue
+        for _, world in worlds:
+            with warnings.catch_warnings():  # the files' warnings were said already
+                warnings.simplefilter("ignore")
+                problem = problem_of(world, pose)
+            if problem:
+                where = shown(world.get("map") or world.get("world_file") or world["label"])
+                raise r.fail(f"poses[{k}]", f"{list(pose)}: {problem} of world {world['label']!r} ({where})")
 
 
 def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
@@ -234,21 +287,37 @@ def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
-def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
-    """Read and expand the sweep file ``path`` (``out`` overrides its output folder)."""
+def load_sweep(
+    path: str | os.PathLike[str],
+    out: str | None = None,
+    *,
+    broken_as_rows: bool = False,
+    refused: dict[int, str] | None = None,
+    stage: Stage | None = None,
+) -> Sweep:
+    """Read and expand the sweep file ``path`` (``out`` overrides its output folder).
+
+    Every controller that cannot be imported or built is checked on past, then named in one
+    InputError; with ``broken_as_rows`` they are in the sweep's ``broken`` instead (their
+    episodes in ``broken_episodes``). ``refused`` (controller index: why) are refused without
+    being tried (their check crashed a process before); ``stage`` is told which controller's code
+    is about to run."""
     from sim_tools.batch.metrics import check_metrics
+    from sim_tools.batch.precheck import Refused, check_sweep, check_world_files
 
     source = Path(path)
     r = _Reader(source)
     data = r.mapping(load_yaml(source, "sweep file"), TOP, TOP_KEYS)
     simulator, worlds = _worlds(r, data)
-    controllers = [
-        _controller(r, c, f"controllers[{k}]", simulator)
-        for k, c in enumerate(r.listing(_one_or_many(r, data, "controller"), "controllers"))
-    ]
+    raw_controllers = r.listing(_one_or_many(r, data, "controller"), "controllers")
+    controllers = [_controller(r, c, f"controllers[{k}]", simulator) for k, c in enumerate(raw_controllers)]
+    _unique_names(r, worlds, controllers, raw_controllers, data)
     grid = r.mapping(data.get("grid", {}), "grid")
     grid_keys = [str(k) for k in grid]
     grid_values = [r.listing(grid[k], f"grid.{k}") for k in grid]
+    for name, values in zip(grid_keys, grid_values, strict=True):
+        where = [f"grid.{name}[{k}]" for k in range(len(values))]
+        _unique(r, values, where, "value", "each value once (a value twice is the same run)")
     seeds = _seeds(r, data.get("seeds", [0]))
     pose_specs = _poses(r, data.get("poses"), simulator)
     duration = r.number(data.get("duration_s"), "duration_s", positive=True)
@@ -265,13 +334,94 @@ def load_sweep(path: str | os.PathLike[str], out: str | None = None) -> Sweep:
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
         raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
-    from sim_tools.batch.precheck import check_sweep  # builds nodes: after the cheap checks
-
-    grid_values = check_sweep(r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search)
+    strict = data.get("file_warnings", "error")
+    if strict not in FILE_WARNINGS:
+        raise r.fail("file_warnings", f"{strict!r}: expected one of {', '.join(FILE_WARNINGS)}")
+    said = check_world_files(r.fail, worlds, strict == "error")
+    _check_poses(r, simulator, worlds, pose_specs)
+    tell = stage or (lambda k, label, what: None)
+    broken = {k: Refused(f"controllers[{k}]", why) for k, why in (refused or {}).items()}
+    for k, c in enumerate(controllers):  # a student's module that does not import: the next one is tried
+        if c["kind"] == "user" and k not in broken:
+            tell(k, c["label"], "importing it")
+            try:
+                _importable(r, c["target"], f"controllers[{k}].use")
+            except InputError as err:
+                broken[k] = Refused(f"controllers[{k}].use", str(err).split(f"field 'controllers[{k}].use': ", 1)[-1])
+    checked = check_sweep(
+        r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search, broken, tell
+    )
+    refusals = [
+        Broken(k, controllers[k]["label"], refusal.field, refusal.reason)
+        for k, refusal in sorted(checked.broken.items())
+    ]
+    if refusals and not broken_as_rows:
+        raise broken_error(source, refusals, len(controllers))
     template = Episode(0, simulator, {}, {}, {}, None, seeds[0], duration, metrics, search, keep == "all")
-    episodes = _expand(template, worlds, controllers, (grid_keys, grid_values), pose_specs, seeds)
+    applies = [checked.applies.get(k, grid_keys) for k in range(len(controllers))]
+    episodes = _expand(template, worlds, controllers, (grid_keys, checked.grid_values), applies, pose_specs, seeds)
+    _no_twins(source, episodes)
     out_dir = _out_dir(source, data, out)
-    return Sweep(source, episodes, keep, out_dir, grid_keys, time_limit_s=time_limit, memory_limit_mb=memory_limit)
+    dead = {b.label for b in refusals}
+    return Sweep(
+        source,
+        [ep for ep in episodes if ep.controller["label"] not in dead],
+        keep,
+        out_dir,
+        grid_keys,
+        time_limit_s=time_limit,
+        memory_limit_mb=memory_limit,
+        warnings=said,
+        broken=refusals,
+        broken_episodes=[ep for ep in episodes if ep.controller["label"] in dead],
+        grid_applies={c["label"]: applies[k] for k, c in enumerate(controllers) if c["label"] not in dead},
+    )
+
+
+def broken_error(source: Path, refusals: list[Broken], total: int) -> InputError:
+    """One error naming every controller that cannot run (one line when there is one)."""
+    if len(refusals) == 1:
+        return InputError(
+            f"{source}: {refusals[0].line()} (fix it, or run with --broken-as-rows to grade it as error rows)"
+        )
+    hint = "fix them, or run with --broken-as-rows to grade them as error rows"
+    lines = [f"{source}: {len(refusals)} of {total} controllers cannot run ({hint}):"]
+    return InputError("\n".join(lines + [f"  {b.line()}" for b in refusals]))
+
+
+def _unique_names(
+    r: _Reader,
+    worlds: list[tuple[str, dict[str, Any]]],
+    controllers: list[dict[str, Any]],
+    raw: list[Any],
+    data: dict[str, Any],
+) -> None:
+    """A name per controller and per world: the table, the summary and the plots tell them apart
+    by it."""
+    wheres = [
+        f"controllers[{k}].name" if isinstance(c, dict) and "name" in c else f"controllers[{k}]"
+        for k, c in enumerate(raw)
+    ]
+    hint = (
+        "give every controller a name of its own (the table would mix their rows; to run one twice "
+        "with other parameters: {name: cautious, use: create_bump_turn, parameters: {...}})"
+    )
+    _unique(r, [c["label"] for c in controllers], wheres, "name", hint)
+    raw_worlds = r.listing(data.get("worlds", data.get("world")), "worlds")
+    wheres = [
+        f"worlds[{k}].name" if isinstance(w, dict) and "name" in w else f"worlds[{k}]" for k, w in enumerate(raw_worlds)
+    ]
+    hint = "give every world a name of its own (name: ...); the same world twice would run each episode twice"
+    _unique(r, [w["label"] for _, w in worlds], wheres, "name", hint)
+
+
+def _no_twins(source: Path, episodes: list[Episode]) -> None:
+    """No two episodes the same run (one key): the checks above should have said why already."""
+    seen: dict[str, int] = {}
+    for ep in episodes:
+        if ep.key in seen:
+            raise InputError(f"{source}: episodes {seen[ep.key]} and {ep.index} are the same run (one key {ep.key})")
+        seen[ep.key] = ep.index
 
 
 def _one_or_many(r: _Reader, data: dict[str, Any], singular: str) -> Any:
@@ -310,16 +460,21 @@ def _expand(
     worlds: list[tuple[str, dict[str, Any]]],
     controllers: list[dict[str, Any]],
     grid: tuple[list[str], list[list[Any]]],
+    applies: list[list[str]],
     pose_specs: list[Any],
     seeds: list[int],
 ) -> list[Episode]:
-    """Every episode: worlds × controllers × grid × poses × seeds, numbered in that order."""
+    """Every episode: worlds × controllers × grid × poses × seeds, numbered in that order; a
+    controller runs over the grid parameters it is swept over (``applies``), not once per value
+    of one it does not read."""
     import dataclasses
 
     random_poses = world_part(template.simulator).random_poses
     grid_keys, grid_values = grid
     episodes: list[Episode] = []
-    for (_, world), controller, combo in itertools.product(worlds, controllers, itertools.product(*grid_values)):
+    for (_, world), (k, controller) in itertools.product(worlds, enumerate(controllers)):
+        keys = [key for key in grid_keys if key in applies[k]]
+        values = [grid_values[grid_keys.index(key)] for key in keys]
         poses: list[Any] = []
         for spec in pose_specs:
             if isinstance(spec, tuple) and spec and spec[0] == "random" and random_poses is not None:
@@ -327,14 +482,14 @@ def _expand(
                 poses += random_poses(world, count, seed, margin)
             else:
                 poses.append(spec)
-        for pose, seed in itertools.product(poses, seeds):
+        for combo, pose, seed in itertools.product(itertools.product(*values), poses, seeds):
             episodes.append(
                 dataclasses.replace(
                     template,
                     index=len(episodes),
                     world=world,
                     controller=controller,
-                    params=dict(zip(grid_keys, combo, strict=True)),
+                    params=dict(zip(keys, combo, strict=True)),
                     pose=pose,
                     seed=seed,
                 )

@@ -87,6 +87,29 @@ def random_poses(world: dict[str, Any], count: int, seed: int, margin_m: float) 
     return random_create_poses(world["map"], count, seed, margin_m)
 
 
+def pose_problem(world: dict[str, Any], pose: Pose) -> str | None:
+    """Why a sweep's start ``pose`` cannot be right on the entry's map: outside its walls'
+    bounding box (the robot would drive in the void: ``ok`` rows of nothing), or the body
+    overlapping a wall; None when it is fine (a map without walls takes any pose)."""
+    from create_sim.geometry import nearest_distance
+    from create_sim.mapfile import load_map
+    from create_sim.model import CreateModel
+    from create_sim.physics import OVERLAP_TOL
+
+    walls = np.asarray(load_map(world["map"]).walls if world["map"] else np.zeros((0, 4)), dtype=np.float64)
+    if not len(walls):
+        return None
+    x, y = float(pose[0]), float(pose[1])
+    lo = np.minimum(walls[:, :2].min(axis=0), walls[:, 2:].min(axis=0))
+    hi = np.maximum(walls[:, :2].max(axis=0), walls[:, 2:].max(axis=0))
+    if not (lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1]):
+        return f"outside the map (its walls span x {lo[0]:g}..{hi[0]:g} m, y {lo[1]:g}..{hi[1]:g} m)"
+    gap = nearest_distance(walls, x, y) - CreateModel.RADIUS
+    if gap < -OVERLAP_TOL:
+        return f"the robot (a circle of radius {CreateModel.RADIUS} m) would be {-gap:.3g} m inside a wall"
+    return None
+
+
 def random_create_poses(map_file: str, count: int, seed: int, margin_m: float) -> list[Pose]:
     """``count`` poses drawn uniformly in the walls' bounding box, each at least ``margin_m`` clear
     of every wall (rejection sampling); the same seed gives the same poses on any machine."""
