@@ -14,6 +14,7 @@ input can make one read outside an array.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numba
@@ -499,11 +500,120 @@ class WallRaster(NamedTuple):
     origin_y_m: float
 
 
-def rasterise_walls(segs: np.ndarray, resolution: float, thickness: float = WALL_THICKNESS_M) -> WallRaster:
+#: Walls rasterised per kernel call: between calls the caller's progress callback runs (a line
+#: for a long start-up) and Python handles signals (a Ctrl-C is honoured within one chunk).
+RASTER_CHUNK_WALLS = 20_000
+
+Progress = Callable[[int, int], None]
+"""Called as ``progress(done, total)`` between chunks of work (it may raise to stop it)."""
+
+
+def rasterise_walls(
+    segs: np.ndarray,
+    resolution: float,
+    thickness: float = WALL_THICKNESS_M,
+    progress: Progress | None = None,
+) -> WallRaster:
     """Every cell that a wall of ``thickness`` (centred on its segment) overlaps, however little:
     a wall never has a gap in the grid. Cell edges fall on multiples of the resolution; the grid
     spans the walls plus their half thickness (no walls: a 0 x 0 grid at the origin). A
-    resolution giving more than :data:`MAX_MAP_CELLS` cells is doubled until it fits."""
+    resolution giving more than :data:`MAX_MAP_CELLS` cells is doubled until it fits.
+
+    The walls are marked by a numba kernel, :data:`RASTER_CHUNK_WALLS` at a time, ``progress``
+    called after each chunk."""
+    segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
+    half = 0.5 * thickness
+    if segs.shape[0] == 0:
+        return WallRaster(np.zeros((0, 0), dtype=bool), resolution, 0.0, 0.0)
+    points = segs.reshape(-1, 2)
+    lo = points.min(axis=0) - half
+    hi = points.max(axis=0) + half
+    while True:
+        first = np.floor(lo / resolution)
+        shape = (np.floor(hi / resolution) - first + 1).astype(np.int64)
+        if float(shape[0]) * float(shape[1]) <= MAX_MAP_CELLS:
+            break
+        resolution *= 2.0
+    occupied = np.zeros((int(shape[1]), int(shape[0])), dtype=bool)
+    origin = first * resolution
+    total = segs.shape[0]
+    for start in range(0, total, RASTER_CHUNK_WALLS):
+        chunk = segs[start : start + RASTER_CHUNK_WALLS]
+        _mark_walls(occupied, chunk, float(origin[0]), float(origin[1]), resolution, half, _PIECE_CELLS * resolution)
+        if progress is not None:
+            progress(start + chunk.shape[0], total)
+    return WallRaster(occupied, resolution, float(origin[0]), float(origin[1]))
+
+
+@numba.njit(cache=True)
+def _mark_walls(occupied, segs, ox, oy, resolution, half, longest):  # pragma: no cover - numba
+    """Mark every wall of ``segs`` (cut into pieces at most ``longest`` long, as np.linspace cuts
+    them) in ``occupied``: the kernel of :func:`rasterise_walls`, the same cells as
+    :func:`_rasterise_reference`."""
+    height, width = occupied.shape
+    limit = half * (1.0 + 1e-9)
+    for k in range(segs.shape[0]):
+        x1, y1, x2, y2 = segs[k, 0], segs[k, 1], segs[k, 2], segs[k, 3]
+        n = max(int(math.ceil(math.hypot(x2 - x1, y2 - y1) / longest)), 1)
+        step = 1.0 / n
+        ax, ay = x1, y1
+        for j in range(n):
+            u = 1.0 if j + 1 == n else (j + 1) * step  # np.linspace(0, 1, n + 1)[j + 1]
+            bx, by = x1 + u * (x2 - x1), y1 + u * (y2 - y1)
+            _mark_piece_kernel(occupied, height, width, ax, ay, bx, by, ox, oy, resolution, half, limit)
+            ax, ay = bx, by
+
+
+@numba.njit(cache=True, inline="always")
+def _mark_piece_kernel(occupied, height, width, x1, y1, x2, y2, ox, oy, resolution, half, limit):  # pragma: no cover
+    c0x = max(int(math.floor((min(x1, x2) - half - ox) / resolution)) - 1, 0)
+    c0y = max(int(math.floor((min(y1, y2) - half - oy) / resolution)) - 1, 0)
+    c1x = min(int(math.floor((max(x1, x2) + half - ox) / resolution)) + 1, width - 1)
+    c1y = min(int(math.floor((max(y1, y2) + half - oy) / resolution)) + 1, height - 1)
+    h = 0.5 * resolution
+    nx, ny = y2 - y1, x1 - x2  # the line's normal: the square meets the line if its corners straddle it
+    reach = h * (abs(nx) + abs(ny))
+    mx, my = 0.5 * (x1 + x2), 0.5 * (y1 + y2)
+    wx, wy = h + 0.5 * abs(x2 - x1), h + 0.5 * abs(y2 - y1)
+    # A square is at least (|side| - reach) / length from the line: beyond this (with a margin
+    # for rounding) it is too far from the segment as well, and the exact test is skipped.
+    far = reach + limit * math.hypot(nx, ny) * (1.0 + 1e-6) + 1e-12
+    for row in range(c0y, c1y + 1):
+        cy = oy + (row + 0.5) * resolution
+        for col in range(c0x, c1x + 1):
+            if occupied[row, col]:
+                continue
+            cx = ox + (col + 0.5) * resolution
+            side = (cx - x1) * nx + (cy - y1) * ny
+            if abs(side) <= reach and abs(cx - mx) <= wx and abs(cy - my) <= wy:
+                occupied[row, col] = True
+                continue
+            if abs(side) > far:
+                continue
+            best = min(_point_square(x1, y1, cx, cy, h), _point_square(x2, y2, cx, cy, h))
+            best = min(best, _point_segment(cx - h, cy - h, x1, y1, x2, y2))
+            best = min(best, _point_segment(cx - h, cy + h, x1, y1, x2, y2))
+            best = min(best, _point_segment(cx + h, cy - h, x1, y1, x2, y2))
+            best = min(best, _point_segment(cx + h, cy + h, x1, y1, x2, y2))
+            if best <= limit:
+                occupied[row, col] = True
+
+
+@numba.njit(cache=True, inline="always")
+def _point_square(px, py, cx, cy, h):  # pragma: no cover - numba
+    return np.hypot(max(abs(px - cx) - h, 0.0), max(abs(py - cy) - h, 0.0))
+
+
+@numba.njit(cache=True, inline="always")
+def _point_segment(px, py, x1, y1, x2, y2):  # pragma: no cover - numba
+    sx, sy = x2 - x1, y2 - y1
+    length2 = sx * sx + sy * sy
+    u = 0.0 if length2 == 0.0 else min(max(((px - x1) * sx + (py - y1) * sy) / length2, 0.0), 1.0)
+    return np.hypot(px - (x1 + u * sx), py - (y1 + u * sy))
+
+
+def _rasterise_reference(segs: np.ndarray, resolution: float, thickness: float = WALL_THICKNESS_M) -> WallRaster:
+    """The rasteriser as numpy over each piece of wall (slow: the kernel's reference in tests)."""
     segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
     half = 0.5 * thickness
     if segs.shape[0] == 0:

@@ -70,14 +70,19 @@ def split_row(raw: str) -> list[str]:
     return raw.split("%", 1)[0].split()
 
 
+def _cut(text: str, limit: int = 60) -> str:
+    """repr of a row's text for a message, cut (a row can be megabytes long)."""
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
+
+
 def parse_number(token: str, what: str, source: str, line: int) -> float:
     """A finite float, or InputError naming the file, line, field and the offending token."""
     try:
         value = float(token)
     except ValueError:
-        raise InputError.at(source, line, f"{what}: {token!r} is not a number") from None
+        raise InputError.at(source, line, f"{what}: {_cut(token)} is not a number") from None
     if not math.isfinite(value):
-        raise InputError.at(source, line, f"{what}: {token!r} is not a finite number")
+        raise InputError.at(source, line, f"{what}: {_cut(token)} is not a finite number")
     return value
 
 
@@ -85,16 +90,24 @@ def parse_coordinate(token: str, what: str, source: str, line: int) -> float:
     """A number within ±MAX_COORDINATE_M, or InputError naming the file, line, field and token."""
     value = parse_number(token, what, source, line)
     if abs(value) > MAX_COORDINATE_M:
-        raise InputError.at(source, line, f"{what}: {token!r} is beyond ±{MAX_COORDINATE_M:g} m")
+        raise InputError.at(source, line, f"{what}: {_cut(token)} is beyond ±{MAX_COORDINATE_M:g} m")
     return value
 
 
 def _numbers(tokens: list[str], names: tuple[str, ...], keyword: str, source: str, line: int) -> list[float]:
+    if len(tokens) == len(names) and names[-1] not in ("theta", "setting"):
+        # The common row, fast: the same float() as parse_number; anything odd is reported below.
+        try:
+            values = [float(t) for t in tokens]
+        except ValueError:
+            values = []
+        if values and all(-MAX_COORDINATE_M <= v <= MAX_COORDINATE_M for v in values):
+            return values
     if len(tokens) != len(names):
         raise InputError.at(
             source,
             line,
-            f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: {' '.join(tokens)!r}",
+            f"'{keyword}' needs {len(names)} numbers ({' '.join(names)}), got {len(tokens)}: {_cut(' '.join(tokens))}",
         )
     return [
         parse_number(t, f"{keyword} {n}", source, line)

@@ -17,6 +17,7 @@ below has to keep true:
 from __future__ import annotations
 
 import math
+import os
 from collections import deque
 from collections.abc import Callable
 from functools import partial
@@ -56,6 +57,7 @@ from create_sim.spec import (
 )
 from create_sim.urdf import create_urdf
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import is_regular_file, shown
 from sim_runtime.kernels import announce_compiling
 from sim_runtime.limits import MAX_COORDINATE_M, all_within
 from sim_runtime.msgs import (
@@ -85,7 +87,7 @@ class CreateWorldNode(SimWorldNode):
         try:
             self._declare_parameters()
             self.parameters_declared()
-            with announce_compiling(self.get_logger().info):
+            with announce_compiling(self.get_logger().info), self.starting("building the model"):
                 self.model = self._make_model()
                 # every sensor's kernels now: compiling one when it is first subscribed would stall the world
                 self.model.compile_kernels()
@@ -203,8 +205,12 @@ class CreateWorldNode(SimWorldNode):
     def _load_map(self, path: str) -> CreateMap:
         if not path:
             return CreateMap()
+        size = os.stat(path).st_size if is_regular_file(path) else 0
+        if size > BIG_FILE_BYTES:  # said at once: reading it takes seconds
+            self.get_logger().info(f"reading map {shown(path)} ({size / 1e6:.0f} MB)")
         try:  # skipped rows are logged (/rosout), not Python warnings on stderr
-            return load_map(path, warn=self.get_logger().warning)
+            with self.starting(f"reading map {shown(path)}"):
+                return load_map(path, warn=self.get_logger().warning)
         except (InputError, OSError) as err:
             raise InputError(f"parameter 'map_file' = {path!r}: {err}") from err
 
@@ -673,8 +679,15 @@ class CreateWorldNode(SimWorldNode):
     def _publish_map(self) -> None:
         """The latched ``map_markers`` and the occupancy grid of the walls on ``map``."""
         stamp = self.stamp()
-        self.pub_map_markers.publish(map_markers(self.map, stamp))
-        raster = rasterise_walls(self.map.walls, self.map_resolution)
+        if max(len(self.map.walls), len(self.map.lines)) > MAX_MARKER_SEGMENTS:
+            self.get_logger().warning(
+                f"map_markers: more than {MAX_MARKER_SEGMENTS:,} walls or lines; showing the first "
+                f"{MAX_MARKER_SEGMENTS:,} of each (the map grid has them all)"
+            )
+        with self.starting("drawing map_markers"):
+            self.pub_map_markers.publish(map_markers(self.map, stamp))
+        with self.starting(f"rasterising {len(self.map.walls):,} walls for the map grid") as phase:
+            raster = rasterise_walls(self.map.walls, self.map_resolution, progress=phase.progress)
         if raster.resolution_m != self.map_resolution:
             self.get_logger().warning(
                 f"map: {self.map_resolution:g} m cells would be more than {MAX_MAP_CELLS:,} over this map's "
@@ -682,6 +695,13 @@ class CreateWorldNode(SimWorldNode):
             )
         origin = (raster.origin_x_m, raster.origin_y_m)
         self.pub_map.publish(occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, stamp))
+
+
+#: A map file larger than this (bytes) is announced before it is read.
+BIG_FILE_BYTES = 8_000_000
+
+#: Most walls (and floor lines) drawn on ``map_markers``: beyond, the first ones (``map`` has all).
+MAX_MARKER_SEGMENTS = 100_000
 
 
 def sensor_transforms(prefix: str) -> list[TransformStamped]:
@@ -732,9 +752,9 @@ def map_markers(create_map: CreateMap, stamp) -> MarkerArray:
     ``virtual_wall_halos`` and ``virtual_wall_fields`` (a LINE_STRIP per virtual wall); marker ids
     are the row index.
     """
-    markers = [
-        _line_list(WALLS_NS, create_map.walls, WALL_RGB, WALL_THICKNESS_M, stamp),
-        _line_list(LINES_NS, create_map.lines, LINE_RGB, 0.02, stamp),
+    markers = [  # RViz draws a million segments no better than these; building them took a minute
+        _line_list(WALLS_NS, create_map.walls[:MAX_MARKER_SEGMENTS], WALL_RGB, WALL_THICKNESS_M, stamp),
+        _line_list(LINES_NS, create_map.lines[:MAX_MARKER_SEGMENTS], LINE_RGB, 0.02, stamp),
     ]
     beacons = zip(create_map.beacon_xy, create_map.beacon_rgb, create_map.beacon_ids, strict=True)
     for i, ((bx, by), rgb, beacon_id) in enumerate(beacons):

@@ -117,11 +117,17 @@ class StopSignal:
 
     def __init__(self) -> None:
         self.requested = False
+        #: While True (the nodes being built: no callback runs yet), a stop raises KeyboardInterrupt
+        #: wherever start-up is, so a long start-up (a huge map) ends at once, not when it is done.
+        self.starting = False
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, self._request)
 
     def _request(self, _signum: int, _frame: object) -> None:
         self.requested = True
+        if self.starting:
+            self.starting = False  # once: the clean-up that follows is not interrupted again
+            raise KeyboardInterrupt
 
     @property
     def running(self) -> bool:
@@ -163,10 +169,16 @@ def run_nodes(make_nodes: Callable[[], Sequence[Node]], args: list[str] | None =
     nodes: list[Node] = []
     try:
         try:
+            stop.starting = True
             nodes = list(make_nodes())
         except InputError as error:
             print(f"error: {error}", file=sys.stderr)
             return 2
+        except KeyboardInterrupt:
+            print("stopped while starting", file=sys.stderr)
+            return 130
+        finally:
+            stop.starting = False
         executor = make_executor()
         for node in nodes:
             executor.add_node(node)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager
 from typing import Any
 
 import numpy as np
@@ -25,6 +27,53 @@ from sim_runtime.qos import CLOCK_QOS
 #: gives up on real time (like the MATLAB timer's BusyMode "drop"): physics never
 #: takes bigger steps, the run just falls behind the wall clock.
 MAX_CATCH_UP_STEPS = 50
+
+
+#: A start-up phase lasting longer than this (wall seconds) says what it is doing, then again every
+#: PROGRESS_EVERY_S: a world taking a minute to start must not look hung.
+PROGRESS_AFTER_S = 2.0
+PROGRESS_EVERY_S = 2.0
+
+
+class StartupPhase:
+    """One phase of a world's start-up (see :func:`startup_phase`); :meth:`progress` tells how far it is."""
+
+    def __init__(self, what: str) -> None:
+        self.what = what
+        self.detail = ""
+        self.started = time.monotonic()
+
+    def progress(self, done: int, total: int) -> None:
+        """``done`` of ``total`` items (walls, rows): shown in the phase's next line."""
+        self.detail = f"{done:,} of {total:,} ({100.0 * done / max(total, 1):.0f} %)"
+
+    def line(self) -> str:
+        elapsed = time.monotonic() - self.started
+        return f"{self.what}{': ' + self.detail if self.detail else ''} ({elapsed:.0f} s so far)"
+
+
+@contextmanager
+def startup_phase(log: Callable[[str], None], what: str) -> Iterator[StartupPhase]:
+    """Run a block of start-up work; if it lasts more than :data:`PROGRESS_AFTER_S`, ``log`` a line
+    saying what it is (and how far, see :meth:`StartupPhase.progress`), then every
+    :data:`PROGRESS_EVERY_S` until it ends. The lines come from a thread, so a block need not
+    report anything to be seen; a numba kernel holding the GIL delays them by one of its calls."""
+    phase = StartupPhase(what)
+    done = threading.Event()
+
+    def watch() -> None:
+        wait = PROGRESS_AFTER_S
+        while not done.wait(wait):
+            log(phase.line())
+            wait = PROGRESS_EVERY_S
+
+    watcher = threading.Thread(target=watch, name=f"startup: {what}", daemon=True)
+    watcher.start()
+    try:
+        yield phase
+    finally:
+        done.set()
+        watcher.join()
 
 
 def namespace_prefix(namespace: str) -> str:
@@ -142,6 +191,10 @@ class SimWorldNode(CheckedNode):
         entry.set_rate(rate_hz / self.physics_rate, self.step_count)
         self._scheduled.append(entry)
         return entry
+
+    def starting(self, what: str) -> AbstractContextManager[StartupPhase]:
+        """:func:`startup_phase` logging on this node's logger: ``with self.starting("reading the map"):``."""
+        return startup_phase(self.get_logger().info, what)
 
     def pace_text(self) -> str:
         """How this world runs, for its start-up lines."""

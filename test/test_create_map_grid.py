@@ -113,3 +113,39 @@ def test_an_empty_map_is_a_zero_sized_grid_and_a_huge_one_gets_coarser_cells():
     assert raster.occupied.size <= MAX_MAP_CELLS
     assert raster.resolution_m == pytest.approx(0.05 * 2 ** round(math.log2(raster.resolution_m / 0.05)))
     assert raster.occupied.any()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_raster_kernel_marks_the_same_cells_as_the_numpy_rasteriser_on_random_walls(seed):
+    from create_sim.geometry import _rasterise_reference
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 200))
+    start = rng.uniform(-5.0, 5.0, (n, 2))
+    walls = np.hstack([start, start + rng.normal(0.0, [0.05, 0.5, 3.0][seed % 3], (n, 2))])
+    walls[: n // 4, 3] = walls[: n // 4, 1]  # some exactly horizontal, some of zero length
+    walls[n // 4 : n // 3, 2:] = walls[n // 4 : n // 3, :2]
+    resolution = float(rng.choice([0.01, 0.037, 0.05, 0.1]))
+    kernel, reference = rasterise_walls(walls, resolution), _rasterise_reference(walls, resolution)
+    assert kernel.occupied.shape == reference.occupied.shape
+    assert (kernel.resolution_m, kernel.origin_x_m, kernel.origin_y_m) == (
+        reference.resolution_m,
+        reference.origin_x_m,
+        reference.origin_y_m,
+    )
+    assert np.array_equal(kernel.occupied, reference.occupied)
+
+
+def test_the_rasteriser_reports_progress_chunk_by_chunk_and_stops_when_told():
+    from create_sim.geometry import RASTER_CHUNK_WALLS
+
+    walls = np.tile([[0.0, 0.0, 1.0, 1.0]], (2 * RASTER_CHUNK_WALLS + 5, 1))
+    seen: list[tuple[int, int]] = []
+    rasterise_walls(walls, 0.05, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(RASTER_CHUNK_WALLS, len(walls)), (2 * RASTER_CHUNK_WALLS, len(walls)), (len(walls), len(walls))]
+
+    def stop(done: int, total: int) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        rasterise_walls(walls, 0.05, progress=stop)
