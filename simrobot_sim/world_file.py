@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import read_input_bytes, shown
@@ -91,6 +91,8 @@ class WorldSpec:
     origin: tuple[float, float] = (0.0, 0.0)
     dt: float = 1.0
     steps_limit: float = math.inf
+    #: The original's "step time": the least wall seconds a replay shows each step (the run is not affected).
+    replay_step_time: float = 0.0
     lockstep: bool = False
     lockstep_timeout: float = 5.0
     history_steps: int = 10000
@@ -139,6 +141,12 @@ def load_bitmap(path: str | Path, threshold: int = OBSTACLE_THRESHOLD) -> np.nda
                 )
     except InputError:
         raise
+    except UnidentifiedImageError:  # its message is the repr of our buffer: say what the file should be
+        raise InputError.at(
+            shown(path),
+            None,
+            "cannot read map image: the file is not an image; save the map as a 1-bit or greyscale PNG or BMP",
+        ) from None
     except Exception as exc:  # PIL raises many types for unreadable files
         raise InputError.at(shown(path), None, f"cannot read map image: {short_text(str(exc), 120)}") from exc
     if grey.ndim != 2 or grey.size == 0:
@@ -195,6 +203,7 @@ _WORLD_KEYS = {
     "origin",
     "dt",
     "steps_limit",
+    "replay_step_time",
     "lockstep",
     "lockstep_timeout",
     "history_steps",
@@ -399,6 +408,7 @@ def parse_world(data: Any, source: str, base_dir: Path) -> WorldSpec:
         origin=_pair(data.get("origin", [0.0, 0.0]), f"{shown_source}: origin"),
         dt=_number(data.get("dt", 1.0), f"{shown_source}: dt", positive=True),
         steps_limit=steps,
+        replay_step_time=_number(data.get("replay_step_time", 0.0), f"{shown_source}: replay_step_time", nonneg=True),
         lockstep=_bool(data.get("lockstep", False), f"{shown_source}: lockstep"),
         lockstep_timeout=_number(data.get("lockstep_timeout", 5.0), f"{shown_source}: lockstep_timeout", positive=True),
         history_steps=history,
@@ -422,6 +432,7 @@ def load_world(path: str | Path) -> WorldSpec:
         origin: [0.0, 0.0]       # world position (m) of the map's lower-left corner
         dt: 1.0                  # seconds per simulation step (default 1.0, the original)
         steps_limit: 300         # > 0, decimals rounded, or .inf (default); the world stops there
+        replay_step_time: 0.1    # least wall seconds a replay shows each step (default 0; the run is not affected)
         lockstep: false          # true: step k+1 waits for a command from every powered,
                                  # non-crashed robot (or lockstep_timeout)
         lockstep_timeout: 5.0    # wall seconds to wait before stepping anyway (with a warning)

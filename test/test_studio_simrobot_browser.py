@@ -8,7 +8,9 @@ robot for its info and power, draw the tracks. ``STUDIO_SCREENSHOTS=1`` saves th
 from __future__ import annotations
 
 import math
+import re
 import time
+import urllib.request
 from pathlib import Path
 
 import pytest
@@ -20,6 +22,7 @@ if NO_CHROMIUM:
 from geometry_msgs.msg import Twist
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
 from studio_browser_support import (
     find,
     listener_node,
@@ -36,9 +39,24 @@ WINDOW_SIZE = "1400,1400"
 STUDIO_DOMAIN = studio_domain(53)  # the other studio modules use 50-52
 
 
+LINKS = {  # in the workspace: links out of it and links to nothing, with the names the pages list
+    "out.m": "/etc/hostname",
+    "gone.m": "no_such_alg.m",
+    "out.yaml": "/etc/hostname",
+    "gone.yaml": "no_such_world.yaml",
+    "out.png": "/etc/hostname",
+    "gone.png": "no_such_map.png",
+}
+
+
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Path:
-    return tmp_path_factory.mktemp("simrobot_ws")
+    """The student's folder, with links out of it and dangling links lying about in it (every
+    test of the module runs with them there)."""
+    ws = tmp_path_factory.mktemp("simrobot_ws")
+    for name, target in LINKS.items():
+        (ws / name).symlink_to(target)
+    return ws
 
 
 @pytest.fixture(scope="module")
@@ -96,6 +114,31 @@ def text(driver, css: str) -> str:
 
 def message(driver) -> str:
     return text(driver, ".simrobot-editor-message")
+
+
+def test_both_pages_serve_a_workspace_with_links_out_of_it_and_dangling_links(browser, studio_url):
+    for page in ("/simrobot/editor", "/simrobot"):
+        with urllib.request.urlopen(studio_url + page, timeout=30) as reply:  # an HTTP error raises
+            assert reply.status == 200
+    open_page(browser, studio_url + "/simrobot/editor")
+    find(browser, ".simrobot-controller").click()
+    listed = wait(browser, lambda d: text(d, ".q-menu"))
+    assert "(none: topics)" in listed and "avoid" in listed
+    assert "out.m" not in listed and "gone.m" not in listed  # an algorithm leading nowhere is not offered
+    browser.find_element(By.TAG_NAME, "body").send_keys(Keys.ESCAPE)
+    for name, field, button in (("out.yaml", "world", "Open"), ("out.png", "map", "Import")):
+        type_into(browser, f".simrobot-{field}-name", name)
+        click_text(browser, button)
+        wait(browser, lambda d, name=name: f"error: '{name}' is outside the workspace" in message(d))
+    for name, field, button in (("gone.yaml", "world", "Open"), ("gone.png", "map", "Import")):
+        type_into(browser, f".simrobot-{field}-name", name)
+        click_text(browser, button)
+        wait(
+            browser,
+            lambda d, name=name: re.fullmatch(
+                f"error: {name}: the link leads to .*, which does not exist: .*", message(d)
+            ),
+        )
 
 
 def test_a_two_robot_world_with_a_laser_is_built_in_the_editor_and_saved(browser, studio_url, workspace):
@@ -207,3 +250,159 @@ def test_draw_tracks_writes_a_png_of_the_run(browser, workspace):
     click_text(browser, "Draw tracks")
     wait(browser, lambda d: "saved simrobot_tracks.png" in text(d, ".simrobot-tracks-message"))
     assert (workspace / "simrobot_tracks.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_step_counter_and_sim_time_are_shown_and_a_small_robot_takes_clicks_beside_it(browser):
+    steps = wait(browser, lambda d: re.fullmatch(r"step (\d+) · sim time (\d+\.\d\d) s", text(d, ".simrobot-steps")))
+    assert math.isclose(int(steps[1]) * 0.1, float(steps[2]), abs_tol=0.006)  # dt 0.1: step k at k * 0.1 s
+    r1 = robots_drawn(browser, ".simrobot-view")["r1"]
+    scale = float(browser.execute_script("return document.querySelector('.simrobot-view g.frame').dataset.scale"))
+    assert 0.04 * scale < 12  # the default robot is a dozen pixels: hard to hit on its outline
+    click_at(browser, ".simrobot-view", r1[0] + 17 / scale, r1[1])  # beside it, in the ring drawn round it
+    wait(browser, lambda d: "robot r1" in text(d, ".simrobot-info"))
+    assert browser.find_elements(By.CSS_SELECTOR, ".simrobot-view circle.robot-ring")
+
+
+EVERY_FIELD = {  # field → what the student types: the world, the robot, its sensor
+    "resolution": "0.02",
+    "dt": "0.2",
+    "steps-limit": "300",
+    "step-time": "0.05",
+    "robot-name": "rover",
+    "x": "1.5",
+    "y": "0.7",
+    "heading": "30",
+    "scale": "1.5",
+    "R": "0.012",
+    "la": "0.035",
+    "lb": "0.005",
+    "colour": "#ff8000",
+    "sx": "0.04",
+    "sy": "0.01",
+    "axis": "15",
+    "beamwidth": "40",
+    "range": "0.5",
+    "rays": "12",
+}
+WORLD_FIELDS = ("resolution", "dt", "steps-limit", "step-time")
+SENSOR_FIELDS = ("sx", "sy", "axis", "beamwidth", "range", "rays")
+
+
+def field_value(driver, name: str) -> str:
+    return find(driver, f".simrobot-{name} input").get_attribute("value")
+
+
+def checked(driver, name: str) -> bool:
+    return find(driver, f".simrobot-{name}").get_attribute("aria-checked") == "true"
+
+
+def test_every_field_of_the_editor_is_saved_as_typed_and_shown_again_when_reopened(browser, studio_url, workspace):
+    open_page(browser, studio_url + "/simrobot/editor")
+    type_into(browser, ".simrobot-world-name", "every.yaml")
+    type_into(browser, ".simrobot-map-name", "every.png")
+    for name in WORLD_FIELDS:
+        type_into(browser, f".simrobot-{name}", EVERY_FIELD[name])
+    find(browser, ".simrobot-lockstep").click()
+    click_text(browser, "Add")
+    wait(browser, lambda d: "added r1" in message(d))
+    for name in ("robot-name", "x", "y", "heading", "scale", "R", "la", "lb", "colour"):
+        type_into(browser, f".simrobot-{name}", EVERY_FIELD[name])
+    find(browser, ".simrobot-power").click()
+    shape = find(browser, ".simrobot-shape textarea")
+    shape.send_keys(Keys.CONTROL, "a")
+    shape.send_keys(Keys.BACKSPACE)
+    shape.send_keys("-0.03, 0.03\n0.05, 0\n-0.03, -0.03")
+    click_text(browser, "Apply shape")
+    wait(browser, lambda d: "shape applied" in message(d))
+    # Algorithm > New: the original's template, chosen for the robot and opened for editing
+    type_into(browser, ".simrobot-algorithm-name", "alg_every")
+    click_text(browser, "New")
+    editor = find(browser, ".simrobot-algorithm-text textarea")
+    wait(browser, lambda d: "function new = alg_every(simrobot, matrix, step)" in editor.get_attribute("value"))
+    editor.send_keys(Keys.CONTROL, Keys.END)
+    editor.send_keys("% turn left\n")
+    find(browser, ".simrobot-algorithm-save").click()
+    wait(browser, lambda d: "saved alg_every.m" in message(d))
+    assert (workspace / "alg_every.m").read_text().endswith("new = simrobot;\n% turn left\n")
+    type_into(browser, ".simrobot-sensor-new", "front")
+    click_text(browser, "Add sensor")
+    choose(browser, ".simrobot-sensor-type", "laser")
+    for name in SENSOR_FIELDS:
+        type_into(browser, f".simrobot-{name}", EVERY_FIELD[name])
+    click_text(browser, "Save world")
+    wait(browser, lambda d: "saved every.yaml" in message(d), timeout=60)
+
+    spec = load_world(workspace / "every.yaml")
+    assert (spec.resolution, spec.dt, spec.steps_limit, spec.replay_step_time, spec.lockstep) == (
+        0.02, 0.2, 300, 0.05, True
+    )  # fmt: skip
+    assert spec.walls.shape == (300, 200)  # the blank map's cells, now of 2 cm
+    (r,) = spec.robots
+    assert (r.name, r.position, r.scale, r.R, r.la, r.lb, r.power) == (
+        "rover",
+        (1.5, 0.7),
+        1.5,
+        0.012,
+        0.035,
+        0.005,
+        False,
+    )
+    assert math.isclose(math.degrees(r.heading), 30) and r.color == pytest.approx((1.0, 128 / 255, 0.0), abs=1e-3)
+    assert r.shape == ((-0.03, 0.03), (0.05, 0.0), (-0.03, -0.03))
+    assert r.algorithm == str(workspace / "alg_every.m") and r.controller is None
+    (sensor,) = r.sensors
+    assert (sensor.name, sensor.kind, sensor.position, sensor.range, sensor.rays) == (
+        "front",
+        "laser",
+        (0.04, 0.01),
+        0.5,
+        12,
+    )
+    assert math.isclose(math.degrees(sensor.axis), 15) and math.isclose(math.degrees(sensor.beamwidth), 40)
+
+    open_page(browser, studio_url + "/simrobot/editor")  # a fresh tab: nothing but the file
+    type_into(browser, ".simrobot-world-name", "every.yaml")
+    click_text(browser, "Open")
+    wait(browser, lambda d: "opened every.yaml: 1 robots" in message(d))
+    choose(browser, ".simrobot-robot", "rover")
+    wait(browser, lambda d: field_value(d, "robot-name") == "rover")
+    shown = {name: field_value(browser, name) for name in EVERY_FIELD}
+    assert {k: v if k in ("robot-name", "colour") else float(v) for k, v in shown.items()} == {
+        k: v if k in ("robot-name", "colour") else float(v) for k, v in EVERY_FIELD.items()
+    }
+    assert checked(browser, "lockstep") and not checked(browser, "power")
+    assert "alg_every.m" in text(browser, ".simrobot-controller")
+    assert text(browser, ".simrobot-sensor-type").split()[:2] == ["type", "laser"]
+    assert field_value(browser, "map-name") == "every.png"
+
+
+def test_a_value_outside_its_field_s_limits_is_refused_with_its_unit_and_what_to_type(browser):
+    for name, typed, said in (
+        ("resolution", "-0.01", "m per cell: -0.01 is not above 0: type the size of one map cell in metres"),
+        ("rays", "0", "rays: 0 is below 1: type the number of rays, a whole number from 1"),
+        ("R", "0", "wheel radius (m): 0 is not above 0: type the wheels' radius in metres"),
+        ("steps-limit", "2.5", "steps limit: 2.5 is not a whole number: type the number of steps"),
+    ):
+        type_into(browser, f".simrobot-{name}", typed)
+        click_text(browser, "Validate")
+        wait(browser, lambda d, said=said: message(d).startswith(f"error: {said}"))
+        type_into(browser, f".simrobot-{name}", EVERY_FIELD[name])
+    click_text(browser, "Validate")
+    wait(browser, lambda d: "every.yaml: valid (1 robots, 1 sensors)" in message(d), timeout=30)
+
+
+def test_no_field_label_of_the_editor_is_cut_off(browser):
+    cut = browser.execute_script(
+        "return Array.from(document.querySelectorAll('.q-field__label'))"
+        ".filter(l => l.offsetParent && l.scrollWidth > l.clientWidth + 1).map(l => l.textContent);"
+    )
+    assert cut == []
+    assert len(browser.find_elements(By.CSS_SELECTOR, ".q-field__label")) > 20
+
+
+def test_importing_a_file_that_is_no_image_says_so_in_a_sentence(browser, workspace):
+    (workspace / "notes.png").write_text("my notes, not a picture\n")
+    type_into(browser, ".simrobot-map-name", "notes.png")
+    click_text(browser, "Import")
+    wait(browser, lambda d: "the file is not an image; save the map as a 1-bit or greyscale PNG or BMP" in message(d))
+    assert "BytesIO" not in message(browser) and "object at 0x" not in message(browser)

@@ -4,14 +4,20 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from sim_runtime.errors import InputError
-from simrobot_sim.world_file import load_bitmap, load_world
+from simrobot_sim.world_file import RobotSpec, load_bitmap, load_world
+from studio.shell.svg import View
+from studio.shell.workspace import Workspace
+from studio.simrobot import fields
 from studio.simrobot.doc import WorldDraft, blank_walls, map_image, new_sensor, paint_disc, parse_vertices
+from studio.simrobot.draw import MIN_ROBOT_PX, hit_radius_m, robot_svg
+from studio.simrobot.editor_algorithms import ALGORITHM_PREFIX, editable_algorithm, new_algorithm
 
 
 def test_a_saved_bitmap_loads_back_as_the_same_obstacles(tmp_path):
@@ -95,3 +101,80 @@ def test_importing_a_colour_bitmap_gives_simrobot_worlds_error(tmp_path):
     Image.new("RGB", (10, 10), (255, 0, 0)).save(tmp_path / "red.png")
     with pytest.raises(InputError, match=r"red\.png.*colour image"):
         WorldDraft.from_image(tmp_path / "red.png")
+
+
+def test_the_world_s_resolution_steps_limit_and_step_time_are_saved_and_read_back(tmp_path):
+    doc = WorldDraft(walls=blank_walls(1.0, 0.6, 0.01), resolution=0.02, steps_limit=300.0, replay_step_time=0.05)
+    doc.add_robot(0.3, 0.3)
+    map_image(doc.walls).save(tmp_path / "map.png")
+    (tmp_path / "w.yaml").write_text(doc.world_yaml("map.png"))
+    spec = load_world(tmp_path / "w.yaml")
+    assert (spec.resolution, spec.steps_limit, spec.replay_step_time) == (0.02, 300, 0.05)
+    again = WorldDraft.from_spec(spec)
+    assert (again.resolution, again.steps_limit, again.replay_step_time) == (0.02, 300, 0.05)
+    unlimited = WorldDraft(walls=doc.walls, robots=doc.robots)
+    assert "steps_limit" not in unlimited.world_yaml("map.png") and "replay_step_time" not in unlimited.world_yaml("m")
+
+
+@pytest.mark.parametrize(
+    ("quantity", "typed", "said"),
+    [
+        (fields.RESOLUTION, -0.01, "m per cell: -0.01 is not above 0: type the size of one map cell in metres"),
+        (fields.RESOLUTION, None, "m per cell: empty: type the size of one map cell in metres"),
+        (fields.RAYS, 2.5, "rays: 2.5 is not a whole number: type the number of rays"),
+        (fields.BEAMWIDTH, 400, "beamwidth (°): 400 is above 360: type the beam's width in degrees, 0 to 360"),
+        (fields.STEPS_LIMIT, "0", "steps limit: 0 is below 1: type the number of steps"),
+        (fields.STEPS_LIMIT, "many", "steps limit: 'many' is not a number: type the number of steps"),
+        (fields.STEP_TIME, -1, "step time (s): -1 is below 0: type the least wall seconds"),
+        (fields.X, math.inf, "x (m): inf is not a finite number: type the robot's x in metres"),
+    ],
+)
+def test_a_field_refuses_a_value_outside_its_limits_with_its_unit_and_what_to_type(quantity, typed, said):
+    with pytest.raises(InputError, match="^" + re.escape(said)):
+        quantity.read(typed)
+    assert quantity.problem(typed).startswith(said.split(": ", 1)[1])  # beside the field, without its label
+
+
+def test_a_steps_limit_may_be_none_and_a_step_time_may_take_a_comma():
+    assert fields.STEPS_LIMIT.read("") == fields.STEPS_LIMIT.read("inf") == math.inf
+    assert fields.STEPS_LIMIT.read("300") == 300 and fields.steps_text(math.inf) == ""
+    assert fields.STEP_TIME.read("0,5") == 0.5  # the original took either fraction mark
+    assert fields.RESOLUTION.problem(0.02) is None
+
+
+def test_a_new_algorithm_is_the_original_template_and_never_overwrites_a_file(tmp_path):
+    ws = Workspace(tmp_path)
+    assert new_algorithm(ws, "alg_r1") == "alg_r1.m"
+    text = (tmp_path / "alg_r1.m").read_text()
+    assert text.startswith("function new = alg_r1(simrobot, matrix, step)\n") and text.endswith("new = simrobot;\n")
+    with pytest.raises(InputError, match=r"alg_r1\.m: the file exists: choose it in the controller list"):
+        new_algorithm(ws, "alg_r1.m")
+    with pytest.raises(InputError, match="not an m-file named as a MATLAB function"):
+        new_algorithm(ws, "2nd try.m")
+    with pytest.raises(InputError, match="type its file name first"):
+        new_algorithm(ws, " ")
+    assert editable_algorithm(f"{ALGORITHM_PREFIX}alg_r1.m", ws) == "alg_r1.m"
+    with pytest.raises(InputError, match="choose an algorithm m-file in the controller list first"):
+        editable_algorithm("avoid", ws)
+    with pytest.raises(InputError, match=r"is outside the workspace .*: copy it into the workspace"):
+        editable_algorithm(f"{ALGORITHM_PREFIX}/etc/alg.m", ws)
+
+
+def test_a_robot_drawn_smaller_than_a_click_takes_clicks_within_the_least_radius():
+    view = View(800, 600, scale=250.0)
+    robot = RobotSpec(name="r1", position=(0.0, 0.0))
+    assert hit_radius_m(view, robot) == pytest.approx(MIN_ROBOT_PX / 250.0)  # 4 cm reach = 10 px < 16 px
+    big = RobotSpec(name="big", position=(0.0, 0.0), scale=10.0)
+    assert hit_radius_m(view, big) == pytest.approx(0.4)
+    assert 'class="robot-ring"' in robot_svg(view, robot, (0.0, 0.0, 0.0))
+    assert 'class="robot-ring"' not in robot_svg(view, big, (0.0, 0.0, 0.0))
+    doc = WorldDraft(robots=[robot])
+    assert doc.robot_at(0.06, 0.0) is None and doc.robot_at(0.06, 0.0, least_m=0.064) == 0
+
+
+def test_a_file_that_is_no_image_is_refused_in_a_sentence_not_an_object_repr(tmp_path):
+    (tmp_path / "notes.png").write_text("my notes\n")
+    with pytest.raises(InputError) as refused:
+        WorldDraft.from_image(tmp_path / "notes.png")
+    assert str(refused.value).endswith("the file is not an image; save the map as a 1-bit or greyscale PNG or BMP")
+    assert "BytesIO" not in str(refused.value)

@@ -122,7 +122,7 @@ def new_sensor(name: str, kind: str = "ultrasonic") -> SensorSpec:
 
 
 #: World file keys the editor shows no field for but writes back as the opened file had them.
-KEPT_WORLD_KEYS = ("steps_limit", "lockstep_timeout", "history_steps", "sensor_model", "threads")
+KEPT_WORLD_KEYS = ("lockstep_timeout", "history_steps", "sensor_model", "threads")
 
 
 @dataclass
@@ -133,9 +133,11 @@ class WorldDraft:
     resolution: float = BLANK_RESOLUTION
     origin: tuple[float, float] = (0.0, 0.0)
     dt: float = 0.1
+    steps_limit: float = math.inf  # the original's Steps limit (inf: none)
+    replay_step_time: float = 0.0  # the original's Step time: least wall seconds per replayed step
     lockstep: bool = False
     robots: list[RobotSpec] = field(default_factory=list)
-    # world keys the editor has no fields for (steps_limit, threads, ...), kept from the file opened
+    # world keys the editor has no fields for (threads, sensor_model, ...), kept from the file opened
     kept: dict[str, Any] = field(default_factory=dict)
 
     # -- geometry ---------------------------------------------------------------------------
@@ -163,11 +165,11 @@ class WorldDraft:
         self.robots.append(robot)
         return robot
 
-    def robot_at(self, x: float, y: float, slack_m: float = 0.0) -> int | None:
-        """Index of the robot whose outline holds (x, y) or is nearest within its reach + slack."""
+    def robot_at(self, x: float, y: float, slack_m: float = 0.0, least_m: float = 0.0) -> int | None:
+        """Index of the robot nearest (x, y) within its reach (at least ``least_m``) + slack."""
         best, best_d = None, math.inf
         for i, r in enumerate(self.robots):
-            reach = max(math.hypot(px, py) for px, py in r.shape) * r.scale
+            reach = max(max(math.hypot(px, py) for px, py in r.shape) * r.scale, least_m)
             d = math.hypot(x - r.position[0], y - r.position[1])
             if d <= reach + slack_m and d < best_d:
                 best, best_d = i, d
@@ -182,6 +184,9 @@ class WorldDraft:
             "resolution": float(self.resolution),
             "origin": [float(self.origin[0]), float(self.origin[1])],
             "dt": float(self.dt),
+            # the defaults (no limit, no least step time) stay out of the file, as the loader assumes them
+            **({"steps_limit": int(self.steps_limit)} if math.isfinite(self.steps_limit) else {}),
+            **({"replay_step_time": float(self.replay_step_time)} if self.replay_step_time else {}),
             "lockstep": bool(self.lockstep),
             **self.kept,
             "robots": [robot_entry(r, world_dir) for r in self.robots],
@@ -212,6 +217,8 @@ class WorldDraft:
             resolution=float(spec.resolution),
             origin=(float(spec.origin[0]), float(spec.origin[1])),
             dt=float(spec.dt),
+            steps_limit=float(spec.steps_limit),
+            replay_step_time=float(spec.replay_step_time),
             lockstep=bool(spec.lockstep),
             robots=list(spec.robots),
             kept={

@@ -22,9 +22,12 @@ from studio.simrobot.doc import png_bytes
 BEAM_COLOUR = "#16a34a"
 HIT_COLOUR = "#dc2626"
 MAX_DRAWN_RAYS = 60
+"""A sensor with more rays is drawn with this many (its fan's shape is the same)."""
 MAX_TRACK_POINTS = 200
 """A longer track is thinned to this many points for drawing (whole pixels)."""
-"""A sensor with more rays is drawn with this many (its fan's shape is the same)."""
+MIN_ROBOT_PX = 16.0
+"""Least radius (pixels) a robot takes clicks in, and is ringed to when drawn smaller: the
+original's 8 cm robot is ~15 pixels across on a fitted 3 m map, too small to hit with a mouse."""
 
 
 def _int_points(px: np.ndarray, py: np.ndarray) -> str:
@@ -57,6 +60,16 @@ def outline(robot: RobotSpec, pose: Sequence[float]) -> np.ndarray:
     return np.column_stack([pose[0] + c * v[:, 0] - s * v[:, 1], pose[1] + s * v[:, 0] + c * v[:, 1]])
 
 
+def reach_m(robot: RobotSpec) -> float:
+    """How far the robot's outline reaches from its pivot (m)."""
+    return max(math.hypot(x, y) for x, y in robot.shape) * robot.scale
+
+
+def hit_radius_m(view: View, robot: RobotSpec) -> float:
+    """How far from its pivot (m) a click picks the robot: its outline, at least MIN_ROBOT_PX."""
+    return max(reach_m(robot), MIN_ROBOT_PX / view.scale)
+
+
 def robot_svg(
     view: View,
     robot: RobotSpec,
@@ -74,7 +87,14 @@ def robot_svg(
     reach = max(float(np.hypot(*(np.asarray(robot.shape) * robot.scale).T).max()) * view.scale, 4.0)
     hx, hy = cx + reach * math.cos(pose[2]), cy - reach * math.sin(pose[2])
     stroke = "#1d4ed8" if selected else "#111"
-    parts = [
+    parts = []
+    if reach < MIN_ROBOT_PX:  # drawn smaller than a click can hit: a ring shows where to click
+        parts.append(
+            f'<circle class="robot-ring" cx="{cx:.1f}" cy="{cy:.1f}" r="{MIN_ROBOT_PX:.0f}" '
+            f'fill="{rgb_hex(robot.color)}" fill-opacity="0.25" stroke="{stroke}" stroke-opacity="0.6" '
+            f'stroke-width="{2 if selected else 1}"/>'
+        )
+    parts += [
         f'<polygon class="robot" data-name="{robot.name}" data-x="{float(pose[0])!r}" data-y="{float(pose[1])!r}" '
         f'points="{points}" fill="{rgb_hex(robot.color)}" '
         f'stroke="{stroke}" stroke-width="{2.5 if selected else 1}"/>',

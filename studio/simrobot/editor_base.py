@@ -8,6 +8,9 @@ each a part of the one page object over this base.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 from nicegui import ui
 
 from simrobot_sim.world_file import RobotSpec
@@ -15,7 +18,26 @@ from studio.shell import svg
 from studio.shell.app import Studio
 from studio.shell.kit import DraftGuard
 from studio.simrobot.doc import WorldDraft
+from studio.simrobot.fields import Quantity
 from studio.simrobot.ros_client import SimrobotSide
+
+
+def field_width(label: str) -> str:
+    """A field's width that shows its whole label (a cut "wheel radiu…" says nothing)."""
+    return f"width:{max(5.0, 0.55 * len(label) + 1.5):.1f}rem"
+
+
+def quantity_field(
+    q: Quantity, css: str = "", on_change: Callable[..., Any] | None = None, value: float | None = None
+) -> ui.number:
+    """A number field for ``q``: its label and unit, and a value outside its limits shown in red
+    with the sentence saying what to type (the value stays as typed: the check refuses it)."""
+    return (
+        ui.number(q.label, value=value, format="%g", validation=q.problem, on_change=on_change)
+        .props("hide-bottom-space")
+        .classes(css)
+        .style(field_width(q.label))
+    )
 
 
 class EditorBase(DraftGuard):
@@ -31,6 +53,7 @@ class EditorBase(DraftGuard):
     map_unsaved: bool
     own_world: str  # the world file this tab opened or saved: Run it may save over it
     message: ui.label
+    filling = False  # while fields are filled from the draft (a selection, a file opened): not edits
 
     def say(self, text: str, error: bool = False) -> None:
         self.message.set_text(text)
@@ -51,6 +74,9 @@ class EditorBase(DraftGuard):
 
     def delete_robot(self) -> None:
         raise NotImplementedError  # the robot form
+
+    def form_fields(self) -> None:
+        raise NotImplementedError  # the robot form: the shown robot and sensor into the draft, or InputError
 
     def on_world(self, _e: object = None) -> None:
         raise NotImplementedError  # the files

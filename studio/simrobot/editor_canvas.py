@@ -10,7 +10,7 @@ import numpy as np
 from nicegui import ui
 
 from studio.shell.kit import ZoomableView, checked_number, view_image
-from studio.simrobot.draw import beams_svg, map_data_url, map_svg, robot_svg
+from studio.simrobot.draw import MIN_ROBOT_PX, beams_svg, map_data_url, map_svg, robot_svg
 from studio.simrobot.editor_base import EditorBase
 
 TOOLS = {
@@ -113,7 +113,7 @@ class EditorCanvas(ZoomableView, EditorBase):
             self.drag = (x, y)
             self.move(x, y, px, py)
             return
-        hit = self.doc.robot_at(x, y, slack_m=4.0 / self.view.scale)
+        hit = self.doc.robot_at(x, y, slack_m=4.0 / self.view.scale, least_m=MIN_ROBOT_PX / self.view.scale)
         self.select(hit)
         if hit is not None:
             r = self.doc.robots[hit]

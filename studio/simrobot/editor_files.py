@@ -4,6 +4,7 @@ file (opened, validated by ``simrobot_world``'s own loader, saved) and "Run it".
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
 from pathlib import Path
 
@@ -11,10 +12,10 @@ from nicegui import ui
 
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import load_world
-from studio.shell.kit import checked_number
 from studio.shell.processes import Child, clock_topic, executable_command, namespace_args, yaml_string
+from studio.simrobot import fields
 from studio.simrobot.doc import WorldDraft, blank_walls, png_bytes
-from studio.simrobot.editor_base import EditorBase
+from studio.simrobot.editor_base import EditorBase, field_width, quantity_field
 
 
 class EditorFiles(EditorBase):
@@ -24,14 +25,13 @@ class EditorFiles(EditorBase):
         with ui.expansion("Map and world file", value=True).classes("w-full border"):
             with ui.row().classes("items-center gap-2"):
                 self.map_name = ui.input("bitmap (PNG/BMP)", value="simrobot_map.png").classes("w-48 simrobot-map-name")
-                self.resolution = checked_number(
-                    "m per cell", value=self.doc.resolution, minimum=0.0001, format="%g"
-                ).classes("w-24 simrobot-resolution")
+                self.resolution = quantity_field(fields.RESOLUTION, "simrobot-resolution", self.on_world,
+                                                 self.doc.resolution)  # fmt: skip
                 ui.button("Import", on_click=self.import_map).props("dense outline")
                 ui.button("Save bitmap", on_click=self.save_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
-                self.blank_w = checked_number("width (m)", value=3.0, minimum=0.05, format="%g").classes("w-20")
-                self.blank_h = checked_number("height (m)", value=2.0, minimum=0.05, format="%g").classes("w-20")
+                self.blank_w = quantity_field(fields.BLANK_WIDTH, "simrobot-blank-w", value=3.0)
+                self.blank_h = quantity_field(fields.BLANK_HEIGHT, "simrobot-blank-h", value=2.0)
                 ui.button("New blank map", on_click=self.new_map).props("dense outline")
             with ui.row().classes("items-center gap-2"):
                 self.world_name = ui.input("world file (YAML)", value="simrobot_world.yaml").classes(
@@ -40,37 +40,66 @@ class EditorFiles(EditorBase):
                 ui.button("Open", on_click=self.open_world).props("dense outline")
                 self.overwrite = ui.checkbox("overwrite", value=False).classes("simrobot-overwrite")
             with ui.row().classes("items-center gap-2"):
-                self.dt = checked_number(
-                    "dt (s)", value=self.doc.dt, minimum=0.001, format="%g", on_change=self.on_world
-                ).classes("w-20")
-                self.lockstep = ui.checkbox("lockstep", value=False, on_change=self.on_world)
-                self.ns = ui.input("namespace", value=self.studio.free_namespace("simrobot")).classes(
-                    "w-28 simrobot-ns"
+                self.dt = quantity_field(fields.DT, "simrobot-dt", self.on_world, self.doc.dt)
+                self.steps_limit = (
+                    ui.input(fields.STEPS_LIMIT.label, value=fields.steps_text(self.doc.steps_limit),
+                             placeholder="inf", validation=fields.STEPS_LIMIT.problem, on_change=self.on_world)
+                    .props("hide-bottom-space").classes("simrobot-steps-limit")
+                    .style(field_width(fields.STEPS_LIMIT.label))
+                )  # fmt: skip
+                self.step_time = quantity_field(fields.STEP_TIME, "simrobot-step-time", self.on_world,
+                                                self.doc.replay_step_time)  # fmt: skip
+                self.lockstep = ui.checkbox("lockstep", value=False, on_change=self.on_world).classes(
+                    "simrobot-lockstep"
                 )
             with ui.row().classes("items-center gap-2"):
+                self.ns = ui.input("namespace", value=self.studio.free_namespace("simrobot")).classes(
+                    "w-32 simrobot-ns"
+                )
                 ui.button("Validate", on_click=self.validate).props("dense outline")
                 ui.button("Save world", on_click=self.save_world).props("dense color=primary")
                 ui.button("Run it", on_click=self.run_world).props("dense color=green")
 
     # ---------------------------------------------------------------- world
-    def on_world(self, _e=None) -> None:
-        if self.dt.value is not None:  # a bad dt is the world check's to refuse, with its reason
-            self.doc.dt = float(self.dt.value)
+    def world_fields(self) -> None:
+        """The world's fields into the draft; InputError naming the first field whose value is
+        refused (the draft keeps its last good value of it)."""
         self.doc.lockstep = bool(self.lockstep.value)
+        self.doc.dt = fields.DT.read(self.dt.value)
+        self.doc.steps_limit = fields.STEPS_LIMIT.read(self.steps_limit.value)
+        self.doc.replay_step_time = fields.STEP_TIME.read(self.step_time.value)
+        resolution = fields.RESOLUTION.read(self.resolution.value)
+        if resolution != self.doc.resolution:  # the cells stay, each of the new size: the map grows or shrinks
+            self.doc.resolution = resolution
+            self.map_dirty = True
+            self.fit()
+
+    def on_world(self, _e: object = None) -> None:
+        if self.filling:  # the fields being filled from a file opened: its values, not edits
+            return
+        with contextlib.suppress(InputError):  # the field shows it in red; Validate and Save refuse it
+            self.world_fields()
 
     def set_doc(self, doc: WorldDraft) -> None:
         self.doc = doc
         self.map_dirty = True
-        self.resolution.set_value(doc.resolution)
-        self.dt.set_value(doc.dt)
-        self.lockstep.set_value(doc.lockstep)
+        self.filling = True
+        try:
+            self.resolution.set_value(doc.resolution)
+            self.dt.set_value(doc.dt)
+            self.steps_limit.set_value(fields.steps_text(doc.steps_limit))
+            self.step_time.set_value(doc.replay_step_time)
+            self.lockstep.set_value(doc.lockstep)
+        finally:
+            self.filling = False
         self.select(None)
         self.fit()
 
     def new_map(self) -> None:
         try:
-            res = float(self.resolution.value or 0.01)
-            walls = blank_walls(float(self.blank_w.value or 0), float(self.blank_h.value or 0), res)
+            res = fields.RESOLUTION.read(self.resolution.value)
+            width, height = fields.BLANK_WIDTH.read(self.blank_w.value), fields.BLANK_HEIGHT.read(self.blank_h.value)
+            walls = blank_walls(width, height, res)
         except InputError as err:
             self.say(f"error: {err}", error=True)
             return
@@ -80,9 +109,9 @@ class EditorFiles(EditorBase):
         self.say(f"new blank map {walls.shape[0]} x {walls.shape[1]} cells")
 
     def import_map(self) -> None:
-        ws = self.studio.workspace
         try:
-            doc = WorldDraft.from_image(ws.path(self.map_name.value or ""), float(self.resolution.value or 0.01))
+            resolution = fields.RESOLUTION.read(self.resolution.value)
+            doc = WorldDraft.from_image(self.existing(self.map_name.value or "", "bitmap"), resolution)
         except InputError as err:
             self.say(f"error: {err}", error=True)
             return
@@ -110,12 +139,11 @@ class EditorFiles(EditorBase):
         return True
 
     def open_world(self) -> None:
-        ws = self.studio.workspace
         name = (self.world_name.value or "").strip()
         try:
-            spec = load_world(ws.path(name))
-            map_name = ws.relative(Path(spec.map_path))
-        except (InputError, ValueError) as err:
+            spec = load_world(self.existing(name, "world"))
+            map_name = self.map_in_workspace(name, Path(spec.map_path))
+        except InputError as err:
             self.say(f"error: {err}", error=True)
             return
         self.map_name.set_value(map_name)
@@ -125,6 +153,29 @@ class EditorFiles(EditorBase):
         self.draft_saved()
         self.say(f"opened {name}: {len(spec.robots)} robots")
 
+    def existing(self, name: str, kind: str) -> Path:
+        """The workspace file ``name`` to read; InputError saying what to do when it is a link
+        leading out of the workspace or to nothing (then the reader says what else is wrong)."""
+        path = self.studio.workspace.path(name)  # refuses a link out of the workspace
+        given = self.studio.workspace.root / name.strip()
+        if given.is_symlink() and not path.exists():
+            raise InputError(
+                f"{name.strip()}: the link leads to {os.readlink(given)!r}, which does not exist: "
+                f"point the link at a {kind} file or type another name"
+            )
+        return path
+
+    def map_in_workspace(self, world: str, map_path: Path) -> str:
+        """The world's bitmap as a workspace name; InputError saying what to do when it is outside."""
+        ws = self.studio.workspace
+        try:
+            return ws.relative(map_path)
+        except ValueError:
+            raise InputError(
+                f"{world}: its map {str(map_path)!r} is outside the workspace {ws.root}: "
+                "copy the bitmap into the workspace and name it in the world file's map:"
+            ) from None
+
     def map_ref(self) -> str:
         """The bitmap as the world file names it: relative to the world file's folder."""
         ws = self.studio.workspace
@@ -132,9 +183,10 @@ class EditorFiles(EditorBase):
         return os.path.relpath(ws.path(self.map_name.value or ""), world_dir)
 
     def validate(self) -> bool:
-        self.on_world()
         name = (self.world_name.value or "").strip() or "world.yaml"
         try:
+            self.world_fields()
+            self.form_fields()  # the robot and sensor shown: saved as they show
             spec = self.doc.check(name)
         except InputError as err:
             self.say(f"error: {err}", error=True)

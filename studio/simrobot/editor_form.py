@@ -11,17 +11,22 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from simrobot_sim.world_file import CONTROLLERS, DEFAULT_SHAPE, SENSOR_TYPES, RobotSpec, SensorSpec
 from studio.shell import svg
+from studio.simrobot import fields
 from studio.simrobot.doc import new_sensor, parse_vertices, vertices_text
-from studio.simrobot.editor_algorithms import AlgorithmChoice
-from studio.simrobot.editor_base import EditorBase
+from studio.simrobot.editor_algorithms import (
+    ALGORITHM_PREFIX,
+    AlgorithmChoice,
+    AlgorithmEditor,
+    editable_algorithm,
+    new_algorithm,
+)
+from studio.simrobot.editor_base import EditorBase, quantity_field
 
 NO_CONTROLLER = "(none: topics)"
 
 
 class EditorForm(EditorBase):
     """The robot and sensor forms, filled from the selection and written back on each edit."""
-
-    filling = False  # while the form is being filled from the selection (no edits)
 
     def build_robot(self) -> None:
         with ui.expansion("Robot", value=True).classes("w-full border"):
@@ -32,24 +37,38 @@ class EditorForm(EditorBase):
             with ui.column().classes("gap-1 w-full") as self.robot_form:
                 with ui.row().classes("items-center gap-2"):
                     self.f_name = ui.input("name", on_change=self.on_robot_field).classes("w-24 simrobot-robot-name")
-                    self.f_colour = ui.color_input("colour", on_change=self.on_robot_field).classes("w-32")
-                    self.f_power = ui.checkbox("power", on_change=self.on_robot_field)
+                    self.f_colour = ui.color_input("colour", on_change=self.on_robot_field).classes(
+                        "w-32 simrobot-colour"
+                    )
+                    self.f_power = ui.checkbox("power", on_change=self.on_robot_field).classes("simrobot-power")
                 with ui.row().classes("items-center gap-2"):
-                    self.f_x = self.number("x (m)", "simrobot-x")
-                    self.f_y = self.number("y (m)", "simrobot-y")
-                    self.f_heading = self.number("heading (°)", "simrobot-heading")
-                    self.f_scale = self.number("scale", "simrobot-scale")
+                    self.f_x = quantity_field(fields.X, "simrobot-x", self.on_robot_field)
+                    self.f_y = quantity_field(fields.Y, "simrobot-y", self.on_robot_field)
+                    self.f_heading = quantity_field(fields.HEADING, "simrobot-heading", self.on_robot_field)
+                    self.f_scale = quantity_field(fields.SCALE, "simrobot-scale", self.on_robot_field)
                 with ui.row().classes("items-center gap-2"):
-                    self.f_R = self.number("wheel radius (m)", "simrobot-R")
-                    self.f_la = self.number("half track (m)", "simrobot-la")
-                    self.f_lb = self.number("axle offset (m)", "simrobot-lb")
-                self.f_controller = ui.select(
-                    [NO_CONTROLLER, *CONTROLLERS],
-                    value=NO_CONTROLLER,
-                    label="controller",
-                    on_change=self.on_robot_field,
-                ).classes("w-56 simrobot-controller")
+                    self.f_R = quantity_field(fields.WHEEL_RADIUS, "simrobot-R", self.on_robot_field)
+                    self.f_la = quantity_field(fields.HALF_TRACK, "simrobot-la", self.on_robot_field)
+                    self.f_lb = quantity_field(fields.AXLE_OFFSET, "simrobot-lb", self.on_robot_field)
+                with ui.row().classes("items-center gap-2"):
+                    self.f_controller = ui.select(
+                        [NO_CONTROLLER, *CONTROLLERS],
+                        value=NO_CONTROLLER,
+                        label="controller",
+                        on_change=self.on_robot_field,
+                    ).classes("w-56 simrobot-controller")
+                    ui.button("Edit", on_click=self.edit_algorithm).props("dense outline").classes(
+                        "simrobot-algorithm-edit"
+                    )
+                with ui.row().classes("items-center gap-2"):
+                    self.f_new_algorithm = ui.input("new algorithm file", placeholder="alg_r1.m").classes(
+                        "w-44 simrobot-algorithm-name"
+                    )
+                    ui.button("New", on_click=self.new_algorithm).props("dense outline").classes(
+                        "simrobot-algorithm-new"
+                    )
                 self.algorithms = AlgorithmChoice(self.f_controller, self.studio.workspace, NO_CONTROLLER)
+                self.algorithm_editor = AlgorithmEditor(self.studio.workspace, self.say)
                 with ui.row().classes("items-end gap-2"):
                     self.f_shape = (
                         ui.textarea("shape: x, y per vertex (m)")
@@ -59,9 +78,6 @@ class EditorForm(EditorBase):
                     with ui.column().classes("gap-1"):
                         ui.button("Apply shape", on_click=self.apply_shape).props("dense outline")
                         ui.button("Default shape", on_click=self.default_shape).props("dense outline")
-
-    def number(self, label: str, css: str) -> ui.number:
-        return ui.number(label, format="%g", on_change=self.on_robot_field).classes(f"w-24 {css}")
 
     def build_sensors(self) -> None:
         with ui.expansion("Sensors (live beam preview)", value=True).classes("w-full border"):
@@ -77,16 +93,13 @@ class EditorForm(EditorBase):
                 self.s_kind = ui.select(list(SENSOR_TYPES), label="type", on_change=self.on_sensor_field).classes(
                     "w-28 simrobot-sensor-type"
                 )
-                self.s_x = self.sensor_number("x (m)", "simrobot-sx")
-                self.s_y = self.sensor_number("y (m)", "simrobot-sy")
-                self.s_axis = self.sensor_number("axis (°)", "simrobot-axis")
+                self.s_x = quantity_field(fields.SENSOR_X, "simrobot-sx", self.on_sensor_field)
+                self.s_y = quantity_field(fields.SENSOR_Y, "simrobot-sy", self.on_sensor_field)
+                self.s_axis = quantity_field(fields.AXIS, "simrobot-axis", self.on_sensor_field)
             with ui.row().classes("items-center gap-2"):
-                self.s_beam = self.sensor_number("beamwidth (°)", "simrobot-beamwidth")
-                self.s_range = self.sensor_number("range (m)", "simrobot-range")
-                self.s_rays = self.sensor_number("rays", "simrobot-rays")
-
-    def sensor_number(self, label: str, css: str) -> ui.number:
-        return ui.number(label, format="%g", on_change=self.on_sensor_field).classes(f"w-24 {css}")
+                self.s_beam = quantity_field(fields.BEAMWIDTH, "simrobot-beamwidth", self.on_sensor_field)
+                self.s_range = quantity_field(fields.RANGE, "simrobot-range", self.on_sensor_field)
+                self.s_rays = quantity_field(fields.RAYS, "simrobot-rays", self.on_sensor_field)
 
     # ---------------------------------------------------------------- robots
     def select(self, index: int | None) -> None:
@@ -155,36 +168,76 @@ class EditorForm(EditorBase):
         if not self.filling and e.value != self.selected:
             self.select(e.value)
 
-    def on_robot_field(self, _e=None) -> None:
+    def on_robot_field(self, _e: object = None) -> None:
         if self.filling or self.selected is None:
             return
-        r = self.doc.robots[self.selected]
         try:
-            name = (self.f_name.value or "").strip()
-            values = [self.f_x.value, self.f_y.value, self.f_heading.value, self.f_scale.value]
-            values += [self.f_R.value, self.f_la.value, self.f_lb.value]
-            if any(v is None for v in values) or not name:
-                return  # a field being typed into
-            r = replace(
-                r,
-                name=name,
-                color=svg.hex_rgb(self.f_colour.value) if (self.f_colour.value or "").startswith("#") else r.color,
-                power=bool(self.f_power.value),
-                position=(float(self.f_x.value), float(self.f_y.value)),
-                heading=math.radians(float(self.f_heading.value)),
-                scale=float(self.f_scale.value),
-                R=float(self.f_R.value),
-                la=float(self.f_la.value),
-                lb=float(self.f_lb.value),
-                **self.algorithms.chosen(),  # controller=…, algorithm=…
-            )
-        except (TypeError, ValueError) as err:
+            self.robot_fields()
+        except InputError:
+            return  # the field shows it in red; Validate and Save refuse it with its sentence
+        self.redraw()
+
+    def robot_fields(self) -> None:
+        """The shown robot's fields into the draft; InputError naming the first refused field."""
+        if self.selected is None:
+            return
+        r = self.doc.robots[self.selected]
+        name = (self.f_name.value or "").strip()
+        if not name:
+            raise InputError("name: empty: type the robot's name (letters, digits and _)")
+        colour = self.f_colour.value or ""
+        r = replace(
+            r,
+            name=name,
+            color=svg.hex_rgb(colour) if colour.startswith("#") and len(colour) == 7 else r.color,
+            power=bool(self.f_power.value),
+            position=(fields.X.read(self.f_x.value), fields.Y.read(self.f_y.value)),
+            heading=math.radians(fields.HEADING.read(self.f_heading.value)),
+            scale=fields.SCALE.read(self.f_scale.value),
+            R=fields.WHEEL_RADIUS.read(self.f_R.value),
+            la=fields.HALF_TRACK.read(self.f_la.value),
+            lb=fields.AXLE_OFFSET.read(self.f_lb.value),
+            **self.algorithms.chosen(),  # controller=…, algorithm=…
+        )
+        self.doc.robots[self.selected] = r
+        options = self.robot_select.options  # index → name (fill_form sets a dict)
+        if isinstance(options, dict) and options.get(self.selected) != r.name:
+            options[self.selected] = r.name
+            self.robot_select.update()
+
+    def form_fields(self) -> None:
+        """The shown robot and sensor into the draft, as the fields show them (Validate, Save)."""
+        self.robot_fields()
+        self.sensor_fields()
+
+    # ---------------------------------------------------------------- algorithm files
+    def edit_algorithm(self) -> None:
+        """The original's Algorithm > Edit: the chosen m-file's text, saved back to the workspace."""
+        ws = self.studio.workspace
+        try:
+            name = editable_algorithm(self.f_controller.value, ws)
+        except InputError as err:
             self.say(f"error: {err}", error=True)
             return
-        self.doc.robots[self.selected] = r
-        self.robot_select.options[self.selected] = r.name
-        self.robot_select.update()
-        self.redraw()
+        path = str(ws.path(name))
+        others = [r.name for i, r in enumerate(self.doc.robots) if r.algorithm == path and i != self.selected]
+        self.algorithm_editor.open(name, f" (also run by {', '.join(others)})" if others else "")
+
+    def new_algorithm(self) -> None:
+        """The original's Algorithm > New: a file from its template, chosen for this robot and opened."""
+        if self.selected is None:
+            self.say("select a robot first", error=True)
+            return
+        try:
+            name = new_algorithm(self.studio.workspace, self.f_new_algorithm.value or "")
+        except InputError as err:
+            self.say(f"error: {err}", error=True)
+            return
+        self.f_new_algorithm.set_value("")
+        self.algorithms.set(ALGORITHM_PREFIX + name)  # its on_change writes it to the robot
+        self.on_robot_field()
+        self.say(f"made {name} from the template: it now drives {self.doc.robots[self.selected].name}")
+        self.algorithm_editor.open(name)
 
     def apply_shape(self) -> None:
         if self.selected is None:
@@ -249,21 +302,27 @@ class EditorForm(EditorBase):
             self.fill_form()
 
     def on_sensor_field(self, _e: object = None) -> None:
-        r, index = self.robot(), self.selected
-        if self.filling or r is None or index is None or self.sensor is None:
+        if self.filling:
             return
-        values = [self.s_x.value, self.s_y.value, self.s_axis.value, self.s_beam.value, self.s_range.value]
-        if any(v is None for v in values) or self.s_rays.value is None:
+        try:
+            self.sensor_fields()
+        except InputError:
+            return  # the field shows it in red; Validate and Save refuse it with its sentence
+        self.redraw()
+
+    def sensor_fields(self) -> None:
+        """The shown sensor's fields into the draft; InputError naming the first refused field."""
+        r, index = self.robot(), self.selected
+        if r is None or index is None or self.sensor is None:
             return
         sensors = list(r.sensors)
         sensors[self.sensor] = replace(
             sensors[self.sensor],
             kind=self.s_kind.value,
-            position=(float(self.s_x.value), float(self.s_y.value)),
-            axis=math.radians(float(self.s_axis.value)),
-            beamwidth=math.radians(min(max(float(self.s_beam.value), 0.0), 360.0)),
-            range=max(float(self.s_range.value), 1e-6),
-            rays=max(int(self.s_rays.value), 1),
+            position=(fields.SENSOR_X.read(self.s_x.value), fields.SENSOR_Y.read(self.s_y.value)),
+            axis=math.radians(fields.AXIS.read(self.s_axis.value)),
+            beamwidth=math.radians(fields.BEAMWIDTH.read(self.s_beam.value)),
+            range=fields.RANGE.read(self.s_range.value),
+            rays=int(fields.RAYS.read(self.s_rays.value)),
         )
         self.doc.robots[index] = replace(r, sensors=tuple(sensors))
-        self.redraw()

@@ -101,6 +101,7 @@ class SimrobotPage(SimrobotView):
                 ui.link("Build one in the editor", "/simrobot/editor").classes("text-sm")
                 with ui.card().classes("w-full"):
                     ui.label("Run").classes("font-bold")
+                    self.steps_label = ui.label("").classes("simrobot-steps font-mono text-sm")
                     with ui.row().classes("items-center gap-2"):
                         self.pause_switch = ui.switch("Pause", on_change=self.on_pause).classes("simrobot-pause")
                         ui.button("Step", on_click=self.step).props("dense outline").classes("simrobot-step")

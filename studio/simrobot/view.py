@@ -14,10 +14,18 @@ from nicegui.elements.interactive_image import InteractiveImageLayer
 from simrobot_sim.world_file import WorldSpec
 from studio.shell import svg
 from studio.shell.kit import ZoomableView
-from studio.simrobot.draw import beams_svg, map_data_url, map_svg, robot_svg, track_svg
+from studio.simrobot.draw import beams_svg, hit_radius_m, map_data_url, map_svg, robot_svg, track_svg
 from studio.simrobot.ros_client import SimrobotRos, SimrobotSide, WorldState
 
 TRACKS_PERIOD_S = 1.0
+
+
+def steps_text(st: WorldState, spec: WorldSpec) -> str:
+    """The original's step counter and the sim time: ``step 37 of 300 · sim time 3.70 s``."""
+    step = round(st.sim_time / spec.dt)
+    limit = f" of {spec.steps_limit:.0f}" if math.isfinite(spec.steps_limit) else ""
+    done = " (steps limit reached: the world stopped)" if step >= spec.steps_limit else ""
+    return f"step {step}{limit} · sim time {st.sim_time:.2f} s{done}"
 
 
 def info_html(st: WorldState, i: int) -> str:
@@ -59,6 +67,7 @@ class SimrobotView(ZoomableView):
     track_layer: InteractiveImageLayer
     dynamic: InteractiveImageLayer
     info: ui.html
+    steps_label: ui.label
 
     def world(self) -> WorldState | None:
         """The selected world once its file is read (:meth:`loaded`)."""
@@ -96,6 +105,7 @@ class SimrobotView(ZoomableView):
             self.view_dirty = False
             self.frames += 1
             self.dynamic.set_content(self.dynamic_svg(st, spec))
+            self.steps_label.set_text(steps_text(st, spec))
 
     def draw_map(self) -> None:
         loaded = self.loaded()
@@ -176,8 +186,7 @@ class SimrobotView(ZoomableView):
         st, spec = loaded
         d = np.hypot(st.poses[:, 0] - x, st.poses[:, 1] - y)
         i = int(np.argmin(d))
-        reach = max(math.hypot(*p) for p in spec.robots[i].shape) * spec.robots[i].scale
-        if d[i] > reach + 10.0 / self.view.scale:
+        if d[i] > hit_radius_m(self.view, spec.robots[i]) + 4.0 / self.view.scale:
             return
         self.robot = i
         self.info.set_content(info_html(st, i))
