@@ -87,6 +87,8 @@ class CreateModel:
     # Virtual-wall field per setting 1, 2, 3: (range m, full opening angle rad).
     VWALL_FIELDS: ClassVar[dict[int, tuple[float, float]]] = spec.VWALL_FIELDS
     BUMP_FRONT_HALF = spec.BUMP_FRONT_HALF_RAD
+    #: A wall this close to the body touches it (m): presses a bumper in front, a contact anywhere.
+    CONTACT_M = CONTACT_SKIN
     CLIFF_FLOOR = spec.CLIFF_FLOOR_SIGNAL
     CLIFF_LINE = spec.CLIFF_LINE_SIGNAL
     # Cliff sensor windows on the perimeter, relative to the heading, order [L, FL, FR, R].
@@ -158,6 +160,12 @@ class CreateModel:
     def clearance(self) -> float:
         """Gap between the body and the nearest wall (m); inf without walls."""
         return nearest_distance(self.grid.segments, self._pose[0], self._pose[1]) - self.RADIUS
+
+    def touching(self) -> bool:
+        """Whether a wall touches the body anywhere round it, bumper or not (a collision from any
+        side: the bumpers cover only the front half). "Touching" is the bumpers' own reach, so a
+        pressed bumper is always a touch."""
+        return self.clearance() <= self.CONTACT_M
 
     def _check_pose(self, x: float, y: float, theta: float) -> None:
         if not all(math.isfinite(float(v)) for v in (x, y, theta)):
@@ -270,7 +278,7 @@ class CreateModel:
     def bumps(self) -> tuple[bool, bool]:
         """(left, right) bumpers; a hit in front presses both."""
         x, y, th = self._pose
-        left, right = bumper_hits_unpacked(*self.grid, x, y, th, self.RADIUS + CONTACT_SKIN, self.BUMP_FRONT_HALF)
+        left, right = bumper_hits_unpacked(*self.grid, x, y, th, self.RADIUS + self.CONTACT_M, self.BUMP_FRONT_HALF)
         return bool(left), bool(right)
 
     def cliff_signals(self) -> np.ndarray:

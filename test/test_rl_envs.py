@@ -128,7 +128,7 @@ def test_an_action_sequence_through_the_env_equals_stepping_the_create_model_dir
     assert np.array_equal(obs[:-2], _readings(model))
     rng = np.random.default_rng(0)
     for k in range(60):
-        action = rng.uniform(env.action_space.low, env.action_space.high).astype(np.float32)
+        action = np.array([rng.uniform(-0.2, 0.5), rng.uniform(-2.0, 2.0)], dtype=np.float32)  # wandering
         obs, _r, terminated, _t, info = env.step(action)
         model.set_velocity(float(action[0]), float(action[1]))
         for _ in range(round(0.1 * spec.PHYSICS_RATE)):
@@ -140,7 +140,7 @@ def test_an_action_sequence_through_the_env_equals_stepping_the_create_model_dir
     assert k > 10  # long enough to compare (no bump at once)
 
 
-def test_driving_into_a_wall_ends_the_episode_with_the_bump_penalty():
+def test_driving_into_a_wall_ends_the_episode_with_the_collision_penalty():
     # 0.25 m from the outer wall at x = -2, facing it
     env = CreateNavEnv(start=(-1.75 + 0.01, 0.0, np.pi), goal=(3.0, 0.0), sensors=("bump", "goal"))
     env.reset(seed=0)
@@ -148,9 +148,46 @@ def test_driving_into_a_wall_ends_the_episode_with_the_bump_penalty():
         obs, reward, terminated, truncated, info = env.step(np.array([0.3, 0.0], dtype=np.float32))
         if terminated:
             break
-    assert terminated and info["bumped"] and not truncated
+    assert terminated and info["collided"] and info["bumped"] and not truncated
     assert reward < -9.0
     assert obs[:2].tolist() == [1.0, 1.0]  # both bumpers: a hit in front
+
+
+@pytest.mark.parametrize("env_class", [CreateNavEnv, CreateCoverEnv])
+def test_reversing_into_a_wall_is_a_collision_though_no_bumper_is_pressed(env_class):
+    # 0.25 m from the outer wall at x = -2, its back to it: the bumpers (front half) never touch it
+    extra = {"goal": (3.0, 0.0)} if env_class is CreateNavEnv else {}
+    env = env_class(start=(-1.75 + 0.01, 0.0, 0.0), sensors=("bump",), **extra)
+    env.reset(seed=0)
+    for _ in range(20):
+        obs, reward, terminated, truncated, info = env.step(np.array([-0.3, 0.0], dtype=np.float32))
+        if terminated:
+            break
+    assert terminated and info["collided"] and not truncated
+    assert not info["bumped"] and obs.tolist() == [0.0, 0.0]
+    assert reward < -9.0
+    assert env.model is not None and env.model.touching() and env.model.clearance() < 1e-6
+
+
+def test_the_collision_flag_is_the_models_contact_state_after_any_physics_step_of_the_period():
+    # random actions, played on after collisions, against a bare model stepped with the same commands
+    env = CreateNavEnv(start=(-1.5, -1.0, 0.0), goal=(3.0, 1.0), sensors=("goal",), max_steps=10**6)
+    env.reset(seed=3)
+    model = CreateModel(load_map(config_path("create/example.map")), pose=(-1.5, -1.0, 0.0))
+    rng = np.random.default_rng(3)
+    flags = []
+    for k in range(400):
+        if k % 15 == 0:  # wandering: each command held for 1.5 s
+            action = np.array([rng.uniform(-0.5, 0.5), rng.uniform(-1.0, 1.0)], dtype=np.float32)
+        _obs, _reward, _terminated, _truncated, info = env.step(action)
+        model.set_velocity(*action.tolist())
+        touched = []
+        for _ in range(env.substeps):
+            model.step(1.0 / spec.PHYSICS_RATE)
+            touched.append(model.touching())
+        assert info["collided"] == any(touched)
+        flags.append(info["collided"])
+    assert 0 < sum(flags) < len(flags)  # both kinds of steps were seen
 
 
 def test_reaching_the_goal_ends_the_episode_with_the_goal_reward():
@@ -207,6 +244,38 @@ def test_the_ids_make_the_envs_through_gymnasium():
     assert arm.reset(seed=0)[0].shape == (7 + 6,)
     many = gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=3, sensors=("goal",))
     assert many.reset(seed=0)[0].shape == (3, 2)
+
+
+def test_the_ids_say_their_episode_length_and_gymnasium_make_truncates_there():
+    env = gymnasium.make("robot_sims/CreateNav-v0", sensors=("goal",), start=(-1.5, -1.0, 0.0), goal=(3.0, 1.0))
+    assert env.spec is not None and env.spec.max_episode_steps == 600
+    assert gymnasium.spec("robot_sims/ArmReach-v0").max_episode_steps == 200
+    short = gymnasium.make("robot_sims/CreateNav-v0", max_episode_steps=4, start=(-1.5, -1.0, 0.0), goal=(3.0, 1.0))
+    short.reset(seed=0)
+    truncations = [short.step(np.zeros(2, dtype=np.float32))[3] for _ in range(4)]
+    assert truncations == [False, False, False, True]
+    with pytest.raises(InputError, match="max_episode_steps=50"):
+        gymnasium.make("robot_sims/CreateNav-v0", max_steps=50)
+    many = gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=2, sensors=("goal",))
+    assert all(e.max_steps == 600 for e in many.unwrapped.envs)
+
+
+@pytest.mark.parametrize("env_class", [CreateNavEnv, ArmReachEnv])
+def test_a_normalised_action_space_maps_minus_one_to_one_onto_the_robots_limits(env_class):
+    plain, normal = env_class(), env_class(normalize_actions=True)
+    box = plain.action_space
+    assert np.array_equal(normal.action_space.low, -np.ones(box.shape)) and normal.action_space.high.max() == 1.0
+    assert np.array_equal(normal.physical_action_space.high, box.high)
+    rng = np.random.default_rng(0)
+    for env in (plain, normal):
+        env.reset(seed=4)
+    for _ in range(20):
+        a = rng.uniform(-1.0, 1.0, box.shape).astype(np.float32)
+        physical = (box.low + 0.5 * (a.astype(float) + 1.0) * (box.high - box.low)).astype(np.float32)
+        obs_plain, *_ = plain.step(physical)
+        obs_normal, *_ = normal.step(a)
+        assert np.allclose(obs_plain, obs_normal, atol=1e-5)
+    _checked(env_class(normalize_actions=True))
 
 
 def test_create_nav_renders_the_walls_and_the_track_as_an_rgb_array():

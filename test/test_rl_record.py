@@ -43,7 +43,9 @@ def play(env: gymnasium.Env, steps: int, seed: int = SEED) -> tuple[list[np.ndar
 @pytest.fixture(scope="module")
 def episode(tmp_path_factory) -> tuple[Path, dict, int, list[float]]:
     """A recorded CreateNav episode (fixed seed): its bag, last info, steps and rewards."""
-    env = RecordEpisodeBags(gymnasium.make("robot_sims/CreateNav-v0", max_steps=25), tmp_path_factory.mktemp("rec"))
+    env = RecordEpisodeBags(
+        gymnasium.make("robot_sims/CreateNav-v0", max_episode_steps=25), tmp_path_factory.mktemp("rec")
+    )
     _obs, rewards, info = play(env, 25)
     steps = env.unwrapped.steps
     env.close()
@@ -84,8 +86,8 @@ def test_a_recorded_episode_is_a_bag_of_the_worlds_topics_ending_where_the_env_e
 
 def test_recording_leaves_a_noisy_episode_exactly_as_it_plays_unrecorded(tmp_path):
     noisy = {"config_file": config_path("create/example_config.txt"), "sensors": ("lidar", "sonar", "bump", "goal")}
-    plain = play(gymnasium.make("robot_sims/CreateNav-v0", max_steps=15, **noisy), 15)
-    env = RecordEpisodeBags(gymnasium.make("robot_sims/CreateNav-v0", max_steps=15, **noisy), tmp_path)
+    plain = play(gymnasium.make("robot_sims/CreateNav-v0", max_episode_steps=15, **noisy), 15)
+    env = RecordEpisodeBags(gymnasium.make("robot_sims/CreateNav-v0", max_episode_steps=15, **noisy), tmp_path)
     recorded = play(env, 15)
     env.close()
     assert len(plain[0]) == len(recorded[0])
@@ -127,7 +129,7 @@ def test_the_track_picture_and_the_studio_replay_draw_a_recorded_episode(episode
 
 def test_only_triggered_episodes_are_recorded_and_an_episode_cut_short_says_so(tmp_path):
     env = RecordEpisodeBags(
-        gymnasium.make("robot_sims/CreateCover-v0", max_steps=3), tmp_path, episode_trigger=lambda n: n != 1
+        gymnasium.make("robot_sims/CreateCover-v0", max_episode_steps=3), tmp_path, episode_trigger=lambda n: n != 1
     )
     for seed in (1, 2, 3):
         play(env, 3, seed)
@@ -154,7 +156,7 @@ def test_bags_are_never_overwritten_and_only_create_envs_are_recorded(tmp_path):
 def test_a_recorded_arm_reach_episode_is_a_bag_of_the_arm_worlds_topics_that_replay_and_rerun_draw(tmp_path):
     from sim_tools.rerun_view.convert import main
 
-    env = RecordEpisodeBags(gymnasium.make("robot_sims/ArmReach-v0", max_steps=20), tmp_path)
+    env = RecordEpisodeBags(gymnasium.make("robot_sims/ArmReach-v0", max_episode_steps=20), tmp_path)
     env.reset(seed=SEED)
     for _ in range(20):
         env.step(np.full(env.action_space.shape, 0.5, dtype=np.float32))  # some joints reach a limit

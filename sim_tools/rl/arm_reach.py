@@ -5,10 +5,12 @@ config (``robot="irb120"``, ``"csa7"`` (7 joints) or a config file's path).
 
 - **Action**: joint velocities (rad/s, m/s for a prismatic joint) within the config's velocity
   limits; each step integrates them over ``control_period_s`` and holds the joints in their limits.
+  ``normalize_actions=True``: ``[-1, 1]`` per joint, mapped linearly onto those limits.
 - **Observation** (float32): the joint positions, then the flange's pose error to the target in the
   world frame: position (3, m) and rotation vector (3, rad) of ``R_target R_flangeᵀ``.
 - **Reward** per step: ``-(position error m + 0.1 × rotation error rad)``; reaching the target
-  (within ``tolerance_m`` and ``tolerance_rad``) adds ``+10`` and terminates; ``max_steps`` truncate.
+  (within ``tolerance_m`` and ``tolerance_rad``) adds ``+10`` and terminates; ``max_steps`` truncate
+  (``None``: never; ``gymnasium.make`` then truncates by its ``max_episode_steps``, registered 200).
 - **Randomised per reset(seed=…)**: the start joints and the target (the flange pose of random
   joints within the limits, so it is reachable); ``start`` / ``target_q`` fix them.
 """
@@ -28,6 +30,7 @@ from gymnasium import spaces
 from arm_sim.arm import Arm
 from sim_runtime.errors import InputError
 from sim_runtime.paths import config_path
+from sim_tools.rl.kernels import normalized_box, physical_action
 
 ROTATION_WEIGHT = 0.1  # metres of position error one radian of rotation error costs
 REACH_REWARD = 10.0
@@ -55,7 +58,8 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         tolerance_m: float = 0.01,
         tolerance_rad: float = 0.05,
         control_period_s: float = 0.05,
-        max_steps: int = 200,
+        max_steps: int | None = 200,
+        normalize_actions: bool = False,
         render_mode: str | None = None,
     ) -> None:
         if render_mode is not None:
@@ -66,9 +70,14 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
         self.target_q = self._joints(target_q, "target_q")
         self.tolerance_m, self.tolerance_rad = float(tolerance_m), float(tolerance_rad)
         self.dt = float(control_period_s)
-        self.max_steps = int(max_steps)
+        self.max_steps = int(max_steps) if max_steps is not None else math.inf
         limit = self.arm.velocity_limits.astype(np.float32)
-        self.action_space = spaces.Box(-limit, limit, dtype=np.float32)
+        #: The action's bounds in the joints' units (rad/s), whatever ``normalize_actions``.
+        self.physical_action_space = spaces.Box(-limit, limit, dtype=np.float32)
+        self.normalize_actions = bool(normalize_actions)
+        box = self.physical_action_space
+        self.action_space = normalized_box(box) if normalize_actions else box
+        self._act_bounds = (box.low.astype(float), box.high.astype(float))
         err = [MAX_POSITION_ERROR_M] * 3 + [math.pi] * 3
         low = np.concatenate([self.arm.lower, -np.array(err)]).astype(np.float32)
         high = np.concatenate([self.arm.upper, err]).astype(np.float32)
@@ -107,6 +116,8 @@ class ArmReachEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def step(self, action: np.ndarray):
         # kernels: the joints moved within their limits, then the flange's error and the observation
+        if self.normalize_actions:
+            action = physical_action(action, *self._act_bounds)
         self.q = _moved(self.q, np.asarray(action, dtype=float), self.dt, *self._limits)
         obs, position, rotation = _observation(self.q, self.target, self.arm.fkine(self.q))
         self.steps += 1

@@ -1,11 +1,12 @@
-"""``robot_sims/CreateCover-v0``: cover as much floor as possible without bumping.
+"""``robot_sims/CreateCover-v0``: cover as much floor as possible without collisions.
 
 :class:`~sim_tools.rl.create_nav.CreateNavEnv`'s world, actions, sensors (but no ``goal``),
 random starts and rendering. The floor is counted as ``robot_sims batch``'s
 ``create_area_covered_m2`` counts it: 5 cm squares whose centre the body covered, here sampled
 once per env step.
 
-- **Reward** per step: ``100 × m² newly covered − 0.01``; a bump adds ``-10`` and terminates;
+- **Reward** per step: ``100 × m² newly covered − 0.01``; a collision (a wall touching the body
+  from any side, as CreateNav counts it) adds ``-10`` and terminates;
   ``max_steps`` steps truncate (there is no goal: covering never terminates).
 """
 
@@ -20,13 +21,13 @@ import numpy as np
 from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
 from sim_tools.adapters.create.world import COVERAGE_CELL_M, COVERAGE_KEY_SPAN, coverage_disc
-from sim_tools.rl.create_nav import BUMP_PENALTY, STEP_COST, TRACK_COLOR, CreateNavEnv
+from sim_tools.rl.create_nav import COLLISION_PENALTY, STEP_COST, TRACK_COLOR, CreateNavEnv
 
 AREA_REWARD = 100.0  # per m² newly covered (one 5 cm square: 0.25)
 
 
 class CreateCoverEnv(CreateNavEnv):
-    """Cover the floor without bumping (see the module's docstring)."""
+    """Cover the floor without touching a wall (see the module's docstring)."""
 
     def __init__(self, *args: Any, sensors: Sequence[str] = ("lidar", "bump"), **kwargs: Any) -> None:
         if "goal" in sensors:
@@ -42,17 +43,17 @@ class CreateCoverEnv(CreateNavEnv):
         self.covered = set()
         self._last_cell = None
         self._cover()
-        return obs, self._cover_info(False)
+        return obs, self._cover_info(False, False)
 
     def step(self, action: np.ndarray):
         bumps = self._advance(action).bumps()
         obs = self._observe(bumps)
         reward = AREA_REWARD * self._cover() - STEP_COST
-        bumped = bumps[0] or bumps[1]
-        if bumped:
-            reward -= BUMP_PENALTY
-        truncated = self.steps >= self.max_steps and not bumped
-        return obs, float(reward), bumped, truncated, self._cover_info(bumped)
+        collided = self.collided
+        if collided:
+            reward -= COLLISION_PENALTY
+        truncated = self.steps >= self.max_steps and not collided
+        return obs, float(reward), collided, truncated, self._cover_info(bumps[0] or bumps[1], collided)
 
     def _cover(self) -> float:
         """Add the cells under the body now; the area newly covered (m²)."""
@@ -68,9 +69,10 @@ class CreateCoverEnv(CreateNavEnv):
     def _drawn(self) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, float, float]]]:
         return {"create": np.array(self.track)}, {"create": TRACK_COLOR}
 
-    def _cover_info(self, bumped: bool) -> dict[str, Any]:
+    def _cover_info(self, bumped: bool, collided: bool) -> dict[str, Any]:
         return {
             "pose": self._pose,
             "area_covered_m2": len(self.covered) * COVERAGE_CELL_M**2,
             "bumped": bumped,
+            "collided": collided,
         }

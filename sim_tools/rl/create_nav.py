@@ -1,10 +1,11 @@
-"""``robot_sims/CreateNav-v0``: drive a Create to a goal region on a map file without bumping.
+"""``robot_sims/CreateNav-v0``: drive a Create to a goal region on a map file without collisions.
 
 A Gymnasium environment over the pure :class:`~create_sim.model.CreateModel` (no ROS): the same
 physics and sensor models as the ROS world, stepped at the world's physics rate.
 
 - **Action**: ``[v, ω]`` (m/s, rad/s) within the robot's limits (each wheel ±``MAX_WHEEL_SPEED``);
-  a pair beyond one wheel's limit is clamped per wheel, as the world does.
+  a pair beyond one wheel's limit is clamped per wheel, as the world does. ``normalize_actions=True``:
+  ``[-1, 1]`` in both, mapped linearly onto those bounds (0 = stopped).
 - **Observation**: one float32 vector, the parts chosen by ``sensors`` in this order (each read
   from the model in this order after every step, so noise draws are reproducible):
   ``lidar`` (``lidar_beams`` ranges, m, evenly picked from the 681 beams, no return = max range),
@@ -13,8 +14,13 @@ physics and sensor models as the ROS world, stepped at the world's physics rate.
   (distance m and bearing rad of the goal from the robot, as its noisy odometry believes it is:
   the goal is given once, relative to the start, like a real robot's).
 - **Reward** per step: ``10 × (metres closer to the goal)`` (true pose) ``- 0.01``; reaching the
-  goal (centre within ``goal_radius_m``) adds ``+10`` and terminates; a bump adds ``-10`` and
-  terminates; ``max_steps`` steps truncate.
+  goal (centre within ``goal_radius_m``) adds ``+10`` and terminates; a collision adds ``-10`` and
+  terminates; ``max_steps`` steps truncate (``None``: never; ``gymnasium.make`` then truncates by
+  its ``max_episode_steps``, registered as 600).
+- **Collision**: a wall touched the body at the end of any physics step of the env step, from any
+  side (:meth:`~create_sim.model.CreateModel.touching`): the bumpers cover only the front half, so
+  reversing or sliding into a wall is a collision without a bump. ``info["collided"]`` says it,
+  ``info["bumped"]`` whether a bumper is pressed at the step's end.
 - **Randomised per reset(seed=…)**: the start pose and the goal (poses clear of every wall in the
   walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``, the goal reachable from
   the start (:mod:`~sim_tools.rl.create_regions`) and outside the goal region), and the noise stream;
@@ -44,6 +50,7 @@ from sim_runtime.paths import config_path
 from sim_tools.adapters.create.world import random_create_poses
 from sim_tools.rl.create_regions import map_regions
 from sim_tools.rl.create_sensors import (
+    DEFAULT_GOAL_RADIUS_M,
     DEFAULT_SENSORS,
     MAX_GOAL_DISTANCE_M,
     WRITE,
@@ -51,11 +58,12 @@ from sim_tools.rl.create_sensors import (
     goal_in_odom,
     lidar_index,
 )
+from sim_tools.rl.kernels import normalized_box, physical_action
 
 PROGRESS_REWARD = 10.0  # per metre closer to the goal
 STEP_COST = 0.01
 GOAL_REWARD = 10.0
-BUMP_PENALTY = 10.0
+COLLISION_PENALTY = 10.0
 #: A random start or goal is at least this clear of every wall (m).
 START_MARGIN_M = 0.1
 #: Random draws of a start and goal before giving up (a map with no room for a fair pair).
@@ -63,10 +71,13 @@ MAX_DRAWS = 100
 TRACK_COLOR = (0.1, 0.4, 0.9)
 GOAL_COLOR = (0.1, 0.8, 0.2)
 MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
+#: A wall within a control period's travel plus this (m: the contact reach and the physics' push-out
+#: slack) is checked for contact after every physics step.
+_CHECK_MARGIN_M = CreateModel.CONTACT_M + 1e-6
 
 
 class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
-    """Navigate to a goal region without bumping (see the module's docstring)."""
+    """Navigate to a goal region without touching a wall (see the module's docstring)."""
 
     # render_fps: one frame per step at the default control period (0.1 s)
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012 (Gymnasium's own attribute)
@@ -80,9 +91,10 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         lidar_beams: int = 24,
         start: Sequence[float] | None = None,
         goal: Sequence[float] | None = None,
-        goal_radius_m: float = 0.3,
+        goal_radius_m: float = DEFAULT_GOAL_RADIUS_M,
         control_period_s: float = 0.1,
-        max_steps: int = 600,
+        max_steps: int | None = 600,
+        normalize_actions: bool = False,
         render_mode: str | None = None,
     ) -> None:
         self.sensors = checked_sensors(sensors)
@@ -95,17 +107,24 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.start, self.goal = start, goal
         self.goal_radius_m = float(goal_radius_m)
         self.substeps = max(1, round(control_period_s * spec.PHYSICS_RATE))
-        self.max_steps = int(max_steps)
+        self.max_steps = int(max_steps) if max_steps is not None else math.inf
         self.lidar_index = lidar_index(lidar_beams)
-        self.action_space = spaces.Box(
+        #: The action's bounds in the robot's units (m/s, rad/s), whatever ``normalize_actions``.
+        self.physical_action_space = spaces.Box(
             np.array([-CreateModel.MAX_WHEEL_SPEED, -MAX_W], dtype=np.float32),
             np.array([CreateModel.MAX_WHEEL_SPEED, MAX_W], dtype=np.float32),
         )
+        self.normalize_actions = bool(normalize_actions)
+        box = self.physical_action_space
+        self.action_space = normalized_box(box) if normalize_actions else box
+        self._act_bounds = (box.low.astype(float), box.high.astype(float))
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self._obs_size = low.shape[0]
         self._parts = [(_RAW.get(name), WRITE[name]) for name in self.sensors]  # read None: the bumps
         self.model: CreateModel | None = None
+        #: Whether a wall touched the body during the last step (see :meth:`_advance`).
+        self.collided = False
         self.track: list[tuple[float, float]] = []
         self._pose = np.zeros(3)  # the true pose after the last step or reset
         self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
@@ -173,32 +192,43 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return far and (regions.region(start[0], start[1]) < 0 or regions.connected(start, goal))
 
     def step(self, action: np.ndarray):
-        bumps = self._advance(action).bumps()
+        model = self._advance(action)
+        bumps = model.bumps()
         obs = self._observe(bumps)
         before, self.distance_m = self.distance_m, self._true_distance()
         reward = PROGRESS_REWARD * (before - self.distance_m) - STEP_COST
-        bumped = bumps[0] or bumps[1]
+        collided = self.collided
         reached = self.distance_m <= self.goal_radius_m
         if reached:
             reward += GOAL_REWARD
-        if bumped:
-            reward -= BUMP_PENALTY
-        truncated = self.steps >= self.max_steps and not (reached or bumped)
-        return obs, float(reward), bool(reached or bumped), truncated, self._info(bumped=bumped)
+        if collided:
+            reward -= COLLISION_PENALTY
+        truncated = self.steps >= self.max_steps and not (reached or collided)
+        info = self._info(bumped=bumps[0] or bumps[1], collided=collided)
+        return obs, float(reward), bool(reached or collided), truncated, info
 
     def _advance(self, action: np.ndarray) -> CreateModel:
-        """One control period at the action's (v, ω), the track extended."""
+        """One control period at the action's (v, ω), the track extended; :attr:`collided` says
+        whether a wall touched the body after any of its physics steps (a touch in mid-period that
+        the body slid off by the period's end is a collision too, as ``robot_sims batch``'s
+        ``collisions`` counts it from every physics step)."""
         model = self._model()
+        if self.normalize_actions:
+            action = physical_action(action, *self._act_bounds)
         v, w = np.asarray(action).tolist()  # plain floats (a float32 pair's values exactly)
         model.set_velocity(v, w)
         dt, hook = 1.0 / spec.PHYSICS_RATE, self.on_physics_step
-        if hook is None:
-            for _ in range(self.substeps):
-                model.step(dt)
-        else:
-            for _ in range(self.substeps):
-                model.step(dt)
+        # The body never moves faster than commanded (walls only slow it), so a wall further than
+        # this period's travel cannot be touched in it: no contact check per physics step then.
+        near = model.clearance() <= abs(model.command[0]) * dt * self.substeps + _CHECK_MARGIN_M
+        touched = False
+        for _ in range(self.substeps):
+            model.step(dt)
+            if hook is not None:
                 hook(model)
+            if near and not touched:
+                touched = model.touching()
+        self.collided = touched
         self.steps += 1
         self._pose = model.pose  # the info's (a fresh array each step)
         x, y, _ = self._pose.tolist()
@@ -259,12 +289,13 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         x, y = self.track[-1]  # where the body is now
         return math.hypot(self.goal_xy[0] - x, self.goal_xy[1] - y)
 
-    def _info(self, bumped: bool = False) -> dict[str, Any]:
+    def _info(self, bumped: bool = False, collided: bool = False) -> dict[str, Any]:
         return {
             "pose": self._pose,
             "goal": np.array(self.goal_xy),
             "distance_m": self.distance_m,
             "bumped": bumped,
+            "collided": collided,
             "is_success": self.distance_m <= self.goal_radius_m,
         }
 

@@ -21,6 +21,8 @@ SENSORS = ("lidar", "sonar", "bump", "cliff", "goal")
 DEFAULT_SENSORS = ("lidar", "bump", "goal")
 #: The goal distance an observation reports at most (m).
 MAX_GOAL_DISTANCE_M = 20.0
+#: The goal region's radius (m) unless a CreateNav env (or its policy file) says otherwise.
+DEFAULT_GOAL_RADIUS_M = 0.3
 
 
 def observation(raw: dict[str, Any], goal_odom: tuple[float, float]) -> np.ndarray:

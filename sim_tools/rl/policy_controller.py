@@ -10,6 +10,12 @@ The goal (parameter ``goal``, map frame) is turned into the odometry frame once,
 ``overhead_pose`` and the odometry of the same instant: a real robot is given its goal once,
 relative to where it stands, and then has only its odometry.
 
+At the goal it stops, as the env's episode ends there: once the odometry puts the robot within the
+policy's ``goal_radius_m`` (its env option, default 0.3 m) of the goal, the node sends ``[0, 0]``
+every control period from then on (``stop_at_goal:=false`` lets the policy drive on; a policy
+without a goal, CreateCover's, never stops). It judges by odometry, the only pose a robot has: with
+odometry noise it stops where it *believes* the goal is.
+
     robot_sims policy_controller --ros-args -p policy:=examples/learning/create_nav_policy.npz -p goal:=[1.5,1.0]
 """
 
@@ -31,6 +37,7 @@ from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
 from sim_tools.rl.create_sensors import (
+    DEFAULT_GOAL_RADIUS_M,
     DEFAULT_SENSORS,
     blank_readings,
     checked_sensors,
@@ -41,7 +48,8 @@ from sim_tools.rl.create_sensors import (
 from sim_tools.rl.policy import MlpPolicy, load_policy
 
 #: The environments whose policies this node runs.
-CREATE_ENVS = ("robot_sims/CreateNav-v0", "robot_sims/CreateCover-v0")
+NAV_ENV = "robot_sims/CreateNav-v0"
+CREATE_ENVS = (NAV_ENV, "robot_sims/CreateCover-v0")
 DEFAULT_CONTROL_PERIOD_S = 0.1
 DEFAULT_LIDAR_BEAMS = 24
 
@@ -59,6 +67,12 @@ class PolicyControllerNode(CheckedNode):
             "the goal [x, y] in the map frame (m), for a policy that observes its goal",
         )
         self.goal_map = (float(goal[0]), float(goal[1]))
+        self.stop_at_goal = self.declare_checked(
+            "stop_at_goal",
+            True,
+            None,
+            "stop (send [0, 0] every control period) once odometry puts the robot in the goal region",
+        )
         self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
         if self.describe_only:
             return
@@ -67,6 +81,12 @@ class PolicyControllerNode(CheckedNode):
         self.sensors = checked_sensors(options.get("sensors", DEFAULT_SENSORS))
         self.beams = lidar_index(int(options.get("lidar_beams", DEFAULT_LIDAR_BEAMS)))
         self.period_s = float(options.get("control_period_s", DEFAULT_CONTROL_PERIOD_S))
+        #: The goal region's radius (m) if the policy has a goal (a CreateNav policy), else None.
+        self.goal_radius_m: float | None = (
+            float(options.get("goal_radius_m", DEFAULT_GOAL_RADIUS_M)) if self.policy.env_id == NAV_ENV else None
+        )
+        #: Whether the robot has reached the goal (by odometry) and stopped there.
+        self.at_goal = False
         self.raw: dict[str, np.ndarray] = {}
         #: per part, the sim time (s) of each of its topics' last message
         self.stamps: dict[str, np.ndarray] = {}
@@ -136,14 +156,27 @@ class PolicyControllerNode(CheckedNode):
             self.act()
 
     def act(self) -> None:
-        """The policy's command for the latest readings, published."""
+        """The policy's command for the latest readings, published ([0, 0] at the goal)."""
         assert self.goal_odom is not None
-        raw = {name: self.raw[name] for name in self.sensors}  # in the env's order
-        v, w = self.policy.act(observation(raw, self.goal_odom)).tolist()
+        if self._reached():
+            v, w = 0.0, 0.0
+        else:
+            raw = {name: self.raw[name] for name in self.sensors}  # in the env's order
+            v, w = self.policy.act(observation(raw, self.goal_odom)).tolist()
         cmd = Twist()
         cmd.linear.x, cmd.angular.z = float(v), float(w)
         self.cmd_pub.publish(cmd)
         self.actions += 1
+
+    def _reached(self) -> bool:
+        """Whether the robot is (or was: it stays stopped) in the goal region, by its odometry."""
+        if self.at_goal or not self.stop_at_goal or self.goal_radius_m is None or self.goal_odom is None:
+            return self.at_goal
+        x, y = self.raw["goal"][:2]
+        if math.hypot(self.goal_odom[0] - x, self.goal_odom[1] - y) <= self.goal_radius_m:
+            self.at_goal = True
+            self.get_logger().info(f"at the goal {list(self.goal_map)} (by odometry): stopped")
+        return self.at_goal
 
 
 def _checked_policy(path: str) -> MlpPolicy:

@@ -123,7 +123,15 @@ class RecordEpisodeBags(gym.Wrapper):
 
 def _outcome(info: dict[str, Any], terminated: bool, truncated: bool) -> dict[str, Any]:
     outcome = {"finished": True, "terminated": bool(terminated), "truncated": bool(truncated)}
-    for key in ("is_success", "bumped", "distance_m", "area_covered_m2", "position_error_m", "rotation_error_rad"):
+    for key in (
+        "is_success",
+        "bumped",
+        "collided",
+        "distance_m",
+        "area_covered_m2",
+        "position_error_m",
+        "rotation_error_rad",
+    ):
         if key in info:
             outcome[key] = info[key].item() if isinstance(info[key], np.generic) else info[key]
     return outcome

@@ -32,10 +32,17 @@ from sim_tools.rl.create_nav import CreateNavEnv
 _CLOSE_TIMEOUT_S = 5.0
 
 
-def vector_create_nav(num_envs: int, workers: int = 1, **env_kwargs: Any) -> CreateNavVectorEnv:
+def vector_create_nav(
+    num_envs: int, workers: int = 1, max_episode_steps: int | None = None, **env_kwargs: Any
+) -> CreateNavVectorEnv:
     """``num_envs`` Create navigation envs built with ``env_kwargs`` (``CreateNavEnv``'s
     arguments: map, config, sensors, start, goal, …), stepped together by ``workers`` processes
-    (this one included). ``gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=…)`` calls it."""
+    (this one included). ``gymnasium.make_vec("robot_sims/CreateNav-v0", num_envs=…)`` calls it,
+    with the registered ``max_episode_steps``: each sub-env's ``max_steps`` (give one of the two)."""
+    if max_episode_steps is not None:
+        if "max_steps" in env_kwargs:
+            raise InputError("max_steps and max_episode_steps: the same limit, give one")
+        env_kwargs["max_steps"] = max_episode_steps
     return CreateNavVectorEnv(num_envs, workers=workers, **env_kwargs)
 
 

@@ -194,6 +194,16 @@ def create_bumps(data: EpisodeData) -> int:
     return int(np.count_nonzero(np.diff(bump, prepend=0) > 0))
 
 
+def create_collisions(data: EpisodeData) -> int:
+    """Collision events: steps at which a wall came to touch the body, from any side, bumper pressed
+    or not (the bumpers cover only the front half: reversing into a wall is no bump). Touching is
+    the model's contact state, ``CreateModel.touching``, from the clearance recorded every step."""
+    from create_sim.model import CreateModel
+
+    touching = (data.arrays["clearance"] <= CreateModel.CONTACT_M).astype(np.int8)
+    return int(np.count_nonzero(np.diff(touching, prepend=0) > 0))
+
+
 def create_min_clearance_m(data: EpisodeData) -> float:
     """Smallest gap between the body and a wall over the episode (m; 0 = touching)."""
     from create_sim.physics import _TOUCH
@@ -239,6 +249,7 @@ def create_final_pose(data: EpisodeData) -> dict[str, float]:
 METRICS = {
     "distance_m": create_distance_m,
     "bumps": create_bumps,
+    "collisions": create_collisions,
     "min_clearance_m": create_min_clearance_m,
     "area_covered_m2": create_area_covered_m2,
     "goal_time_s": create_goal_time_s,
