@@ -414,6 +414,35 @@ def test_a_second_world_gets_the_next_free_namespace_and_clock_and_an_occupied_o
     wait(browser, lambda d: f"already runs in {NS}" in find(d, ".studio-world-error").text)
 
 
+def robot_shown(driver) -> str:
+    """The robot the Simulator page's selector shows ('' while none)."""
+    return find(driver, ".studio-robot .q-field__native").text.strip()
+
+
+def pick_robot(driver, ns: str) -> None:
+    find(driver, ".studio-robot").click()
+    wait(driver, lambda d: d.find_element(By.XPATH, f"//*[contains(@class,'q-item') and normalize-space(.)='{ns}']")).click()
+    wait(driver, lambda d: robot_shown(d) == ns)
+
+
+def test_each_tab_keeps_the_robot_it_picked_over_a_reload(browser, studio_url):
+    first = browser.current_window_handle
+    open_page(browser, studio_url + "/")
+    pick_robot(browser, NS)
+    browser.switch_to.new_window("tab")
+    try:
+        open_page(browser, studio_url + "/")
+        pick_robot(browser, "/create1")  # the robot picked last, by another tab
+    finally:
+        browser.close()
+        browser.switch_to.window(first)
+    open_page(browser, studio_url + "/")  # reloaded
+    shown = wait(browser, lambda d: robot_shown(d) in (NS, "/create1") and robot_shown(d))
+    assert shown == NS
+    open_page(browser, studio_url + "/")  # and once more: still its own
+    wait(browser, lambda d: robot_shown(d) == NS)
+
+
 def test_save_data_says_recording_once_every_topic_is_subscribed_and_keeps_one_timeline(
     browser, studio_url, workspace, listener
 ):

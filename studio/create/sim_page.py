@@ -7,6 +7,7 @@ Manual control (:mod:`studio.create.sim_drive`), New world, Autonomous and Save 
 
 from __future__ import annotations
 
+import json
 import math
 from html import escape
 
@@ -64,10 +65,16 @@ def status_html(ns: str, st: RobotState) -> str:
     return f"<table class='studio-status text-sm'>{body}</table>"
 
 
+TAB_ROBOT_KEY = "robot_sims.studio.robot"
+"""Where a tab keeps its choice of robot: the browser's sessionStorage, one per tab, kept over a
+reload (the studio's own "last picked" is every tab's, so a reloaded tab took another tab's robot)."""
+
+
 def register(studio: Studio) -> None:
     @ui.page("/")
-    def simulator_page() -> None:
-        SimulatorPage(studio)
+    async def simulator_page() -> None:
+        page = SimulatorPage(studio)
+        await page.restore_choice()
 
 
 class SimulatorPage:
@@ -81,6 +88,7 @@ class SimulatorPage:
         self.world = WorldPanel(self.tab, started=self.follow)
         self.controller = ControllerPanel(self.tab, stop_robot=self.drive.stop)
         self.record = RecordPanel(self.tab)
+        self.restored = False  # the tab's own choice is read back from the browser (until then: none)
         self.build()
 
     def build(self) -> None:
@@ -103,16 +111,33 @@ class SimulatorPage:
         ui.timer(FRAME_PERIOD_S, self.view.tick)
         ui.timer(0.5, self.slow_tick)
 
+    async def restore_choice(self) -> None:
+        """The robot this tab picked before a reload (a new tab: the studio's last picked): until
+        it is known the tab lists no robot, so no key press reaches another tab's robot."""
+        try:
+            await ui.context.client.connected(timeout=30.0)
+            stored = await ui.run_javascript(f"return sessionStorage.getItem({json.dumps(TAB_ROBOT_KEY)})")
+        except TimeoutError:
+            stored = None
+        if isinstance(stored, str) and self.tab.selected is None:
+            self.tab.selected = json.loads(stored)
+        self.restored = True
+
+    def remember(self, ns: str | None) -> None:
+        """Make ``ns`` this tab's robot (and the studio's last picked, a new tab's default)."""
+        self.tab.selected = ns
+        if ns is not None:
+            self.studio.selected = ns
+            ui.run_javascript(f"sessionStorage.setItem({json.dumps(TAB_ROBOT_KEY)}, {json.dumps(json.dumps(ns))})")
+
     async def on_select(self, e: events.ValueChangeEventArguments) -> None:
-        self.tab.selected = e.value
-        if e.value is not None:
-            self.studio.selected = e.value
+        self.remember(e.value)
         self.view.view_dirty = True
         await self.drive.show_speed()
 
     def follow(self, ns: str) -> None:
         """Select the world this tab started in ``ns``, and fit the view to it."""
-        self.tab.selected = self.studio.selected = ns
+        self.remember(ns)
         if ns in self.robot_select.options:
             self.robot_select.set_value(ns)
         self.view.refit(ns)
@@ -121,7 +146,7 @@ class SimulatorPage:
         ros = create_ros(self.studio)
         if ros is None:
             return
-        names = ros.namespaces()
+        names = ros.namespaces() if self.restored else []
         if names != list(self.robot_select.options):
             value = self.studio.default_robot(names, self.tab.selected)
             self.robot_select.set_options({ns: ns or "/" for ns in names}, value=value)
