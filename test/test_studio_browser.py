@@ -421,7 +421,8 @@ def robot_shown(driver) -> str:
 
 def pick_robot(driver, ns: str) -> None:
     find(driver, ".studio-robot").click()
-    wait(driver, lambda d: d.find_element(By.XPATH, f"//*[contains(@class,'q-item') and normalize-space(.)='{ns}']")).click()
+    item = f"//*[contains(@class,'q-item') and normalize-space(.)='{ns}']"
+    wait(driver, lambda d: d.find_element(By.XPATH, item)).click()
     wait(driver, lambda d: robot_shown(d) == ns)
 
 
