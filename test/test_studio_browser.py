@@ -146,9 +146,17 @@ def test_an_upload_that_is_binary_or_too_large_says_why_it_was_not_loaded(browse
     (tmp_path / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
     (tmp_path / "huge.map").write_text("% padding\n" * 200_000)  # 2 MB
     find(browser, ".q-uploader input[type=file]").send_keys(str(tmp_path / "photo.png"))
-    wait(browser, lambda d: "photo.png: not a text file (byte 0 is not UTF-8)" in find(d, ".studio-map-message").text)
+    wait(browser, lambda d: "photo.png: not a text file (byte 0 is not UTF-8)" in find(d, ".studio-upload-error").text)
+    assert "photo.png: not a text file" in find(browser, ".studio-map-message").text
+    wait(browser, lambda d: not d.find_elements(By.CSS_SELECTOR, ".q-uploader__file"))  # no thumbnail, no ✓ 100 %
     find(browser, ".q-uploader input[type=file]").send_keys(str(tmp_path / "huge.map"))  # the uploader was redrawn
-    wait(browser, lambda d: "upload refused: a map file may be at most 1,000,000 bytes" in d.page_source)
+    wait(
+        browser,
+        lambda d: "upload refused: a map file may be at most 1,000,000 bytes" in find(d, ".studio-upload-error").text,
+    )
+    assert not browser.find_elements(By.CSS_SELECTOR, ".q-uploader__file")
+    in_view = "const r = arguments[0].getBoundingClientRect(); return r.bottom <= window.innerHeight && r.height > 0;"
+    assert browser.execute_script(in_view, find(browser, ".studio-upload-error"))  # beside the uploader, in sight
 
 
 def test_a_new_world_on_the_saved_map_shows_the_lidar_hitting_its_walls(browser, studio_url, listener):

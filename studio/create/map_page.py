@@ -71,15 +71,20 @@ class MapMakerPage(FilePage, MapCanvas):
                 with ui.card().classes("w-full"):
                     ui.label("File").classes("font-bold")
                     self.file_controls("map file", "my.map", "map", "w-full", lambda: None)
-                    ui.upload(
-                        label="or upload a map file",
-                        auto_upload=True,
-                        max_file_size=MAX_UPLOAD_BYTES,
-                        on_upload=self.upload,
-                        on_rejected=lambda: self.say(
-                            f"upload refused: a map file may be at most {MAX_UPLOAD_BYTES:,} bytes", error=True
-                        ),
-                    ).props("dense flat").classes("w-full")
+                    self.uploader = (
+                        ui.upload(
+                            label="or upload a map file",
+                            auto_upload=True,
+                            max_file_size=MAX_UPLOAD_BYTES,
+                            on_upload=self.upload,
+                            on_rejected=lambda: self.refuse_upload(
+                                f"upload refused: a map file may be at most {MAX_UPLOAD_BYTES:,} bytes"
+                            ),
+                        )
+                        .props("dense flat")
+                        .classes("w-full studio-map-upload")
+                    )
+                    self.upload_error = ui.label("").classes("text-sm text-red-700 break-all studio-upload-error")
                     self.apply_controls("map")
                 self.count_label = ui.label("").classes("text-sm")
 
@@ -182,9 +187,18 @@ class MapMakerPage(FilePage, MapCanvas):
         try:
             text = upload_text(e.file.name, await e.file.read(), "map")
         except InputError as err:
-            self.say(f"error: {err}", error=True)
+            self.refuse_upload(f"error: {err}")
             return
+        self.uploader.reset()  # the file is in the editor now, not waiting in the uploader
+        self.upload_error.set_text("")
         self.load_text(text, e.file.name)
+
+    def refuse_upload(self, why: str) -> None:
+        """A refused upload: the uploader emptied (no thumbnail, no ✓ 100 % beside an error) and
+        the reason under it, where the student looks, and on the message line."""
+        self.uploader.reset()
+        self.upload_error.set_text(why)
+        self.say(why, error=True)
 
     def save(self) -> bool:
         return self.save_text(self.doc.to_map().to_text())
