@@ -263,6 +263,26 @@ def test_the_step_counter_and_sim_time_are_shown_and_a_small_robot_takes_clicks_
     assert browser.find_elements(By.CSS_SELECTOR, ".simrobot-view circle.robot-ring")
 
 
+def test_run_replay_shows_the_steps_seen_again_in_order_and_stop_replay_returns_to_the_world(browser):
+    click_text(browser, "Run replay")  # the world is paused (above): the steps seen are all there
+    seen: list[tuple[int, float]] = []
+
+    def replayed(d) -> bool:
+        frame = d.execute_script(
+            "const g = document.querySelector('.simrobot-view g.frame.replay');"
+            "return g && [g.dataset.replayK, g.dataset.simTime];"
+        )
+        if frame and (not seen or seen[-1][0] != int(frame[0])):
+            seen.append((int(frame[0]), float(frame[1])))
+        return "(done: Stop replay to watch the world live)" in text(d, ".simrobot-steps")
+
+    wait(browser, replayed, timeout=120)
+    assert len(seen) >= 3 and seen == sorted(seen)  # in order, and sim time with it
+    assert [t for _, t in seen] == sorted(t for _, t in seen)
+    click_text(browser, "Stop replay")
+    wait(browser, lambda d: d.execute_script("return document.querySelector('.simrobot-view g.frame:not(.replay)')"))
+
+
 EVERY_FIELD = {  # field → what the student types: the world, the robot, its sensor
     "resolution": "0.02",
     "dt": "0.2",

@@ -1,5 +1,6 @@
 """The SIMROBOT simulator page (the original's Simulator window): watch a running world, run/pause/step,
-real-time factor, a robot's info with power and clear crash, draw tracks to PNG.
+real-time factor, the step counter and sim time, a replay of the steps seen (at least the world's
+``replay_step_time`` a step), a robot's info with power and clear crash, draw tracks to PNG.
 
 The view redraws at most every FRAME_PERIOD_S and only when a new ``robots`` message came in. The
 browser counts the frames it actually shows (a requestAnimationFrame loop watching the frame number
@@ -109,6 +110,12 @@ class SimrobotPage(SimrobotView):
                             RTF_OPTIONS, value=1.0, label="Speed (real_time_factor)", on_change=self.on_rtf
                         ).classes("w-48")
                     with ui.row().classes("items-center gap-2"):
+                        ui.button("Run replay", on_click=self.run_replay).props("dense outline").classes(
+                            "simrobot-replay"
+                        )
+                        ui.button("Stop replay", on_click=self.stop_replay).props("dense flat")
+                        self.replay_label = ui.label("").classes("text-sm text-gray-600")
+                    with ui.row().classes("items-center gap-2"):
                         ui.button("Stop world", on_click=self.stop_world).props("dense outline color=red")
                         self.world_label = ui.label("").classes("text-sm break-all")
                 with ui.card().classes("w-full"):
@@ -192,6 +199,15 @@ class SimrobotPage(SimrobotView):
     async def clear_crash(self) -> None:
         if (to := self.commanded()) is not None and self.robot is not None:
             await self.ask(to[0].clear_crash(to[1], self.robot))
+
+    def run_replay(self) -> None:
+        refusal = self.start_replay()
+        if refusal:
+            ui.notify(refusal, type="warning")
+            return
+        loaded = self.loaded()
+        step_time = loaded[1].replay_step_time if loaded is not None else 0.0
+        self.replay_label.set_text(f"step time {step_time:g} s (the world file's replay_step_time)")
 
     def stop_world(self) -> None:
         stop_started_world(self.side.worlds, self.ns or "")

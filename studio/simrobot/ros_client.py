@@ -35,6 +35,9 @@ from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 STATES_TYPE = "std_msgs/msg/Float64MultiArray"
 TRACK_POINTS = 1000
 TRACK_MIN_STEP_M = 0.005
+REPLAY_VALUES = 3_000_000
+"""Most pose numbers kept for the replay (24 MB): 5000 steps of 200 robots, the world's
+``history_steps`` of a few robots."""
 
 
 @dataclass
@@ -53,6 +56,8 @@ class WorldState:
     nearest: np.ndarray = field(default_factory=lambda: np.zeros(0))  # per sensor: nearest hit (m), inf = none
     scans: dict[int, np.ndarray] = field(default_factory=dict)  # laser sensor index → ranges (m)
     tracks: list[deque] = field(default_factory=list)
+    # every step seen, for the original's Run replay: (sim time, poses n x 3), oldest dropped
+    history: deque = field(default_factory=lambda: deque(maxlen=1))
     seq: int = 0  # bumped by every robots message: the view redraws when it changes
     sim_time: float = 0.0
     last_heard: float = 0.0
@@ -107,6 +112,7 @@ class _World:
         s.power = np.array([r.power for r in spec.robots], dtype=bool)
         s.nearest = np.full(len(s.sensors), np.inf)
         s.tracks = [deque(maxlen=TRACK_POINTS) for _ in range(n)]
+        s.history = deque(maxlen=min(spec.history_steps, max(100, REPLAY_VALUES // (3 * max(n, 1)))))
         sub = self.node.create_subscription
         for name in s.names:
             self.power_clients.append(self.node.create_client(SetBool, s.topic(f"{name}/set_power")))
@@ -138,6 +144,8 @@ class _World:
         s.nearest = data[3 + ROBOT_STATE_FIELDS * n :].copy()
         s.poses = poses
         s.sim_time = float(data[0])
+        if s.spec is not None and len(poses) == len(s.names):
+            s.history.append((s.sim_time, poses))
         s.last_heard = time.monotonic()
         s.seq += 1
 

@@ -68,6 +68,9 @@ class SimrobotView(ZoomableView):
     dynamic: InteractiveImageLayer
     info: ui.html
     steps_label: ui.label
+    replaying: list[tuple[float, np.ndarray]] | None = None  # the steps being replayed (a snapshot)
+    replay_k = 0  # the next of them to show
+    replay_next = 0.0  # when (monotonic s) to show it: the world's replay_step_time after the last
 
     def world(self) -> WorldState | None:
         """The selected world once its file is read (:meth:`loaded`)."""
@@ -93,6 +96,11 @@ class SimrobotView(ZoomableView):
         if loaded is None or len(loaded[0].poses) != len(loaded[0].names):
             return
         st, spec = loaded
+        if self.replaying is not None:
+            if self.drawn_map is spec:
+                self.replay_tick(spec)
+                return
+            self.replaying = None  # another world (or the same restarted): its replay is gone
         if self.drawn_map is not spec:
             self.map_url = map_data_url(spec.walls)
             self.drawn_map = spec
@@ -106,6 +114,47 @@ class SimrobotView(ZoomableView):
             self.frames += 1
             self.dynamic.set_content(self.dynamic_svg(st, spec))
             self.steps_label.set_text(steps_text(st, spec))
+
+    # ---------------------------------------------------------------- the original's Run replay
+    def start_replay(self) -> str | None:
+        """Replay the steps seen so far, one at least every ``replay_step_time``; why not, if not."""
+        st = self.world()
+        if st is None or not st.history:
+            return "nothing to replay yet: run the world first (the replay shows the steps this page saw)"
+        self.replaying = list(st.history)
+        self.replay_k, self.replay_next = 0, 0.0
+        return None
+
+    def stop_replay(self) -> None:
+        self.replaying = None
+        self.view_dirty = True  # the live world again
+
+    def replay_tick(self, spec: WorldSpec) -> None:
+        frames, now = self.replaying, time.monotonic()
+        if frames is None or self.replay_k >= len(frames) or now < self.replay_next:
+            return
+        t, poses = frames[self.replay_k]
+        self.replay_next = now + spec.replay_step_time
+        self.replay_k += 1
+        self.frames += 1
+        self.dynamic.set_content(self.replay_svg(spec, poses, t))
+        done = " (done: Stop replay to watch the world live)" if self.replay_k == len(frames) else ""
+        self.steps_label.set_text(
+            f"replay: step {round(t / spec.dt)} ({self.replay_k} of {len(frames)} seen) · sim time {t:.2f} s{done}"
+        )
+
+    def replay_svg(self, spec: WorldSpec, poses: np.ndarray, t: float) -> str:
+        """A replayed step: the robots where they were (the readings are not kept)."""
+        v = self.view
+        parts = [
+            f'<g class="frame replay" data-n="{self.frames}" data-replay-k="{self.replay_k}" data-sim-time="{t!r}" '
+            f'data-centre-x="{v.centre_x!r}" data-centre-y="{v.centre_y!r}" data-scale="{v.scale!r}"/>'
+        ]
+        names = "names" in self.layers
+        for i, robot in enumerate(spec.robots):
+            label = robot.name if names else ""
+            parts.append(robot_svg(v, robot, poses[i], selected=i == self.robot, label=label))
+        return "".join(parts)
 
     def draw_map(self) -> None:
         loaded = self.loaded()
