@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -441,3 +442,15 @@ def test_an_empty_or_non_numeric_pose_field_is_an_error_not_zero():
     assert initial_pose(1.0, -0.5, 0.25) == (1.0, -0.5, 0.25)
     with pytest.raises(InputError, match="initial pose y: a number is needed"):
         initial_pose(1.0, None, 0.0)
+
+
+def test_studio_help_names_every_familys_pages_and_their_addresses():
+    from studio.shell.kit import PAGES
+
+    shown = subprocess.run(
+        [sys.executable, "-m", "studio", "--help"], capture_output=True, text=True, timeout=60, check=True
+    ).stdout
+    for target, text, _what in PAGES:
+        assert re.search(rf"^  {re.escape(text)} +{re.escape(target)} ", shown, re.MULTILINE), shown
+    for window in ("SimulatorGUI", "MapMakerGUI", "ConfigMakerGUI", "ReplayGUI", "SIMROBOT editor", "Arm"):
+        assert window in shown

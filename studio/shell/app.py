@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
+from studio.shell.kit import pages_help
 from studio.shell.processes import CLOCK, Child, parse_controller, stop_all
 from studio.shell.workspace import Workspace
 
@@ -165,7 +166,9 @@ def recording_clock(graph: list[tuple[str, str]]) -> tuple[str, str]:
 def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog="robot_sims studio",
-        description="The Create simulator, map maker and config maker in the browser.",
+        description="The simulators' windows in the browser: the Create's, SIMROBOT's, the arm's and Replay.",
+        epilog=pages_help(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1, this machine only)"

@@ -128,21 +128,32 @@ class ZoomableView:
         self.view_changed()
 
 
+PAGES = (
+    ("/", "Simulator", "the Create simulator: live view, driving, worlds, controllers, Save Data (SimulatorGUI)"),
+    ("/map", "Map maker", "draw, load and save Create maps, apply one to a running world (MapMakerGUI)"),
+    ("/config", "Config maker", "the Create's sensor noise and delays (ConfigMakerGUI)"),
+    ("/simrobot", "SIMROBOT", "the SIMROBOT simulator: worlds of robots with their sensors and algorithms"),
+    ("/simrobot/editor", "SIMROBOT editor", "SIMROBOT worlds: the map bitmap, robots, sensors, algorithms"),
+    ("/arm", "Arm", "arm worlds (IRB120, CSA7, scenes): joints, target poses, trajectories"),
+    ("/replay", "Replay", "a recorded bag of any world, played or stepped (ReplayGUI)"),
+)
+"""Every page: its address, its link text and what it is (the original window it stands for)."""
+
+
+def pages_help() -> str:
+    """The pages, as ``studio --help`` lists them."""
+    return "pages (the originals' windows):\n" + "\n".join(
+        f"  {text:<16} {target:<17} {what}" for target, text, what in PAGES
+    )
+
+
 def nav(current: str) -> None:
     """The links between the pages (the originals' windows)."""
     from nicegui import ui
 
     with ui.row().classes("items-center gap-6 w-full bg-slate-100 px-4 py-1"):
         ui.label("robot_sims studio").classes("text-lg font-bold")
-        for target, text in (
-            ("/", "Simulator"),
-            ("/map", "Map maker"),
-            ("/config", "Config maker"),
-            ("/simrobot", "SIMROBOT"),
-            ("/simrobot/editor", "SIMROBOT editor"),
-            ("/arm", "Arm"),
-            ("/replay", "Replay"),
-        ):
+        for target, text, _what in PAGES:
             link = ui.link(text, target).classes("text-base")
             if target == current:
                 link.classes("font-bold no-underline")
