@@ -27,6 +27,7 @@ from sim_runtime.inputfile import read_input_bytes
 
 _BINARY_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 _HEADER_BYTES = 84
+_UTF8_BOM = b"\xef\xbb\xbf"
 
 
 def load_stl(path: str | os.PathLike[str]) -> np.ndarray:
@@ -50,7 +51,7 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
             if bad >= 0:
                 raise InputError.at(path, None, f"triangle {bad} has a NaN or infinite coordinate")
             return triangles
-    head = data[:1024]
+    head = data[:1024].removeprefix(_UTF8_BOM)  # a text editor's byte-order mark before "solid"
     if head.lstrip().startswith(b"solid") and b"\x00" not in head:
         return _parse_ascii(data, path)
     if size < _HEADER_BYTES:
@@ -101,13 +102,15 @@ def _parse_ascii(data: bytes, path: str | os.PathLike[str]) -> np.ndarray:
     out = np.empty((len(data) // 12 + 3, 3), dtype=np.float32)
     count, error_at = _ascii_vertices(buf, out)
 
+    newline = b"\n" if b"\n" in data[:65536] or b"\r" not in data[:65536] else b"\r"  # old Mac files end lines with CR
+
     def line_of(offset: int) -> int:
-        return data.count(b"\n", 0, offset) + 1
+        return data.count(newline, 0, offset) + 1
 
     if error_at >= 0:
         raise InputError.at(path, line_of(error_at), "expected three numbers after 'vertex'")
     end = len(data[-4096:].rstrip()) + max(len(data) - 4096, 0)  # slices only the tail: no copy of the file
-    tail = data[max(end - 4096, 0) : end].rsplit(b"\n", 1)[-1].strip()
+    tail = data[max(end - 4096, 0) : end].replace(b"\r", b"\n").rsplit(b"\n", 1)[-1].strip()
     if not tail.startswith(b"endsolid"):
         raise InputError.at(path, line_of(end), "truncated ASCII STL: the file does not end with 'endsolid'")
     if count == 0:

@@ -66,9 +66,14 @@ def resolved(path: str | os.PathLike[str]) -> Path:
     """``path`` made absolute with links resolved where possible; never raises (a name holding a
     NUL, a link loop, a name too long stay as given, for the reader to report)."""
     try:
-        return Path(path).resolve()
+        target = Path(path).resolve()
     except (OSError, ValueError, RuntimeError):
         return Path(os.path.abspath(path))
+    if not os.path.exists(target) and os.path.exists(path):  # never raises (a name too long: False)
+        # /dev/stdin on a pipe resolves to "/proc/<pid>/fd/pipe:[…]", which names nothing: keep the
+        # name the user gave, so the reader says what it is (a FIFO) instead of "not found"
+        return Path(os.path.abspath(path))
+    return target
 
 
 def is_regular_file(path: str | os.PathLike[str]) -> bool:

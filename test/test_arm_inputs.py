@@ -238,3 +238,39 @@ def test_nan_coordinate_in_binary_stl_names_the_triangle(tmp_path):
     write_stl(tmp_path / "nan.stl", triangles)
     with pytest.raises(InputError, match=r"nan\.stl.*triangle 2 has a NaN"):
         load_stl(tmp_path / "nan.stl")
+
+
+def _ascii_tetra(tmp_path: Path) -> bytes:
+    tetra = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float32)
+    write_stl(tmp_path / "t.stl", tetra[np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])], ascii=True)
+    return (tmp_path / "t.stl").read_bytes()
+
+
+def test_an_ascii_stl_with_cr_only_line_ends_parses(tmp_path):
+    text = _ascii_tetra(tmp_path)
+    assert np.array_equal(parse_stl(text.replace(b"\n", b"\r")), parse_stl(text))
+
+
+def test_an_ascii_stl_after_a_byte_order_mark_is_read_as_ascii(tmp_path):
+    text = _ascii_tetra(tmp_path)
+    assert np.array_equal(parse_stl(b"\xef\xbb\xbf" + text), parse_stl(text))
+
+
+def test_a_cr_only_ascii_stl_cut_short_names_its_line(tmp_path):
+    text = _ascii_tetra(tmp_path).replace(b"\n", b"\r")
+    with pytest.raises(InputError, match=r"<bytes>:\d+: truncated ASCII STL"):
+        parse_stl(text[: text.rindex(b"endsolid")])
+
+
+def test_an_arm_config_on_a_pipe_says_it_is_a_pipe_not_that_it_is_missing():
+    import subprocess
+    import sys
+
+    code = (
+        "from arm_sim.robot_config import load_robot_config\nfrom sim_runtime.errors import InputError\n"
+        "try:\n    load_robot_config('/dev/stdin')\nexcept InputError as e:\n    print(e)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], input="name: x\n", capture_output=True, text=True, timeout=120, check=True
+    )
+    assert "/dev/stdin: robot config is a FIFO (named pipe)" in result.stdout, result.stdout + result.stderr

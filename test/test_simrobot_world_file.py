@@ -210,3 +210,41 @@ def test_yaml_syntax_error_names_the_line(tmp_path):
     path.write_text("map: m.png\nrobots: [\n  {name: a\n")
     with pytest.raises(InputError, match=r"w\.yaml:\d+: invalid YAML"):
         load_world(path)
+
+
+def _png_header(width: int, height: int) -> bytes:
+    """A 1-bit PNG announcing ``width`` x ``height`` pixels (its data a few bytes: the size is
+    refused from the header, before any pixel is decoded)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", width, height, 1, 0, 0, 0, 0)
+    data = chunk(b"IDAT", zlib.compress(b"\0" * 16))
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + data + chunk(b"IEND", b"")
+
+
+@pytest.mark.parametrize("side", [13_000, 30_000, 200_000])
+def test_a_map_image_beyond_the_documented_pixel_limit_is_refused_in_our_words(tmp_path, side):
+    from simrobot_sim.world_file import MAX_MAP_PIXELS
+
+    path = tmp_path / "huge.png"
+    path.write_bytes(_png_header(side, side))
+    with pytest.raises(InputError) as info:
+        load_bitmap(path)
+    message = str(info.value)
+    assert f"the limit of {MAX_MAP_PIXELS}" in message and "docs/file_formats.md" in message
+    assert "decompression bomb" not in message.lower() and len(message) < 300
+    if side == 13_000:
+        assert "13000 x 13000 = 169000000 pixels" in message
+    assert f"{MAX_MAP_PIXELS:,}".replace(",", "") in (Path(__file__).parents[1] / "docs/file_formats.md").read_text(
+        encoding="utf-8"
+    ).replace(",", "").replace("_", "")
+
+
+def test_a_map_image_just_under_the_pixel_limit_is_read(tmp_path):
+    path = tmp_path / "wide.png"
+    Image.new("1", (8000, 100), 1).save(path)
+    assert load_bitmap(path).shape == (8000, 100)
