@@ -155,6 +155,10 @@ class OctaveAlgorithms:
             self.world.grid,
             nout=0,
         )
+        for i in self.files:  # the memory (userdata) the world file gives a robot at the start
+            memory = self.world.spec.robots[i].memory
+            if memory is not None:
+                self.octave.feval("simrobot_world_memory", float(i + 1), np.array(memory, dtype=float), nout=0)
         self._sent = self.world.grid.copy()
 
     def _matrix_changes(self) -> tuple[np.ndarray, np.ndarray]:

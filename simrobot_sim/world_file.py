@@ -79,6 +79,9 @@ class RobotSpec:
     controller: str | None = None
     #: The original-style algorithm m-file driving this robot (absolute path), run in Octave.
     algorithm: str | None = None
+    #: The robot's memory (the original's userdata) when the world starts: rows of numbers its
+    #: algorithm reads with readmem (None: empty, [] in the algorithm).
+    memory: tuple[tuple[float, ...], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -196,6 +199,7 @@ _ROBOT_KEYS = {
     "sensors",
     "controller",
     "algorithm",
+    "memory",
 }
 _WORLD_KEYS = {
     "map",
@@ -259,6 +263,24 @@ def _sensor(entry: Any, where: str) -> SensorSpec:
         range=_number(entry.get("range", 0.30), f"{where}.range", positive=True),
         rays=rays,
     )
+
+
+#: Most numbers a robot's memory may hold in the world file.
+MAX_MEMORY_VALUES = 100_000
+
+
+def read_memory(value: Any, where: str) -> tuple[tuple[float, ...], ...] | None:
+    """A robot's memory: a number, a list of numbers (one row) or a list of equal rows."""
+    if value is None:
+        return None
+    rows_in = value if isinstance(value, list) and value and isinstance(value[0], list) else [value]
+    rows_in = [row if isinstance(row, list) else [row] for row in rows_in]
+    if sum(len(row) for row in rows_in) > MAX_MEMORY_VALUES:
+        raise InputError(f"{where}: more than {MAX_MEMORY_VALUES} numbers: keep big data in a file the algorithm loads")
+    rows = tuple(tuple(_number(x, f"{where}[{i}][{k}]") for k, x in enumerate(row)) for i, row in enumerate(rows_in))
+    if len({len(row) for row in rows}) != 1 or not rows[0]:
+        raise InputError(f"{where}: expected a number, a list of numbers or rows of equal length, got {_brief(value)}")
+    return rows
 
 
 def _algorithm(entry: dict, where: str, base_dir: Path) -> str | None:
@@ -344,6 +366,7 @@ def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
         sensors=sensors,
         controller=controller,
         algorithm=_algorithm(entry, where, base_dir),
+        memory=read_memory(entry.get("memory"), f"{where}.memory"),
     )
 
 
@@ -456,6 +479,8 @@ def load_world(path: str | Path) -> WorldSpec:
             controller: avoid    # optional: run this controller in the world's process
             algorithm: alg2.m    # or: the original's algorithm m-file (relative to this file),
                                  # run in GNU Octave once per step (see docs/matlab.md)
+            memory: [[1, 2], [3, 4]] # the robot's memory at the start (readmem): a number, a row
+                                 # or rows of numbers (default: empty)
             sensors:
               - name: sens1      # topic /r1/sens1 (+ /r1/sens1/obstacle for ultrasonic)
                 type: ultrasonic # ultrasonic (nearest ray) or laser (every ray)

@@ -344,6 +344,10 @@ def test_every_field_of_the_editor_is_saved_as_typed_and_shown_again_when_reopen
     find(browser, ".simrobot-algorithm-save").click()
     wait(browser, lambda d: "saved alg_every.m" in message(d))
     assert (workspace / "alg_every.m").read_text().endswith("new = simrobot;\n% turn left\n")
+    (workspace / "mem_every.txt").write_text("1 2\n3 4\n")  # Memory > Load from disk
+    type_into(browser, ".simrobot-memory-file", "mem_every.txt")
+    click_text(browser, "Load memory")
+    wait(browser, lambda d: "loaded mem_every.txt into rover's memory: 2 x 2 double" in message(d))
     type_into(browser, ".simrobot-sensor-new", "front")
     click_text(browser, "Add sensor")
     choose(browser, ".simrobot-sensor-type", "laser")
@@ -370,6 +374,7 @@ def test_every_field_of_the_editor_is_saved_as_typed_and_shown_again_when_reopen
     assert math.isclose(math.degrees(r.heading), 30) and r.color == pytest.approx((1.0, 128 / 255, 0.0), abs=1e-3)
     assert r.shape == ((-0.03, 0.03), (0.05, 0.0), (-0.03, -0.03))
     assert r.algorithm == str(workspace / "alg_every.m") and r.controller is None
+    assert r.memory == ((1.0, 2.0), (3.0, 4.0))
     (sensor,) = r.sensors
     assert (sensor.name, sensor.kind, sensor.position, sensor.range, sensor.rays) == (
         "front",
@@ -391,6 +396,7 @@ def test_every_field_of_the_editor_is_saved_as_typed_and_shown_again_when_reopen
         k: v if k in ("robot-name", "colour") else float(v) for k, v in EVERY_FIELD.items()
     }
     assert checked(browser, "lockstep") and not checked(browser, "power")
+    assert text(browser, ".simrobot-memory-info") == "memory: 2 x 2 double (32 bytes)"
     assert "alg_every.m" in text(browser, ".simrobot-controller")
     assert text(browser, ".simrobot-sensor-type").split()[:2] == ["type", "laser"]
     assert field_value(browser, "map-name") == "every.png"

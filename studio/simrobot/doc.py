@@ -113,6 +113,8 @@ def robot_entry(r: RobotSpec, world_dir: Path | None = None) -> dict[str, Any]:
         entry["controller"] = r.controller
     if r.algorithm:  # an m-file (absolute in the spec): relative to the world file's folder when known
         entry["algorithm"] = r.algorithm if world_dir is None else os.path.relpath(r.algorithm, world_dir)
+    if r.memory is not None:
+        entry["memory"] = [[float(x) for x in row] for row in r.memory]
     return entry
 
 

@@ -53,6 +53,7 @@ class EditorBase(DraftGuard):
     map_unsaved: bool
     own_world: str  # the world file this tab opened or saved: Run it may save over it
     message: ui.label
+    overwrite: ui.checkbox  # the files' "overwrite": every save of this page obeys it
     filling = False  # while fields are filled from the draft (a selection, a file opened): not edits
 
     def say(self, text: str, error: bool = False) -> None:

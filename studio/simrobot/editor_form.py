@@ -21,6 +21,7 @@ from studio.simrobot.editor_algorithms import (
     new_algorithm,
 )
 from studio.simrobot.editor_base import EditorBase, quantity_field
+from studio.simrobot.memory import load_memory, memory_info, save_memory
 
 NO_CONTROLLER = "(none: topics)"
 
@@ -69,6 +70,15 @@ class EditorForm(EditorBase):
                     )
                 self.algorithms = AlgorithmChoice(self.f_controller, self.studio.workspace, NO_CONTROLLER)
                 self.algorithm_editor = AlgorithmEditor(self.studio.workspace, self.say)
+                with ui.row().classes("items-center gap-2"):  # the original's Memory menu
+                    self.memory_label = ui.label("memory: empty").classes("text-sm simrobot-memory-info")
+                    self.f_memory_file = ui.input("memory file (.mat or text)", placeholder="mem_r1.txt").classes(
+                        "w-52 simrobot-memory-file"
+                    )
+                with ui.row().classes("items-center gap-2"):
+                    ui.button("Load memory", on_click=self.load_memory).props("dense outline")
+                    ui.button("Save memory", on_click=self.save_memory).props("dense outline")
+                    ui.button("Clear memory", on_click=self.clear_memory).props("dense outline color=red")
                 with ui.row().classes("items-end gap-2"):
                     self.f_shape = (
                         ui.textarea("shape: x, y per vertex (m)")
@@ -148,6 +158,7 @@ class EditorForm(EditorBase):
                 self.f_lb.set_value(r.lb)
                 self.algorithms.show(r)  # its controller, or its algorithm m-file
                 self.f_shape.set_value(vertices_text(r.shape))
+                self.memory_label.set_text(memory_info(r.memory))
             sensors = {k: s.name for k, s in enumerate(r.sensors)} if r is not None else {}
             self.sensor_select.set_options(sensors, value=self.sensor)
             s = r.sensors[self.sensor] if r is not None and self.sensor is not None else None
@@ -238,6 +249,47 @@ class EditorForm(EditorBase):
         self.on_robot_field()
         self.say(f"made {name} from the template: it now drives {self.doc.robots[self.selected].name}")
         self.algorithm_editor.open(name)
+
+    # ---------------------------------------------------------------- memory
+    def memory_name(self) -> str:
+        name = (self.f_memory_file.value or "").strip()
+        if not name:
+            raise InputError("type the memory file's name first (a .mat file with mem, or a text file of numbers)")
+        return name
+
+    def load_memory(self) -> None:
+        """The original's Memory > Load from disk: the file's matrix becomes the robot's memory."""
+        if self.selected is None:
+            self.say("select a robot first", error=True)
+            return
+        try:
+            name = self.memory_name()
+            memory = load_memory(self.studio.workspace, name)
+        except InputError as err:
+            self.say(f"error: {err}", error=True)
+            return
+        self.set_robot(replace(self.doc.robots[self.selected], memory=memory))
+        self.say(f"loaded {name} into {self.doc.robots[self.selected].name}'s {memory_info(memory)}")
+
+    def save_memory(self) -> None:
+        """The original's Memory > Save to disk."""
+        r = self.robot()
+        if r is None:
+            self.say("select a robot first", error=True)
+            return
+        try:
+            name = self.memory_name()
+            save_memory(self.studio.workspace, name, r.memory, overwrite=bool(self.overwrite.value))
+        except (InputError, OSError) as err:
+            self.say(f"error: {err}", error=True)
+            return
+        self.say(f"saved {r.name}'s memory to {name}")
+
+    def clear_memory(self) -> None:
+        r = self.robot()
+        if r is not None:
+            self.set_robot(replace(r, memory=None))
+            self.say(f"cleared {r.name}'s memory")
 
     def apply_shape(self) -> None:
         if self.selected is None:
