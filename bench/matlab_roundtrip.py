@@ -1,6 +1,6 @@
 """Toolbox call round trip from Octave through ``matlab_bridge`` to a running create_world.
 
-    .venv/bin/python bench/matlab_roundtrip.py [--calls 2000] [--program-seconds 60]
+    .venv/bin/python bench/matlab_roundtrip.py [--calls 2000] [--program-seconds 60] [--interrupts 5]
 
 Starts create_world (empty floor, real time) and ``robot_sims matlab_bridge`` in their own
 processes, then times ``--calls`` calls of each function in one Octave session, wall clock from
@@ -10,17 +10,31 @@ Then a control program in the original's style runs for ``--program-seconds`` (0
 0.1 m/s, read the bumpers and ``pause(0.05)`` in a ``tic; while toc < T`` loop, and every 5 s
 compare ``toc`` with the robot's own clock, read as odometry distance / speed: the lag between
 them must not grow (the robot keeps up with the program's wall clock at real time).
+
+Then programs that end badly (``--interrupts`` runs each, 0: skip): Ctrl-C typed at an
+interactive Octave prompt inside ``travelDist``, and SIGINT / SIGTERM to ``octave --eval``
+inside ``travelDist``: the wall time from the interrupt to the first odometry reporting the robot
+standing (goal <= 0.2 s), and whether the next call at the prompt answers with the pose; then a
+world killed (SIGKILL) under a program calling ``OverheadLocalizationCreate`` in a loop: the wall
+time from the kill to the call's ``CreateRobot:bridge`` error (goal <= 1 s).
 Prints the machine's load (os.getloadavg) before and after.
 """
 
 from __future__ import annotations
 
 import argparse
+import fcntl
 import os
+import pty
+import select
 import shutil
 import signal
+import statistics
 import subprocess
 import sys
+import termios
+import threading
+import time
 from pathlib import Path
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -82,10 +96,178 @@ printf('  %d loops in %.1f s (%.1f per s; pause(0.05) alone would give 20)\\n', 
 """
 
 
+class Odometry:
+    """The robot's odometry as it arrives: when (monotonic) it last reported the robot standing."""
+
+    def __init__(self, namespace: str) -> None:
+        import rclpy
+        from nav_msgs.msg import Odometry as OdometryMsg
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+
+        from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
+
+        if not rclpy.ok():
+            rclpy.init()
+        self.node = Node("matlab_bench_probe")
+        self.speed = 0.0
+        self.stood_at = 0.0
+        self.node.create_subscription(OdometryMsg, f"{namespace}/odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+        threading.Thread(target=self.executor.spin, daemon=True).start()
+
+    def _on_odom(self, msg) -> None:
+        self.speed = abs(msg.twist.twist.linear.x)
+        if self.speed == 0.0 and msg.twist.twist.angular.z == 0.0:
+            self.stood_at = time.monotonic()
+
+    def wait(self, done, timeout: float = 60.0) -> bool:
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if done():
+                return True
+            time.sleep(0.001)
+        return False
+
+
+def stop_latency(odom: Odometry, interrupt) -> float:
+    """Wall s from ``interrupt()`` (the robot driving) to odometry reporting it standing."""
+    if not odom.wait(lambda: odom.speed > 0.1):
+        raise RuntimeError("the robot never drove")
+    time.sleep(0.5)
+    sent = time.monotonic()
+    interrupt()
+    if not odom.wait(lambda: odom.stood_at > sent, timeout=30):
+        raise RuntimeError("the robot never stopped")
+    return odom.stood_at - sent
+
+
+def prompt_runs(octave: str, port: int, odom: Odometry, runs: int, env: dict[str, str]) -> list[float]:
+    """Ctrl-C at an interactive prompt (a pseudo-terminal) inside travelDist, ``runs`` times."""
+    master, slave = pty.openpty()
+
+    def own_terminal() -> None:
+        os.setsid()
+        fcntl.ioctl(0, termios.TIOCSCTTY, 0)
+
+    process = subprocess.Popen(
+        [octave, "--no-gui", "--quiet", "--no-history", "--no-init-file"],
+        stdin=slave,
+        stdout=slave,
+        stderr=slave,
+        env=env,
+        preexec_fn=own_terminal,
+    )
+    os.close(slave)
+    seen = bytearray()
+
+    def read_until(marker: bytes, timeout: float = 60.0) -> None:
+        end = time.monotonic() + timeout
+        while marker not in seen:
+            if time.monotonic() > end:
+                raise RuntimeError(f"Octave did not print {marker!r}: {bytes(seen[-500:])!r}")
+            if select.select([master], [], [], 0.05)[0]:
+                seen.extend(os.read(master, 65536))
+
+    def typed(line: str) -> None:
+        os.write(master, line.encode() + b"\n")
+
+    from sim_tools.matlab.paths import matlab_dir
+
+    typed(f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); disp('READY')")
+    read_until(b"READY\r\n")
+    latencies = []
+    for k in range(runs):
+        del seen[:]
+        typed("travelDist(s, 0.2, 50)")
+        latencies.append(stop_latency(odom, lambda: os.write(master, b"\x03")))
+        typed(f"[x, y, a] = OverheadLocalizationCreate(s); printf('POSE%d %.3f\\n', {k}, x)")
+        read_until(f"POSE{k} ".encode())
+    print(f"  the next call after each Ctrl-C answered with the pose ({runs}/{runs})")
+    typed("exit")
+    process.wait(timeout=30)
+    os.close(master)
+    return latencies
+
+
+def signal_runs(octave: str, port: int, odom: Odometry, runs: int, signum: int, env: dict[str, str]) -> list[float]:
+    """SIGINT/SIGTERM to ``octave --eval`` inside travelDist, ``runs`` times."""
+    from sim_tools.matlab.paths import matlab_dir
+
+    latencies = []
+    script = f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); travelDist(s, 0.2, 50)"
+    for _ in range(runs):
+        process = subprocess.Popen(
+            [octave, "--no-gui", "--quiet", "--eval", script],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        latencies.append(stop_latency(odom, lambda p=process: p.send_signal(signum)))
+        process.wait(timeout=30)
+        time.sleep(1.2)  # the bridge confirms the stop before it takes the next program
+    return latencies
+
+
+DEAD_LOOP = """
+addpath('{toolbox}'); s = CreateRobot({port});
+for attempt = 1:24, try, OverheadLocalizationCreate(s); break, catch, end, end
+disp('LOOPING'); fflush(stdout);
+while true
+  try
+    OverheadLocalizationCreate(s); pause(0.01);
+  catch e
+    printf('ERROR %.6f %s\\n', time(), e.identifier); fflush(stdout); break
+  end
+end
+"""
+
+
+def dead_world_run(octave: str, env: dict[str, str]) -> float:
+    """Wall s from SIGKILL of the world to the program's CreateRobot:bridge error."""
+    from sim_tools.cli import executable_command
+    from sim_tools.matlab.bridge import spawn_bridge
+    from sim_tools.matlab.paths import matlab_dir
+
+    world = subprocess.Popen(
+        executable_command("create_world", ["--ros-args", "-p", "map_file:=''", "-r", "__ns:=/bench_dead"]),
+        env=env,
+        stderr=subprocess.DEVNULL,
+    )
+    bridge, port = spawn_bridge("/bench_dead", env=env)
+    try:
+        script = DEAD_LOOP.format(toolbox=matlab_dir("create"), port=port)
+        program = subprocess.Popen(
+            [octave, "--no-gui", "--quiet", "--eval", script], env=env, stdout=subprocess.PIPE, text=True
+        )
+        assert program.stdout is not None
+        while "LOOPING" not in program.stdout.readline():
+            pass
+        time.sleep(1.0)
+        killed = time.time()
+        world.kill()
+        line = program.stdout.readline().split()
+        program.wait(timeout=30)
+        if line[:1] != ["ERROR"] or line[2] != "CreateRobot:bridge":
+            raise RuntimeError(f"the program did not fail as expected: {line}")
+        return float(line[1]) - killed
+    finally:
+        world.wait()
+        bridge.send_signal(signal.SIGINT)
+        bridge.wait(timeout=30)
+
+
+def summary(name: str, seconds: list[float]) -> None:
+    ms = sorted(1e3 * s for s in seconds)
+    print(f"  {name:48s} median {statistics.median(ms):6.1f} ms   max {ms[-1]:6.1f} ms   ({len(ms)} runs)")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=2000, help="calls timed per function (default 2000)")
     parser.add_argument("--program-seconds", type=float, default=60.0, help="control program length (0: skip)")
+    parser.add_argument("--interrupts", type=int, default=5, help="runs of each interruption (0: skip)")
     args = parser.parse_args()
     octave = shutil.which("octave-cli")
     if octave is None:
@@ -109,6 +291,14 @@ def main() -> int:
         if args.program_seconds > 0:
             script += OCTAVE_PROGRAM.format(seconds=args.program_seconds)
         subprocess.run([octave, "--no-gui", "--quiet", "--eval", script], check=True, timeout=600)
+        if args.interrupts > 0:
+            print(f"programs that end badly (load {os.getloadavg()[0]:.2f}): interrupt -> robot standing")
+            odom = Odometry("/bench")
+            summary("Ctrl-C at the prompt inside travelDist", prompt_runs(octave, port, odom, args.interrupts, env))
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                latencies = signal_runs(octave, port, odom, args.interrupts, signum, env)
+                summary(f"{signal.Signals(signum).name} to octave --eval inside travelDist", latencies)
+            summary("world killed -> CreateRobot:bridge", [dead_world_run(octave, env) for _ in range(args.interrupts)])
         print(f"load after: {os.getloadavg()[0]:.2f}")
     finally:
         for process in (bridge, world):

@@ -306,8 +306,8 @@ class MatlabBridge:
         if time.monotonic() - heard < WORLD_QUIET:
             return
         world = self._world_node()
-        if world is not None and self._answers(world):
-            self._world_answered = time.monotonic()
+        if (world is not None and self._answers(world)) or self._odom_time > heard:
+            self._world_answered = time.monotonic()  # (or its odometry came meanwhile: a slow world)
             return
         silent = f"no reply from its node {world} in {WORLD_ANSWER} s" if world else "no node publishes it"
         raise WorldLost(
