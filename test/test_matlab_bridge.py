@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shutil
 import signal
 import socket
@@ -18,6 +19,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
@@ -44,6 +46,46 @@ SQUARE_TOLERANCE = 0.1  # m, the same for the square at three times real time (s
 OCTAVE = shutil.which("octave-cli")
 needs_octave = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
+# Every public function of the original toolbox at its latest version (37): a program may call any.
+ORIGINAL_FUNCTIONS = [
+    "AllSensorsReadRoomba",
+    "AngleSensorRoomba",
+    "BatteryChargeReaderRoomba",
+    "BatteryVoltageRoomba",
+    "BeepCreate",
+    "BeepRoomba",
+    "BumpsWheelDropsSensorsRoomba",
+    "ButtonsSensorRoomba",
+    "CameraSensorCreate",
+    "CliffFrontLeftSensorRoomba",
+    "CliffFrontLeftSignalStrengthRoomba",
+    "CliffFrontRightSensorRoomba",
+    "CliffFrontRightSignalStrengthRoomba",
+    "CliffLeftSensorRoomba",
+    "CliffLeftSignalStrengthRoomba",
+    "CliffRightSensorRoomba",
+    "CliffRightSignalStrengthRoomba",
+    "CurrentTesterRoomba",
+    "DemoCmdsCreate",
+    "DistanceSensorRoomba",
+    "LidarSensorCreate",
+    "OverheadLocalizationCreate",
+    "ReadBeacon",
+    "ReadSonar",
+    "ReadSonarMultiple",
+    "RealSenseDist",
+    "RealSenseTag",
+    "RoombaInit",
+    "SetDriveWheelsCreate",
+    "SetFwdVelAngVelCreate",
+    "SetFwdVelRadiusRoomba",
+    "SetLEDsRoomba",
+    "TravelDistCreate",
+    "TurnCreate",
+    "VirtualWallSensorCreate",
+    "travelDist",
+    "turnAngle",
+]
 
 
 @pytest.fixture(scope="module")
@@ -236,7 +278,8 @@ def test_a_program_killed_mid_loop_or_mid_call_stops_the_robot_and_the_world_run
 @needs_octave
 def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_toolboxs_shapes(robot, bridge_port):
     robot.reset()
-    names = " ".join(sorted(CALLS))
+    assert len(ORIGINAL_FUNCTIONS) == 37 and set(ORIGINAL_FUNCTIONS) - {"RoombaInit"} <= set(CALLS)
+    names = " ".join(sorted(set(CALLS) | set(ORIGINAL_FUNCTIONS)))
     script = (
         f"{NO_CORE}addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
         "for k = 1:numel(names), h = evalc(['help CreateRobot.' names{k}]); "
@@ -267,6 +310,107 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
     assert "lidar 1 681 4.0" in done.stdout  # a row; rays with nothing in range read the 4 m limit
     assert "sonars 1 4" in done.stdout and "all 23" in done.stdout
     assert "RoombaInit gives serPort back: 1" in done.stdout
+
+
+def octave_eval(port: int, script: str, timeout: float = 120) -> str:
+    """What octave-cli prints running ``script`` with ``s`` connected to the bridge."""
+    done = subprocess.run(
+        [
+            OCTAVE or "octave-cli",
+            "--no-gui",
+            "--quiet",
+            "--eval",
+            f"{NO_CORE}addpath('{matlab_dir('create')}'); s = CreateRobot({port}); {script}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout
+
+
+@needs_octave
+def test_turn_angle_takes_the_short_way_round_as_the_original(robot, bridge_port):
+    # (turnAngle waits on odometry: at three times real time it turns the same, sooner)
+    robot.reset(real_time_factor=3.0)
+    turns = [("turnAngle(s, 0.2, 270)", -90.0), ("TurnCreate(s, 0.2, -300)", 60.0), ("turnAngle(s, 0.2, 360)", 0.0)]
+    heading = 0.0
+    for call, turn in turns:
+        octave_eval(bridge_port, call)
+        heading += turn
+        assert spin_until(robot.executor, robot.standing, timeout=10)
+        robot.poses.clear()
+        assert spin_until(robot.executor, lambda: bool(robot.poses.msgs), timeout=10)
+        assert math.degrees(robot.heading()) == pytest.approx(heading, abs=3.0), call
+        assert math.dist(robot.track()[-1], (0, 0)) < 0.01  # in place
+
+
+@needs_octave
+def test_the_realsense_functions_see_the_wall_and_the_tag_ahead_as_the_original_reports_them(robot, bridge_port):
+    robot.reset()
+    out = octave_eval(
+        bridge_port,
+        "d = RealSenseDist(s); printf('depth %d %d |', size(d)); printf(' %.3f', d(2:end)); printf('\\n'); "
+        "printf('dt %d\\n', d(1) >= 0 && d(1) < 1); "
+        "t = RealSenseTag(s); printf('tags %d %d | %g %.3f %.3f %g\\n', size(t), t(1, 2:5)); "
+        "[X, Y, Z, R, N] = ReadBeacon(s); printf('beacon %g %.3f %g %.3f %g\\n', X, Y, Z, R, N);",
+    )
+    # The wall across the floor 0.6 m ahead, square to the robot: every ray's depth (along the
+    # heading, from the centre) is 0.6 m, as the original's depth camera would report.
+    assert "depth 10 1 | " + " ".join(["0.600"] * 9) in out and "dt 1" in out
+    # The tag 0.37 m ahead of the camera and 0.13 m to its left: [dt id x y rot], x ahead, y left.
+    assert "tags 1 5 | 7 0.370 0.130 0" in out
+    assert "beacon -0.13 0.000 0.37 0.000 7" in out
+
+
+@needs_octave
+def test_a_recorded_programs_calls_land_in_datahistory_as_the_originals_saved_data_has_them(
+    robot, bridge_port, tmp_path
+):
+    from scipy.io import loadmat
+
+    robot.reset()
+    bag = tmp_path / "run"
+    recorder = subprocess.Popen(
+        executable_command("record", [f"{NAMESPACE}/overhead_pose", f"{NAMESPACE}/matlab_calls", "-o", str(bag)]),
+        env=ENV,
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        recording = lambda: len(robot.node.get_subscriptions_info_by_topic(f"{NAMESPACE}/matlab_calls")) > 0  # noqa: E731
+        assert spin_until(robot.executor, recording, timeout=60), "the recorder never subscribed"
+        octave_eval(
+            bridge_port,
+            "travelDist(s, 0.2, 0.1); [x, y, a] = OverheadLocalizationCreate(s); ReadSonar(s, 4); "
+            "b = BumpsWheelDropsSensorsRoomba(s); pause(0.3);",
+        )
+        spin_until(robot.executor, lambda: False, timeout=1.0)  # the last poses in
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(timeout=30)
+    done = subprocess.run(
+        executable_command("bag_to_mat", [str(bag), "-o", str(tmp_path / "run.mat")]),
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    history = loadmat(tmp_path / "run.mat", simplify_cells=True)["datahistory"]
+    calls = []
+    for row in history:
+        made = row[4]
+        calls += [made] if isinstance(made, str) else [str(c) for c in np.atleast_1d(made)]
+    assert calls[0] == "travelDist(0.200,0.100)"
+    assert re.fullmatch(r"\[0\.1\d\d -?0\.0\d\d -?0\.0\d\d\]\]= OverheadLocalizationCreate", calls[1]), calls
+    assert calls[2:] == ["[]= ReadSonar", "[0 0 0 0 0 0]= BumpsWheelDropsSensorsRoomba"]
+    # each in the row of the pose recorded just before it: the travelDist's row is before the
+    # robot moved, the pose's row where the robot is 0.1 m on
+    rows = [i for i, row in enumerate(history) if np.size(row[4])]
+    assert history[rows[0]][1] < 0.02 and history[rows[1]][1] == pytest.approx(0.1, abs=0.02)
 
 
 def connect(port: int) -> tuple[socket.socket, str]:

@@ -77,7 +77,7 @@ from std_msgs.msg import String
 from create_sim.client import STOP_CONFIRM_TIMEOUT, CreateRobot
 from sim_runtime.errors import InputError
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
-from sim_tools.matlab.calls import call_text, run_call
+from sim_tools.matlab.calls import COMMANDS, call_text, run_call
 
 PROTOCOL_VERSION = 2
 HELLO = "robot_sims-matlab"
@@ -189,6 +189,8 @@ class Session:
         try:
             name, args = parse_request(request)
             self.bridge.check_world()
+            if name in COMMANDS:  # a command is written as it begins (a travelDist lasts), as the original
+                self.bridge.publish_call(name, args, [])
             self.armed = True
             try:
                 outputs = run_call(self.bridge.robot, name, args)
@@ -201,7 +203,8 @@ class Session:
             return f"error {name}: interrupted by the program; the robot stopped"
         except Exception as error:  # the program's mistake or the robot's: the program's error()
             return reply_error(error)
-        self.bridge.publish_call(name, args, outputs)
+        if name not in COMMANDS:  # a reading: with its outputs
+            self.bridge.publish_call(name, args, outputs)
         return reply_ok(outputs)
 
     def _read_line(self) -> str:

@@ -209,6 +209,24 @@ CALLS: dict[str, Call] = {
 }
 
 
+#: The commands (no outputs): the original wrote them into its saved data as they began.
+COMMANDS = frozenset(
+    {
+        "SetFwdVelAngVelCreate",
+        "SetFwdVelRadiusRoomba",
+        "SetDriveWheelsCreate",
+        "travelDist",
+        "TravelDistCreate",
+        "turnAngle",
+        "TurnCreate",
+        "BeepRoomba",
+        "BeepCreate",
+        "DemoCmdsCreate",
+        "SetLEDsRoomba",
+    }
+)
+
+
 def run_call(robot: CreateRobot, name: str, args: Sequence[float]) -> list[Any]:
     """The outputs of toolbox function ``name`` called with ``args``; ValueError for a bad call."""
     call = CALLS.get(name)
@@ -278,8 +296,10 @@ def call_text(name: str, args: Sequence[float], outputs: list[Any]) -> str:
     if not outputs or name in ("travelDist", "TravelDistCreate", "turnAngle", "TurnCreate"):
         arguments = ",".join(_number(a, saved in _WHOLE_ARGS) for a in args)
         return f"{saved}({arguments})" if args else saved
-    separator = " = " if name in ("ReadBeacon", "RealSenseTag") else "= "
+    outputs_text = _outputs_text(name, outputs)
+    # (the original's ReadBeacon and RealSenseTag wrote " = " after a tag, "= " after none)
+    separator = " = " if name in ("ReadBeacon", "RealSenseTag") and outputs_text != "[]" else "= "
     # (the original's OverheadLocalizationCreate wrote a stray second bracket; so do we)
     closing = "]" if name == "OverheadLocalizationCreate" else ""
     suffix = f"({_number(args[0], True)})" if name == "ReadSonarMultiple" and len(args) == 1 else ""
-    return f"{_outputs_text(name, outputs)}{closing}{separator}{saved}{suffix}"
+    return f"{outputs_text}{closing}{separator}{saved}{suffix}"
