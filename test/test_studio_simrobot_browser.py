@@ -247,6 +247,10 @@ def test_pause_holds_the_world_and_step_advances_it_one_step(browser):
 
 
 def test_draw_tracks_writes_a_png_of_the_run(browser, workspace):
+    type_into(browser, ".simrobot-tracks-name", "out.png")  # a link out of the workspace: refused, not followed
+    click_text(browser, "Draw tracks")
+    wait(browser, lambda d: "error: 'out.png' is outside the workspace" in text(d, ".simrobot-tracks-message"))
+    type_into(browser, ".simrobot-tracks-name", "simrobot_tracks.png")
     click_text(browser, "Draw tracks")
     wait(browser, lambda d: "saved simrobot_tracks.png" in text(d, ".simrobot-tracks-message"))
     assert (workspace / "simrobot_tracks.png").read_bytes()[:4] == b"\x89PNG"
