@@ -43,10 +43,11 @@ bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "a baseline (roboticstoolbox-python, ir-sim) unavailable: bench/arm.py and bench/envs.py skip its columns"
 	set -e; for script in $(filter-out bench/soak.py bench/_%.py,$(wildcard bench/*.py)); do echo "== $$script"; $(PY) $$script; done
 
-# Mutation fuzzer over every input format: 100,000 inputs or 15 minutes on 2 worker processes;
+# Mutation fuzzer over every input format (and alias bombs, odd line ends, huge legal files):
+# 100,000 inputs or 15 minutes on 2 worker processes, each input held to 20 CPU s and 1 GB;
 # defects (with their inputs) under out/fuzz/defects, counts in out/fuzz/summary.json.
 fuzz: venv
-	$(PY) -m sim_tools.fuzz --inputs 100000 --seconds 900 --workers 2 --out out/fuzz
+	$(PY) -m sim_tools.fuzz --inputs 100000 --seconds 900 --workers 2 --budget-cpu-seconds 20 --budget-mb 1024 --out out/fuzz
 
 # Soak: each world for an hour of sim time at real_time_factor 0, recorder on; a cmd_vel flood.
 soak: venv

@@ -116,8 +116,8 @@ def read_input_text(
     """The UTF-8 text of the regular file ``path``, as :func:`read_input_bytes` reads it; with
     ``errors="strict"`` a file that is not UTF-8 is an :class:`InputError` naming the byte."""
     data = read_input_bytes(path, what, limit)
-    try:
-        return data.decode("utf-8", errors=errors)
+    try:  # "utf-8-sig": a byte-order mark (Windows editors write one) is not part of the text
+        return data.decode("utf-8-sig", errors=errors)
     except UnicodeDecodeError as error:
         raise InputError(
             f"{shown(path)}: {what} is not UTF-8 text (byte {error.start}): is it the right file?"

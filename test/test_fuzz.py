@@ -53,3 +53,66 @@ def test_a_worker_killed_by_a_segfault_or_a_hang_is_counted_its_input_saved_and_
         assert "_selftest_hang" in (folder / "defect.txt").read_text()
     assert "STALL x1 selftest: stall" in run.stdout and summary["stalls"]
     assert summary["recycled"] >= 1  # a worker that ran 10 inputs was replaced, and nothing was lost
+
+
+def _hostile_seeds(tmp_path):
+    from sim_tools.fuzz.targets import Seeds, prepare_seeds
+
+    prepare_seeds(tmp_path / "seeds")
+    return Seeds.load(tmp_path / "seeds")
+
+
+def test_alias_bombs_odd_line_ends_and_huge_inputs_are_refused_or_read_within_the_budget(tmp_path):
+    import random
+
+    from sim_runtime.errors import InputError
+    from sim_tools.fuzz.budget import Budget, Meter
+    from sim_tools.fuzz.hostile import alias_bomb_case, huge_input_case, odd_text_case
+
+    seeds = _hostile_seeds(tmp_path)
+    outcomes: dict[str, set[str]] = {}
+    for name, make, count in (("bombs", alias_bomb_case, 40), ("odd", odd_text_case, 40), ("huge", huge_input_case, 6)):
+        for i in range(count):
+            folder = tmp_path / f"{name}-{i}"
+            folder.mkdir()
+            case = make(random.Random(f"test/{name}/{i}"), seeds, folder)
+            meter = Meter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a bombed bag's metadata is warned about, then skipped
+                try:
+                    with meter:
+                        case.run()
+                    outcome = "ok"
+                except InputError:
+                    outcome = "input_error"
+            assert meter.over(Budget()) is None, (name, case.note)
+            outcomes.setdefault(name, set()).add(outcome)
+            if name == "bombs" and not case.note.startswith("bag"):
+                assert outcome == "input_error", case.note
+    assert outcomes["odd"] >= {"ok"} and outcomes["huge"] >= {"ok", "input_error"}
+
+
+def test_an_input_over_its_budget_is_a_defect_saved_with_its_cost(tmp_path):
+    from sim_tools.fuzz.budget import Budget
+    from sim_tools.fuzz.campaign import _run_input
+
+    seeds = _hostile_seeds(tmp_path)
+    out = tmp_path / "out"
+    _index, name, outcome, signature = _run_input(0, 5, seeds, tmp_path / "case", out, Budget(cpu_seconds=0.0))
+    assert outcome == "defect" and signature == f"{name}: over budget (CPU)"
+    (saved,) = out.glob(f"defects/{name}-defect-0")
+    assert "over the per-input budget" in (saved / "defect.txt").read_text()
+
+
+def test_the_meter_sees_the_memory_and_cpu_an_input_takes():
+    from sim_tools.fuzz.budget import Budget, Meter
+
+    with Meter() as meter:
+        block = bytearray(300 * 2**20)
+        block[::4096] = b"x" * len(block[::4096])  # touched: resident
+        total = sum(range(2_000_000))
+    del block
+    assert total > 0
+    assert meter.memory_mb > 250
+    assert meter.over(Budget(memory_mb=100)) is not None and "MB" in meter.over(Budget(memory_mb=100))
+    assert meter.over(Budget(cpu_seconds=0.0, memory_mb=1e6)).endswith("CPU s > 0")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sim_tools.fuzz.budget import Budget
 from sim_tools.fuzz.campaign import Campaign, replay
 
 
@@ -21,6 +22,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--recycle-after", type=int, default=1000, help="a worker is replaced after this many inputs (default 1000)"
     )
+    parser.add_argument(
+        "--budget-cpu-seconds",
+        type=float,
+        default=Budget.cpu_seconds,
+        help=f"CPU seconds one input may take; more is a defect (default {Budget.cpu_seconds:g})",
+    )
+    parser.add_argument(
+        "--budget-mb",
+        type=float,
+        default=Budget.memory_mb,
+        help=f"memory (MB) one input may add to its worker; more is a defect (default {Budget.memory_mb:g})",
+    )
     parser.add_argument("--out", default="out/fuzz", help="folder for seeds, defects and summary.json")
     parser.add_argument("--replay", type=int, metavar="INDEX", help="run input INDEX here and show its traceback")
     opts = parser.parse_args(argv)
@@ -36,6 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         hang_seconds=opts.hang_seconds,
         batch=opts.batch,
         recycle_after=opts.recycle_after,
+        budget=Budget(cpu_seconds=opts.budget_cpu_seconds, memory_mb=opts.budget_mb),
     ).run()
     print(report.table())
     print(f"defect inputs saved under {opts.out}/defects; summary in {opts.out}/summary.json")

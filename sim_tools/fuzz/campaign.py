@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from sim_runtime.inputfile import is_regular_file
+from sim_tools.fuzz.budget import Budget, Meter, rss_mb
 
 OUTCOMES = ("ok", "input_error", "defect", "crash", "hang")
 STALL = "stall"
@@ -105,7 +106,15 @@ def _signature(name: str, exc: BaseException) -> str:
 
 
 def _worker(
-    seed_folder: str, seed: int, tasks: Any, results: Any, current: Any, started: Any, out: str, log: str
+    seed_folder: str,
+    seed: int,
+    tasks: Any,
+    results: Any,
+    current: Any,
+    started: Any,
+    out: str,
+    log: str,
+    budget: Budget,
 ) -> None:
     """Run inputs of the ranges put on ``tasks``; one result per input on the pipe ``results``."""
     fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND)
@@ -130,26 +139,36 @@ def _worker(
             for index in range(*task):
                 started.value = time.monotonic()
                 current.value = index
-                result = _run_input(index, seed, seeds, scratch / str(index), Path(out))
+                result = _run_input(index, seed, seeds, scratch / str(index), Path(out), budget)
                 current.value = _IDLE
                 results.send(result)  # synchronous: survives our crash
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
 
-def _run_input(index: int, seed: int, seeds: Any, folder: Path, out: Path) -> tuple[int, str, str, str]:
-    """Make and run input ``index`` in ``folder``, saving it if it is a defect: (index, target, outcome, signature)."""
+def _run_input(
+    index: int, seed: int, seeds: Any, folder: Path, out: Path, budget: Budget | None = None
+) -> tuple[int, str, str, str]:
+    """Make and run input ``index`` in ``folder``, saving it if it is a defect: (index, target,
+    outcome, signature). An input over ``budget`` (CPU seconds, memory) is a defect too."""
     from sim_runtime.errors import InputError
     from sim_tools.fuzz.targets import make_case, target_of
 
     name = target_of(index, seed)
     signature = ""
+    meter = Meter()
     try:
         name, case = make_case(index, seed, seeds, folder)
-        case.run()
-        outcome = "ok"
-    except InputError:
-        outcome = "input_error"
+        try:
+            with meter:
+                case.run()
+            outcome = "ok"
+        except InputError:
+            outcome = "input_error"
+        over = meter.over(budget) if budget is not None else None
+        if over is not None:
+            outcome, signature = "defect", f"{name}: over budget ({'CPU' if 'CPU' in over else 'memory'})"
+            _save(out, name, index, seed, folder, "defect", f"over the per-input budget: {over} ({case.note})")
     except BaseException as exc:
         if isinstance(exc, KeyboardInterrupt):
             raise
@@ -214,11 +233,11 @@ class _Slot:
         self.current = self.ctx.Value("q", _IDLE, lock=False)
         self.started = self.ctx.Value("d", time.monotonic(), lock=False)
         self.results, sender = self.ctx.Pipe(duplex=False)
-        seed_folder, seed, out = self.args
+        seed_folder, seed, out, budget = self.args
         self.log = log = str(Path(out) / f"worker-{self.number}.log")
         self.process = self.ctx.Process(
             target=_worker,
-            args=(seed_folder, seed, self.tasks, sender, self.current, self.started, out, log),
+            args=(seed_folder, seed, self.tasks, sender, self.current, self.started, out, log, budget),
             daemon=True,
         )
         self.process.start()
@@ -273,7 +292,9 @@ class Campaign:
         hang_seconds: float = 30.0,
         recycle_after: int = 1000,
         progress: bool = True,
+        budget: Budget | None = None,
     ) -> None:
+        self.budget = budget or Budget()
         self.inputs, self.seconds, self.workers, self.seed = inputs, seconds, workers, seed
         self.out = Path(out)
         self.batch, self.hang_seconds, self.recycle_after, self.progress = batch, hang_seconds, recycle_after, progress
@@ -288,7 +309,8 @@ class Campaign:
         seed_folder = self._prepare()
         ctx = mp.get_context("spawn")
         self.begin = self.last_print = time.monotonic()
-        self.slots = [_Slot(ctx, (str(seed_folder), self.seed, str(self.out)), n) for n in range(self.workers)]
+        args = (str(seed_folder), self.seed, str(self.out), self.budget)
+        self.slots = [_Slot(ctx, args, n) for n in range(self.workers)]
         try:
             while self._round():
                 pass
@@ -352,6 +374,9 @@ class Campaign:
                 self._lost(slot, "crash")
         elif slot.current.value != _IDLE and now - slot.started.value > self.hang_seconds:
             self._lost(slot, "hang")
+        elif slot.current.value != _IDLE and rss_mb(slot.process.pid) > self.budget.kill_mb:
+            # far over the memory budget: killed before it takes the machine, counted as a crash
+            self._lost(slot, "crash", f"killed at over {self.budget.kill_mb:.0f} MB resident")
 
     def _stop_workers(self) -> None:
         for slot in self.slots:
@@ -387,7 +412,7 @@ class Campaign:
             shutil.rmtree(scratch, ignore_errors=True)
         return name
 
-    def _lost(self, slot: _Slot, outcome: str) -> None:
+    def _lost(self, slot: _Slot, outcome: str, why: str = "") -> None:
         """The worker died or hung on its current input: restart it; record a crash, or run a hung
         input once more, alone, before recording it."""
         index = slot.current.value
@@ -399,7 +424,7 @@ class Campaign:
             self.confirming[index] = f"the worker's threads when it was killed:\n{stacks}"
             slot.give((index, index + 1))
             return
-        detail = f"exit code {exitcode}"
+        detail = f"exit code {exitcode}" + (f": {why}" if why else "")
         if stacks:
             detail += f" (it hung when run alone too)\n\nthe worker's threads when it was killed:\n{stacks}"
         self.confirming.pop(index, None)

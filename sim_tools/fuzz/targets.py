@@ -58,6 +58,7 @@ from sim_tools.fuzz.bags import (
     write_seed_bags,
 )
 from sim_tools.fuzz.corpus import Seeds, fuzz_parts
+from sim_tools.fuzz.hostile import alias_bomb_case, huge_input_case, odd_text_case
 from sim_tools.fuzz.nodes import node_parameters_case
 from sim_tools.fuzz.selftest import selftest_case
 from sim_tools.fuzz.special import SPECIAL_PATHS, special_path, special_path_case
@@ -71,6 +72,9 @@ TOOL_TARGETS: dict[str, tuple[float, Callable[[random.Random, Seeds, Path], Case
     "replay": (4, replay_case),
     "node_parameters": (4, node_parameters_case),
     "special_paths": (4, special_path_case),
+    "alias_bombs": (3, alias_bomb_case),
+    "odd_text": (2, odd_text_case),
+    "huge_inputs": (0.15, huge_input_case),
 }
 
 
