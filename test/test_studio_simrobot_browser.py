@@ -34,6 +34,7 @@ from studio_browser_support import (
 )
 
 from simrobot_sim.world_file import load_world
+from studio.simrobot.doc import blank_walls, map_image
 
 WINDOW_SIZE = "1400,1400"
 STUDIO_DOMAIN = studio_domain(53)  # the other studio modules use 50-52
@@ -116,7 +117,7 @@ def message(driver) -> str:
     return text(driver, ".simrobot-editor-message")
 
 
-def test_both_pages_serve_a_workspace_with_links_out_of_it_and_dangling_links(browser, studio_url):
+def test_both_pages_serve_a_workspace_with_links_out_of_it_and_dangling_links(browser, studio_url, workspace):
     for page in ("/simrobot/editor", "/simrobot"):
         with urllib.request.urlopen(studio_url + page, timeout=30) as reply:  # an HTTP error raises
             assert reply.status == 200
@@ -130,6 +131,13 @@ def test_both_pages_serve_a_workspace_with_links_out_of_it_and_dangling_links(br
         type_into(browser, f".simrobot-{field}-name", name)
         click_text(browser, button)
         wait(browser, lambda d, name=name: f"error: '{name}' is outside the workspace" in message(d))
+    outside = workspace.parent / f"{workspace.name}_outside.png"  # a world file whose map is elsewhere
+    map_image(blank_walls(1.0, 1.0, 0.01)).save(outside)
+    (workspace / "elsewhere.yaml").write_text(f"map: {outside}\nrobots: [{{name: r1, position: [0.5, 0.5]}}]\n")
+    type_into(browser, ".simrobot-world-name", "elsewhere.yaml")
+    click_text(browser, "Open")
+    said = "is outside the workspace .*: copy the bitmap into the workspace and name it in the world file's map:"
+    wait(browser, lambda d: re.fullmatch(f"error: elsewhere.yaml: its map .*{said}", message(d)))
     for name, field, button in (("gone.yaml", "world", "Open"), ("gone.png", "map", "Import")):
         type_into(browser, f".simrobot-{field}-name", name)
         click_text(browser, button)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sim_runtime.errors import InputError
-from simrobot_sim.world_file import RobotSpec, load_bitmap, load_world
+from simrobot_sim.world_file import RobotSpec, WorldSpec, load_bitmap, load_world
 from studio.shell.svg import View
 from studio.shell.workspace import Workspace
 from studio.simrobot import fields
@@ -178,3 +178,15 @@ def test_a_file_that_is_no_image_is_refused_in_a_sentence_not_an_object_repr(tmp
         WorldDraft.from_image(tmp_path / "notes.png")
     assert str(refused.value).endswith("the file is not an image; save the map as a 1-bit or greyscale PNG or BMP")
     assert "BytesIO" not in str(refused.value)
+
+
+def test_the_step_counter_counts_steps_of_dt_and_says_when_the_limit_stopped_the_world():
+    from studio.simrobot.ros_client import WorldState
+    from studio.simrobot.view import steps_text
+
+    spec = WorldSpec(walls=np.zeros((3, 3), dtype=bool), dt=0.1, steps_limit=300.0)
+    st = WorldState(ns="/w", node_name="/w/simrobot_world", sim_time=3.7)
+    assert steps_text(st, spec) == "step 37 of 300 · sim time 3.70 s"
+    st.sim_time = 30.0
+    assert steps_text(st, spec) == "step 300 of 300 · sim time 30.00 s (steps limit reached: the world stopped)"
+    assert steps_text(st, replace(spec, steps_limit=math.inf)) == "step 300 · sim time 30.00 s"
