@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from setuptools import find_packages, setup
+from setuptools.command.build_py import build_py
 
 PACKAGE = "robot_sims"
 HERE = Path(__file__).resolve().parent
@@ -53,6 +54,18 @@ def shared_files(top: str) -> list[tuple[str, list[str]]]:
             rel = os.path.relpath(folder, HERE)
             entries.append((f"share/{PACKAGE}/{rel}", [os.path.join(rel, f) for f in sorted(files)]))
     return entries
+
+
+class BuildPyWithKernels(build_py):
+    """build_py, then numba's cache of every kernel into the build, so that the installed package's
+    first start compiles nothing (pip and ``colcon build``; not an editable install, whose sources
+    are this tree: ``make venv`` warms it). sim_tools/warmup.py says how (read here by path: this
+    build environment need not have numba)."""
+
+    def run(self) -> None:
+        super().run()
+        if not getattr(self, "editable_mode", False):
+            runpy.run_path(str(HERE / "sim_tools" / "warmup.py"))["build_cache"](HERE, Path(self.build_lib))
 
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
@@ -132,5 +145,6 @@ setup(
         # Gymnasium releases that load plugins register our ids from here (sim_tools/rl/registration.py).
         "gymnasium.envs": ["robot_sims = sim_tools.rl.registration:register_envs"],
     },
+    cmdclass={"build_py": BuildPyWithKernels},
     zip_safe=False,
 )

@@ -1,19 +1,25 @@
-"""A user's first start after ``pip install``: each world's time to "ready" with numba's cache cold
-(a fresh install) and warm (the next start), and whether a subscriber joining it later stalls it.
+"""A user's first start after ``pip install``: each world's time to "ready" on its first start
+after the install and on the next one, and whether a subscriber joining it later stalls it.
 
-Run:  .venv/bin/python bench/first_start.py [--keep DIR] [--worlds create_world simrobot_world]
+Run:  .venv/bin/python bench/first_start.py [--keep DIR] [--worlds create_world arm] [--repeat N]
+                                            [--no-build-warmup]
 
 This checkout (its tracked files as they are now) is copied and pip-installed into a temporary
-prefix (``--ignore-installed --no-deps``: the venv's own editable install is left alone), so numba's
-cache starts empty as after any ``pip install`` or ``colcon build``. Each world runs as a user runs
-it, ``robot_sims <world>`` in its own process from that prefix; times are from launching it to its
-"ready" log line, with the CPU time the world's process (and a helper it started) had used by then
-(what a loaded machine stretches into more wall time). Once it is ready this process listens to
-``/clock`` for 2 s, then subscribes to a sensor: "first reading" is the time from subscribing to its
-first message, "clock gap" the longest wait between two ``/clock`` messages in the 3 s after
-subscribing (the stall a joining RViz or recorder would cause), next to the longest in the 2 s
-before. "compiling" says whether the world logged that it compiled kernels. The machine's load is
-printed with each start.
+prefix (``--ignore-installed --no-deps``: the venv's own editable install is left alone), as any
+``pip install`` or ``colcon build`` does: the copy has no numba cache, so the build's warm-up
+(``setup.py``'s ``build_py``, :func:`sim_tools.warmup.build_cache`) compiles every kernel and ships
+the cache beside the installed sources. ``--no-build-warmup`` installs without it
+(``ROBOT_SIMS_BUILD_WARMUP=0``): numba's cache is then empty at the first start, as before the
+install warmed it. Each world runs as a user runs it, ``robot_sims <world>`` in its own process
+from that prefix; times are from launching it to its "ready" log line, with the CPU time the
+world's process (and a helper it started) had used by then (what a loaded machine stretches into
+more wall time). Once it is ready this process listens to ``/clock`` for 2 s, then subscribes to a
+sensor: "first reading" is the time from subscribing to its first message, "clock gap" the
+longest wait between two ``/clock`` messages in the 3 s after subscribing (the stall a joining
+RViz or recorder would cause), next to the longest in the 2 s before. "compiling" says whether the
+world logged that it compiled kernels. ``--repeat N`` measures each world's first start N times,
+the installed prefix put back as the install left it before each (the machine is shared: the
+quietest run is the figure). The machine's load is printed with each start.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "f
 import rclpy  # noqa: E402
 from rclpy.qos import qos_profile_sensor_data  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
-from sensor_msgs.msg import LaserScan, Range  # noqa: E402
+from sensor_msgs.msg import JointState, LaserScan, Range  # noqa: E402
 
 from sim_runtime.kernels import COMPILING_NOTICE  # noqa: E402
 from sim_runtime.qos import CLOCK_QOS  # noqa: E402
@@ -51,6 +57,7 @@ WORLDS = {
     "create_world": (["-r", "__ns:=/first_start"], "/first_start/scan", LaserScan),
     # 20 steps a second, so that /clock is frequent enough to show a stall
     "simrobot_world": (["-p", "world_file:=simrobot/demo.yaml", "-p", "real_time_factor:=20.0"], "/r1/sens1", Range),
+    "arm": (["-r", "__ns:=/first_start"], "/first_start/joint_states", JointState),
 }
 READY_TIMEOUT_S = 900.0
 
@@ -72,8 +79,9 @@ def load() -> str:
     return "load {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
 
 
-def install_copy(work: Path) -> tuple[Path, Path]:
-    """pip-install a copy of this checkout's tracked files into ``work/prefix``: (prefix, site-packages)."""
+def install_copy(work: Path, build_warmup: bool = True) -> tuple[Path, Path]:
+    """pip-install a copy of this checkout's tracked files into ``work/prefix``: (prefix, site-packages).
+    Without ``build_warmup`` the build ships no numba cache."""
     tree = work / "tree"
     files = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
     for name in files.decode().split("\0"):
@@ -82,9 +90,13 @@ def install_copy(work: Path) -> tuple[Path, Path]:
             shutil.copy2(ROOT / name, tree / name)
     prefix = work / "prefix"
     pip = [sys.executable, "-m", "pip", "install", "--quiet", "--prefix", str(prefix)]
-    subprocess.run([*pip, "--ignore-installed", "--no-deps", str(tree)], check=True)
-    purelib = sysconfig.get_path("purelib", vars={"base": str(prefix), "platbase": str(prefix)})
-    return prefix, Path(purelib)
+    env = dict(os.environ, ROBOT_SIMS_BUILD_WARMUP="1" if build_warmup else "0")
+    subprocess.run([*pip, "--ignore-installed", "--no-deps", str(tree)], check=True, env=env)
+    return prefix, site_packages(prefix)
+
+
+def site_packages(prefix: Path) -> Path:
+    return Path(sysconfig.get_path("purelib", vars={"base": str(prefix), "platbase": str(prefix)}))
 
 
 def launch(prefix: Path, site: Path, world: str, args: list[str]) -> subprocess.Popen:
@@ -168,17 +180,32 @@ def one_start(node, executor, prefix: Path, site: Path, world: str) -> Start:
 
 def report(world: str, label: str, start: Start) -> None:
     print(
-        f"  {world:15s} {label:5s} ready {start.ready_s:6.1f} s ({start.ready_cpu_s:5.1f} s CPU)"
+        f"  {world:15s} {label:6s} ready {start.ready_s:6.1f} s ({start.ready_cpu_s:5.1f} s CPU), {load()}"
         f"  compiling logged: {'yes' if start.compiling else 'no'}"
         f"   first reading {start.first_reading_s:5.2f} s after subscribing"
         f"   clock gap {start.gap_after_s:5.3f} s (before joining {start.gap_before_s:5.3f} s)"
     )
 
 
+def shipped_cache(site: Path) -> int:
+    """How many kernels' numba cache indexes the install put beside its sources."""
+    return sum(1 for _ in site.rglob("__pycache__/*.nbi"))
+
+
+def put_back(prefix: Path, pristine: Path) -> None:
+    """The prefix as the install left it (the numba cache a start added removed)."""
+    shutil.rmtree(prefix)
+    shutil.copytree(pristine, prefix, symlinks=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--keep", type=Path, help="install into this folder and keep it (default: a temporary one)")
+    parser.add_argument(
+        "--keep", type=Path, help="install into this folder and keep it (default: a temporary one); reuse its install"
+    )
     parser.add_argument("--worlds", nargs="+", choices=list(WORLDS), default=list(WORLDS), help="default: all")
+    parser.add_argument("--repeat", type=int, default=1, help="first starts per world (default 1)")
+    parser.add_argument("--no-build-warmup", action="store_true", help="install without the build's numba warm-up")
     opts = parser.parse_args()
     work = opts.keep or Path(tempfile.mkdtemp(prefix="first_start_"))
     rclpy.init()
@@ -186,14 +213,24 @@ def main() -> int:
     executor = make_executor()
     executor.add_node(node)
     try:
-        print(f"pip install of a copy of this checkout into {work}, {load()}")
-        t = time.monotonic()
-        prefix, site = install_copy(work)
-        print(f"  installed in {time.monotonic() - t:.0f} s; numba caches next to the installed sources")
+        pristine = work / "pristine"
+        if pristine.is_dir():  # --keep of an earlier run: its install, as it left it
+            prefix, site = work / "prefix", site_packages(work / "prefix")
+            print(f"the install in {work} of an earlier run, {load()}")
+        else:
+            warmup = "without" if opts.no_build_warmup else "with"
+            print(f"pip install of a copy of this checkout into {work}, {warmup} the build's warm-up, {load()}")
+            t = time.monotonic()
+            prefix, site = install_copy(work, build_warmup=not opts.no_build_warmup)
+            print(f"  installed in {time.monotonic() - t:.0f} s, {load()}")
+            shutil.copytree(prefix, pristine, symlinks=True)
+        print(f"  numba cache shipped beside the installed sources: {shipped_cache(site)} kernels")
         for world in opts.worlds:
-            for label in ("cold", "warm"):
-                print(f"{world}, {label} numba cache, {load()}")
-                report(world, label, one_start(node, executor, prefix, site, world))
+            for run in range(opts.repeat):
+                put_back(prefix, pristine)
+                for label in ("first", "second"):
+                    print(f"{world}, {label} start after the install (run {run + 1}), {load()}")
+                    report(world, label, one_start(node, executor, prefix, site, world))
     finally:
         executor.shutdown()
         node.destroy_node()

@@ -3,7 +3,7 @@
 The worlds compile every kernel they can use before they are ready (their models'
 ``compile_kernels``), with :func:`announce_compiling` saying so only when numba really compiles and
 :func:`compiled_aside` sharing the work with a second process on a cold cache. ``python -m
-sim_tools.warmup`` (run by ``make venv``) fills numba's cache beforehand.
+sim_tools.warmup`` (run by ``make venv`` and by an install's build) fills numba's cache beforehand.
 """
 
 from __future__ import annotations
@@ -18,8 +18,14 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-#: What a world logs before numba compiles its first kernel (only then: loads from the cache are silent).
-COMPILING_NOTICE = "compiling kernels (first run only, ~30 s) ..."
+#: What a world logs before numba compiles its first kernel (only then: loads from the cache are
+#: silent). No time is promised: a cold compile of a world is 10-30 s of CPU, which a loaded
+#: machine stretches into minutes. An install ships the cache (``setup.py``'s warm-up), so this is
+#: seen only where that could not run, or after the sources changed.
+COMPILING_NOTICE = (
+    "compiling kernels: none in numba's cache for these sources (once; `python -m sim_tools.warmup` "
+    "compiles them all) ..."
+)
 
 
 @contextmanager

@@ -12,8 +12,10 @@ numba also checks a cache entry against its own source file only, while a kernel
 code of the kernels it calls, compiled in: after ``git pull`` changed ``geometry.py`` alone, the
 cached physics step still ran the old geometry, and in one process its copy and the new one
 could meet under one name, with a crash as soon as the result was boxed. Here an entry's stamp
-also holds a digest of every kernel source of its own top-level package and of ``sim_runtime``
-(the only packages a kernel calls into), so a change anywhere there recompiles them.
+(:func:`source_stamp`) is its file's contents and a digest of every kernel source of its own
+top-level package and of ``sim_runtime`` (the only packages a kernel calls into), so a change
+anywhere there recompiles them, and nothing else does: not a new path or file time, so the cache
+a build ships beside the installed sources is used there.
 
 Both are installed when numba's caching module loads (or at once if it already has): importing
 :mod:`sim_runtime` is enough, and every package with kernels does.
@@ -73,11 +75,26 @@ def kernel_sources_digest(package: Path) -> str:
 _BASE = Path(__file__).resolve().parent  # sim_runtime: its kernels are called from every package
 
 
+@functools.cache
+def _file_digest(path: str, mtime_ns: int, size: int) -> bytes:
+    """SHA-256 of a file's bytes (read again when its time or size changes)."""
+    return hashlib.sha256(Path(path).read_bytes()).digest()
+
+
+def source_stamp(py_file: str | Path) -> tuple[bytes, tuple[str, ...]]:
+    """What a cache entry of a kernel in ``py_file`` is valid for: that file's contents (what
+    numba 0.68 stamps; older numba used its time, which every install changes) and the digests
+    of :func:`kernel_sources_digest`. No path and no time: an entry made beside a source tree
+    is valid beside an installed copy of it (the cache a build ships, ``sim_tools.warmup``)."""
+    st = Path(py_file).stat()
+    packages = sorted({top_package(py_file), _BASE})
+    return _file_digest(str(py_file), st.st_mtime_ns, st.st_size), tuple(kernel_sources_digest(p) for p in packages)
+
+
 def _stamped(get_source_stamp: Callable[[Any], Any]) -> Callable[[Any], Any]:
     @functools.wraps(get_source_stamp)
     def stamp(self: Any) -> Any:
-        packages = sorted({top_package(self._py_file), _BASE})
-        return get_source_stamp(self), tuple(kernel_sources_digest(p) for p in packages)
+        return source_stamp(self._py_file)
 
     return stamp
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import fcntl
 import os
 import pickle
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -113,3 +114,26 @@ def test_a_cached_kernel_runs_the_new_code_of_a_kernel_it_calls_from_another_fil
     assert list((package / "__pycache__").glob("caller.doubled-*.nbi"))  # cached: the next run loads it
     (package / "callee.py").write_text(textwrap.dedent(CALLEE.format(gain=5)), encoding="utf-8")
     assert run_caller(tmp_path).strip() == "10"  # numba alone would load the old caller: 2
+
+
+def test_a_cache_entry_made_beside_one_copy_of_a_package_is_loaded_beside_another(tmp_path):
+    # What an install ships: entries made beside the build's sources, used beside the installed
+    # copies (another folder, another file time). Nothing but the contents may key them.
+    first, second = tmp_path / "a", tmp_path / "b"
+    package = first / "probe"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("", encoding="utf-8")
+    (package / "caller.py").write_text(textwrap.dedent(CALLER), encoding="utf-8")
+    (package / "callee.py").write_text(textwrap.dedent(CALLEE.format(gain=3)), encoding="utf-8")
+    assert run_caller(first).strip() == "6"
+    shutil.copytree(first, second)
+    later = time.time() + 3600
+    for path in (second / "probe").glob("*.py"):
+        os.utime(path, (later, later))
+    code = "import sim_runtime; from probe.caller import doubled; print(doubled())"
+    env = dict(os.environ, PYTHONPATH=f"{second}{os.pathsep}{ROOT}", NUMBA_DEBUG_CACHE="1")
+    env.pop("NUMBA_CACHE_DIR", None)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120).stdout
+    assert out.splitlines()[-1] == "6"
+    assert f"data loaded from '{second}" in out, out
+    assert "data saved to" not in out, out  # nothing compiled again

@@ -160,9 +160,11 @@ sample_run = None
 
 
 def warm_up() -> None:
-    """Forward/inverse kinematics and dynamics, single and batched; both STL readers; rotations."""
+    """Forward/inverse kinematics and dynamics, single and batched; both STL readers; rotations;
+    the URDF joints' transforms."""
     from arm_sim.arm import Arm
     from arm_sim.stl import parse_stl
+    from arm_sim.urdf import arm_tree, joint_transforms
     from sim_runtime.paths import config_path
     from sim_runtime.rotations import quaternions_xyzw
 
@@ -170,6 +172,7 @@ def warm_up() -> None:
     q = arm.mid_range()
     frames = arm.fkine_all(q)
     quaternions_xyzw(np.ascontiguousarray(frames))
+    joint_transforms(arm_tree(arm.config), q)  # the node's /tf of the URDF's joints
     arm.fkine(q), arm.jacob0(q), arm.rne(q, q, q), arm.gravload(q), arm.inertia(q)
     arm.ikine(arm.fkine(q + 0.1), q0=q)
     arm.ikine_batch(np.stack([arm.fkine(q)] * 2), np.tile(q, (2, 1)))

@@ -279,14 +279,17 @@ def sample_run(folder: Path) -> Path:
 
 
 def warm_up() -> None:
-    """The model's step and every sensor, on the shipped example map and noise config."""
+    """The model's step and every sensor, on the shipped example map and noise config; the walls'
+    raster of the node's ``/map``."""
     from create_sim.configfile import load_config
+    from create_sim.geometry import rasterise_walls
     from create_sim.mapfile import load_map
     from create_sim.model import CreateModel
     from sim_runtime.paths import config_path
 
     world = load_map(config_path("create/example.map"))
     CreateModel(world, load_config(config_path("create/example_config.txt"))).compile_kernels()
+    rasterise_walls(world.walls, 0.05)
 
 
 def describe_kwargs(executable: str) -> dict[str, Any]:

@@ -154,10 +154,11 @@ _ROBOT = "  - name: r{0}\n    position: [{1}, 1.55]\n    sensors:\n      - {2}\n
 
 
 def warm_up() -> None:
-    """A two-robot world with both sensor types, under both sensor models."""
+    """A two-robot world with both sensor types, under both sensor models; a world with enough
+    sensors to sense on two threads."""
     from sim_runtime.paths import config_path
-    from simrobot_sim.model import SimrobotWorld
-    from simrobot_sim.world_file import load_world
+    from simrobot_sim.model import PARALLEL_MIN_SENSORS, SimrobotWorld
+    from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec, load_world
 
     robots = "".join(
         _ROBOT.format(i, x, _SENSOR.format("us", "ultrasonic"), _SENSOR.format("lz", "laser"))
@@ -172,6 +173,14 @@ def warm_up() -> None:
             path = Path(tmp) / "warmup.yaml"
             path.write_text(world_text)
             SimrobotWorld(load_world(path)).compile_kernels()
+    side = 8  # robots a row, 0.3 m apart
+    sonar = SensorSpec("s", "ultrasonic", beamwidth=0.5, range=0.2, rays=5)
+    swarm = tuple(
+        RobotSpec(f"r{i}", (0.3 + 0.3 * (i % side), 0.3 + 0.3 * (i // side)), sensors=(sonar,))
+        for i in range(PARALLEL_MIN_SENSORS)
+    )
+    walls = np.zeros((30 * side + 60, 30 * (PARALLEL_MIN_SENSORS // side) + 60), dtype=bool)
+    SimrobotWorld(WorldSpec(walls=walls, robots=swarm), threads=2).compile_kernels()
 
 
 def describe_kwargs(executable: str) -> dict[str, Any]:
