@@ -9,7 +9,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/config/fastdds_localhost.xml
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
-.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck architecture
+.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck architecture test-sb3
 
 venv: $(STAMP)
 
@@ -38,6 +38,12 @@ screenshots: venv
 # docs/architecture.md's generated parts (contracts, import graph, facts) from the code; test_architecture_doc checks them.
 architecture: venv
 	$(PY) docs/make_architecture.py
+
+# The sb3 extra (Stable-Baselines3 and torch, CPU) and its test (a tiny PPO run exported and run
+# in a batch): out of the test install, torch is large; `make test` skips test_rl_sb3.py without it.
+test-sb3: venv
+	$(PY) -m pip install --quiet -e '.[sb3]'
+	$(PY) -m pytest -q test/test_rl_sb3.py
 
 bench: venv
 	$(PY) -m pip install --quiet -e '.[test,bench]' || echo "a baseline (roboticstoolbox-python, ir-sim) unavailable: bench/arm.py and bench/envs.py skip its columns"

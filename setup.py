@@ -71,6 +71,9 @@ class BuildPyWithKernels(build_py):
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 RAY = ["ray>=2.60"]
 RL = ["gymnasium>=1.0", "pettingzoo>=1.24", "cma>=3.3"]
+# torch pinned to the release whose CPU wheel lies on this project's machines (pip takes it from
+# there; a newer or open range pulls PyPI's CUDA build, several GB). Not in "test": `make test-sb3`.
+SB3 = [*RL, "stable-baselines3>=2.3,<3", "torch==2.13.0"]
 
 
 def package_version() -> str:
@@ -136,6 +139,8 @@ setup(
         "ray": RAY,
         # Learning environments (docs/learning.md): `gymnasium.make("robot_sims/CreateNav-v0")`.
         "rl": RL,
+        # A Stable-Baselines3 policy as a policy file (sim_tools/rl/sb3.py): SB3 and torch (CPU).
+        "sb3": SB3,
         # Optional baselines: bench/arm.py's and bench/envs.py's (each skips its columns when missing).
         "bench": ["roboticstoolbox-python", "ir-sim"],
     },

@@ -1,10 +1,13 @@
 """A learned policy as one file: a small neural network in numpy and the environment it acts in.
 
 The file is a ``.npz``: ``w0, b0, w1, b1, …`` (layer ``i`` maps ``(n_in,)`` to ``(n_out,)`` as
-``x @ w_i + b_i``; ``tanh`` after every layer), ``obs_offset`` and ``obs_scale`` (an observation is
-scaled as ``(obs - obs_offset) / obs_scale`` first), and ``meta``: JSON with ``env_id`` and
-``env_kwargs`` (the environment's options: sensors, LIDAR beams, control period...). The last
-layer's ``tanh`` in ``[-1, 1]`` is mapped onto the action space's ``[low, high]``.
+``x @ w_i + b_i``; ``activation`` after every hidden layer, ``tanh`` or ``relu``), ``obs_offset`` and
+``obs_scale`` (an observation is scaled as ``(obs - obs_offset) / obs_scale`` first), and ``meta``:
+JSON with ``env_id`` and ``env_kwargs`` (the environment's options: sensors, LIDAR beams, control
+period...), ``activation`` and ``output``. The last layer's output, squashed into ``[-1, 1]`` by
+``tanh`` (``output: "tanh"``, ours) or clipped there (``"clip"``: a Gaussian policy's mean, as
+Stable-Baselines3's PPO acts, :mod:`sim_tools.rl.sb3`), is mapped onto the action space's
+``[low, high]``: the robot's own units, whatever space the policy learned in.
 
 The same file is read by the environment's users (``policy.act(obs)``), by
 ``robot_sims policy_controller`` (the policy as a ROS node) and by ``robot_sims batch``.
@@ -30,13 +33,18 @@ import numpy as np
 
 from sim_runtime.errors import InputError
 
-#: The policy file's format version (``meta["format"]``).
-FORMAT = 1
+#: The policy file's format version (``meta["format"]``): 2 added ``activation`` and ``output``.
+FORMAT = 2
+#: The formats this version reads (a format 1 file is tanh everywhere).
+READS = (1, 2)
+ACTIVATIONS = ("tanh", "relu")
+OUTPUTS = ("tanh", "clip")
 
 
 @dataclass(frozen=True)
 class MlpPolicy:
-    """Layers of ``tanh(x @ w + b)``; actions scaled onto ``[act_low, act_high]``."""
+    """Layers of ``activation(x @ w + b)``, the last squashed or clipped into ``[-1, 1]``
+    (``output``); actions scaled onto ``[act_low, act_high]``."""
 
     weights: tuple[np.ndarray, ...]
     biases: tuple[np.ndarray, ...]
@@ -46,6 +54,14 @@ class MlpPolicy:
     act_high: np.ndarray
     env_id: str = ""
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    activation: str = "tanh"
+    output: str = "tanh"
+
+    def __post_init__(self) -> None:
+        if self.activation not in ACTIVATIONS:
+            raise InputError(f"policy activation {self.activation!r}: one of {list(ACTIVATIONS)}")
+        if self.output not in OUTPUTS:
+            raise InputError(f"policy output {self.output!r}: one of {list(OUTPUTS)}")
 
     @classmethod
     def zeros(
@@ -100,15 +116,24 @@ class MlpPolicy:
     def act(self, obs: np.ndarray) -> np.ndarray:
         """The action for one observation: ``(n_obs,)`` → ``(n_act,)`` float32 in the action bounds."""
         x = (np.asarray(obs, dtype=float) - self.obs_offset) / self.obs_scale
-        for w, b in zip(self.weights, self.biases, strict=True):
-            x = np.tanh(x @ w + b)
+        hidden = np.tanh if self.activation == "tanh" else _relu
+        for w, b in zip(self.weights[:-1], self.biases[:-1], strict=True):
+            x = hidden(x @ w + b)
+        x = x @ self.weights[-1] + self.biases[-1]
+        x = np.tanh(x) if self.output == "tanh" else np.clip(x, -1.0, 1.0)
         action = self.act_low + 0.5 * (x + 1.0) * (self.act_high - self.act_low)
         return action.astype(np.float32)
 
     def save(self, path: str | Path) -> Path:
         """Write the policy file (``.npz``); returns its path."""
         path = Path(path)
-        meta = {"format": FORMAT, "env_id": self.env_id, "env_kwargs": self.env_kwargs}
+        meta = {
+            "format": FORMAT,
+            "env_id": self.env_id,
+            "env_kwargs": self.env_kwargs,
+            "activation": self.activation,
+            "output": self.output,
+        }
         arrays: dict[str, Any] = {f"w{i}": w for i, w in enumerate(self.weights)}
         arrays |= {f"b{i}": b for i, b in enumerate(self.biases)}
         arrays |= {"obs_offset": self.obs_offset, "obs_scale": self.obs_scale}
@@ -130,6 +155,18 @@ def load_policy(path: str | Path) -> MlpPolicy:
             arrays = {k: data[k] for k in ("obs_offset", "obs_scale", "act_low", "act_high")}
     except (OSError, KeyError, ValueError) as exc:
         raise InputError(f"{path}: not a policy file ({exc})") from None
-    if meta.get("format") != FORMAT:
-        raise InputError(f"{path}: policy format {meta.get('format')!r}, this version reads {FORMAT}")
-    return MlpPolicy(weights, biases, **arrays, env_id=meta.get("env_id", ""), env_kwargs=meta.get("env_kwargs", {}))
+    if meta.get("format") not in READS:
+        raise InputError(f"{path}: policy format {meta.get('format')!r}, this version reads {list(READS)}")
+    return MlpPolicy(
+        weights,
+        biases,
+        **arrays,
+        env_id=meta.get("env_id", ""),
+        env_kwargs=meta.get("env_kwargs", {}),
+        activation=meta.get("activation", "tanh"),
+        output=meta.get("output", "tanh"),
+    )
+
+
+def _relu(x: np.ndarray) -> np.ndarray:
+    return np.maximum(x, 0.0)
