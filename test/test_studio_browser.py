@@ -185,6 +185,17 @@ def test_a_new_world_on_the_saved_map_shows_the_lidar_hitting_its_walls(browser,
     assert max(abs(y) for y in ys) == pytest.approx(1.5, abs=0.05)
     assert all(abs(x) < 2.05 and abs(y) < 1.55 for x, y in zip(xs, ys, strict=True))
 
+    def plotted(d):  # Read Sensors' LIDAR plot: range by beam angle
+        return d.execute_script(
+            "const p = document.querySelector('.studio-lidar-plot polyline.lidar-ranges');"
+            "return p && p.getAttribute('points');"
+        )
+
+    beams = [tuple(map(float, p.split(","))) for p in wait(browser, plotted, timeout=20.0).split()]
+    assert len(beams) == 681
+    assert [x for x, _y in beams] == sorted(x for x, _y in beams)  # right-most beam first, as the scan
+    assert len({y for _x, y in beams}) > 20  # the walls at their distances, not one flat line
+
 
 def test_the_keyboard_drives_the_create_forward(browser, listener):
     executor, odom, _pose = listener
@@ -339,6 +350,44 @@ def test_apply_to_the_running_world_loads_the_map_or_shows_why_not(browser, stud
     click_text(browser, "Apply to the running world")
     wait(browser, lambda d: "inside a wall" in find(d, ".studio-map-message").text, timeout=40.0)
     assert walls() == 5  # the world kept its map
+
+
+def test_load_map_and_load_config_give_the_selected_world_a_file_or_say_why_not(
+    browser, studio_url, workspace, listener
+):
+    executor, _odom, _pose = listener
+    node = executor.get_nodes()[0]
+    markers = Collector(node, MarkerArray, f"{NS}/map_markers", LATCHED_QOS)
+    assert spin_until(executor, lambda: markers.last is not None, timeout=10.0)
+    params = node.create_client(GetParameters, f"{NS}/create_world/get_parameters")
+
+    def config_file() -> str:
+        future = params.call_async(GetParameters.Request(names=["config_file"]))
+        assert spin_until(executor, future.done, timeout=10.0)
+        return future.result().values[0].string_value
+
+    open_page(browser, studio_url + "/")
+    click(browser, ".studio-world-files .q-item")
+    wait(browser, lambda d: find(d, ".studio-robot .q-field__native").text.strip() == NS)
+    type_into(browser, ".studio-load-map-file", "box.map")  # 4 walls: the world has box2.map's 5
+    click(browser, ".studio-load-map")
+    wait(browser, lambda d: "loaded box.map into the world in /box" in find(d, ".studio-world-files-message").text)
+    assert spin_until(executor, lambda: sum(len(m.points) // 2 for m in markers.last.markers if m.ns == "walls") == 4)
+    type_into(browser, ".studio-load-config-file", "noisy.cfg")
+    click(browser, ".studio-load-config")
+    wait(browser, lambda d: "loaded noisy.cfg" in find(d, ".studio-world-files-message").text, timeout=40.0)
+    assert config_file() == str(workspace / "noisy.cfg")
+    type_into(browser, ".studio-load-map-file", "blocked.map")  # a wall through the robot
+    click(browser, ".studio-load-map")
+    wait(
+        browser, lambda d: "kept its map" in (t := find(d, ".studio-world-files-message").text) and "inside a wall" in t
+    )
+    type_into(browser, ".studio-load-map-file", "nowhere.map")
+    click(browser, ".studio-load-map")
+    wait(
+        browser,
+        lambda d: "nowhere.map: map file not found in the workspace" in find(d, ".studio-world-files-message").text,
+    )
 
 
 def test_the_speed_selector_sets_the_worlds_real_time_factor(browser, studio_url, listener):

@@ -454,3 +454,15 @@ def test_studio_help_names_every_familys_pages_and_their_addresses():
         assert re.search(rf"^  {re.escape(text)} +{re.escape(target)} ", shown, re.MULTILINE), shown
     for window in ("SimulatorGUI", "MapMakerGUI", "ConfigMakerGUI", "ReplayGUI", "SIMROBOT editor", "Arm"):
         assert window in shown
+
+
+def test_the_lidar_plot_draws_each_beam_at_its_angle_and_range_and_no_return_at_the_top():
+    from studio.create.lidar_plot import RANGE_TOP_M, beam_px, lidar_plot_svg, plot_area
+
+    left, top, width, height = plot_area()
+    px, py = beam_px(np.radians([-120.0, 0.0, 120.0]), np.array([2.0, np.inf, np.nan]))
+    assert px.tolist() == pytest.approx([left, left + width / 2, left + width])  # right-most beam on the left
+    assert py.tolist() == pytest.approx([top + height * (1 - 2.0 / RANGE_TOP_M), top, top])
+    svg = lidar_plot_svg((math.radians(-120), math.radians(240) / 680, np.full(681, 1.5, np.float32)))
+    assert svg.count(",") == 681 and "lidar-ranges" in svg
+    assert "lidar-ranges" not in lidar_plot_svg(None)  # the axes only, until a scan arrives

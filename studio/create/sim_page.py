@@ -15,8 +15,10 @@ import numpy as np
 from nicegui import events, ui
 
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
+from studio.create.lidar_plot import lidar_plot_svg
 from studio.create.ros_client import RobotState, create_ros
 from studio.create.sim_drive import DrivePanel
+from studio.create.sim_files import WorldFilesPanel
 from studio.create.sim_runs import ControllerPanel, RecordPanel, WorldPanel
 from studio.create.sim_tab import SimTab
 from studio.create.sim_view import FRAME_PERIOD_S, SimView
@@ -86,9 +88,11 @@ class SimulatorPage:
         self.view = SimView(self.tab)
         self.drive = DrivePanel(self.tab)
         self.world = WorldPanel(self.tab, started=self.follow)
+        self.files = WorldFilesPanel(self.tab)
         self.controller = ControllerPanel(self.tab, stop_robot=self.drive.stop)
         self.record = RecordPanel(self.tab)
         self.restored = False  # the tab's own choice is read back from the browser (until then: none)
+        self.plotted_scan = -1  # the scan count the LIDAR plot shows
         self.build()
 
     def build(self) -> None:
@@ -97,6 +101,13 @@ class SimulatorPage:
         with ui.row().classes("w-full no-wrap items-start gap-4 p-2"):
             with ui.column().classes("gap-1"):
                 self.view.build()
+                with ui.card().classes("w-[800px] studio-read-sensors"):  # the original's Read Sensors
+                    ui.label("Read Sensors").classes("font-bold")
+                    with ui.row().classes("no-wrap items-start gap-4"):
+                        self.status = ui.html("", sanitize=False).classes("w-[330px]")
+                        with ui.column().classes("gap-0"):
+                            ui.label("LIDAR: range by beam angle (0° ahead, left +)").classes("text-sm")
+                            self.lidar_plot = ui.html(lidar_plot_svg(None), sanitize=False)
             with ui.column().classes("gap-2 w-[430px]"):
                 with ui.row().classes("items-center gap-2 w-full"):
                     self.robot_select = ui.select([], label="Robot (namespace)", on_change=self.on_select).classes(
@@ -104,10 +115,11 @@ class SimulatorPage:
                     )
                     self.no_world = ui.label("no Create world found yet").classes("text-orange-700 text-sm")
                 self.world.build()
+                self.files.build()
                 self.drive.build()
                 self.controller.build()
                 self.record.build()
-                self.status = ui.html("", sanitize=False).classes("w-full")
+
         ui.timer(FRAME_PERIOD_S, self.view.tick)
         ui.timer(0.5, self.slow_tick)
 
@@ -155,6 +167,9 @@ class SimulatorPage:
         if st is not None and self.tab.selected is not None:
             self.status.set_content(status_html(self.tab.selected, st))
             self.drive.show_command(st.command)
+            if st.scan_count != self.plotted_scan:
+                self.plotted_scan = st.scan_count
+                self.lidar_plot.set_content(lidar_plot_svg(st.scan, st.scan_stamp))
         self.drive.show_driving()
         self.world.show_endings()
         self.controller.show_state()
