@@ -186,12 +186,13 @@ class StandInBridge:
     def serve(self) -> None:
         conn, _ = self.server.accept()
         with conn, conn.makefile("rw") as stream:
-            stream.write("robot_sims-matlab 1 create /r1\n")
+            stream.write("robot_sims-matlab 2 create /r1\n")
             stream.flush()
             with contextlib.suppress(ConnectionResetError):  # Octave ends without saying bye
                 for line in stream:
-                    self.requests.append(line.strip())
-                    stream.write("ok\n")
+                    ident, _, request = line.strip().partition(" ")  # "@1 Name args": one reply per id
+                    self.requests.append(request)
+                    stream.write(f"{ident} ok\n")
                     stream.flush()
 
 
