@@ -578,9 +578,26 @@ def _mark_piece_kernel(occupied, height, width, x1, y1, x2, y2, ox, oy, resoluti
     # A square is at least (|side| - reach) / length from the line: beyond this (with a margin
     # for rounding) it is too far from the segment as well, and the exact test is skipped.
     far = reach + limit * math.hypot(nx, ny) * (1.0 + 1e-6) + 1e-12
+    dx, dy = x2 - x1, y2 - y1
+    margin = limit + h  # half a cell more than can matter: rounding never drops a cell
     for row in range(c0y, c1y + 1):
         cy = oy + (row + 0.5) * resolution
-        for col in range(c0x, c1x + 1):
+        # Only the columns near the part of the piece within reach of this row (a diagonal
+        # piece's box is mostly empty); every cell kept still takes the exact test below.
+        ya, yb = cy - h - margin, cy + h + margin
+        if dy == 0.0:
+            if y1 < ya or y1 > yb:
+                continue
+            xa, xb = min(x1, x2), max(x1, x2)
+        else:
+            ta, tb = (ya - y1) / dy, (yb - y1) / dy
+            t0, t1 = max(min(ta, tb), 0.0), min(max(ta, tb), 1.0)
+            if t0 > t1:
+                continue
+            xa, xb = min(x1 + t0 * dx, x1 + t1 * dx), max(x1 + t0 * dx, x1 + t1 * dx)
+        first = max(c0x, int(math.floor((xa - margin - ox) / resolution)) - 1)
+        last = min(c1x, int(math.floor((xb + margin - ox) / resolution)) + 1)
+        for col in range(first, last + 1):
             if occupied[row, col]:
                 continue
             cx = ox + (col + 0.5) * resolution

@@ -26,6 +26,7 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
+import rclpy.logging
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
@@ -39,6 +40,7 @@ from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
 from sim_runtime.errors import InputError
+from sim_runtime.inputfile import shown
 from sim_runtime.kernels import announce_compiling
 from sim_runtime.msgs import (
     ABSURD_COMMAND,
@@ -54,7 +56,7 @@ from sim_runtime.paths import resolve_input_file
 from sim_runtime.qos import COMMAND_SUBSCRIBER_QOS, LATCHED_QOS, SENSOR_PUBLISHER_QOS
 from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
-from sim_runtime.world_node import SimWorldNode, namespace_prefix
+from sim_runtime.world_node import SimWorldNode, namespace_prefix, startup_phase
 from simrobot_sim.matlab_alg import OctaveAlgorithms
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.spec import (
@@ -133,7 +135,7 @@ class SimrobotWorldNode(SimWorldNode):
             "it lies on its outline), as the original's",
         )
         self.parameters_declared()
-        with announce_compiling(self.get_logger().info):
+        with announce_compiling(self.get_logger().info), self.starting("building the world model"):
             self.model = SimrobotWorld(spec, outline_bodies=outline_bodies, see_own_robot=see_own_robot)
             self.model.compile_kernels()  # now: not at the first step after "ready"
         self.lockstep = bool(spec.lockstep)
@@ -483,7 +485,8 @@ def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:
         raise InputError("parameter 'world_file' is required: --ros-args -p world_file:=<world.yaml>")
     if not isinstance(path, str):
         raise InputError(f"parameter 'world_file' = {path!r} is invalid: a file name is expected")
-    return load_world(resolve_input_file(path, "world_file"))
+    with startup_phase(rclpy.logging.get_logger(node_name).info, f"reading world {shown(path)}"):
+        return load_world(resolve_input_file(path, "world_file"))
 
 
 def make_nodes() -> list[Node]:

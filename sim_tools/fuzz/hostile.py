@@ -7,7 +7,7 @@
 - ``odd_text``: a seed text file (Create map and config, world, arm config, ASCII STL) with its
   lines ended by CR alone or CR LF, or after a UTF-8 byte-order mark: it must load exactly when
   the seed loads.
-- ``huge_inputs``: a Create map of 50,000-200,000 walls read, indexed and rasterised as the world
+- ``huge_inputs``: a Create map of 50,000-150,000 walls read, indexed and rasterised as the world
   does at start-up; a map image up to 36,000,000 pixels read; one announcing far more pixels
   than the limit refused from its header.
 
@@ -172,10 +172,10 @@ def _huge_map(rng: random.Random, folder: Path) -> Callable[[], None]:
     from create_sim.geometry import SegmentGrid, rasterise_walls
     from create_sim.mapfile import load_map
 
-    walls = rng.randrange(50_000, 200_001)
+    walls = rng.randrange(50_000, 150_001)
     np_rng = np.random.default_rng(rng.randrange(2**32))
     start = np_rng.uniform(-rng.choice((10.0, 100.0, 1000.0)), 100.0, (walls, 2))
-    rows = np.hstack([start, start + np_rng.normal(0.0, rng.choice((0.1, 1.0, 5.0)), (walls, 2))])
+    rows = np.hstack([start, start + np_rng.normal(0.0, rng.choice((0.1, 0.5, 2.0)), (walls, 2))])
     path = folder / "huge.map"
     with path.open("w") as f:
         np.savetxt(f, rows, fmt="wall %.4f %.4f %.4f %.4f")
