@@ -38,6 +38,7 @@ from sim_tools.matlab.bridge import HELLO, LISTENING, spawn_bridge
 from sim_tools.matlab.paths import matlab_dir
 
 ROOT = Path(__file__).resolve().parent.parent
+PROGRAMS = ROOT / "test" / "matlab_programs"
 NAMESPACE = "/matlab_ends"
 OCTAVE = shutil.which("octave-cli")
 pytestmark = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
@@ -160,7 +161,7 @@ class OctavePrompt:
         self._mark = 0
         self._lock = threading.Lock()
         threading.Thread(target=self._read, daemon=True).start()
-        self.type(f"{NO_CORE}addpath('{matlab_dir('create')}'); s = CreateRobot({port}); disp('READY')")
+        self.type(f"{NO_CORE}addpath('{matlab_dir('create')}', '{PROGRAMS}'); s = CreateRobot({port}); disp('READY')")
         self.expect(r"^READY", timeout=60)
 
     def _read(self) -> None:
@@ -205,7 +206,8 @@ class OctavePrompt:
         os.close(self.master)
 
 
-@pytest.mark.parametrize("call", ["travelDist(s, 0.1, 5)", "turnAngle(s, 0.1, 170)"])
+# A program of the manual's structure Ctrl-C'd inside its travelDist; a turnAngle typed at the prompt.
+@pytest.mark.parametrize("call", ["create_travel_loop(s)", "turnAngle(s, 0.1, 170)"])
 def test_ctrl_c_inside_a_call_at_the_prompt_stops_the_robot_and_the_next_calls_get_their_own_answers(
     robot, bridge, call
 ):
@@ -217,7 +219,7 @@ def test_ctrl_c_inside_a_call_at_the_prompt_stops_the_robot_and_the_next_calls_g
         prompt.ctrl_c()
         robot.settled()  # stopped, not at the end of the call (50 s or 30 s away)
         x, y, theta = robot.pose()
-        assert (x > 0.02) if call.startswith("travel") else (abs(theta) > 0.02)
+        assert (x > 0.02) if call.startswith("create") else (abs(theta) > 0.02)
         assert x < 0.3 and abs(theta) < math.radians(90)  # nowhere near the call's goal
         # The next calls are answered, each with its own outputs (not the interrupted call's,
         # nor the previous call's): the pose, then the four sonars, then the pose again.
