@@ -137,7 +137,7 @@ def test_every_agent_is_truncated_at_the_step_limit() -> None:
     assert env.agents == []
 
 
-def test_rgb_array_rendering_draws_the_tracks_picture_and_none_draws_nothing() -> None:
+def test_rgb_array_rendering_draws_the_robots_and_their_tracks_and_none_draws_nothing() -> None:
     env = SimrobotParallelEnv(render_mode="rgb_array", max_steps=20)
     env.reset()
     first = env.render()
@@ -152,7 +152,7 @@ def test_rgb_array_rendering_draws_the_tracks_picture_and_none_draws_nothing() -
 
 def test_unsupported_settings_raise_input_errors() -> None:
     with pytest.raises(InputError, match="render_mode"):
-        SimrobotParallelEnv(render_mode="human")
+        SimrobotParallelEnv(render_mode="ansi")
     with pytest.raises(InputError, match="max_wheel_speed"):
         SimrobotParallelEnv(max_wheel_speed=float("nan"))
     with pytest.raises(InputError, match="world_file"):

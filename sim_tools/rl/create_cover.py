@@ -21,7 +21,7 @@ import numpy as np
 from create_sim.model import CreateModel
 from sim_runtime.errors import InputError
 from sim_tools.adapters.create.world import COVERAGE_CELL_M, COVERAGE_KEY_SPAN, coverage_disc
-from sim_tools.rl.create_nav import COLLISION_PENALTY, STEP_COST, TRACK_COLOR, CreateNavEnv
+from sim_tools.rl.create_nav import COLLISION_PENALTY, STEP_COST, CreateNavEnv
 
 AREA_REWARD = 100.0  # per m² newly covered (one 5 cm square: 0.25)
 
@@ -43,6 +43,7 @@ class CreateCoverEnv(CreateNavEnv):
         self.covered = set()
         self._last_cell = None
         self._cover()
+        self._show()
         return obs, self._cover_info(False, False)
 
     def step(self, action: np.ndarray):
@@ -53,6 +54,7 @@ class CreateCoverEnv(CreateNavEnv):
         if collided:
             reward -= COLLISION_PENALTY
         truncated = self.steps >= self.max_steps and not collided
+        self._show()
         return obs, float(reward), collided, truncated, self._cover_info(bumps[0] or bumps[1], collided)
 
     def _cover(self) -> float:
@@ -66,8 +68,8 @@ class CreateCoverEnv(CreateNavEnv):
         self.covered.update((self._disc + cell).tolist())
         return (len(self.covered) - before) * COVERAGE_CELL_M**2
 
-    def _drawn(self) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, float, float]]]:
-        return {"create": np.array(self.track)}, {"create": TRACK_COLOR}
+    def _frame_goal(self) -> None:
+        return None  # no goal to draw
 
     def _cover_info(self, bumped: bool, collided: bool) -> dict[str, Any]:
         return {

@@ -25,14 +25,14 @@ physics and sensor models as the ROS world, stepped at the world's physics rate.
   walls' bounding box, as ``robot_sims batch``'s ``poses: {random: n}``, the goal reachable from
   the start (:mod:`~sim_tools.rl.create_regions`) and outside the goal region), and the noise stream;
   ``start``/``goal`` (constructor or ``reset(options=…)``) fix them.
-- ``render_mode="rgb_array"``: :meth:`~CreateNavEnv.render` draws the walls, the track so far and
-  the goal with the code of the track pictures (``draw_tracks``).
+- ``render_mode="rgb_array"``: :meth:`~CreateNavEnv.render` draws the walls, the track so far, the
+  goal region, the sensors' rays and the robot (body, heading, bumpers, collisions) in a few ms;
+  ``"human"`` shows those frames in a window (where a display exists).
 """
 
 from __future__ import annotations
 
 import math
-import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -58,6 +58,7 @@ from sim_tools.rl.create_sensors import (
     goal_in_odom,
     lidar_index,
 )
+from sim_tools.rl.frames import FrameWindow, Robot, TopView, check_render_mode
 from sim_tools.rl.kernels import normalized_box, physical_action
 
 PROGRESS_REWARD = 10.0  # per metre closer to the goal
@@ -68,8 +69,7 @@ COLLISION_PENALTY = 10.0
 START_MARGIN_M = 0.1
 #: Random draws of a start and goal before giving up (a map with no room for a fair pair).
 MAX_DRAWS = 100
-TRACK_COLOR = (0.1, 0.4, 0.9)
-GOAL_COLOR = (0.1, 0.8, 0.2)
+GOAL_COLOR = (0.1, 0.8, 0.2)  # the goal region on the recorded bags' /map_markers
 MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
 #: A wall within a control period's travel plus this (m: the contact reach and the physics' push-out
 #: slack) is checked for contact after every physics step.
@@ -80,7 +80,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
     """Navigate to a goal region without touching a wall (see the module's docstring)."""
 
     # render_fps: one frame per step at the default control period (0.1 s)
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}  # noqa: RUF012 (Gymnasium's own attribute)
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}  # noqa: RUF012 (Gymnasium's own attribute)
 
     def __init__(
         self,
@@ -98,9 +98,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
     ) -> None:
         self.sensors = checked_sensors(sensors)
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise InputError(f"render_mode {render_mode!r}: None or 'rgb_array'")
-        self.render_mode = render_mode
+        self.render_mode = check_render_mode(render_mode, self.metadata["render_modes"])
         self.map_file = str(map_file if map_file is not None else config_path("create/example.map"))
         self.map = load_map(self.map_file)
         self.noise = load_config(config_file) if config_file is not None else NoiseConfig()
@@ -127,7 +125,11 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.collided = False
         self.track: list[tuple[float, float]] = []
         self._pose = np.zeros(3)  # the true pose after the last step or reset
-        self._walls_image: tuple[np.ndarray, tuple[float, float]] | None = None
+        self._view: TopView | None = None  # made at the first frame
+        self._window: FrameWindow | None = None
+        self._last_obs: np.ndarray | None = None  # what a frame draws the rays of
+        half_fov = 0.5 * CreateModel.LIDAR_FOV
+        self._lidar_angles = np.linspace(-half_fov, half_fov, CreateModel.LIDAR_BEAMS)[self.lidar_index]
         #: Called after each physics step (the episode recorder, ``sim_tools.rl.record``, hooks in here).
         self.on_physics_step: Callable[[CreateModel], None] | None = None
 
@@ -168,7 +170,9 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.track = [(float(start[0]), float(start[1]))]
         self._pose = self.model.pose
         self.distance_m = self._true_distance()
-        return self._observe(self.model.bumps()), self._info()
+        obs = self._observe(self.model.bumps())
+        self._show()
+        return obs, self._info()
 
     def _start_and_goal(self, start: Sequence[float] | None, goal: Sequence[float] | None):
         """The fixed ones, the rest drawn from the env's seeded stream: clear of the walls, the goal
@@ -205,6 +209,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
             reward -= COLLISION_PENALTY
         truncated = self.steps >= self.max_steps and not (reached or collided)
         info = self._info(bumped=bumps[0] or bumps[1], collided=collided)
+        self._show()
         return obs, float(reward), bool(reached or collided), truncated, info
 
     def _advance(self, action: np.ndarray) -> CreateModel:
@@ -241,37 +246,65 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         return self.model
 
     def render(self) -> np.ndarray | None:
-        """With ``render_mode="rgb_array"``: the walls, the track since reset and the goal,
-        (height, width, 3) uint8, drawn by the track pictures' code."""
-        if self.render_mode != "rgb_array":
+        """The frame of now (:mod:`~sim_tools.rl.frames`): walls, painted lines, the track since
+        reset, the goal region, the observed LIDAR beams and sonar rays, and the robot's body with
+        its heading, its bumpers red while pressed, the body red on a collision. ``rgb_array``:
+        returned, (height, width, 3) uint8; ``human``: shown in a window (also after every reset and
+        step), None returned; no ``render_mode``: None."""
+        if self.render_mode is None:
             return None
-        self._model()  # ResetNeeded before the first reset
-        from PIL import Image
+        frame = self._frame()
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._window is None:
+            self._window = FrameWindow(f"robot_sims {type(self).__name__}", self.metadata["render_fps"])
+        self._window.show(frame)
+        return None
 
-        from sim_runtime.track_plot import draw_tracks
-        from sim_tools.rerun_view.tracks import RASTER_RESOLUTION
+    def _show(self) -> None:
+        """In ``human`` mode, the frame of now in the window (after every reset and step)."""
+        if self.render_mode == "human":
+            self.render()
 
-        walls, origin = self._walls()
-        tracks, colors = self._drawn()
-        with tempfile.TemporaryDirectory() as folder:
-            png = draw_tracks(
-                walls, RASTER_RESOLUTION, origin, tracks, colors, Path(folder) / "frame.png", title=f"step {self.steps}"
-            )
-            with Image.open(png) as image:
-                return np.asarray(image.convert("RGB"))
+    def _frame(self) -> np.ndarray:
+        model = self._model()  # ResetNeeded before the first reset
+        if self._view is None:
+            self._view = TopView(self.map.walls, self.map.lines)
+        x, y, theta = self._pose.tolist()
+        robot = Robot(x, y, theta, CreateModel.RADIUS, model.bumps(), self.collided, self._rays(x, y, theta))
+        return self._view.frame([robot], [self.track], self._frame_goal(), f"step {self.steps}")
 
-    def _drawn(self) -> tuple[dict[str, np.ndarray], dict[str, tuple[float, float, float]]]:
-        """What :meth:`render` draws: tracks (name → (N, 2) xy) and their colours."""
-        tracks = {"create": np.array(self.track), "goal": np.array([self.goal_xy])}
-        return tracks, {"create": TRACK_COLOR, "goal": GOAL_COLOR}
+    def _frame_goal(self) -> tuple[float, float, float] | None:
+        """The goal region a frame draws: (x, y, radius) m."""
+        return (*self.goal_xy, self.goal_radius_m)
 
-    def _walls(self) -> tuple[np.ndarray, tuple[float, float]]:
-        """The map's walls as an occupancy image, rasterised once (as the bags' track pictures are)."""
-        if self._walls_image is None:
-            from sim_tools.rerun_view.tracks import _rasterise
+    def _rays(self, x: float, y: float, theta: float) -> list[tuple[float, float, float, float, bool]]:
+        """The last observation's LIDAR beams (from the LIDAR, at the front) and sonar rays (from
+        the body's edge): origin, end and whether it returned."""
+        rays: list[tuple[float, float, float, float, bool]] = []
+        obs, at = self._last_obs, 0
+        if obs is None:
+            return rays
+        r = CreateModel.RADIUS
+        if "lidar" in self.sensors:
+            n, hi = len(self.lidar_index), CreateModel.LIDAR_RANGE[1]
+            ox, oy = x + r * math.cos(theta), y + r * math.sin(theta)
+            for angle, d in zip(self._lidar_angles.tolist(), obs[:n].tolist(), strict=True):
+                rays.append((ox, oy, ox + d * math.cos(theta + angle), oy + d * math.sin(theta + angle), d < hi))
+            at = n
+        if "sonar" in self.sensors:
+            hi = CreateModel.SONAR_RANGE[1]
+            for bearing, d in zip(spec.SONAR_BEARINGS_RAD, obs[at : at + 4].tolist(), strict=True):
+                a = theta + bearing
+                ox, oy = x + r * math.cos(a), y + r * math.sin(a)
+                rays.append((ox, oy, ox + d * math.cos(a), oy + d * math.sin(a), d < hi))
+        return rays
 
-            self._walls_image = _rasterise(np.asarray(self.map.walls, dtype=float).reshape(-1, 2, 2), [])
-        return self._walls_image
+    def close(self) -> None:
+        """The window of ``render_mode="human"`` closed."""
+        if self._window is not None:
+            self._window.close()
+            self._window = None
 
     # ----------------------------------------------------------------------------- readings
     def _observe(self, bumps: tuple[bool, bool]) -> np.ndarray:
@@ -283,6 +316,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         at = 0
         for read, write in self._parts:
             at = write(out, at, bumps if read is None else read(model, index), goal)
+        self._last_obs = out
         return out
 
     def _true_distance(self) -> float:

@@ -18,8 +18,9 @@ sensors are :class:`simrobot_sim.model.SimrobotWorld`'s, stepped once per ``step
 - ``reset(seed=…, options={"random_start": True})`` (or ``random_start=True`` at construction)
   places the robots at random free poses drawn from the seed; otherwise at the file's poses.
 
-- ``render_mode="rgb_array"``: :meth:`render` draws the tracks so far on the map, with the code
-  of the track pictures.
+- ``render_mode="rgb_array"``: :meth:`render` draws the map, the tracks so far and every robot's
+  body and heading in a few ms (:mod:`~sim_tools.rl.frames`); ``"human"`` shows those frames in a
+  window where a display exists.
 
 Deterministic: the same seed and actions give the same episode.
 """
@@ -28,7 +29,6 @@ from __future__ import annotations
 
 import copy
 import math
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, ClassVar
@@ -37,11 +37,10 @@ import numba
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
-from PIL import Image
 
 from sim_runtime.errors import InputError
 from sim_runtime.paths import resolve_input_file
-from sim_runtime.track_plot import draw_tracks
+from sim_tools.rl.frames import FrameWindow, Robot, TopView, check_render_mode
 from sim_tools.rl.kernels import clip_into
 from simrobot_sim import raycast
 from simrobot_sim.model import SimrobotWorld
@@ -91,7 +90,8 @@ class SimrobotParallelEnv(ParallelEnv):
     reward). Agents are named after the robots."""
 
     metadata: ClassVar[dict[str, Any]] = {
-        "render_modes": ["rgb_array"],
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 10,
         "name": "simrobot_parallel_v0",
         "is_parallelizable": True,
     }
@@ -108,11 +108,12 @@ class SimrobotParallelEnv(ParallelEnv):
     ) -> None:
         """``world_file``: a SIMROBOT world file (absolute, relative to the current directory, or to
         the shipped ``config/``). Every robot needs at least one sensor."""
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise InputError(f"render_mode: {render_mode!r} is not supported (None or 'rgb_array')")
+        check_render_mode(render_mode, self.metadata["render_modes"])
         if not (math.isfinite(max_wheel_speed) and max_wheel_speed > 0):
             raise InputError(f"max_wheel_speed: expected a finite number > 0 (rad/s), got {max_wheel_speed!r}")
         self.render_mode = render_mode
+        self._view: TopView | None = None  # made at the first frame
+        self._window: FrameWindow | None = None
         self.spec_file: WorldSpec = load_world(resolve_input_file(str(world_file), "world_file"))
         for i, robot in enumerate(self.spec_file.robots):
             if not robot.sensors:
@@ -272,27 +273,39 @@ class SimrobotParallelEnv(ParallelEnv):
         raise InputError(f"{self.spec_file.source}: no free place for robot {name!r} found at random")
 
     def render(self) -> np.ndarray | None:
-        """With ``render_mode="rgb_array"``: the episode's tracks on the map so far (height, width, 3)
-        uint8, drawn by the code of the track pictures (``robot_sims`` demo, ``rerun_view tracks``)."""
-        if self.render_mode != "rgb_array":
+        """The frame of now (:mod:`~sim_tools.rl.frames`): the map, every robot's track, body (its
+        outline, in its colour; red once crashed) and heading. ``rgb_array``: returned, (height,
+        width, 3) uint8; ``human``: shown in a window, None returned; no ``render_mode``: None."""
+        if self.render_mode is None:
             return None
+        frame = self._frame()
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._window is None:
+            self._window = FrameWindow("robot_sims SIMROBOT", self.metadata["render_fps"])
+        self._window.show(frame)
+        return None
+
+    def _frame(self) -> np.ndarray:
         world = self.world
-        colors = {name: tuple(world.colors[i]) for i, name in enumerate(world.names)}
-        with tempfile.TemporaryDirectory() as folder:
-            png = draw_tracks(
-                np.asarray(self.spec_file.walls).T,  # OccupancyGrid layout: rows along y
-                world.resolution,
-                world.origin,
-                world.tracks(),
-                colors,
-                Path(folder) / "frame.png",
-                title=f"step {self._steps}",
-            )
-            with Image.open(png) as image:
-                return np.asarray(image.convert("RGB"))
+        if self._view is None:
+            walls = np.asarray(self.spec_file.walls, dtype=bool).T  # rows along y, as an OccupancyGrid's
+            origin = (float(world.origin[0]), float(world.origin[1]))
+            self._view = TopView(image=walls, resolution=world.resolution, origin=origin)
+        robots = []
+        for i, (x, y, heading) in enumerate(world.poses().tolist()):
+            outline = world.outline(i)
+            reach = float(np.hypot(outline[:, 0] - x, outline[:, 1] - y).max())
+            red, green, blue = (int(255 * c) for c in world.colors[i])
+            hit = bool(world.crashed[i])
+            robots.append(Robot(x, y, heading, reach, hit=hit, outline=outline, fill=(red, green, blue)))
+        return self._view.frame(robots, list(world.tracks().values()), None, f"step {self._steps}")
 
     def close(self) -> None:
-        """Nothing to release."""
+        """The window of ``render_mode="human"`` closed."""
+        if self._window is not None:
+            self._window.close()
+            self._window = None
 
 
 def parallel_env(**kwargs: Any) -> SimrobotParallelEnv:
