@@ -20,11 +20,11 @@ run side by side. All of an episode's nodes live in this process, where matching
 from __future__ import annotations
 
 import functools
+import math
 import os
 import random
-import sys
+import struct
 import sysconfig
-import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -36,7 +36,7 @@ import numpy as np
 from sim_runtime.errors import InputError
 from sim_tools.adapters.contract import EpisodeData, world_part
 from sim_tools.batch.metrics import compute, load_callable
-from sim_tools.batch.plan import STOP_MARK, Episode
+from sim_tools.batch.plan import Episode
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
@@ -52,8 +52,11 @@ WORLD_NODE: dict[str, Any] = {**LEAN_NODE, "use_global_arguments": False}
 
 _domain_id: int | None = None
 _logging_keeper: Any = None
-#: The episode running in this process (what a limit stop reports: its sim time).
+#: The episode running in this process (an error row's sim time).
 _running: _EpisodeRun | None = None
+#: Where the running episode's sim time goes after every step: a worker's page shared with its
+#: supervisor, which reads it when it stops the episode at a limit (None: nowhere).
+sim_time_page: Any = None
 #: Our packages: an error's line is the innermost one outside them (and outside Python's and
 #: the installed libraries'), the student's.
 _OURS = tuple(
@@ -104,6 +107,7 @@ def run_episode(ep: Episode) -> dict[str, Any]:
     """Run ``ep``; returns ``{"row": table row, "timing": {...}}`` whatever happens."""
     global _running
     _running = None
+    tell_sim_time(math.nan)
     if _domain_id is None:
         isolate_process()
     timing: dict[str, Any] = {"episode": ep.index, "pid": os.getpid()}
@@ -160,22 +164,10 @@ def sim_time_now() -> float | None:
     return None if world is None else float(world.sim_time)
 
 
-def report_limit_stop(out: Any) -> None:
-    """Write the sim time and every thread's stack to ``out`` (a limit stop's signal handler in a
-    worker: the supervisor quotes it in the row before it kills the process)."""
-    frames = sys._current_frames()
-    names = {t.ident: t.name for t in threading.enumerate()}
-    now = sim_time_now()
-    lines = [f"{STOP_MARK}; sim time {'-' if now is None else f'{now:.6f}'} s"]
-    for ident, frame in frames.items():
-        stack = traceback.extract_stack(frame)
-        user = _user_of(stack)
-        where = f"{Path(user.filename).name}:{user.lineno} in {user.name}" if user else "-"
-        lines.append(f"thread {names.get(ident, ident)}: at {where}")
-        lines += [line.rstrip() for line in traceback.format_list(stack)]
-    lines.append("=== end")
-    out.write("\n".join(lines) + "\n")
-    out.flush()
+def tell_sim_time(sim_time: float) -> None:
+    """Put ``sim_time`` on :data:`sim_time_page` (NaN: no world yet)."""
+    if sim_time_page is not None:
+        struct.pack_into("d", sim_time_page, 0, sim_time)
 
 
 # -------------------------------------------------------------------------------- simulation
@@ -365,6 +357,7 @@ class _EpisodeRun:
                 if world.finished:
                     break
             world.step()
+            tell_sim_time(world.sim_time)
             self.deliver()
             controller.after_step(self)
             self.probe.sample()

@@ -67,7 +67,7 @@ def _check_once(
     with tempfile.TemporaryDirectory(prefix="robot_sims-sweep-") as tmp:
         result, log, stage = Path(tmp) / "sweep.pickle", Path(tmp) / "output.log", Path(tmp) / "stage.json"
         args = [path, str(result), str(stage), json.dumps(refused), out if out is not None else ""]
-        ended, what = _run_child(args, log, stage, timeout_s, time_limit, memory)
+        ended, what, where = _run_child(args, log, stage, timeout_s, time_limit, memory)
         if result.exists():
             return pickle.loads(result.read_bytes())
         at = _stage(stage)
@@ -75,7 +75,8 @@ def _check_once(
             raise _failed(path, what if ended != "exited" else f"ended: {what}", log)
         k, _, doing, offset = at
         tail = _tail(log, offset)
-        refused[k] = f"{what} while {doing}" + (f"; its last output: {tail}" if tail else "")
+        refused[k] = f"{what} while {doing}" + (f", in {where}" if where else "")
+        refused[k] += f"; its last output: {tail}" if tail else ""
         return None
 
 
@@ -110,11 +111,18 @@ def _stage(stage: Path) -> tuple[int, str, str, int] | None:
 
 def _run_child(
     args: list[str], log: Path, stage: Path, timeout_s: float, time_limit: float, memory: float | None
-) -> tuple[str, str]:
+) -> tuple[str, str, str]:
     """Run this module on ``args`` with its output in ``log``, under the limits; returns how it
-    ended (``exited``, ``time``, ``memory``) and the reason (then it and anything it started are
-    killed)."""
-    from sim_tools.batch.supervisor import _resident_mb, exit_reason, worker_environment
+    ended (``exited``, ``time``, ``memory``), the reason (then it and anything it started are
+    killed) and where in the student's code it was (``""``: not known)."""
+    from sim_tools.batch.supervisor import (
+        _fault_line,
+        _read_from,
+        _resident_mb,
+        dump_stacks,
+        exit_reason,
+        worker_environment,
+    )
 
     with log.open("wb") as sink:
         child = subprocess.Popen(
@@ -133,20 +141,29 @@ def _run_child(
                 except subprocess.TimeoutExpired:
                     pass
                 else:
-                    return "exited", exit_reason(code).replace("the episode's process", "the check's process")
+                    start = seen[3] if seen is not None else 0
+                    where = _fault_line(_read_from(log, start)) if code < 0 else ""
+                    said = exit_reason(code).replace("the episode's process", "the check's process")
+                    return "exited", said, where
                 now_stage = _stage(stage)
                 if now_stage != seen:
                     seen, since = now_stage, time.monotonic()
                 in_controller = seen is not None and seen[0] >= 0
                 limit = time_limit if in_controller else timeout_s
                 if time.monotonic() - since > limit:
+                    where = dump_stacks(child.pid, log, seen[3] if seen is not None else 0)
                     _kill(child)
                     if in_controller:
-                        return "time", f"time limit {time_limit:.1f} s: stopped"
-                    return "time", f"did not finish in {timeout_s:.0f} s (a module or constructor that never returns?)"
+                        return "time", f"time limit {time_limit:.1f} s: stopped", where
+                    return (
+                        "time",
+                        f"did not finish in {timeout_s:.0f} s (a module or constructor that never returns?)",
+                        where,
+                    )
                 if memory is not None and _resident_mb(child.pid) > memory:
+                    where = dump_stacks(child.pid, log, seen[3] if seen is not None else 0)
                     _kill(child)
-                    return "memory", f"memory limit {memory:g} MB: stopped"
+                    return "memory", f"memory limit {memory:g} MB: stopped", where
         except BaseException:  # Ctrl-C while checking: the child goes too
             _kill(child)
             raise
@@ -163,6 +180,8 @@ def _tail(log: Path, start: int = 0) -> str:
     with log.open("rb") as f:
         f.seek(start)
         text = f.read().decode(errors="replace")
+    for stack in ("Fatal Python error:", "Current thread 0x", "Thread 0x"):  # a stack: quoted as its line
+        text = text.split(stack, 1)[0]
     return " ".join(text[-OUTPUT_TAIL:].split())
 
 
@@ -175,7 +194,14 @@ def _failed(path: str, what: str, log: Path) -> InputError:
 
 
 def _child(path: str, result: str, stage: str, refused: str, out: str) -> None:
+    import faulthandler
+
+    from sim_tools.batch.supervisor import DUMP_SIGNAL, no_core_files
     from sim_tools.batch.sweep import load_sweep
+
+    faulthandler.enable()  # a constructor's segfault: its Python stack in the log, quoted
+    no_core_files()
+    faulthandler.register(DUMP_SIGNAL, all_threads=True)  # stopped at a limit: where the student is
 
     def tell(k: int, label: str, doing: str) -> None:
         sys.stdout.flush()

@@ -12,9 +12,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-#: The line a worker's report starts with when it is stopped at a limit (its sim time follows).
-STOP_MARK = "=== robot_sims batch: stopped at a limit"
-
 
 @dataclass(frozen=True)
 class Episode:

@@ -24,10 +24,13 @@ kills them. A worker whose supervisor is gone exits within seconds, even in an e
 from __future__ import annotations
 
 import contextlib
+import math
+import mmap
 import os
 import re
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import threading
@@ -39,8 +42,6 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from sim_tools.batch.plan import STOP_MARK
-
 OnResult = Callable[[dict[str, Any]], None]
 LogPath = Callable[[Any], Path]
 
@@ -50,15 +51,13 @@ START_TIMEOUT_S = 180.0
 MEMORY_POLL_S = 0.05
 #: How often a worker checks that its supervisor is still there (s).
 ORPHAN_POLL_S = 0.5
-#: Wall seconds a worker stopped at a limit gets to write its stacks and sim time before SIGKILL
-#: (its Python-level report; then, if none came, faulthandler's), and over the memory limit.
-REPORT_WAIT_S = (1.0, 0.3)
-#: The signals that make a worker report (Python's handler: stacks and sim time; faulthandler's:
-#: the C-level dump, when Python code cannot run).
-REPORT_SIGNAL, DUMP_SIGNAL = signal.SIGUSR1, signal.SIGUSR2
+#: Wall seconds a worker stopped at a limit gets to write its threads' stacks to the episode's
+#: log before its SIGKILL (faulthandler writes them from the signal handler itself, whatever the
+#: Python code is doing).
+DUMP_WAIT_S = 0.3
+#: The signal that makes a worker (or the check's process) dump its threads' stacks.
+DUMP_SIGNAL = signal.SIGUSR1
 _FAULT_FRAME = re.compile(r'File "([^"]+)", line (\d+) in (\S+)')
-_STOP_LINE = re.compile(r"sim time (\S+) s")
-_THREAD_LINE = re.compile(r"^thread (.+): at (\S+:\d+ in \S+)$")
 _PACKAGE_ROOT = str(Path(__file__).resolve().parent.parent.parent)
 
 
@@ -118,13 +117,16 @@ class _Worker:
 
     def __init__(self, output: Path, warm: Any) -> None:
         ours, theirs = socket.socketpair()
+        self.clock_fd = os.memfd_create("robot_sims-batch-sim-time")  # no file anywhere to clean up
+        os.ftruncate(self.clock_fd, 8)
         env = worker_environment()
-        command = [sys.executable, "-m", "sim_tools.batch.supervisor", str(theirs.fileno()), str(os.getpid())]
+        fds = [str(theirs.fileno()), str(os.getpid()), str(self.clock_fd)]
+        command = [sys.executable, "-m", "sim_tools.batch.supervisor", *fds]
         output.parent.mkdir(parents=True, exist_ok=True)
         with output.open("ab") as log:
             self.process = subprocess.Popen(
                 command,
-                pass_fds=(theirs.fileno(),),
+                pass_fds=(theirs.fileno(), self.clock_fd),
                 stdin=subprocess.DEVNULL,
                 stdout=log,
                 stderr=subprocess.STDOUT,
@@ -139,13 +141,21 @@ class _Worker:
         self.ready = False
         self.episode: Any = None
         self.log: Path | None = None
+        self.clock = mmap.mmap(self.clock_fd, 8)  # the sim time its episode got to (a double)
+        os.close(self.clock_fd)
         self.since = 0.0
         self.deadline = float("inf")
 
     def send(self, ep: Any, log: Path, limits: Limits) -> None:
+        struct.pack_into("d", self.clock, 0, math.nan)
         self.episode, self.since, self.log = ep, time.monotonic(), log
         self.deadline = self.since + limits.time_limit_s
         self.conn.send((ep, str(log)))
+
+    def sim_time(self) -> float | None:
+        """The sim time its episode got to (None: it has no world yet)."""
+        value: float = struct.unpack_from("d", self.clock, 0)[0]
+        return None if math.isnan(value) else value
 
     def take(self) -> Any:
         """The episode it ran (now done, one way or another)."""
@@ -276,15 +286,13 @@ class Supervisor:
             if worker.episode is None:
                 continue
             if now > worker.deadline:
-                reason, wait_s = f"time limit {limits.time_limit_s:.1f} s: the episode was stopped", REPORT_WAIT_S[0]
+                reason = f"time limit {limits.time_limit_s:.1f} s: the episode was stopped"
             elif limits.memory_limit_mb is not None and _resident_mb(worker.process.pid) > limits.memory_limit_mb:
-                reason, wait_s = (
-                    f"memory limit {limits.memory_limit_mb:g} MB: the episode was stopped",
-                    REPORT_WAIT_S[1],
-                )
+                reason = f"memory limit {limits.memory_limit_mb:g} MB: the episode was stopped"
             else:
                 continue
-            sim_time, where = _stop_report(worker, wait_s)
+            sim_time = worker.sim_time()
+            where = dump_stacks(worker.process.pid, worker.log)
             self._retire(worker)
             result = error_result(
                 worker.take(), reason + _stop_note(sim_time, where), worker.process.pid, now - worker.since
@@ -294,28 +302,24 @@ class Supervisor:
             on_result(result)
 
 
-def _stop_report(worker: _Worker, wait_s: float) -> tuple[float | None, str]:
-    """Ask a worker stopped at a limit where it is (its report goes to the episode's log) and
-    read the answer: the sim time (None: unknown) and the student's line (``""``: unknown)."""
-    log = worker.log
+def dump_stacks(pid: int, log: Path | None, start: int | None = None) -> str:
+    """Make process ``pid`` dump its threads' stacks into ``log`` (faulthandler, on
+    :data:`DUMP_SIGNAL`) and return the innermost function of a user's code in them (``""``:
+    none); ``start``: where in the log to look from (default: its end now). The function, not
+    its line: a loop stopped at a limit is on one of its lines or another from run to run, and
+    the table must not differ with it (the log has every line)."""
     if log is None:
-        return None, ""
-    start = log.stat().st_size if log.exists() else 0
+        return ""
+    if start is None:
+        start = log.stat().st_size if log.exists() else 0
     with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.kill(worker.process.pid, REPORT_SIGNAL)
-    end = time.monotonic() + wait_s
-    text = ""
-    while time.monotonic() < end:
-        text = _read_from(log, start)
-        if "=== end" in text:
-            break
+        os.kill(pid, DUMP_SIGNAL)
+    end = time.monotonic() + DUMP_WAIT_S
+    where = ""
+    while time.monotonic() < end and not where:
         time.sleep(0.02)
-    else:  # no Python code ran (stuck in C): faulthandler writes from the signal itself
-        with contextlib.suppress(ProcessLookupError, PermissionError):
-            os.kill(worker.process.pid, DUMP_SIGNAL)
-        time.sleep(0.2)
-        text = _read_from(log, start)
-    return _parse_report(text)
+        where = _fault_line(_read_from(log, start), with_line=False)
+    return where
 
 
 def _read_from(log: Path, start: int) -> str:
@@ -327,27 +331,15 @@ def _read_from(log: Path, start: int) -> str:
         return ""
 
 
-def _parse_report(text: str) -> tuple[float | None, str]:
-    """The sim time and the student's line of a stop report, else of faulthandler's dump."""
-    sim_time: float | None = None
-    if STOP_MARK in text:
-        block = text[text.rindex(STOP_MARK) :]
-        match = _STOP_LINE.search(block.splitlines()[0])
-        with contextlib.suppress(ValueError, AttributeError):
-            sim_time = float(match.group(1))  # type: ignore[union-attr]
-        threads = [m.groups() for m in map(_THREAD_LINE.match, block.splitlines()) if m]
-        threads.sort(key=lambda t: t[0] != "MainThread")
-        return sim_time, next((where for _, where in threads), "")
-    return sim_time, _fault_line(text)
-
-
-def _fault_line(text: str) -> str:
-    """The innermost user frame of a faulthandler dump (its frames come innermost first)."""
+def _fault_line(text: str, with_line: bool = True) -> str:
+    """The innermost user frame of a faulthandler dump (its frames come innermost first; the
+    thread that took the signal first): ``student.py:61 in fail``, or without its line
+    ``fail() of student.py``."""
     from sim_tools.batch.episode import is_user_file
 
     for path, line, func in _FAULT_FRAME.findall(text):
         if is_user_file(path):
-            return f"{Path(path).name}:{line} in {func}"
+            return f"{Path(path).name}:{line} in {func}" if with_line else f"{func}() of {Path(path).name}"
     return ""
 
 
@@ -427,19 +419,6 @@ def _warm_up(ep: Any) -> None:
         pass
 
 
-def _report_stop(signum: int, frame: Any) -> None:
-    """The supervisor is about to stop this worker at a limit: write where it is to fd 2 (the
-    episode's log), with ``os.write``, as the interrupted code may be in the middle of a print."""
-    import io
-
-    from sim_tools.batch.episode import report_limit_stop
-
-    out = io.StringIO()
-    report_limit_stop(out)
-    with contextlib.suppress(OSError):
-        os.write(2, out.getvalue().encode(errors="replace"))
-
-
 def no_core_files() -> None:
     """A crash of this process (a student's controller segfaulting) leaves its Python stack in the
     log, not a core file of hundreds of MB wherever the system puts cores."""
@@ -448,16 +427,20 @@ def no_core_files() -> None:
     resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
 
 
-def worker_main(fd: int, parent: int) -> None:
+def worker_main(fd: int, parent: int, clock_fd: int) -> None:
     """A worker: announce itself, then run the episodes it is sent until its socket closes."""
     import faulthandler
 
     os.set_inheritable(fd, False)  # a controller's own subprocesses do not hold the socket open
     conn = Connection(fd)
+    os.set_inheritable(clock_fd, False)
+    from sim_tools.batch import episode
+
+    episode.sim_time_page = mmap.mmap(clock_fd, 8)  # the supervisor reads it at a limit stop
+    os.close(clock_fd)
     _watch_parent(parent)
     faulthandler.enable()  # a segfault writes the Python stack to fd 2: the episode's log
-    faulthandler.register(DUMP_SIGNAL, all_threads=True)  # a limit stop, stuck in C code
-    signal.signal(REPORT_SIGNAL, _report_stop)  # a limit stop: stacks and sim time to the log
+    faulthandler.register(DUMP_SIGNAL, all_threads=True)  # a limit stop: every stack to the log
     no_core_files()
     from sim_tools.batch.episode import isolate_process
 
@@ -477,4 +460,4 @@ def worker_main(fd: int, parent: int) -> None:
 
 
 if __name__ == "__main__":
-    worker_main(int(sys.argv[1]), int(sys.argv[2]))
+    worker_main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]))
