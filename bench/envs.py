@@ -59,6 +59,7 @@ VECTOR_ENVS = 32
 GOAL_VECTOR = 15_000.0
 GOAL_SIMROBOT = 40.0
 GOAL_COST = 0.15
+GOAL_FRAME_MS = 20.0
 #: The LIDAR of the IR-SIM comparison, on both sides: rays, field of view (rad), range (m).
 SCAN_RAYS, SCAN_FOV, SCAN_RANGE = 30, math.pi, 2.0
 
@@ -426,11 +427,44 @@ def irsim_table(steps: int, folder: Path) -> None:
         print(f"{n:>7}{theirs:>16,.1f}{ours:>14,.1f}{ours / theirs:>7.0f}x")
 
 
+def frames_table(frames: int) -> None:
+    """4. One ``render()`` frame (rgb_array, wall time, median of ``frames``) of each env with
+    rendering, mid-episode (a track, every sensor's rays)."""
+    print(f"\n4. a rendered frame (render_mode='rgb_array', wall time, median of {frames}); {load()}")
+    print(f"{'env':<52}{'ms per frame':>14}   goal <= {GOAL_FRAME_MS:.0f} ms")
+    every = ("lidar", "sonar", "bump", "goal")
+    nav = CreateNavEnv(render_mode="rgb_array", sensors=every, start=START, goal=(1.0, 0.5))
+    cover = CreateCoverEnv(render_mode="rgb_array", start=START)
+    sim = SimrobotParallelEnv(render_mode="rgb_array", max_steps=10**9)
+    for env in (nav, cover):
+        env.reset(seed=0)
+        for _ in range(100):
+            env.step(CIRCLE)
+    sim.reset(seed=0)
+    for _ in range(100):
+        sim.step(dict.fromkeys(sim.agents, np.array([0.5, 0.4], dtype=np.float32)))
+    rows = [
+        ("CreateNav-v0 (24 beams, 4 sonar, bumpers, goal)", nav.render),
+        ("CreateCover-v0 (24 beams, bumpers)", cover.render),
+        ("SIMROBOT ParallelEnv (demo, 4 robots)", sim.render),
+    ]
+    for name, render in rows:
+        render()
+        times = []
+        for _ in range(frames):
+            t = time.perf_counter()
+            render()
+            times.append(time.perf_counter() - t)
+        ms = 1000.0 * float(np.median(times))
+        print(f"{name:<52}{ms:>14.1f}   {'met' if ms <= GOAL_FRAME_MS else 'NOT met'}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="fewer steps (about a minute)")
     steps = 1000 if parser.parse_args().quick else 5000
     wrapper_table(steps)
+    frames_table(20 if parser.parse_args().quick else 100)
     with tempfile.TemporaryDirectory() as folder:
         cores_table(steps, Path(folder))
         irsim_table(steps, Path(folder))

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from sim_runtime.errors import InputError
 
@@ -96,6 +96,7 @@ class TopView:
         self.x0, self.y1 = x0, y1
         self.size = (int(round((x1 - x0) * self.ppm)) + 2 * MARGIN_PX, int(round((y1 - y0) * self.ppm)) + 2 * MARGIN_PX)
         self.background = Image.new("RGB", self.size, FLOOR)
+        self._font = ImageFont.load_default()
         draw = ImageDraw.Draw(self.background)
         if image is not None:
             self._paste_occupancy(np.asarray(image, dtype=bool), resolution, origin)
@@ -131,13 +132,15 @@ class TopView:
             (ax, ay), (bx, by) = self.px(gx - gr, gy + gr), self.px(gx + gr, gy - gr)
             draw.ellipse([ax, ay, bx, by], fill=GOAL_FILL, outline=GOAL_EDGE, width=2)
         for track in tracks:
-            points = [self.px(float(x), float(y)) for x, y in track]
-            if len(points) > 1:
-                draw.line(points, fill=TRACK, width=2)
+            xy = np.asarray(track, dtype=float).reshape(-1, 2)
+            if len(xy) > 1:
+                cols = MARGIN_PX + (xy[:, 0] - self.x0) * self.ppm
+                rows = MARGIN_PX + (self.y1 - xy[:, 1]) * self.ppm
+                draw.line(np.column_stack([cols, rows]).ravel().tolist(), fill=TRACK, width=2)
         for robot in robots:
             self._robot(draw, robot)
         if text:
-            draw.text((MARGIN_PX + 2, 1), text, fill=EDGE)
+            draw.text((MARGIN_PX + 2, 1), text, fill=EDGE, font=self._font)
         return np.asarray(image)
 
     def _robot(self, draw: ImageDraw.ImageDraw, robot: Robot) -> None:
