@@ -17,6 +17,9 @@ from studio.simrobot import fields
 from studio.simrobot.doc import WorldDraft, blank_walls, png_bytes
 from studio.simrobot.editor_base import EditorBase, field_width, quantity_field
 
+START_WAIT_TICKS = 6000
+"""Tenths of a second "Run it" waits for the world it started to be seen on ROS (10 min)."""
+
 
 class EditorFiles(EditorBase):
     """The files and the world run from them."""
@@ -248,8 +251,14 @@ class EditorFiles(EditorBase):
         simrobot.worlds[ns] = child
         simrobot.selected = ns
         self.say(f"starting simrobot_world on {self.world_name.value} in {ns or '/'}…")
-        for _ in range(600):  # compiling kernels the first time takes a while; a bad file ends it
+        # Compiling kernels the first time takes minutes on a busy machine: wait while the world
+        # runs (a bad file ends it at once), saying so after a while.
+        for tick in range(START_WAIT_TICKS):
             await asyncio.sleep(0.1)
+            if tick == 100:
+                self.say(
+                    f"{child.label} is still starting (a first start compiles kernels: minutes on a busy machine)…"
+                )
             if not child.running:
                 self.say(f"{child.label}: {child.error_line()}", error=True)
                 return
@@ -258,6 +267,6 @@ class EditorFiles(EditorBase):
             if st is not None and st is not old and st.spec is not None:
                 break
         else:
-            self.say(f"{child.label} started but was not seen on ROS yet", error=True)
+            self.say(f"{child.label} was not seen on ROS in 10 min: see its lines in the studio's terminal", True)
             return
         ui.navigate.to("/simrobot")
