@@ -33,6 +33,7 @@ The fast caster takes its inputs grouped: the map (:class:`Occupancy`), one sens
 from __future__ import annotations
 
 import math
+import types
 from typing import Literal, NamedTuple, TypedDict
 
 import numba
@@ -298,8 +299,17 @@ def _traverse(
             return np.inf, 0
 
 
+def _renamed(func, name: str):
+    """``func``'s code under another name: numba files a kernel's cache entries by its function's
+    name and first line, not by its options, so two kernels of one function would share (and
+    overwrite) one entry, and either could load the other's machine code."""
+    clone = types.FunctionType(func.__code__, func.__globals__, name, func.__defaults__, func.__closure__)
+    clone.__qualname__ = name
+    return clone
+
+
 #: The same traversal compiled with the fast caster's options, for its exact robot tests.
-_traverse_fast = numba.njit(**_FAST)(_traverse.py_func)
+_traverse_fast = numba.njit(**_FAST)(_renamed(_traverse.py_func, "_traverse_fast"))
 
 
 @numba.njit(cache=True)

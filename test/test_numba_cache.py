@@ -137,3 +137,12 @@ def test_a_cache_entry_made_beside_one_copy_of_a_package_is_loaded_beside_anothe
     assert out.splitlines()[-1] == "6"
     assert f"data loaded from '{second}" in out, out
     assert "data saved to" not in out, out  # nothing compiled again
+
+
+def test_two_kernels_of_one_function_with_other_options_keep_apart_cache_entries():
+    # numba files an entry by function name and line, not by options: the fast caster's copy of
+    # the traversal (fastmath) and the exact one shared one entry, each loading the other's code.
+    from simrobot_sim.raycast import _traverse, _traverse_fast
+
+    assert _traverse.targetoptions != _traverse_fast.targetoptions
+    assert _traverse._cache._cache_file._index_path != _traverse_fast._cache._cache_file._index_path
