@@ -180,7 +180,12 @@ class ArmInstance:
         self.motion = JointMotion(
             np.clip(np.zeros(arm.n), arm.lower, arm.upper), arm.lower, arm.upper, arm.velocity_limits
         )
-        self.index = {name: i for i, name in enumerate(arm.joint_names)}
+        # joint_states names the joints with the frame prefix (csa/joint_1: two arms never share a
+        # name); commands may use those or the config's own names
+        self.joint_names = [joint.name for joint in self.tree.moving]
+        self.index = {name: i for i, name in enumerate(arm.joint_names)} | {
+            name: i for i, name in enumerate(self.joint_names)
+        }
         frame = node.frame_id
         self.joint_pub = create_sensor_publisher(node, JointState, prefix + JOINT_STATES_TOPIC)
         self.marker_pub = create_sensor_publisher(node, MarkerArray, prefix + ROBOT_MARKERS_TOPIC)
@@ -189,7 +194,7 @@ class ArmInstance:
         create_command_subscription(node, JointTrajectory, prefix + "joint_trajectory", self.on_trajectory)
         create_command_subscription(node, JointState, prefix + "joint_command", self.on_joint_command)
         create_command_subscription(node, PoseStamped, prefix + "target_pose", self.on_target_pose)
-        self.joint_msg = JointState(name=list(arm.joint_names))
+        self.joint_msg = JointState(name=list(self.joint_names))
         self.joint_msg.header.frame_id = frame
         self.pose_msg = PoseStamped()
         self.pose_msg.header.frame_id = frame
@@ -263,15 +268,15 @@ class ArmInstance:
 
     def _joint_indices(self, names, what: str) -> np.ndarray | None:
         unknown = [n for n in names if n not in self.index]
-        if unknown or len(set(names)) != len(names):
-            self._reject(what, f"joint names {list(names)} must be distinct names of {list(self.arm.joint_names)}")
+        if unknown or len({self.index[n] for n in names}) != len(names):
+            self._reject(what, f"joint names {list(names)} must be distinct names of {self.joint_names}")
             return None
         return np.array([self.index[n] for n in names], dtype=np.int64)
 
     def _clamped(self, q: np.ndarray, what: str) -> np.ndarray:
         clipped, joints = self.motion.clamp(q)
         if len(joints):
-            names = [self.arm.joint_names[j] for j in joints]
+            names = [self.joint_names[j] for j in joints]
             self.node.warn_throttled(
                 f"{self.label}/{what}/clamp", f"{self.prefix}{what}: {names} beyond joint limits, clamped"
             )
@@ -312,7 +317,7 @@ class ArmInstance:
     def on_joint_command(self, msg: JointState) -> None:
         """Move the named (or all) joints to the given positions, clamped to their limits."""
         what = "joint_command"
-        names = list(msg.name) if msg.name else list(self.arm.joint_names)
+        names = list(msg.name) if msg.name else list(self.joint_names)
         if len(msg.position) != len(names):
             self._reject(what, f"expected {len(names)} positions (one per name), got {len(msg.position)}")
             return

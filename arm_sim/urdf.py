@@ -6,7 +6,7 @@ links and joints; :func:`arm_urdf` writes it as URDF; :func:`joint_transforms` a
 node publishes on ``/tf`` and ``/tf_static`` is what robot_state_publisher would publish from the
 URDF and ``joint_states``.
 
-The tree (every link name carries ``prefix``, e.g. ``arm2/``)::
+The tree (every link and joint name carries ``prefix``, e.g. ``arm2/``)::
 
     world ─(fixed: base)─ base_link ─(joint_1)─ link_1 ─ … ─(joint_n)─ link_n ─(fixed)─ tool0
 
@@ -20,7 +20,8 @@ The tree (every link name carries ``prefix``, e.g. ``arm2/``)::
   (frame k-1 · Rz(theta + q) Tz(d)) and DH frame k is ``link_k`` · Tx(a) Rx(alpha): that fixed
   offset goes into the link's visual and inertial origins and into the next joint's origin.
   :attr:`ArmTree.dh_offsets` holds it for every link.
-- Joint names are the config's (unprefixed), as ``joint_states`` names them.
+- Joint names are the config's with the prefix (``csa/joint_1``), as ``joint_states`` names them:
+  two arms in one world never share a joint name.
 
 Meshes are ``<visual>`` elements in the link's DH frame with the config's colour (each element its
 own material) and scale; ``<inertial>`` comes from the config's dynamics (links with mass 0 get
@@ -134,7 +135,7 @@ def arm_tree(
     joints = [TreeJoint(f"{prefix}base_joint", "fixed", world_frame, links[0], base_T)]
     for i in range(n):
         kind = "prismatic" if prismatic[i] else "revolute"
-        joints.append(TreeJoint(config.joint_names[i], kind, links[i], links[i + 1], origins[i]))
+        joints.append(TreeJoint(prefix + config.joint_names[i], kind, links[i], links[i + 1], origins[i]))
     joints.append(TreeJoint(f"{prefix}tool_joint", "fixed", links[n], links[n + 1], offsets[n]))
     return ArmTree(
         config=config,
@@ -257,7 +258,7 @@ def _joint_xml(tree: ArmTree, joint: TreeJoint) -> list[str]:
         f"    {_origin(joint.origin)}",
     ]
     if joint.kind != "fixed":
-        i = tree.config.joint_names.index(joint.name)
+        i = [j.name for j in tree.moving].index(joint.name)
         lower, upper = tree.config.position_limits[i]
         velocity = tree.config.velocity_limits[i]
         lines += [

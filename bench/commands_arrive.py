@@ -10,7 +10,13 @@ the spot: the robot never reaches a wall); the try counts as applied once the wo
 reports angular.z = W. Goal: every command applied.
 ``--cli`` runs the real ``ros2`` executable instead (``ros2 topic pub --once``) from a folder
 holding ``pip install --target`` of ros2cli; ``--keep-alive`` is ros2topic's option of that name;
-``--world-args`` adds ``-p`` rules to the world (e.g. a QoS override).
+``--world-args`` adds ``-p`` rules to the world (e.g. a QoS override); ``--acked S`` makes our
+publisher do what docs/conventions.md asks of one that exits: wait (at most S seconds) until every
+matched reader has acknowledged the sample, then exit.
+
+Why commands get lost (docs/conventions.md, "What a one-shot publisher must do"): the publisher
+matches the world's reader before the loaded world has matched the publisher's writer; the sample
+that arrives meanwhile is dropped, and only a writer still running when the world asks resends it.
 """
 
 from __future__ import annotations
@@ -35,7 +41,7 @@ from record_worlds import exe, stop  # noqa: E402
 BUSY_LOOP = "while 1: pass"
 
 
-def publish_once(topic: str, turn: float, reliability: str, keep_alive: float) -> None:
+def publish_once(topic: str, turn: float, reliability: str, keep_alive: float, acked: float = 0.0) -> None:
     """What ``ros2 topic pub --once`` does (Jazzy's ros2topic 0.32): a publisher with the default
     profile (reliable, volatile, depth 10), wait until a subscription matches, publish, keep the
     process ``--keep-alive`` seconds (default 0.1), exit."""
@@ -52,6 +58,10 @@ def publish_once(topic: str, turn: float, reliability: str, keep_alive: float) -
     msg = Twist()
     msg.angular.z = turn
     publisher.publish(msg)
+    if acked > 0.0:
+        from rclpy.duration import Duration
+
+        publisher.wait_for_all_acked(Duration(seconds=acked))
     time.sleep(keep_alive)
     node.destroy_node()
     rclpy.shutdown()
@@ -59,7 +69,7 @@ def publish_once(topic: str, turn: float, reliability: str, keep_alive: float) -
 
 def once_command(topic: str, turn: float, opts: argparse.Namespace) -> list[str]:
     """argv of one fresh publishing process."""
-    keep = ["--keep-alive", str(opts.keep_alive), "--reliability", opts.reliability]
+    keep = ["--keep-alive", str(opts.keep_alive), "--reliability", opts.reliability, "--acked", str(opts.acked)]
     if opts.cli:
         yaml = f"{{angular: {{z: {turn}}}}}"
         extra = ["--keep-alive", str(opts.keep_alive), "--qos-reliability", opts.reliability]
@@ -82,6 +92,7 @@ class OdomWatcher:
         rclpy.init(context=self.context)
         self.node = rclpy.create_node("commands_watcher", context=self.context)
         self.speed: float | None = None
+        self.count = 0  # odometry messages heard: tells a world that did not apply from a watcher that stalled
         self.node.create_subscription(Odometry, "/odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self.executor = make_executor(self.context)
         self.executor.add_node(self.node)
@@ -91,6 +102,7 @@ class OdomWatcher:
 
     def _on_odom(self, msg) -> None:
         self.speed = msg.twist.twist.angular.z
+        self.count += 1
 
     def _spin(self) -> None:
         while self._running and self.context.ok():
@@ -104,6 +116,20 @@ class OdomWatcher:
             time.sleep(0.01)
         return False
 
+    def verdict(self, speed: float, timeout: float) -> str:
+        """After a miss: "late" if the speed shows within ``timeout``, "lost" once another second of
+        odometry (50 messages) still shows the old one, else "stalled" (this watcher heard nothing:
+        on a very busy machine its thread can starve, which says nothing about the world)."""
+        start = self.count
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.speed is not None and abs(self.speed - speed) < 1e-9:
+                return "late"
+            if self.count - start >= 50:
+                return "lost"
+            time.sleep(0.01)
+        return "stalled"
+
     def close(self) -> None:
         self._running = False
         self._thread.join(timeout=2)
@@ -112,11 +138,13 @@ class OdomWatcher:
 
 
 def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
-    """(tries, applied, seconds per try)."""
+    """(tries, applied, seconds per try); a command that shows after ``--settle`` counts as applied
+    (late), one the world's odometry goes on without is lost, and a try whose verdict this process
+    could not hear is left out (stalled)."""
     watcher = OdomWatcher()
     world = exe("create_world", "--ros-args", "-p", "real_time_factor:=1.0", *shlex.split(opts.world_args))
     busy = [subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) for _ in range(opts.busy)]
-    applied, durations = 0, []
+    applied, durations, tries = 0, [], opts.tries
     try:
         if not watcher.wait_for_speed(0.0, 120.0):
             raise SystemExit(f"the world did not start:\n{stop(world)}")
@@ -127,18 +155,20 @@ def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
             command = once_command("/cmd_vel", speed, opts)
             subprocess.run(command, check=True, timeout=60, env=env, stdout=subprocess.DEVNULL)
             ok = watcher.wait_for_speed(speed, opts.settle)
+            verdict = "applied" if ok else watcher.verdict(speed, 60.0)
             durations.append(time.monotonic() - begin)
-            applied += ok
+            applied += verdict in ("applied", "late")
+            tries -= verdict == "stalled"
             if not ok:
                 load = os.getloadavg()[0]
-                print(f"  try {i + 1}: v={speed} not applied (odom says {watcher.speed})   load {load:.1f}")
+                print(f"  try {i + 1}: v={speed} {verdict} (odom says {watcher.speed})   load {load:.1f}")
     finally:
         for process in busy:
             process.kill()
             process.wait()
         stop(world)
         watcher.close()
-    return opts.tries, applied, durations
+    return tries, applied, durations
 
 
 def main() -> None:
@@ -149,16 +179,19 @@ def main() -> None:
     parser.add_argument("--cli", help="publish with the real ros2 CLI: a folder holding a pip --target install of it")
     parser.add_argument("--reliability", default="reliable", choices=("reliable", "best_effort"))
     parser.add_argument("--keep-alive", type=float, default=0.1, help="seconds a publisher stays after publishing")
+    parser.add_argument(
+        "--acked", type=float, default=0.0, help="our publisher waits up to this long for acknowledgement (0 = no)"
+    )
     parser.add_argument("--world-args", default="", help="extra ROS arguments of the world ('-p name:=value')")
     parser.add_argument("--publish-once", type=float, help=argparse.SUPPRESS)
     parser.add_argument("--topic", default="/cmd_vel", help=argparse.SUPPRESS)
     opts = parser.parse_args()
     if opts.publish_once is not None:
-        publish_once(opts.topic, opts.publish_once, opts.reliability, opts.keep_alive)
+        publish_once(opts.topic, opts.publish_once, opts.reliability, opts.keep_alive, opts.acked)
         return
     print(
         f"{os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}, {opts.busy} busy loops, {opts.tries} tries, "
-        f"keep-alive {opts.keep_alive:g} s, world args {opts.world_args!r}"
+        f"keep-alive {opts.keep_alive:g} s, acked {opts.acked:g} s, world args {opts.world_args!r}"
     )
     tries, applied, durations = run(opts)
     durations.sort()

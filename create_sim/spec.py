@@ -47,6 +47,26 @@ SONAR_BEARINGS_RAD = (0.0, 0.5 * math.pi, math.pi, -0.5 * math.pi)
 """Sonars look outward from the body's edge, so their ranges start there."""
 
 
+def sonar_field_of_view(max_range_m: float, exact_m: float) -> float:
+    """``Range.field_of_view`` of a one-ray sonar (rad): the model casts one ray per sonar, as the
+    original; a wall square to the axis seen ``a`` off it reads ``d / cos(a)``, so within this cone
+    a cone's reading and the ray's agree to ``exact_m`` out to ``max_range_m``."""
+    return 2.0 * math.acos(max_range_m / (max_range_m + exact_m))
+
+
+WHEEL_RADIUS_M = 0.036
+"""Drive wheel radius (the original's encoder model: 508.8 counts per turn of a 72 mm wheel)."""
+FOOTPRINT_FRAME = "base_footprint"
+"""REP-120's ground projection of ``base_link``; ``base_link`` is already on the floor at the disc's
+centre, so it is ``base_link`` itself (a fixed identity transform below it, as Nav2 expects it)."""
+WHEEL_JOINTS = ("left_wheel_joint", "right_wheel_joint")
+"""``joint_states`` names (with the robot's prefix) of the drive wheels' continuous joints."""
+ODOMETRY_RESOLUTION = (1e-3, math.radians(1.0), 1e-3)
+"""What the Create itself resolves (its Open Interface's units): distance 1 mm, angle 1 degree,
+wheel speed 1 mm/s. The model's noise-free odometry is exact, but the robot it stands for counts
+in these steps, so the odometry's covariances never go below their rounding variance (step²/12)."""
+
+
 class Mount(NamedTuple):
     """A sensor frame's pose on ``base_link``."""
 

@@ -1,19 +1,31 @@
-"""URDF of the Create: a cylinder body on ``base_link`` with a fixed link per sensor frame.
+"""URDF of the Create: a cylinder body on ``base_link``, a fixed link per sensor frame, the
+REP-120 ``base_footprint`` and the two drive wheels on continuous joints.
 
 Pure (no rclpy). The sensor links are named exactly as the world node names its frames
 (``<prefix><sensor>``, e.g. ``robot1/laser``) and sit at their mounts from
 :mod:`create_sim.spec`, so robot_state_publisher fed this URDF publishes the same
-``/tf_static`` as the world node. ``base_link`` is on the floor at the centre of the disc
-(the mounts' heights are measured from it).
+``/tf_static`` as the world node, and the wheels' transforms from the world's ``joint_states``.
+``base_link`` is on the floor at the centre of the disc (the mounts' heights are measured from
+it), so ``base_footprint`` coincides with it.
 """
 
 from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
 
-from create_sim.spec import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
+from create_sim.spec import (
+    BODY_HEIGHT_M,
+    FOOTPRINT_FRAME,
+    RADIUS_M,
+    SENSOR_MOUNTS,
+    WHEEL_BASE_M,
+    WHEEL_JOINTS,
+    WHEEL_RADIUS_M,
+)
 
 BODY_RGBA = (0.85, 0.85, 0.85, 1.0)
+WHEEL_RGBA = (0.1, 0.1, 0.1, 1.0)
+WHEEL_WIDTH_M = 0.02
 
 
 def _numbers(*values: float) -> str:
@@ -38,15 +50,46 @@ def create_urdf(prefix: str = "") -> str:
         f'    <collision name="body">{cylinder}</collision>',
         "  </link>",
     ]
-    for name, mount in SENSOR_MOUNTS.items():
+    fixed = [(name, (mount.x_m, mount.y_m, mount.z_m), mount.yaw_rad) for name, mount in SENSOR_MOUNTS.items()]
+    for name, xyz, yaw in [(FOOTPRINT_FRAME, (0.0, 0.0, 0.0), 0.0), *fixed]:
         link = f"{prefix}{name}"
         lines += [
             f"  <link name={quoteattr(link)}/>",
             f'  <joint name={quoteattr(f"{link}_joint")} type="fixed">',
             f"    <parent link={quoteattr(base)}/>",
             f"    <child link={quoteattr(link)}/>",
-            f'    <origin xyz="{_numbers(mount.x_m, mount.y_m, mount.z_m)}" rpy="{_numbers(0, 0, mount.yaw_rad)}"/>',
+            f'    <origin xyz="{_numbers(*xyz)}" rpy="{_numbers(0, 0, yaw)}"/>',
             "  </joint>",
         ]
+    lines += _wheels(prefix, base)
     lines.append("</robot>")
     return "\n".join(lines) + "\n"
+
+
+def _wheels(prefix: str, base: str) -> list[str]:
+    """The drive wheels: links ``<prefix>left_wheel``/``right_wheel`` on continuous joints about
+    their axle (+y), half the wheel base either side, axle at the wheel's radius."""
+    cylinder = (
+        f'<origin xyz="0 0 0" rpy="{_numbers(1.5707963267948966, 0, 0)}"/>'
+        f'<geometry><cylinder radius="{_numbers(WHEEL_RADIUS_M)}" length="{_numbers(WHEEL_WIDTH_M)}"/></geometry>'
+    )
+    lines = []
+    for joint, side in zip(WHEEL_JOINTS, (1.0, -1.0), strict=True):
+        link = prefix + joint.removesuffix("_joint")
+        lines += [
+            f"  <link name={quoteattr(link)}>",
+            f'    <visual name="wheel">{cylinder}',
+            f"      <material name={quoteattr(f'{prefix}create_wheel')}>",
+            f'        <color rgba="{_numbers(*WHEEL_RGBA)}"/>',
+            "      </material>",
+            "    </visual>",
+            f'    <collision name="wheel">{cylinder}</collision>',
+            "  </link>",
+            f'  <joint name={quoteattr(prefix + joint)} type="continuous">',
+            f"    <parent link={quoteattr(base)}/>",
+            f"    <child link={quoteattr(link)}/>",
+            f'    <origin xyz="{_numbers(0, side * 0.5 * WHEEL_BASE_M, WHEEL_RADIUS_M)}" rpy="0 0 0"/>',
+            '    <axis xyz="0 1 0"/>',
+            "  </joint>",
+        ]
+    return lines

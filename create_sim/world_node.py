@@ -28,7 +28,7 @@ from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.publisher import Publisher
-from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from sensor_msgs.msg import BatteryState, Illuminance, JointState, Joy, LaserScan, Range
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
@@ -37,13 +37,16 @@ from create_sim.configfile import NoiseConfig, load_config
 from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
 from create_sim.model import BeaconSighting, CreateModel, odometry_origin
+from create_sim.physics import CONTACT_SKIN
 from create_sim.spec import (
     BEACON_IDS_NS,
     BEACONS_NS,
     CLIFF_NAMES,
     DEFAULT_RATES,
+    FOOTPRINT_FRAME,
     LINE_RGB,
     LINES_NS,
+    ODOMETRY_RESOLUTION,
     PHYSICS_RATE,
     SENSOR_MOUNTS,
     SONAR_NAMES,
@@ -53,6 +56,10 @@ from create_sim.spec import (
     VWALL_HALO_M,
     WALL_RGB,
     WALLS_NS,
+    WHEEL_BASE_M,
+    WHEEL_JOINTS,
+    WHEEL_RADIUS_M,
+    sonar_field_of_view,
     virtual_wall_field,
 )
 from create_sim.urdf import create_urdf
@@ -77,6 +84,12 @@ from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
+# one ray per sonar: the cone within which that ray reads as a cone would, to the physics' contact skin
+SONAR_FIELD_OF_VIEW = sonar_field_of_view(CreateModel.SONAR_RANGE[1], CONTACT_SKIN)
+_DIST_STEP, _ANGLE_STEP, _SPEED_STEP = ODOMETRY_RESOLUTION
+# rounding variance step²/12 of (x and y, yaw) and of (v, w): w = (v_right - v_left) / wheel base
+POSE_RESOLUTION_VARIANCE = (_DIST_STEP**2 / 12.0, _ANGLE_STEP**2 / 12.0)
+TWIST_RESOLUTION_VARIANCE = (_SPEED_STEP**2 / 12.0, 2.0 * _SPEED_STEP**2 / 12.0 / WHEEL_BASE_M**2)
 
 
 class CreateWorldNode(SimWorldNode):
@@ -294,8 +307,10 @@ class CreateWorldNode(SimWorldNode):
         self.pub_camera = pub(MarkerArray, "camera/beacons")
         self.pub_buttons = pub(Joy, "buttons")
         self.pub_battery = pub(BatteryState, "battery_state")
+        self.pub_joints = pub(JointState, "joint_states")
         self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
         self.pub_map = pub(OccupancyGrid, "map", LATCHED_QOS)
+        self._map_published = False  # whether pub_map holds a latched grid
         self._make_templates()
 
         # rate name -> (CreateModel method reading it or None, publisher of its message, its publishers,
@@ -306,7 +321,8 @@ class CreateWorldNode(SimWorldNode):
             "wall": ("wall_sensor", self._publish_wall, [self.pub_wall], "wall"),
             "virtual_wall": ("virtual_wall", self._publish_virtual_wall, [self.pub_virtual_wall], None),
             # odometry noise is drawn by the physics; /tf's odom -> base_link goes with the odometry
-            "odom": (None, self._publish_odom, [self.pub_odom, *self.tf.publishers], None),
+            # the wheels' joint_states come from the same odometry, at its rate
+            "odom": (None, self._publish_odom, [self.pub_odom, self.pub_joints, *self.tf.publishers], None),
             "overhead_pose": (None, self._publish_overhead, [self.pub_overhead], None),
             "sonar": ("sonar", self._publish_sonar, self.pub_sonar, "sonar"),
             "scan": ("lidar", self._publish_scan, [self.pub_scan], "lidar"),
@@ -458,7 +474,14 @@ class CreateWorldNode(SimWorldNode):
             moving = [(self.frame("odom"), self.frame("base_link"))]
             if self.publish_map_tf:
                 moving.append(("map", self.frame("odom")))
-            templates[self.tf.publisher] = lambda: self.tf.message([transform_msg(p, c, 0.0, 0.0) for p, c in moving])
+            # the wheels, as robot_state_publisher would send them from joint_states (last two)
+            half = 0.5 * WHEEL_BASE_M
+            base = self.frame("base_link")
+            wheels = [(half, self.frame(WHEEL_JOINTS[0])), (-half, self.frame(WHEEL_JOINTS[1]))]
+            templates[self.tf.publisher] = lambda: self.tf.message(
+                [transform_msg(p, c, 0.0, 0.0) for p, c in moving]
+                + [transform_msg(base, joint.removesuffix("_joint"), 0.0, y, WHEEL_RADIUS_M) for y, joint in wheels]
+            )
         self._templates: dict[Publisher, Callable[[], Any]] = templates
         self._reusable: dict[Publisher, Any] = {}
 
@@ -501,7 +524,7 @@ class CreateWorldNode(SimWorldNode):
                 Range,
                 self.frame(f"sonar_{name}"),
                 radiation_type=Range.ULTRASOUND,
-                field_of_view=0.0,
+                field_of_view=SONAR_FIELD_OF_VIEW,
                 variance=self._variance("sonar"),
                 min_range=m.SONAR_RANGE[0],
                 max_range=m.SONAR_RANGE[1],
@@ -528,6 +551,9 @@ class CreateWorldNode(SimWorldNode):
             self.pub_odom: _stamped(Odometry, self.frame("odom"), child_frame_id=self.frame("base_link")),
             self.pub_overhead: _stamped(PoseStamped, "map"),
             self.pub_buttons: _stamped(Joy, self.frame("base_link")),
+            self.pub_joints: _stamped(
+                JointState, self.frame("base_link"), name=[self.prefix + joint for joint in WHEEL_JOINTS]
+            ),
             self.pub_battery: _stamped(
                 BatteryState,
                 self.frame("base_link"),  # the original's battery readings are constants
@@ -621,6 +647,8 @@ class CreateWorldNode(SimWorldNode):
             msg.twist.twist.angular.z = float(w)
             msg.pose.covariance, msg.twist.covariance = self._odometry_covariances(v, w)
             self._send(self.pub_odom, msg)
+        if self.pub_joints.get_subscription_count():
+            self._publish_wheels(stamp)
         tf_pub = self.tf.publisher
         if tf_pub is not None and self.tf.heard():
             msg = self._message(tf_pub)
@@ -631,24 +659,46 @@ class CreateWorldNode(SimWorldNode):
                 map_to_odom = msg.transforms[1]
                 map_to_odom.header.stamp = stamp
                 set_planar(map_to_odom, *self._map_to_odom(x, y, theta))
+            for wheel, angle in zip(msg.transforms[-2:], self._wheel_angles(), strict=True):
+                wheel.header.stamp = stamp
+                wheel.transform.rotation.y, wheel.transform.rotation.w = math.sin(0.5 * angle), math.cos(0.5 * angle)
             self._send(tf_pub, msg)
 
     def _odometry_covariances(self, v: float, w: float) -> tuple[np.ndarray, np.ndarray]:
-        """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the noisy odometry.
+        """Row-major 6x6 pose and twist covariances (x, y, z, roll, pitch, yaw) of the odometry.
 
-        Distance and turn errors are proportional to each step's motion; a heading error also moves
-        the position sideways by about the distance driven. z, roll and pitch are exact (a planar
-        robot): zero, as everything is for noise-free odometry."""
+        The config noise: distance and turn errors are proportional to each step's motion; a heading
+        error also moves the position sideways by about the distance driven. Added to it, never
+        absent (an EKF cannot fuse a zero variance), the rounding variance (step²/12) of what the
+        Create resolves (:data:`create_sim.spec.ODOMETRY_RESOLUTION`: 1 mm, 1 degree, 1 mm/s per
+        wheel). z, roll and pitch are exact (a planar robot): zero."""
         std = self.noise.noise["odometry"][1]
         var_dist, var_turn = self.model.odometry_variance
         distance = abs(self.model.odometry_totals[0])
         pose = np.zeros(36)
-        pose[0] = pose[7] = var_dist + distance * distance * var_turn
-        pose[35] = var_turn
+        pose[0] = pose[7] = var_dist + distance * distance * var_turn + POSE_RESOLUTION_VARIANCE[0]
+        pose[35] = var_turn + POSE_RESOLUTION_VARIANCE[1]
         twist = np.zeros(36)
-        twist[0] = (std * v) ** 2
-        twist[35] = (std * w) ** 2
+        twist[0] = (std * v) ** 2 + TWIST_RESOLUTION_VARIANCE[0]
+        twist[35] = (std * w) ** 2 + TWIST_RESOLUTION_VARIANCE[1]
         return pose, twist
+
+    def _wheel_angles(self) -> tuple[float, float]:
+        """Left and right wheel angles (rad) from the odometry, as encoders give them: each wheel
+        travels the distance driven minus / plus half the wheel base per radian turned."""
+        distance, turn = self.model.odometry_totals
+        half = 0.5 * WHEEL_BASE_M
+        return (distance - half * turn) / WHEEL_RADIUS_M, (distance + half * turn) / WHEEL_RADIUS_M
+
+    def _publish_wheels(self, stamp) -> None:
+        """``joint_states`` of the two wheels: angles (:meth:`_wheel_angles`) and speeds (rad/s)."""
+        v, w = (float(c) for c in self.model.velocity)
+        half = 0.5 * WHEEL_BASE_M
+        msg = self._message(self.pub_joints)
+        msg.header.stamp = stamp
+        msg.position = list(self._wheel_angles())
+        msg.velocity = [(v - half * w) / WHEEL_RADIUS_M, (v + half * w) / WHEEL_RADIUS_M]
+        self._send(self.pub_joints, msg)
 
     def _map_to_odom(self, odom_x: float, odom_y: float, odom_theta: float) -> tuple[float, float, float]:
         """Ground truth ``map → odom`` (x, y, yaw): where the odometry frame's origin really is."""
@@ -656,7 +706,7 @@ class CreateWorldNode(SimWorldNode):
         return odometry_origin((x, y, theta), (odom_x, odom_y, odom_theta))
 
     def _publish_static_transforms(self) -> None:
-        self.tf.send_static(sensor_transforms(self.prefix), self.stamp())
+        self.tf.send_static(static_transforms(self.prefix), self.stamp())
 
     def _publish_overhead(self) -> None:
         msg = self._message(self.pub_overhead)
@@ -677,7 +727,11 @@ class CreateWorldNode(SimWorldNode):
 
     # ---------------------------------------------------------------- the map
     def _publish_map(self) -> None:
-        """The latched ``map_markers`` and the occupancy grid of the walls on ``map``."""
+        """The latched ``map_markers`` and the occupancy grid of the walls on ``map``.
+
+        A map without walls has no grid (map_server, too, publishes only a map it loaded): no
+        ``map`` message, and switching to such a map withdraws the latched one, so nobody joining
+        later gets the old walls."""
         stamp = self.stamp()
         if max(len(self.map.walls), len(self.map.lines)) > MAX_MARKER_SEGMENTS:
             self.get_logger().warning(
@@ -686,6 +740,13 @@ class CreateWorldNode(SimWorldNode):
             )
         with self.starting("drawing map_markers"):
             self.pub_map_markers.publish(map_markers(self.map, stamp))
+        if len(self.map.walls) == 0:
+            if self._map_published:
+                self.destroy_publisher(self.pub_map)  # its latched grid goes with it
+                self.pub_map = self.create_publisher(OccupancyGrid, "map", LATCHED_QOS)
+                self._map_published = False
+            return
+        self._map_published = True
         with self.starting(f"rasterising {len(self.map.walls):,} walls for the map grid") as phase:
             raster = rasterise_walls(self.map.walls, self.map_resolution, progress=phase.progress)
         if raster.resolution_m != self.map_resolution:
@@ -702,6 +763,13 @@ BIG_FILE_BYTES = 8_000_000
 
 #: Most walls (and floor lines) drawn on ``map_markers``: beyond, the first ones (``map`` has all).
 MAX_MARKER_SEGMENTS = 100_000
+
+
+def static_transforms(prefix: str) -> list[TransformStamped]:
+    """Everything on ``/tf_static``: the sensors' mounts and ``base_link → base_footprint``
+    (REP-120, identity: ``base_link`` is on the floor)."""
+    footprint = transform_msg(prefix + "base_link", prefix + FOOTPRINT_FRAME, 0.0, 0.0)
+    return [*sensor_transforms(prefix), footprint]
 
 
 def sensor_transforms(prefix: str) -> list[TransformStamped]:

@@ -35,6 +35,11 @@ OBSTACLE_SUFFIX = "obstacle"
 
 
 # ------------------------------------------------------------------------------ frames and mounts
+FOOTPRINT_FRAME = "base_footprint"
+"""REP-120's ground projection of each robot's ``base_link`` (``<robot>/base_footprint``): a
+planar robot's ``base_link`` is on the floor, so a fixed identity transform below it."""
+
+
 def sensor_mount(robot: RobotSpec, sensor: SensorSpec) -> tuple[float, float, float]:
     """Where ``sensor`` sits on ``robot``'s base_link: x, y (m) and axis (rad). The position is on
     the body, so it scales with the robot (its range does not)."""

@@ -60,6 +60,7 @@ from sim_runtime.world_node import SimWorldNode, namespace_prefix, startup_phase
 from simrobot_sim.matlab_alg import OctaveAlgorithms
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.spec import (
+    FOOTPRINT_FRAME,
     OBSTACLE_SUFFIX,
     ROBOT_STATE_FIELDS,
     ROBOT_STATES_TOPIC,
@@ -230,6 +231,7 @@ class SimrobotWorldNode(SimWorldNode):
         io.odom = Odometry()
         io.odom.header.frame_id = frame_name(self.prefix, name, "odom")
         io.odom.child_frame_id = frame_name(self.prefix, name, "base_link")
+        io.odom.pose.covariance, io.odom.twist.covariance = odometry_covariances(self.spec)
         io.pose_pub = self.create_publisher(PoseStamped, f"{name}/pose", SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
@@ -506,14 +508,32 @@ def make_nodes() -> list[Node]:
     return nodes
 
 
+def odometry_covariances(spec: WorldSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Row-major 6x6 pose and twist covariances of a robot's odometry (x, y, z, roll, pitch, yaw).
+
+    The model's odometry is exact, but it places robots against walls known to one cell of the
+    world's grid, one ``dt`` at a time: the rounding variance (step²/12) of a cell for x and y, of
+    a cell per ``dt`` for the speeds, and of the angle a cell makes 1 m away (cell m → rad) for
+    heading and turn rate. Never zero: an EKF cannot fuse a zero variance. z, roll and pitch are
+    exact (a planar robot): zero."""
+    cell, dt = float(spec.resolution), float(spec.dt)
+    pose, twist = np.zeros(36), np.zeros(36)
+    pose[0] = pose[7] = pose[35] = cell * cell / 12.0
+    twist[0] = twist[7] = twist[35] = (cell / dt) ** 2 / 12.0
+    return pose, twist
+
+
 def static_transforms(spec: WorldSpec, prefix: str) -> list[TransformStamped]:
-    """What ``/tf_static`` carries: ``map → <robot>/odom`` (odometry starts at the start pose) and
-    ``<robot>/base_link → <robot>/<sensor>`` at each sensor's mount (stamps left zero)."""
+    """What ``/tf_static`` carries: ``map → <robot>/odom`` (odometry starts at the start pose),
+    ``<robot>/base_link → <robot>/base_footprint`` (REP-120; identity, a planar robot's base_link is
+    on the floor) and ``<robot>/base_link → <robot>/<sensor>`` at each sensor's mount (stamps left
+    zero)."""
     transforms = []
     for robot in spec.robots:
         x, y = robot.position
         transforms.append(transform_msg("map", frame_name(prefix, robot.name, "odom"), x, y, yaw=robot.heading))
         base = frame_name(prefix, robot.name, "base_link")
+        transforms.append(transform_msg(base, frame_name(prefix, robot.name, FOOTPRINT_FRAME), 0.0, 0.0))
         for sensor in robot.sensors:
             sx, sy, axis = sensor_mount(robot, sensor)
             transforms.append(transform_msg(base, frame_name(prefix, robot.name, sensor.name), sx, sy, yaw=axis))

@@ -314,7 +314,8 @@ def test_every_arm_has_a_latched_robot_description_that_matches_its_motion(execu
         assert spin_until(executor, lambda d=description: d.msgs), prefix
         urdf = yourdfpy.URDF.load(io.StringIO(description.last.data), load_meshes=False)
         arm = world.arm(prefix)
-        assert urdf.actuated_joint_names == list(arm.arm.joint_names) and len(urdf.actuated_joint_names) == n
+        assert urdf.actuated_joint_names == [prefix + name for name in arm.arm.joint_names]
+        assert len(urdf.actuated_joint_names) == n
         q = arm.arm.lower + 0.3 * (arm.arm.upper - arm.arm.lower)
         urdf.update_cfg(q)
         np.testing.assert_allclose(urdf.get_transform(f"{prefix}tool0", "world"), arm.arm.fkine(q), atol=1e-9)
@@ -511,3 +512,23 @@ def test_the_arms_state_publishers_take_qos_overrides_at_start(executor):
     arm = world.arms[0]
     assert arm.joint_pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
     assert arm.pose_pub.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+
+
+def test_two_arms_in_one_scene_share_no_joint_name_and_commands_take_either_name(executor, make_node):
+    world = make_arm_node(executor, scene_file="arm/workcell.yaml")
+    test = make_node()
+    states = {prefix: collect(executor, test, JointState, prefix + "joint_states") for prefix in ("", "csa/")}
+    run(executor, world, 5)
+    assert spin_until(executor, lambda: all(c.msgs for c in states.values()))
+    irb, csa = (list(states[p].last.name) for p in ("", "csa/"))
+    assert irb == [f"joint_{k}" for k in range(1, 7)]
+    assert csa == [f"csa/joint_{k}" for k in range(1, 8)]
+    command = test.create_publisher(JointState, "csa/joint_command", COMMAND_PUBLISHER_QOS)
+    assert wait_for_match(executor, command)
+    csa_arm = world.arm("csa/")
+    for names in (["csa/joint_2"], ["joint_3"]):  # joint_states' name, or the config's
+        command.publish(JointState(name=names, position=[0.25]))
+        k = int(names[0][-1]) - 1
+        assert spin_until(executor, lambda k=k: csa_arm.motion.goal[k] == pytest.approx(0.25)), names
+    run(executor, world, 200)  # 2 s: both joints there, reported under their prefixed names
+    assert spin_until(executor, lambda: states["csa/"].last.position[1] == pytest.approx(0.25, abs=1e-6))

@@ -2,27 +2,32 @@
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import signal
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
+import yourdfpy
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
+from sensor_msgs.msg import BatteryState, Illuminance, JointState, Joy, LaserScan, Range
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
 from create_sim.bump_turn import BumpTurnNode, demo
-from create_sim.world_node import CreateWorldNode
+from create_sim.spec import ODOMETRY_RESOLUTION, WHEEL_BASE_M, WHEEL_RADIUS_M
+from create_sim.urdf import create_urdf
+from create_sim.world_node import SONAR_FIELD_OF_VIEW, CreateWorldNode
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import pose_msg, time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
-from sim_runtime.testing import Collector, drain, spin_until, wait_for_match
+from sim_runtime.testing import Collector, TfBuffer, drain, spin_until, wait_for_match
 from sim_tools.cli import executable_command
 
 # A 4 m x 4 m room around the origin, a floor line at x = 1, a beacon ahead, a virtual wall.
@@ -568,3 +573,86 @@ def test_create_world_process_serves_another_process(executor, make_node, rtf):
         if world.poll() is None:
             world.kill()
             world.wait()
+
+
+# ---------------------------------------------------------------- what Nav2 / robot_localization users expect
+def test_base_footprint_sonar_cone_and_odometry_covariances_as_nav2_expects_them(rig):
+    """REP-120's base_footprint in TF, a sonar cone a range layer can use, and covariances an EKF can
+    fuse although the world is noise-free (the rounding variance of what the Create resolves)."""
+    tf = TfBuffer(rig.probe)
+    for subscription in tf.subscriptions:
+        assert wait_for_match(rig.executor, subscription)
+    rig.listen("odom", "sonar/front")
+    rig.drive(0.2, 0.5)
+    rig.step(20)
+    rig.wait(lambda: tf.can_transform("odom", "base_footprint") and rig["sonar/front"].last is not None)
+    np.testing.assert_allclose(tf.lookup("base_link", "base_footprint"), np.eye(4), atol=1e-12)
+    assert rig["sonar/front"].last.field_of_view == pytest.approx(SONAR_FIELD_OF_VIEW)
+    assert 0.05 < SONAR_FIELD_OF_VIEW < 0.06  # the cone within which one ray reads as a cone, to 1 mm at 3 m
+    odom = rig["odom"].last
+    pose, twist = np.reshape(odom.pose.covariance, (6, 6)), np.reshape(odom.twist.covariance, (6, 6))
+    step_m, step_rad, step_speed = ODOMETRY_RESOLUTION
+    assert np.diag(pose)[[0, 1, 5]] == pytest.approx([step_m**2 / 12, step_m**2 / 12, step_rad**2 / 12])
+    assert twist[0, 0] == pytest.approx(step_speed**2 / 12) and twist[5, 5] > 0.0
+    assert np.count_nonzero(pose - np.diag(np.diag(pose))) == 0  # independent errors, z/roll/pitch exact
+
+
+def test_the_wheels_joint_states_follow_the_odometry_and_the_urdf_names_them(rig):
+    joints = Collector(rig.probe, JointState, "joint_states", SENSOR_SUBSCRIBER_QOS)
+    assert wait_for_match(rig.executor, joints.subscription)
+    rig.listen("odom")
+
+    def settle() -> tuple[JointState, Odometry]:
+        """The latest joint state and the odometry of the same instant."""
+        rig.step(1)
+        now = rig.world.sim_time
+        stamped = lambda c: c.last is not None and time_from_msg(c.last.header.stamp) >= now - 0.02 - 1e-9  # noqa: E731
+        rig.wait(lambda: stamped(joints) and stamped(rig["odom"]))
+        pair = [(j, o) for j in joints.msgs for o in rig["odom"].msgs if j.header.stamp == o.header.stamp]
+        return pair[-1]
+
+    rig.drive(0.2)
+    rig.step(100)  # 1 s straight at 0.2 m/s
+    state, odom = settle()
+    assert list(state.name) == ["left_wheel_joint", "right_wheel_joint"]
+    assert list(state.position) == pytest.approx([odom.pose.pose.position.x / WHEEL_RADIUS_M] * 2)
+    assert list(state.velocity) == pytest.approx([0.2 / WHEEL_RADIUS_M] * 2)
+    rig.drive(0.0, 1.0)  # on the spot, counter-clockwise: the left wheel backwards, the right forwards
+    rig.step(50)
+    turned_state, turned_odom = settle()
+    turned = yaw_from_quaternion(turned_odom.pose.pose.orientation) - yaw_from_quaternion(odom.pose.pose.orientation)
+    wheel = 0.5 * WHEEL_BASE_M * turned / WHEEL_RADIUS_M
+    expected = [state.position[0] - wheel, state.position[1] + wheel]
+    assert list(turned_state.position) == pytest.approx(expected, abs=1e-6)
+    assert turned_state.velocity[0] == pytest.approx(-turned_state.velocity[1])
+    urdf = yourdfpy.URDF.load(io.StringIO(create_urdf()), load_meshes=False)
+    assert urdf.actuated_joint_names == list(state.name)
+    assert "base_footprint" in urdf.link_map
+
+
+def test_an_empty_map_publishes_no_grid_and_switching_to_one_withdraws_the_old_grid(executor, make_node, tmp_path):
+    world = make_world({"map_file": "", "real_time_factor": 0.0})
+    executor.add_node(world)
+    probe = make_node("probe")
+
+    def late_joiner() -> Collector:
+        grids = Collector(probe, OccupancyGrid, "map", LATCHED_QOS)
+        assert wait_for_match(executor, grids.subscription)
+        markers = Collector(probe, MarkerArray, "map_markers", LATCHED_QOS)  # latched too: comes with it
+        assert wait_for_match(executor, markers.subscription)
+        assert spin_until(executor, lambda: markers.last is not None)
+        world.step(5)
+        drain(executor)
+        return grids
+
+    assert late_joiner().msgs == []  # as map_server without a map: no grid, never a 0 x 0 one
+    room = tmp_path / "room.map"
+    room.write_text(ROOM)
+    assert world.set_parameters([Parameter("map_file", value=str(room))])[0].successful
+    walls = late_joiner()
+    assert spin_until(executor, lambda: walls.last is not None)
+    assert walls.last.info.width > 0 and walls.last.info.height > 0
+    assert world.set_parameters([Parameter("map_file", value="")])[0].successful
+    # the grid's publisher is replaced: once the old one has left the graph, nobody gets the room's walls
+    assert spin_until(executor, lambda: probe.count_publishers("/map") == 1)
+    assert late_joiner().msgs == []

@@ -21,7 +21,7 @@ from visualization_msgs.msg import MarkerArray
 from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, LATCHED_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import drain, make_executor, spin_steps
-from sim_runtime.testing import Collector, spin_until, wait_for_match
+from sim_runtime.testing import Collector, TfBuffer, spin_until, wait_for_match
 from simrobot_sim.avoid import AvoidNode
 from simrobot_sim.world_file import RobotSpec, SensorSpec, WorldSpec
 from simrobot_sim.world_node import SimrobotWorldNode
@@ -97,6 +97,10 @@ def test_topics_carry_sensor_pose_and_map_data(executor, make_node):
     assert (pose.pose.position.x, pose.pose.position.y) == pytest.approx((1.0, 0.5))
     odom = got["/a/odom"].last
     assert (odom.header.frame_id, odom.child_frame_id) == ("a/odom", "a/base_link")
+    # exact odometry, yet covariances an EKF can fuse: one 0.01 m cell (and one per 1 s dt), step²/12
+    pose_cov, twist_cov = np.reshape(odom.pose.covariance, (6, 6)), np.reshape(odom.twist.covariance, (6, 6))
+    assert np.diag(pose_cov).tolist() == pytest.approx([1e-4 / 12, 1e-4 / 12, 0, 0, 0, 1e-4 / 12])
+    assert np.diag(twist_cov).tolist() == pytest.approx([1e-4 / 12, 1e-4 / 12, 0, 0, 0, 1e-4 / 12])
     assert got["/a/crashed"].last.data is False
 
     grid = got["/map"].last
@@ -340,3 +344,14 @@ def test_demo_runs_the_four_robots_for_300_steps_and_draws_tracks(ros, tmp_path)
     # except r5, which never turns: it crashes into the wall 0.96 m ahead
     assert summary["crashed"] == ["r5"] and 0.9 < travelled["r5"] < 0.96
     assert Image.open(summary["tracks_png"]).size[0] > 400
+
+
+def test_every_robot_has_a_base_footprint_at_its_base_link(executor, make_node):
+    world = two_robot_world(executor)
+    tf = TfBuffer(make_node("probe"))
+    for subscription in tf.subscriptions:
+        assert wait_for_match(executor, subscription)
+    world.step()
+    assert spin_until(executor, lambda: all(tf.can_transform("map", f"{r}/base_footprint") for r in "ab"))
+    for robot in "ab":
+        np.testing.assert_allclose(tf.lookup(f"{robot}/base_link", f"{robot}/base_footprint"), np.eye(4), atol=1e-12)

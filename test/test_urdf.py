@@ -16,7 +16,7 @@ import yourdfpy
 from arm_sim.arm import Arm
 from arm_sim.robot_config import RobotConfig, load_robot_config, transform_from_xyz_rpy
 from arm_sim.urdf import arm_tree, arm_urdf, joint_transforms, link_poses, rpy_from_matrix
-from create_sim.spec import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS
+from create_sim.spec import BODY_HEIGHT_M, RADIUS_M, SENSOR_MOUNTS, WHEEL_BASE_M, WHEEL_RADIUS_M
 from create_sim.urdf import create_urdf
 from sim_runtime.paths import config_path
 
@@ -91,7 +91,8 @@ def test_the_modified_dh_test_arm_really_is_modified(tmp_path):
 def test_yourdfpy_puts_the_tool_where_our_forward_kinematics_does(config):
     urdf = load(arm_urdf(config, "arm2/"))
     arm = Arm(config, load_meshes=False)
-    assert urdf.actuated_joint_names == list(config.joint_names)
+    # joints carry the prefix like the links: two arms in one world never share a joint name
+    assert urdf.actuated_joint_names == ["arm2/" + name for name in config.joint_names]
     for q in random_configurations(arm):
         urdf.update_cfg(q)
         assert_same_pose(urdf.get_transform("arm2/tool0", "world"), arm.fkine(q))
@@ -194,10 +195,19 @@ def test_yourdfpy_loads_every_mesh_of_the_shipped_arms():
 
 
 @pytest.mark.parametrize("prefix", ["", "robot1/"])
-def test_the_create_urdf_has_a_link_at_every_sensor_mount(prefix):
+def test_the_create_urdf_has_a_link_at_every_sensor_mount_a_footprint_and_two_wheels(prefix):
     urdf = load(create_urdf(prefix))
     assert urdf.base_link == f"{prefix}base_link"
-    assert set(urdf.link_map) == {f"{prefix}base_link", *(prefix + name for name in SENSOR_MOUNTS)}
+    wheels = {f"{prefix}left_wheel", f"{prefix}right_wheel"}
+    others = {f"{prefix}base_link", f"{prefix}base_footprint", *wheels}
+    assert set(urdf.link_map) == {*others, *(prefix + name for name in SENSOR_MOUNTS)}
+    assert_same_pose(urdf.get_transform(f"{prefix}base_footprint", f"{prefix}base_link"), np.eye(4))
+    assert urdf.actuated_joint_names == [f"{prefix}left_wheel_joint", f"{prefix}right_wheel_joint"]
+    urdf.update_cfg([1.0, -1.0])  # turning about the axle (+y): the wheels sit on the floor either side
+    for wheel, side in zip(sorted(wheels), (1.0, -1.0), strict=True):
+        T = urdf.get_transform(wheel, f"{prefix}base_link")
+        assert T[:3, 3] == pytest.approx([0.0, side * 0.5 * WHEEL_BASE_M, WHEEL_RADIUS_M])
+        assert T[1, 1] == pytest.approx(1.0)  # the axle stays the wheel's y
     for name, mount in SENSOR_MOUNTS.items():
         T = urdf.get_transform(prefix + name, f"{prefix}base_link")
         expected = transform_from_xyz_rpy(np.array([mount.x_m, mount.y_m, mount.z_m]), np.array([0, 0, mount.yaw_rad]))

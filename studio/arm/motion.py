@@ -119,7 +119,8 @@ class ArmMotion(ArmPageBase):
         name = self.trajectory_file.value or ""
         try:
             trajectory = load_trajectory(self.studio.workspace.path(name))
-            names = list(trajectory.joint_names or st.joint_names)
+            # a file may name a scene arm's joints as its config does (joint_1 for csa/joint_1)
+            names = [_arm_joint(n, st.joint_names) for n in trajectory.joint_names or st.joint_names]
             if trajectory.positions.shape[1] != len(names):
                 raise InputError(
                     f"{name}: {trajectory.positions.shape[1]} positions per point, the arm has {len(names)} joints"
@@ -140,3 +141,12 @@ class ArmMotion(ArmPageBase):
         if (to := self.commanded()) is not None:
             to[0].stop(to[1])
             self.trajectory_label.set_text("stopped")
+
+
+def _arm_joint(name: str, joint_names: tuple[str, ...]) -> str:
+    """``name`` as the arm's ``joint_states`` names it: itself, or the one prefixed joint ending in
+    ``/name`` (a scene arm's ``csa/joint_1`` for ``joint_1``)."""
+    if name in joint_names:
+        return name
+    prefixed = [n for n in joint_names if n.endswith("/" + name)]
+    return prefixed[0] if len(prefixed) == 1 else name
