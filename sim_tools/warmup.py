@@ -49,6 +49,7 @@ NOT_WARMED = {
     "simrobot_sim.raycast.cast_ray_exact": "the casters' one-call API for tests and bench/ (the model's: *_into)",
     "simrobot_sim.raycast.cast_scan_exact": "the casters' one-call API for tests and bench/",
     "simrobot_sim.raycast.cast_scan_fast": "the casters' one-call API for tests and bench/",
+    "simrobot_sim.raycast._traverse": "cast_ray_exact's traversal (the model's is _traverse_fast)",
     "simrobot_sim.model._plan_moves_parallel": "worlds of 256 robots or more only, whose wide ids every kernel "
     "compiles for anew at their first start",
 }
