@@ -46,7 +46,7 @@ from typing import Any
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import file_problem, shown
 from sim_runtime.paths import config_path
-from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import load_yaml, short
 from sim_tools.adapters.contract import world_part, world_parts
 from sim_tools.batch.plan import Broken, Episode, Sweep
 
@@ -86,23 +86,23 @@ class _Reader:
         self.source = source
 
     def fail(self, where: str, message: str) -> InputError:
-        return InputError(f"{self.source}: field '{where}': {message}")
+        return InputError(f"{shown(self.source)}: field '{where}': {message}")
 
     def number(self, value: Any, where: str, *, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-            raise self.fail(where, f"{value!r} is not a finite number")
+            raise self.fail(where, f"{short(value)} is not a finite number")
         if positive and value <= 0:
-            raise self.fail(where, f"{value!r} must be > 0")
+            raise self.fail(where, f"{short(value)} must be > 0")
         return float(value)
 
     def integer(self, value: Any, where: str, *, minimum: int = 0) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            raise self.fail(where, f"{value!r} must be a whole number >= {minimum}")
+            raise self.fail(where, f"{short(value)} must be a whole number >= {minimum}")
         return int(value)
 
     def mapping(self, value: Any, where: str, allowed: set[str] | None = None) -> dict[str, Any]:
         if not isinstance(value, dict):
-            raise self.fail(where, f"expected a mapping, got {value!r}")
+            raise self.fail(where, f"expected a mapping, got {short(value)}")
         if allowed is not None:
             unknown = sorted(set(map(str, value)) - allowed)
             if unknown:
@@ -120,7 +120,7 @@ class _Reader:
     def file(self, value: Any, where: str) -> str:
         """A path relative to the sweep file, else to the shipped config/; '' stays ''."""
         if not isinstance(value, str):
-            raise self.fail(where, f"{value!r} is not a file path")
+            raise self.fail(where, f"{short(value)} is not a file path")
         if value == "":
             return ""
         for candidate in (self.source.parent / value, config_path(value)):
@@ -169,7 +169,7 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
     use = entry.get("use")
     ours = executable_controllers()
     if not isinstance(use, str) or not use:
-        raise r.fail(f"{where}.use", f"{use!r}: expected an executable ({', '.join(ours)}) or module:name")
+        raise r.fail(f"{where}.use", f"{short(use)}: expected an executable ({', '.join(ours)}) or module:name")
     if use in ours:
         needs, target = ours[use]
         if needs != simulator:
@@ -178,13 +178,13 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
     elif ":" in use:
         target, kind = use, "user"
     else:
-        raise r.fail(where, f"{use!r}: not one of our controllers ({', '.join(ours)}) nor module:name")
+        raise r.fail(where, f"{short(use)}: not one of our controllers ({', '.join(ours)}) nor module:name")
     transport = entry.get("transport", "auto")
     if transport not in TRANSPORTS:
-        raise r.fail(f"{where}.transport", f"{transport!r}: expected one of {', '.join(TRANSPORTS)}")
+        raise r.fail(f"{where}.transport", f"{short(transport)}: expected one of {', '.join(TRANSPORTS)}")
     parameters = r.mapping(entry.get("parameters", {}), f"{where}.parameters")
     if "name" in entry and (not isinstance(entry["name"], str) or not entry["name"].strip()):
-        raise r.fail(f"{where}.name", f"{entry['name']!r}: expected a name (text)")
+        raise r.fail(f"{where}.name", f"{short(entry['name'])}: expected a name (text)")
     return {
         "label": str(entry.get("name", use)),
         "target": target,
@@ -201,9 +201,10 @@ def _importable(r: _Reader, target: str, where: str) -> None:
     try:
         load_callable(target, str(r.source.resolve().parent))
     except Exception as exc:
-        raise r.fail(where, f"cannot import {target!r}: {type(exc).__name__}: {exc}") from None
+        raise r.fail(where, f"cannot import {short(target)}: {type(exc).__name__}: {exc}") from None
     except SystemExit as exc:  # a student's module that exits when imported
-        raise r.fail(where, f"cannot import {target!r}: it called sys.exit({exc.code!r}) when imported") from None
+        code = short(exc.code)
+        raise r.fail(where, f"cannot import {short(target)}: it called sys.exit({code}) when imported") from None
 
 
 def _unique(r: _Reader, names: list[Any], where: list[str], what: str, hint: str) -> None:
@@ -213,7 +214,7 @@ def _unique(r: _Reader, names: list[Any], where: list[str], what: str, hint: str
         key = repr(name)
         if key in seen:
             first = where[seen[key]]
-            raise r.fail(where[k], f"{what} {name!r} is given twice (also at {first}): {hint}")
+            raise r.fail(where[k], f"{what} {short(name)} is given twice (also at {first}): {hint}")
         seen[key] = k
 
 
@@ -246,7 +247,7 @@ def _poses(r: _Reader, value: Any, simulator: str) -> list[Any]:
     poses = []
     for k, pose in enumerate(r.listing(value, "poses")):
         if not isinstance(pose, list) or len(pose) != 3:
-            raise r.fail(f"poses[{k}]", f"{pose!r}: expected [x, y, theta] (m, m, rad)")
+            raise r.fail(f"poses[{k}]", f"{short(pose)}: expected [x, y, theta] (m, m, rad)")
         poses.append(tuple(r.number(v, f"poses[{k}]") for v in pose))
     _unique(
         r, poses, [f"poses[{k}]" for k in range(len(poses))], "pose", "each pose once (a pose twice is the same run)"
@@ -269,7 +270,7 @@ def _check_poses(r: _Reader, simulator: str, worlds: list[tuple[str, dict[str, A
                 problem = problem_of(world, pose)
             if problem:
                 where = shown(world.get("map") or world.get("world_file") or world["label"])
-                raise r.fail(f"poses[{k}]", f"{list(pose)}: {problem} of world {world['label']!r} ({where})")
+                raise r.fail(f"poses[{k}]", f"{list(pose)}: {problem} of world {short(world['label'])} ({where})")
 
 
 def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
@@ -283,7 +284,7 @@ def _metrics(r: _Reader, value: Any) -> tuple[Any, ...]:
             name, options = next(iter(entry.items()))
             out.append({str(name): r.mapping(options, f"metrics[{k}].{name}")})
         else:
-            raise r.fail(f"metrics[{k}]", f"{entry!r}: expected a name, module:function or {{name: {{options}}}}")
+            raise r.fail(f"metrics[{k}]", f"{short(entry)}: expected a name, module:function or {{name: {{options}}}}")
     return tuple(out)
 
 
@@ -333,10 +334,10 @@ def load_sweep(
     memory_limit = None if memory is None else r.number(memory, "memory_limit_mb", positive=True)
     keep = data.get("keep_bags", "none")
     if keep not in KEEP_BAGS:
-        raise r.fail("keep_bags", f"{keep!r}: expected one of {', '.join(KEEP_BAGS)}")
+        raise r.fail("keep_bags", f"{short(keep)}: expected one of {', '.join(KEEP_BAGS)}")
     strict = data.get("file_warnings", "error")
     if strict not in FILE_WARNINGS:
-        raise r.fail("file_warnings", f"{strict!r}: expected one of {', '.join(FILE_WARNINGS)}")
+        raise r.fail("file_warnings", f"{short(strict)}: expected one of {', '.join(FILE_WARNINGS)}")
     said = check_world_files(r.fail, worlds, strict == "error")
     _check_poses(r, simulator, worlds, pose_specs)
     tell = stage or (lambda k, label, what: None)
