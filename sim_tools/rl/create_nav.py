@@ -123,6 +123,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self.model: CreateModel | None = None
         #: Whether a wall touched the body during the last step (see :meth:`_advance`).
         self.collided = False
+        self._clear_m = -math.inf
         self.track: list[tuple[float, float]] = []
         self._pose = np.zeros(3)  # the true pose after the last step or reset
         self._view: TopView | None = None  # made at the first frame
@@ -167,6 +168,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         x, y, theta = self.start_pose
         self.goal_odom = goal_in_odom(self.goal_xy, (x, y, theta), np.zeros(3))
         self.steps = 0
+        self._clear_m = -math.inf  # the clearance's lower bound: none yet (see _advance)
         self.track = [(float(start[0]), float(start[1]))]
         self._pose = self.model.pose
         self.distance_m = self._true_distance()
@@ -223,9 +225,14 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         v, w = np.asarray(action).tolist()  # plain floats (a float32 pair's values exactly)
         model.set_velocity(v, w)
         dt, hook = 1.0 / spec.PHYSICS_RATE, self.on_physics_step
-        # The body never moves faster than commanded (walls only slow it), so a wall further than
-        # this period's travel cannot be touched in it: no contact check per physics step then.
-        near = model.clearance() <= abs(model.command[0]) * dt * self.substeps + _CHECK_MARGIN_M
+        # The body never moves faster than commanded (walls only slow it, turning does not move
+        # a circle), so a wall further than this period's travel cannot be touched in it: no
+        # contact check per physics step then. _clear_m is a lower bound of the clearance, the
+        # exact one taken again only when the bound comes within a period's travel.
+        travel = abs(model.command[0]) * dt * self.substeps
+        if self._clear_m - travel <= _CHECK_MARGIN_M:
+            self._clear_m = model.clearance()
+        near = self._clear_m - travel <= _CHECK_MARGIN_M
         touched = False
         for _ in range(self.substeps):
             model.step(dt)
@@ -233,6 +240,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
                 hook(model)
             if near and not touched:
                 touched = model.touching()
+        self._clear_m -= travel
         self.collided = touched
         self.steps += 1
         self._pose = model.pose  # the info's (a fresh array each step)
