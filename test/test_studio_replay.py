@@ -192,3 +192,51 @@ def test_the_age_of_each_topics_message_is_how_long_before_the_instant_never_neg
     assert ages["/scan"] == pytest.approx((t - scan.log_time_ns) / S) and all(age >= 0 for age in ages.values())
     shown = re.findall(r"<td class='pr-2 font-mono text-gray-500'>([^<]*)</td>", panel_html(frame))
     assert shown and all(float(cell) >= 0 and not cell.startswith("-") for cell in shown)
+
+
+def write_two_world_bag(path: Path) -> Path:
+    """A bag of a Create world in /create1 (a wall, its robot 1 s apart) and a SIMROBOT world in
+    /simrobot1 (an occupancy grid, robots r1 and r2 0.5 s apart), as the studio records them."""
+    from builtin_interfaces.msg import Time
+
+    from create_sim.mapfile import parse_map
+    from create_sim.world_node import map_markers
+
+    qos = qos_profiles_yaml([{}])
+    grid = OccupancyGrid()
+    grid.info.width, grid.info.height, grid.info.resolution = 4, 2, 0.5
+    grid.data = [100] * 8
+    walls = map_markers(parse_map("wall -1 -1 1 -1\n", "box.map"), Time())
+    with BagWriter(path) as bag:
+        ids = {
+            name: bag.add_topic(name, kind, qos)
+            for name, kind in [
+                ("/create1/map_markers", "visualization_msgs/msg/MarkerArray"),
+                ("/create1/overhead_pose", "geometry_msgs/msg/PoseStamped"),
+                ("/simrobot1/map", "nav_msgs/msg/OccupancyGrid"),
+                ("/simrobot1/r1/pose", "geometry_msgs/msg/PoseStamped"),
+                ("/simrobot1/r2/pose", "geometry_msgs/msg/PoseStamped"),
+            ]
+        }
+        bag.write(ids["/create1/map_markers"], 0, serialize_message(walls))
+        bag.write(ids["/simrobot1/map"], 0, serialize_message(grid))
+        for k in range(4):
+            bag.write(ids["/create1/overhead_pose"], k * S, serialize_message(PoseStamped(pose=pose_msg(k, 0.0, 0.0))))
+            for i, name in enumerate(("r1", "r2")):
+                pose = PoseStamped(pose=pose_msg(0.5 + i, 0.5, 0.0))
+                bag.write(ids[f"/simrobot1/{name}/pose"], k * S // 2 + 1, serialize_message(pose))
+    return path
+
+
+def test_a_bag_of_a_create_and_a_simrobot_world_replays_each_world_alone_in_its_own_frame(tmp_path):
+    replay = Replay.open(write_two_world_bag(tmp_path / "two_worlds"))
+    assert list(replay.worlds) == ["/create1", "/simrobot1"]
+    assert [replay.world_kind(w) for w in replay.worlds] == ["create", "simrobot"]
+    create, simrobot = replay.frame(3 * S, "/create1"), replay.frame(3 * S, "/simrobot1")
+    assert [rf.robot.ns for rf in create.robots] == ["/create1"] and create.grid is None
+    assert len(create.map.walls) == 1 and create.robots[0].pose == pytest.approx((3.0, 0.0, 0.0))
+    assert [rf.robot.ns for rf in simrobot.robots] == ["/simrobot1/r1", "/simrobot1/r2"]
+    assert simrobot.map is None and simrobot.grid is not None
+    assert replay.step(S, 1, "/create1") == 2 * S  # each world steps through its own frames
+    assert replay.step(S // 2 + 1, 1, "/simrobot1") == S + 1
+    assert (replay.first_frame_of("/create1"), replay.first_frame_of("/simrobot1")) == (0, 1)

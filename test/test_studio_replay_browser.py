@@ -235,3 +235,22 @@ def test_an_arm_bag_is_drawn_in_3d_with_each_link_where_the_bag_has_it(browser, 
     assert "end effector" in find(browser, ".studio-replay-panel").text
     ActionChains(browser).move_to_element(find(browser, ".studio-replay-panel")).perform()
     screenshot(browser, "replay_arm")
+
+
+def test_a_bag_of_two_worlds_shows_one_world_at_a_time_each_on_its_own_map(browser, studio_url, workspace):
+    from selenium.webdriver.common.by import By
+    from test_studio_replay import write_two_world_bag
+
+    write_two_world_bag(workspace / "runs" / "two_worlds")
+    open_page(browser, studio_url + "/replay")
+    choose_bag(browser, "runs/two_worlds")
+    assert "2 worlds, shown one at a time" in find(browser, ".studio-replay-message").text
+    labels = "return [...document.querySelectorAll('.studio-replay-view text')].map(t => t.textContent)"
+    grid = "return !!document.querySelector('.studio-replay-view image')"  # SIMROBOT's occupancy grid
+    wait(browser, lambda d: "/create1" in d.execute_script(labels))
+    assert not any("simrobot1" in t for t in browser.execute_script(labels)) and not browser.execute_script(grid)
+    find(browser, ".studio-replay-world").click()
+    item = "//*[contains(@class,'q-item') and contains(., '/simrobot1 (simrobot)')]"
+    wait(browser, lambda d: d.find_element(By.XPATH, item)).click()
+    wait(browser, lambda d: "/simrobot1/r1" in d.execute_script(labels) and d.execute_script(grid))
+    assert "/create1" not in browser.execute_script(labels)  # the Create is not drawn in SIMROBOT's map

@@ -33,6 +33,7 @@ from simrobot_sim.spec import ROBOTS_TOPIC
 from studio.arm.ros_client import Group, drawables
 
 POSE = "geometry_msgs/msg/PoseStamped"
+GRID = "nav_msgs/msg/OccupancyGrid"
 ODOM = "nav_msgs/msg/Odometry"
 JOINTS = "sensor_msgs/msg/JointState"
 MARKERS = "visualization_msgs/msg/MarkerArray"
@@ -56,6 +57,18 @@ def basename(topic: str) -> str:
     return topic.rstrip("/").rpartition("/")[2]
 
 
+def is_world_topic(topic: str, kind: str) -> bool:
+    """Whether ``topic`` is a world's own (not a robot's): a Create map, a SIMROBOT occupancy grid
+    or robot outlines. Its namespace is the world's."""
+    name = basename(topic)
+    return name == "map_markers" or kind == GRID or (name == ROBOTS_TOPIC and kind == MARKERS)
+
+
+def in_world(topic: str, world: str | None) -> bool:
+    """Whether a world topic belongs to ``world`` (None: every world)."""
+    return world is None or namespace(topic) == world
+
+
 @dataclass
 class Robot:
     """A robot found in the bag: its kind ('create', 'simrobot', 'mobile'), pose topic and track."""
@@ -72,6 +85,16 @@ class Robot:
 
     def topic(self, name: str) -> str:
         return f"{self.ns}/{name}"
+
+
+def world_of(robot: Robot, map_worlds: set[str]) -> str:
+    """The namespace of the world ``robot`` is in: a Create's (or any odometry robot's) own
+    namespace; a SIMROBOT robot's is the nearest enclosing namespace with a world topic, else its
+    parent (``/simrobot1/r1`` → ``/simrobot1``)."""
+    if robot.kind != "simrobot":
+        return robot.ns
+    enclosing = [w for w in map_worlds if not w or robot.ns == w or robot.ns.startswith(w + "/")]
+    return max(enclosing, key=len) if enclosing else namespace(robot.ns)
 
 
 @dataclass
@@ -194,6 +217,15 @@ class Replay:
             t for t, kind in topics.items() if kind == MARKERS and basename(t) in ARM_MARKER_TOPICS
         )
         self.command_topics = sorted(t for t in topics if basename(t) in COMMAND_TOPICS)
+        # The worlds recorded (each its own map and frame of reference: a Create's walls drawn
+        # over a SIMROBOT grid, or its robot inside the other's walls, would be nonsense).
+        map_worlds = {namespace(t) for t, kind in topics.items() if is_world_topic(t, kind)}
+        self.worlds: dict[str, list[Robot]] = {}
+        for robot in self.robots:
+            self.worlds.setdefault(world_of(robot, map_worlds), []).append(robot)
+        for ns in sorted(map_worlds - set(self.worlds)):
+            self.worlds[ns] = []
+        self.worlds = dict(sorted(self.worlds.items()))
         if self.robots:
             self.frame_topic: str | None = self.robots[0].pose_topic
         elif self.arms:
@@ -204,6 +236,7 @@ class Replay:
             self.frames = index.by_topic[self.frame_topic].times
         else:
             self.frames = np.unique(np.concatenate([ti.times for ti in index.by_topic.values()] or [np.zeros(0, int)]))
+        self._world_frames: dict[str, np.ndarray] = {}
         for robot in self.robots:
             self._load_track(robot)
         self._maps: dict[str, tuple[CreateMap, MarkerArray | None]] = {}
@@ -227,6 +260,32 @@ class Replay:
         """Where the page opens and Stop goes back to: the first frame (an arm bag's first instant
         holds only its latched description, its first joints come a step later)."""
         return int(self.frames[0]) if len(self.frames) else self.start_ns
+
+    def robots_of(self, world: str | None) -> list[Robot]:
+        """The robots of ``world`` (None: every robot in the bag)."""
+        return self.robots if world is None else self.worlds.get(world, [])
+
+    def world_kind(self, world: str) -> str:
+        """What the world in ``world`` is ('create', 'simrobot', 'mobile'), for its label."""
+        robots = self.worlds.get(world, [])
+        if robots:
+            return robots[0].kind
+        grid = any(kind == GRID and namespace(t) == world for t, kind in self.index.topics.items())
+        return "simrobot" if grid else "create"
+
+    def frame_times(self, world: str | None) -> np.ndarray:
+        """The frames of ``world``: its first robot's poses (None, or a world without robots: the bag's)."""
+        robots = self.robots_of(world)
+        if world is None or not robots or robots[0].pose_topic not in self.index.by_topic:
+            return self.frames
+        if world not in self._world_frames:
+            self._world_frames[world] = self.index.by_topic[robots[0].pose_topic].times
+        return self._world_frames[world]
+
+    def first_frame_of(self, world: str | None) -> int:
+        """Where the page opens ``world`` and Stop goes back to: its first frame."""
+        times = self.frame_times(world)
+        return int(times[0]) if len(times) else self.first_frame_ns
 
     @property
     def duration_s(self) -> float:
@@ -253,23 +312,25 @@ class Replay:
         robot.track = xy[keep]
 
     # ------------------------------------------------------------------ stepping
-    def step(self, t_ns: int, frames: int) -> int:
-        """The time ``frames`` frames after (negative: before) the frame at or before ``t_ns``."""
-        if not len(self.frames):
+    def step(self, t_ns: int, frames: int, world: str | None = None) -> int:
+        """The time ``frames`` frames (of ``world``) after (negative: before) the frame at or before ``t_ns``."""
+        times = self.frame_times(world)
+        if not len(times):
             return t_ns
-        i = int(np.searchsorted(self.frames, t_ns, side="right")) - 1
-        if frames > 0 or i < 0 or self.frames[i] == t_ns or frames == 0:
+        i = int(np.searchsorted(times, t_ns, side="right")) - 1
+        if frames > 0 or i < 0 or times[i] == t_ns or frames == 0:
             i += frames
         else:  # between two frames: one step back is the frame just before
             i += frames + 1
-        return int(self.frames[min(max(i, 0), len(self.frames) - 1)])
+        return int(times[min(max(i, 0), len(times) - 1)])
 
     def clamp(self, t_ns: int) -> int:
         return min(max(int(t_ns), self.start_ns), self.end_ns)
 
     # ------------------------------------------------------------------ the frame
-    def frame(self, t_ns: int) -> Frame:
-        """Everything the page shows at ``t_ns``."""
+    def frame(self, t_ns: int, world: str | None = None) -> Frame:
+        """Everything the page shows at ``t_ns``: of ``world`` only (its map and robots), or of
+        the whole bag (None: a bag of one world)."""
         index = self.index
         state, decoded, positions = {}, {}, {}
         for topic, ti in index.by_topic.items():
@@ -277,7 +338,7 @@ class Replay:
             if position >= 0:
                 state[topic], decoded[topic] = self._message(topic, position)
                 positions[topic] = position
-        robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots]
+        robots = [self._robot_frame(r, state, decoded, t_ns) for r in self.robots_of(world)]
         joints: dict[str, list[tuple[str, float]]] = {}
         effectors: dict[str, tuple[float, ...]] = {}
         for arm in self.arms:
@@ -306,11 +367,13 @@ class Replay:
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
         ]
         create_map, extras = None, None
-        markers = [t for t in state if basename(t) == "map_markers"]
+        markers = [t for t in state if basename(t) == "map_markers" and in_world(t, world)]
         if markers:
             create_map, extras = self._create_map(state[markers[0]], decoded[markers[0]])
-        grids = [t for t, kind in index.topics.items() if kind == "nav_msgs/msg/OccupancyGrid" and t in decoded]
-        outlines = [t for t in decoded if basename(t) == ROBOTS_TOPIC and index.topics[t].endswith("/MarkerArray")]
+        grids = [t for t, kind in index.topics.items() if kind == GRID and t in decoded and in_world(t, world)]
+        outlines = [
+            t for t in decoded if basename(t) == ROBOTS_TOPIC and index.topics[t] == MARKERS and in_world(t, world)
+        ]
         return Frame(
             t_ns=t_ns,
             elapsed_s=(t_ns - self.start_ns) / 1e9,

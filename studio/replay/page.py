@@ -84,6 +84,7 @@ class ReplayPage(ReplayView):
         self.view = svg.View(*VIEW_SIZE, scale=60.0)
         self.layers = set(LAYERS)
         self.replay: Replay | None = None
+        self.world: str | None = None
         self.t_ns = 0
         self.speed = 0.0
         self.last_tick = time.monotonic()
@@ -161,6 +162,10 @@ class ReplayPage(ReplayView):
                         ui.button("↻", on_click=self.refresh).props("dense flat").tooltip("look for new bags")
                         ui.button("Open", on_click=self.open_bag).props("dense").classes("studio-replay-open")
                     self.bag_label = ui.label("").classes("text-sm break-all studio-replay-message")
+                    self.world_select = ui.select(
+                        {}, label="world shown (one at a time: each has its own map and frame)", on_change=self.on_world
+                    ).classes("w-full studio-replay-world")
+                    self.world_select.set_visibility(False)
                     with ui.row().classes("items-center gap-2"):
                         ui.button("Export to Rerun", on_click=self.export_rerun).props("dense outline").classes(
                             "studio-replay-rerun"
@@ -194,13 +199,18 @@ class ReplayPage(ReplayView):
             return  # the studio is shutting down
         replay, problems = opened
         self.replay = replay
+        self.world = next(iter(replay.worlds)) if len(replay.worlds) > 1 else None
+        self.world_select.set_options(
+            {ns: f"{ns or '/'} ({replay.world_kind(ns)})" for ns in replay.worlds}, value=self.world
+        )
+        self.world_select.set_visibility(self.world is not None)
         self.arm_view.clear()
         self.arm_view.set_shown(bool(replay.arm_marker_topics))
         plan_view = replay.has_plan_view or not replay.arm_marker_topics
         self.image.set_visibility(plan_view)
         self.plan_controls.set_visibility(plan_view)
         self.speed = 0.0
-        self.t_ns = replay.first_frame_ns
+        self.t_ns = replay.first_frame_of(self.world)
         self.shown_t = None
         self.base_dirty = True
         self.grid_cache = None
@@ -209,9 +219,22 @@ class ReplayPage(ReplayView):
         arms = f"; arms {', '.join(a or '/' for a in replay.arms)}" if replay.arms else ""
         self.bag_label.set_text(
             f"{name}: {replay.duration_s:.2f} s, {replay.index.message_count} messages, {len(replay.frames)} frames; "
-            f"{robots}{arms} (indexed in {time.monotonic() - started:.2f} s)"
+            f"{robots}{arms}"
+            + (f"; {len(replay.worlds)} worlds, shown one at a time" if self.world is not None else "")
+            + f" (indexed in {time.monotonic() - started:.2f} s)"
             + (f"; {len(problems)} warnings: {problems[0]}" if problems else "")
         )
+        self.fit()
+        self.show()
+
+    def on_world(self, e) -> None:
+        """Show another of the bag's worlds: its map, its robots, fitted."""
+        if self.replay is None or e.value is None or e.value == self.world:
+            return
+        self.world = e.value
+        self.t_ns = max(self.t_ns, self.replay.first_frame_of(self.world))  # not before its first robot pose
+        self.shown_t = None
+        self.grid_cache = None
         self.fit()
         self.show()
 
@@ -270,7 +293,7 @@ class ReplayPage(ReplayView):
             return
         self.speed = SPEEDS[how]
         if self.speed > 0 and self.t_ns >= self.replay.end_ns:
-            self.t_ns = self.replay.first_frame_ns  # play again from the start
+            self.t_ns = self.replay.first_frame_of(self.world)  # play again from the start
         self.last_tick = time.monotonic()
 
     def pause(self) -> None:
@@ -279,7 +302,7 @@ class ReplayPage(ReplayView):
     def stop(self) -> None:
         self.speed = 0.0
         if self.replay is not None:
-            self.seek(self.replay.first_frame_ns)
+            self.seek(self.replay.first_frame_of(self.world))
 
     def seek(self, t_ns: int) -> None:
         if self.replay is not None:
@@ -295,7 +318,7 @@ class ReplayPage(ReplayView):
         steps = KEY_STEPS.get(e.key.name)
         if steps is not None and self.replay is not None:
             self.speed = 0.0
-            self.seek(self.replay.step(self.t_ns, steps))
+            self.seek(self.replay.step(self.t_ns, steps, self.world))
 
     def on_slider(self, e) -> None:
         if self.moving_slider or self.replay is None or e.value is None:

@@ -22,6 +22,7 @@ class ReplayView(ZoomableView):
     view: svg.View
     layers: set[str]
     replay: Replay | None
+    world: str | None  # the world shown (None: the bag's only one)
     t_ns: int
     shown_t: int | None
     base_dirty: bool
@@ -40,7 +41,7 @@ class ReplayView(ZoomableView):
         replay = self.replay
         if replay is None:
             return
-        frame = replay.frame(self.t_ns)
+        frame = replay.frame(self.t_ns, self.world)
         if self.base_dirty:
             self.base_dirty = False
             base = svg.grid_svg(self.view, 0.5) if "grid" in self.layers else ""
@@ -112,7 +113,7 @@ class ReplayView(ZoomableView):
         replay = self.replay
         if replay is None:
             return
-        frame = replay.frame(replay.end_ns)
+        frame = replay.frame(replay.end_ns, self.world)
         xs, ys = [], []
         if frame.map is not None:
             w = frame.map
@@ -123,7 +124,7 @@ class ReplayView(ZoomableView):
             x0, y0 = info.origin.position.x, info.origin.position.y
             xs.append(np.array([x0, x0 + info.width * info.resolution]))
             ys.append(np.array([y0, y0 + info.height * info.resolution]))
-        for robot in replay.robots:
+        for robot in replay.robots_of(self.world):
             finite = robot.track[np.isfinite(robot.track).all(axis=1)]
             xs.append(finite[:, 0])
             ys.append(finite[:, 1])
