@@ -117,3 +117,33 @@ def test_a_worker_ends_on_sigterm_even_when_the_program_it_was_forked_from_catch
         assert worker.exitcode == -signal.SIGTERM
     finally:
         envs.close()  # a worker that outlived SIGTERM still ends on "close"
+
+
+def _play_then_home(envs, steps: int, home_at: int) -> list[tuple]:
+    """As _play, the workers' envs taken into this process after ``home_at`` steps."""
+    rng = np.random.default_rng(5)
+    played = [envs.reset(seed=21)]
+    for k in range(steps):
+        if k == home_at:
+            envs._come_home()
+            assert envs.workers == 1 and len(envs.envs) == envs.num_envs and not envs._processes
+        actions = rng.uniform(envs.single_action_space.low, envs.single_action_space.high, (envs.num_envs, 2))
+        played.append(envs.step(actions.astype(np.float32)))
+    envs.close()
+    return played
+
+
+def test_workers_envs_taken_into_this_process_mid_episode_play_on_exactly_as_before() -> None:
+    one = _play(vector_create_nav(5, **SETTINGS), 30)
+    moved = _play_then_home(vector_create_nav(5, workers=3, fallback=False, **SETTINGS), 30, home_at=7)
+    assert all(_same(x, y) for x, y in zip(one, moved, strict=True))
+
+
+def test_workers_measure_themselves_and_whatever_they_decide_the_episodes_are_those_of_one_process() -> None:
+    steps = 60  # past the calibration (5 + 40 steps)
+    one = _play(vector_create_nav(4, **SETTINGS), steps)
+    envs = vector_create_nav(4, workers=2, **SETTINGS)
+    played = _play(envs, steps)
+    assert not envs.fallback  # decided
+    assert (envs.fell_back is None) == (envs.workers == 2), envs.fell_back
+    assert all(_same(x, y) for x, y in zip(one, played, strict=True))

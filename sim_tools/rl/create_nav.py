@@ -119,7 +119,7 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         low, high = self._bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self._obs_size = low.shape[0]
-        self._parts = [(_RAW.get(name), WRITE[name]) for name in self.sensors]  # read None: the bumps
+        self._parts = self._reading_parts()
         self.model: CreateModel | None = None
         #: Whether a wall touched the body during the last step (see :meth:`_advance`).
         self.collided = False
@@ -133,6 +133,21 @@ class CreateNavEnv(gym.Env[np.ndarray, np.ndarray]):
         self._lidar_angles = np.linspace(-half_fov, half_fov, CreateModel.LIDAR_BEAMS)[self.lidar_index]
         #: Called after each physics step (the episode recorder, ``sim_tools.rl.record``, hooks in here).
         self.on_physics_step: Callable[[CreateModel], None] | None = None
+
+    def _reading_parts(self) -> list[tuple[Any, Any]]:
+        """Per chosen sensor, how to read it (None: the bumps, read by the step) and write it."""
+        return [(_RAW.get(name), WRITE[name]) for name in self.sensors]
+
+    def __getstate__(self) -> dict[str, Any]:
+        """A copy to pickle (the vector env moves sub-envs between processes): the readers are
+        functions made here, made again on the other side; a window stays behind."""
+        state = self.__dict__.copy()
+        state["_parts"], state["_window"] = None, None
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._parts = self._reading_parts()
 
     # ----------------------------------------------------------------------------- spaces
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:

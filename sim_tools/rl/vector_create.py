@@ -17,6 +17,7 @@ import contextlib
 import itertools
 import multiprocessing
 import signal
+import time
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from typing import Any
@@ -30,10 +31,13 @@ from sim_tools.rl.create_nav import CreateNavEnv
 
 #: Seconds a closing worker process gets to finish before it is terminated.
 _CLOSE_TIMEOUT_S = 5.0
+#: Steps over which several workers measure themselves against one process (after warm-up steps).
+CALIBRATION_STEPS = 40
+_WARMUP_STEPS = 5
 
 
 def vector_create_nav(
-    num_envs: int, workers: int = 1, max_episode_steps: int | None = None, **env_kwargs: Any
+    num_envs: int, workers: int = 1, max_episode_steps: int | None = None, fallback: bool = True, **env_kwargs: Any
 ) -> CreateNavVectorEnv:
     """``num_envs`` Create navigation envs built with ``env_kwargs`` (``CreateNavEnv``'s
     arguments: map, config, sensors, start, goal, …), stepped together by ``workers`` processes
@@ -43,7 +47,7 @@ def vector_create_nav(
         if "max_steps" in env_kwargs:
             raise InputError("max_steps and max_episode_steps: the same limit, give one")
         env_kwargs["max_steps"] = max_episode_steps
-    return CreateNavVectorEnv(num_envs, workers=workers, **env_kwargs)
+    return CreateNavVectorEnv(num_envs, workers=workers, fallback=fallback, **env_kwargs)
 
 
 def _stack_infos(infos: Sequence[dict[str, Any]]) -> dict[str, Any]:
@@ -118,6 +122,15 @@ class _Batch:
     def call(self, name: str, args: tuple, kwargs: dict[str, Any]) -> list[Any]:
         return [getattr(env, name)(*args, **kwargs) for env in self.envs]
 
+    def take(self) -> tuple[list[CreateNavEnv], list[bool]]:
+        """This batch's envs as they are (to go on in another process) and which have ended."""
+        return self.envs, self.ended
+
+    def adopt(self, envs: list[CreateNavEnv], ended: list[bool]) -> None:
+        """Step ``envs`` (another batch's, taken) after this batch's own."""
+        self.envs += envs
+        self.ended += ended
+
 
 def worker_signals() -> None:
     """Signals in a worker process forked to step envs: Ctrl-C ignored (the caller handles it and
@@ -172,7 +185,7 @@ class CreateNavVectorEnv(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": ["rgb_array"]}  # noqa: RUF012
 
-    def __init__(self, num_envs: int, *, workers: int = 1, **env_kwargs: Any) -> None:
+    def __init__(self, num_envs: int, *, workers: int = 1, fallback: bool = True, **env_kwargs: Any) -> None:
         for name, value in (("num_envs", num_envs), ("workers", workers)):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name}: expected an integer >= 1, got {value!r}")
@@ -181,6 +194,7 @@ class CreateNavVectorEnv(VectorEnv):
         sizes = [num_envs // self.workers + (k < num_envs % self.workers) for k in range(self.workers)]
         self._sizes = sizes
         self._local = _Batch(sizes[0], env_kwargs)  # bad arguments raise here, before any process starts
+        self._local_s = 0.0  # wall time of this process's batch in the last exchange
         first = self._local.envs[0]
         self.render_mode = first.render_mode
         self.single_observation_space, self.single_action_space = first.observation_space, first.action_space
@@ -188,6 +202,11 @@ class CreateNavVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._pipes: list[Connection] = []
         self._processes: list[Any] = []
+        #: Whether several workers still have to measure themselves (see :meth:`_measure`).
+        self.fallback = bool(fallback) and self.workers > 1
+        self._timing = [0, 0.0, 0.0]  # steps measured, wall s of the steps, of this process's batch
+        #: Why the workers were given up for this process (None: they were not).
+        self.fell_back: str | None = None
         # fork: a script without an ``if __name__ == "__main__":`` guard works (spawn would run it
         # again in every worker), and a worker starts at once, its kernels already loaded
         context: Any = multiprocessing.get_context(
@@ -220,10 +239,12 @@ class CreateNavVectorEnv(VectorEnv):
         sent = [_send(pipe, (command, args)) for pipe, args in zip(self._pipes, remote_args, strict=True)]
         results: list[Any] = []
         errors: list[Any] = []
+        start = time.perf_counter()
         try:
             results.append(getattr(self._local, command)(*local_args))
         except Exception as exc:
             errors.append(exc)
+        self._local_s = time.perf_counter() - start
         for k, (pipe, delivered) in enumerate(zip(self._pipes, sent, strict=True), start=1):
             status, value = _receive(pipe) if delivered else ("gone", None)
             if status == "gone":
@@ -258,9 +279,47 @@ class CreateNavVectorEnv(VectorEnv):
         if actions.shape[:1] != (self.num_envs,):
             raise InputError(f"actions: expected {self.num_envs} rows, got shape {actions.shape}")
         parts = [(part,) for part in self._split(actions)]
+        start, sizes = time.perf_counter(), self._sizes
         results = self._all("step", parts[0], parts[1:])
+        if self.fallback:
+            self._measure(time.perf_counter() - start)  # may bring every env here: the next step's
         obs, rewards, terms, truncs = (np.concatenate([r[k] for r in results]) for k in range(4))
-        return obs, rewards, terms, truncs, _join_infos([r[4] for r in results], self._sizes)
+        return obs, rewards, terms, truncs, _join_infos([r[4] for r in results], sizes)
+
+    def _measure(self, wall_s: float) -> None:
+        """Several workers against one process, measured on the first steps: this process's batch
+        stepped in ``_local_s`` of the step's ``wall_s``; one process would step them all in about
+        ``_local_s × num_envs / batch size``. Slower with workers (on a loaded or small machine,
+        or with cheap env steps, the pickling costs more than the parallel stepping gains): their
+        envs come here, as they are, and the workers end; the episodes go on exactly as before."""
+        n, wall, local = self._timing
+        if n >= _WARMUP_STEPS:
+            wall += wall_s
+            local += self._local_s
+        n += 1
+        self._timing = [n, wall, local]
+        if n < _WARMUP_STEPS + CALIBRATION_STEPS:
+            return
+        self.fallback = False
+        one_process = local * self.num_envs / self._sizes[0]
+        if wall > one_process:
+            self.fell_back = (
+                f"{self.workers} workers took {wall:.3f} s for {CALIBRATION_STEPS} steps, one process about "
+                f"{one_process:.3f} s: all {self.num_envs} envs now step in this process"
+            )
+            self._come_home()
+
+    def _come_home(self) -> None:
+        """Every worker's envs taken into this process; the workers closed."""
+        for pipe in self._pipes:
+            if not _send(pipe, ("take", ())):
+                raise RuntimeError("CreateNavVectorEnv: a worker process has died")
+            status, value = _receive(pipe)
+            if status != "ok":
+                raise value if status == "error" else RuntimeError("CreateNavVectorEnv: a worker process has died")
+            self._local.adopt(*value)
+        self._end_workers()
+        self.workers, self._sizes = 1, [self.num_envs]
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Every sub-env's method ``name`` called with these arguments, their results in order."""
@@ -277,6 +336,11 @@ class CreateNavVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the worker processes (terminated if one does not finish in time) and the sub-envs."""
+        self._end_workers()
+        for env in self._local.envs:
+            env.close()
+
+    def _end_workers(self) -> None:
         for pipe in self._pipes:
             with contextlib.suppress(OSError):  # already gone
                 pipe.send(("close", ()))
@@ -288,5 +352,3 @@ class CreateNavVectorEnv(VectorEnv):
         for pipe in self._pipes:
             pipe.close()
         self._pipes, self._processes = [], []
-        for env in self._local.envs:
-            env.close()
