@@ -93,6 +93,22 @@ def listener():
         yield executor, odom, pose
 
 
+CUT_LABELS = (
+    "return [...document.querySelectorAll('.q-field__label, .q-checkbox__label, .q-toggle__label, .q-btn .block')]"
+    ".filter(e => e.offsetParent !== null && e.scrollWidth > e.clientWidth + 1).map(e => e.textContent)"
+)
+"""The visible labels the page cuts short (a field's "wheel radiu…")."""
+
+
+@pytest.mark.parametrize("page", ["/", "/map", "/config", "/arm", "/replay"])
+def test_no_field_label_is_cut_short(browser, studio_url, page):
+    open_page(browser, studio_url + page)
+    for header in browser.find_elements(By.CSS_SELECTOR, ".q-expansion-item .q-item"):
+        header.click()  # the folded parts too (New world, Load Map / Load Config, New arm world)
+    wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, ".q-field__label"))
+    assert browser.execute_script(CUT_LABELS) == []
+
+
 def test_the_map_maker_draws_a_box_of_walls_and_saves_it(browser, studio_url, workspace):
     open_page(browser, studio_url + "/map")
     image = find(browser, ".studio-map-view")
