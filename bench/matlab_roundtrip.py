@@ -218,7 +218,7 @@ while true
   try
     OverheadLocalizationCreate(s); pause(0.01);
   catch e
-    printf('ERROR %.6f %s\\n', time(), e.identifier); fflush(stdout); break
+    printf('ERROR %.6f %s %s\\n', time(), e.identifier, e.message); fflush(stdout); break
   end
 end
 """

@@ -366,3 +366,20 @@ def test_the_bridge_ends_quietly_however_often_it_is_told_to_while_a_program_is_
             bridge.communicate()
     robot.settled()
     assert bridge.returncode == 0 and "Traceback" not in err and "Error" not in err, err
+
+
+def test_a_call_before_any_world_answers_is_an_error_and_the_session_goes_on():
+    bridge, port = spawn_bridge("/matlab_nobody", env=ENV)
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=60) as sock:
+            reply = sock.makefile("r")
+            assert reply.readline().startswith(HELLO)
+            sock.sendall(b"@1 OverheadLocalizationCreate\n")
+            assert reply.readline() == (
+                "@1 error waiting for overhead_pose: no message from the robot for 5.0 s "
+                "(is create_world running in namespace '/matlab_nobody'?)\n"
+            )
+            sock.sendall(b"@2 DemoCmdsCreate 3\n")  # the same connection: still served
+            assert reply.readline() == "@2 ok\n"
+    finally:
+        end(bridge)

@@ -171,8 +171,10 @@ class Session:
         self._send(f"{HELLO} {PROTOCOL_VERSION} create {namespace}")
         try:
             self._loop()
-        except (ProgramLost, OSError):
+        except ProgramLost:
             pass
+        except OSError as error:  # the connection failed (reset, or the bridge is closing)
+            _log(f"the program's connection failed: {error!r}")
         finally:
             self.armed = False
             self.bridge.stop_robot()
@@ -196,7 +198,7 @@ class Session:
                 outputs = run_call(self.bridge.robot, name, args)
             finally:
                 self.armed = False
-        except (ProgramLost, OSError):
+        except ProgramLost:
             raise
         except Interrupted:
             self.bridge.stop_robot()
