@@ -24,7 +24,6 @@ import math
 import os
 import random
 import struct
-import sysconfig
 import time
 import traceback
 from collections.abc import Callable
@@ -35,6 +34,7 @@ import numpy as np
 
 from sim_runtime.errors import InputError
 from sim_tools.adapters.contract import EpisodeData, world_part
+from sim_tools.batch.forms import is_user_file
 from sim_tools.batch.metrics import compute, load_callable
 from sim_tools.batch.plan import Episode
 
@@ -57,15 +57,6 @@ _running: _EpisodeRun | None = None
 #: Where the running episode's sim time goes after every step: a worker's page shared with its
 #: supervisor, which reads it when it stops the episode at a limit (None: nowhere).
 sim_time_page: Any = None
-#: Our packages: an error's line is the innermost one outside them (and outside Python's and
-#: the installed libraries'), the student's.
-_OURS = tuple(
-    str(Path(__file__).resolve().parents[2] / name) + os.sep
-    for name in ("sim_tools", "sim_runtime", "create_sim", "simrobot_sim", "arm_sim", "studio")
-)
-_LIBRARIES = tuple(
-    {str(Path(sysconfig.get_paths()[k]).resolve()) + os.sep for k in ("stdlib", "platstdlib", "purelib", "platlib")}
-)
 
 
 def isolate_process(worker: int | None = None) -> int:
@@ -137,14 +128,6 @@ def user_frame(exc: BaseException) -> traceback.FrameSummary | None:
     """The innermost frame of ``exc``'s stack in a user's file (not ours, Python's or an
     installed library's); None when it has none."""
     return _user_of(traceback.extract_tb(exc.__traceback__))
-
-
-def is_user_file(filename: str) -> bool:
-    """A file of a user's code: not ours, Python's or an installed library's."""
-    if filename.startswith("<"):
-        return False
-    path = str(Path(filename).resolve())
-    return not path.startswith(_OURS) and not path.startswith(_LIBRARIES)
 
 
 def _user_of(frames: traceback.StackSummary | list[traceback.FrameSummary]) -> traceback.FrameSummary | None:

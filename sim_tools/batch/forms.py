@@ -23,8 +23,11 @@ from __future__ import annotations
 
 import inspect
 import json
+import os
+import sysconfig
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from sim_runtime.errors import InputError
@@ -40,10 +43,27 @@ NODE_KWARGS = ("context", "parameter_overrides", "namespace", "sensor")
 #: Wall seconds ``main`` may run between two spin calls before its episode fails (a loop that
 #: never spins, or waits on something only another spinning thread would deliver).
 TURN_TIMEOUT = 30.0
+#: Our packages: an error's line is the innermost one outside them (and outside Python's and
+#: the installed libraries'), the student's.
+_OURS = tuple(
+    str(Path(__file__).resolve().parents[2] / name) + os.sep
+    for name in ("sim_tools", "sim_runtime", "create_sim", "simrobot_sim", "arm_sim", "studio")
+)
+_LIBRARIES = tuple(
+    {str(Path(sysconfig.get_paths()[k]).resolve()) + os.sep for k in ("stdlib", "platstdlib", "purelib", "platlib")}
+)
 #: Wall seconds ``main`` gets to reach its first wait once another thread of its spins.
 OTHERS_GRACE = 2.0
 #: Wall seconds to wait for ``main``'s thread to finish once its spin calls have returned.
 JOIN_TIMEOUT = 5.0
+
+
+def is_user_file(filename: str) -> bool:
+    """A file of a user's code: not ours, Python's or an installed library's."""
+    if filename.startswith("<"):
+        return False
+    path = str(Path(filename).resolve())
+    return not path.startswith(_OURS) and not path.startswith(_LIBRARIES)
 
 
 # ------------------------------------------------------------------------------ classification
@@ -233,9 +253,6 @@ class MainRunner:
         """`` in student.py:12 (loop)``: where ``main``'s thread is now, in the student's code."""
         import sys
         import traceback
-        from pathlib import Path
-
-        from sim_tools.batch.episode import is_user_file
 
         ident = self.thread.ident if self.thread is not None else None
         frame = sys._current_frames().get(ident) if ident is not None else None

@@ -335,7 +335,7 @@ def _fault_line(text: str, with_line: bool = True) -> str:
     """The innermost user frame of a faulthandler dump (its frames come innermost first; the
     thread that took the signal first): ``student.py:61 in fail``, or without its line
     ``fail() of student.py``."""
-    from sim_tools.batch.episode import is_user_file
+    from sim_tools.batch.forms import is_user_file
 
     for path, line, func in _FAULT_FRAME.findall(text):
         if is_user_file(path):
