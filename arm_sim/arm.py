@@ -23,9 +23,11 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from typing import Any
 
 import numba
 import numpy as np
+import numpy.typing as npt
 
 from arm_sim import kinematics as kin
 from arm_sim.robot_config import MeshElement, RobotConfig, load_robot_config
@@ -65,22 +67,45 @@ class LoadedElement:
 # tables' arrays and numbers instead and rebuild the tables inside the kernel, where it costs
 # nothing; the kernels themselves (and the batched calls, which cross once) keep their tables.
 @numba.njit(cache=True)
-def _fk_of(q, dh, base, modified):
+def _fk_of(q: np.ndarray, dh: np.ndarray, base: np.ndarray, modified: bool) -> np.ndarray:
     return kin.fk(q, kin.Chain(dh, base, modified))
 
 
 @numba.njit(cache=True)
-def _jacob0_of(q, dh, base, modified):
+def _jacob0_of(q: np.ndarray, dh: np.ndarray, base: np.ndarray, modified: bool) -> np.ndarray:
     return kin.jacob0(q, kin.Chain(dh, base, modified))
 
 
 @numba.njit(cache=True)
-def _rne_of(q, qd, qdd, dh, base, modified, mass, cog, inertia, gravity):
+def _rne_of(
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    dh: np.ndarray,
+    base: np.ndarray,
+    modified: bool,
+    mass: np.ndarray,
+    cog: np.ndarray,
+    inertia: np.ndarray,
+    gravity: np.ndarray,
+) -> np.ndarray:
     return kin.rne(q, qd, qdd, kin.Chain(dh, base, modified), kin.Dynamics(mass, cog, inertia, gravity))
 
 
 @numba.njit(cache=True)
-def _ikine_of(T, q0, dh, base, modified, lower, upper, tol, ilimit, slimit, seed):
+def _ikine_of(
+    T: np.ndarray,
+    q0: np.ndarray,
+    dh: np.ndarray,
+    base: np.ndarray,
+    modified: bool,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    tol: float,
+    ilimit: int,
+    slimit: int,
+    seed: int,
+) -> tuple[np.ndarray, bool, float, int]:
     limits, search = kin.Limits(lower, upper), kin.IKSearch(tol, ilimit, slimit, seed)
     return kin.ikine_lm(T, q0, kin.Chain(dh, base, modified), limits, search)
 
@@ -102,7 +127,8 @@ def placeholder_cube(size: float = PLACEHOLDER_SIZE) -> np.ndarray:
         (1, 5, 7),
         (1, 7, 3),
     ]
-    return corners[np.array(faces)].astype(np.float32)
+    triangles: np.ndarray = corners[np.array(faces)].astype(np.float32)
+    return triangles
 
 
 class Arm:
@@ -146,7 +172,7 @@ class Arm:
         self.element_links = np.array([e.link for e in self.elements], dtype=np.int64)
 
     @classmethod
-    def from_file(cls, path: str | os.PathLike[str], **kwargs) -> Arm:
+    def from_file(cls, path: str | os.PathLike[str], **kwargs: Any) -> Arm:
         """Load a robot config file and build the arm (keyword arguments as the constructor)."""
         return cls(load_robot_config(path), **kwargs)
 
@@ -171,91 +197,124 @@ class Arm:
         return self.dynamics.gravity
 
     # --- kinematics -------------------------------------------------------------------------
-    def fkine(self, q) -> np.ndarray:
+    # The kernels are numba dispatchers, untyped to mypy: each result is named with its type.
+    def fkine(self, q: npt.ArrayLike) -> np.ndarray:
         """World pose (4x4) of the flange (last DH frame) at joint coordinates q."""
-        return _fk_of(np.asarray(q, dtype=float), *self.chain)
+        pose: np.ndarray = _fk_of(np.asarray(q, dtype=float), *self.chain)
+        return pose
 
-    def fkine_all(self, q) -> np.ndarray:
+    def fkine_all(self, q: npt.ArrayLike) -> np.ndarray:
         """World poses (n+1, 4, 4) of frames 0 (base) .. n (flange)."""
-        return kin.fk_all(np.asarray(q, dtype=float), self.chain)
+        poses: np.ndarray = kin.fk_all(np.asarray(q, dtype=float), self.chain)
+        return poses
 
-    def fkine_batch(self, Q) -> np.ndarray:
+    def fkine_batch(self, Q: npt.ArrayLike) -> np.ndarray:
         """Flange poses (m, 4, 4) for configurations Q (m, n)."""
-        return kin.fk_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
+        poses: np.ndarray = kin.fk_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
+        return poses
 
-    def jacob0(self, q) -> np.ndarray:
+    def jacob0(self, q: npt.ArrayLike) -> np.ndarray:
         """Geometric Jacobian (6, n) of the flange in the world frame (v then omega)."""
-        return _jacob0_of(np.asarray(q, dtype=float), *self.chain)
+        jacobian: np.ndarray = _jacob0_of(np.asarray(q, dtype=float), *self.chain)
+        return jacobian
 
-    def jacob0_batch(self, Q) -> np.ndarray:
+    def jacob0_batch(self, Q: npt.ArrayLike) -> np.ndarray:
         """Jacobians (m, 6, n) for configurations Q (m, n)."""
-        return kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
+        jacobians: np.ndarray = kin.jacob0_batch(np.ascontiguousarray(Q, dtype=float), self.chain)
+        return jacobians
 
-    def ikine(self, T, q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100, seed: int = 0) -> IKResult:
+    def ikine(
+        self,
+        T: npt.ArrayLike,
+        q0: npt.ArrayLike | None = None,
+        *,
+        tol: float = 1e-10,
+        ilimit: int = 30,
+        slimit: int = 100,
+        seed: int = 0,
+    ) -> IKResult:
         """Joint coordinates reaching world pose T (4x4), within joint limits.
 
         Levenberg–Marquardt from ``q0`` (default: mid-range), then random restarts; success
         when the pose error norm is below ``tol``. On failure ``success`` is False and ``q``
         is the best attempt: never use it as a solution.
         """
-        T = np.ascontiguousarray(T, dtype=float)
-        q0 = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
+        goal = np.ascontiguousarray(T, dtype=float)
+        start = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
         search = kin.IKSearch(float(tol), int(ilimit), int(slimit), int(seed))
-        q, ok, res, searches = _ikine_of(T, q0, *self.chain, *self.limits, *search)
+        q, ok, res, searches = _ikine_of(goal, start, *self.chain, *self.limits, *search)
         return IKResult(q=q, success=bool(ok), residual=float(res), searches=int(searches))
 
     def ikine_batch(
-        self, Ts, Q0=None, *, tol: float = 1e-10, ilimit: int = 30, slimit: int = 100, seed: int = 0
+        self,
+        Ts: npt.ArrayLike,
+        Q0: npt.ArrayLike | None = None,
+        *,
+        tol: float = 1e-10,
+        ilimit: int = 30,
+        slimit: int = 100,
+        seed: int = 0,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """IK for poses Ts (m, 4, 4): returns (Q (m, n), success (m,), residual (m,))."""
-        Ts = np.ascontiguousarray(Ts, dtype=float)
+        goals = np.ascontiguousarray(Ts, dtype=float)
         if Q0 is None:
-            Q0 = np.tile(self.mid_range(), (len(Ts), 1))
+            Q0 = np.tile(self.mid_range(), (len(goals), 1))
         search = kin.IKSearch(float(tol), int(ilimit), int(slimit), int(seed))
-        return kin.ikine_lm_batch(Ts, np.ascontiguousarray(Q0, dtype=float), self.chain, self.limits, search)
+        solved: tuple[np.ndarray, np.ndarray, np.ndarray] = kin.ikine_lm_batch(
+            goals, np.ascontiguousarray(Q0, dtype=float), self.chain, self.limits, search
+        )
+        return solved
 
     def mid_range(self) -> np.ndarray:
         """Middle of every joint's range."""
-        return 0.5 * (self.lower + self.upper)
+        middle: np.ndarray = 0.5 * (self.lower + self.upper)
+        return middle
 
-    def within_limits(self, q) -> bool:
+    def within_limits(self, q: npt.ArrayLike) -> bool:
         """True when every joint coordinate is inside its position limits."""
-        q = np.asarray(q, dtype=float)
-        return bool(np.all((q >= self.lower) & (q <= self.upper)))
+        coordinates = np.asarray(q, dtype=float)
+        return bool(np.all((coordinates >= self.lower) & (coordinates <= self.upper)))
 
     # --- dynamics ---------------------------------------------------------------------------
-    def _dynamics(self, gravity) -> kin.Dynamics:
+    def _dynamics(self, gravity: npt.ArrayLike | None) -> kin.Dynamics:
         # the config's table, or the same links under another gravity vector
         if gravity is None:
             return self.dynamics
         return self.dynamics._replace(gravity=np.asarray(gravity, dtype=float))
 
-    def rne(self, q, qd, qdd, gravity=None) -> np.ndarray:
+    def rne(
+        self, q: npt.ArrayLike, qd: npt.ArrayLike, qdd: npt.ArrayLike, gravity: npt.ArrayLike | None = None
+    ) -> np.ndarray:
         """Joint torques/forces (n,) for positions, velocities, accelerations (Newton–Euler)."""
         as_array = np.asarray
-        q, qd, qdd = (as_array(x, dtype=float) for x in (q, qd, qdd))
-        return _rne_of(q, qd, qdd, *self.chain, *self._dynamics(gravity))
+        q_, qd_, qdd_ = (as_array(x, dtype=float) for x in (q, qd, qdd))
+        tau: np.ndarray = _rne_of(q_, qd_, qdd_, *self.chain, *self._dynamics(gravity))
+        return tau
 
-    def rne_batch(self, Q, QD, QDD, gravity=None) -> np.ndarray:
+    def rne_batch(
+        self, Q: npt.ArrayLike, QD: npt.ArrayLike, QDD: npt.ArrayLike, gravity: npt.ArrayLike | None = None
+    ) -> np.ndarray:
         """Inverse dynamics (m, n) for states Q, QD, QDD (m, n)."""
         as_array = np.ascontiguousarray
-        Q, QD, QDD = (as_array(X, dtype=float) for X in (Q, QD, QDD))
-        return kin.rne_batch(Q, QD, QDD, self.chain, self._dynamics(gravity))
+        Q_, QD_, QDD_ = (as_array(X, dtype=float) for X in (Q, QD, QDD))
+        tau: np.ndarray = kin.rne_batch(Q_, QD_, QDD_, self.chain, self._dynamics(gravity))
+        return tau
 
-    def gravload(self, q) -> np.ndarray:
+    def gravload(self, q: npt.ArrayLike) -> np.ndarray:
         """Joint torques (n,) that hold the arm still against gravity at q."""
         zero = np.zeros(self.n)
         return self.rne(q, zero, zero)
 
-    def inertia(self, q) -> np.ndarray:
+    def inertia(self, q: npt.ArrayLike) -> np.ndarray:
         """Joint-space inertia matrix M(q) (n, n), column k = rne(q, 0, e_k) without gravity."""
         Q = np.tile(np.asarray(q, dtype=float), (self.n, 1))
         return self.rne_batch(Q, np.zeros_like(Q), np.eye(self.n), gravity=np.zeros(3)).T
 
     # --- meshes -----------------------------------------------------------------------------
-    def element_poses(self, q) -> np.ndarray:
+    def element_poses(self, q: npt.ArrayLike) -> np.ndarray:
         """World poses (E, 4, 4) of every mesh element at q (its link frame's pose)."""
-        return self.fkine_all(q)[self.element_links]
+        poses: np.ndarray = self.fkine_all(q)[self.element_links]
+        return poses
 
 
 def load_elements(config: RobotConfig, skip_missing_meshes: bool = False) -> list[LoadedElement]:

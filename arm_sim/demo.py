@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from arm_sim.arm import Arm
 from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC
 
 TRAJECTORY = [  # (seconds from start, joint positions in rad)
@@ -24,7 +25,9 @@ TRAJECTORY = [  # (seconds from start, joint positions in rad)
 TARGET_Q = [-0.6, 0.35, 0.25, 0.3, 0.7, -0.2]  # the target pose is the flange pose here
 
 
-def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Sequence[Any]] | None = None) -> dict:
+def run_demo(
+    out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Sequence[Any]] | None = None
+) -> dict[str, Any]:
     """Run the demo; returns a summary (errors in m/rad, sim time, messages received, PNG path).
 
     ``extra_nodes(context)`` adds nodes (a recorder, a viewer) to the demo's executor."""
@@ -99,7 +102,7 @@ def run_demo(out_dir: str | Path | None = None, extra_nodes: Callable[[Any], Seq
         return summary
 
 
-def draw_arm(arm, q: np.ndarray, path: Path) -> Path:
+def draw_arm(arm: Arm, q: np.ndarray, path: Path) -> Path:
     """Render the arm's meshes at q with matplotlib (the original's view limits and camera)."""
     import matplotlib
 

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import trimesh
 
 from arm_sim.arm import Arm
@@ -23,15 +24,16 @@ CONFIG_DIR = Path(__file__).resolve().parent.parent / "config" / "arm"
 SECTIONS = 28  # facets around every cylinder: round enough, small files
 
 
-def _cylinder(p0, p1, radius: float) -> trimesh.Trimesh | None:
-    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
-    if np.linalg.norm(p1 - p0) < 1e-6:
+def _cylinder(p0: npt.ArrayLike, p1: npt.ArrayLike, radius: float) -> trimesh.Trimesh | None:
+    start, end = np.asarray(p0, float), np.asarray(p1, float)
+    if np.linalg.norm(end - start) < 1e-6:
         return None
-    return trimesh.creation.cylinder(radius=radius, segment=[p0, p1], sections=SECTIONS)
+    cylinder: trimesh.Trimesh = trimesh.creation.cylinder(radius=radius, segment=[start, end], sections=SECTIONS)
+    return cylinder
 
 
-def _ball(center, radius: float) -> trimesh.Trimesh:
-    ball = trimesh.creation.icosphere(subdivisions=2, radius=radius)
+def _ball(center: npt.ArrayLike, radius: float) -> trimesh.Trimesh:
+    ball: trimesh.Trimesh = trimesh.creation.icosphere(subdivisions=2, radius=radius)
     ball.apply_translation(center)
     return ball
 
@@ -42,11 +44,12 @@ def _merge(meshes: Sequence[trimesh.Trimesh | None]) -> trimesh.Trimesh:
     return merged
 
 
-def _box(center, extents, rotation=None) -> trimesh.Trimesh:
+def _box(center: npt.ArrayLike, extents: npt.ArrayLike, rotation: np.ndarray | None = None) -> trimesh.Trimesh:
     T = np.eye(4)
     T[:3, :3] = np.eye(3) if rotation is None else rotation
     T[:3, 3] = center
-    return trimesh.creation.box(extents=extents, transform=T)
+    box: trimesh.Trimesh = trimesh.creation.box(extents=extents, transform=T)
+    return box
 
 
 def _tube(frames: np.ndarray, arm: Arm, k: int, radius: float) -> trimesh.Trimesh:
@@ -62,7 +65,7 @@ def _tube(frames: np.ndarray, arm: Arm, k: int, radius: float) -> trimesh.Trimes
     return _merge(parts)
 
 
-def _housing(frames: np.ndarray, k: int, radius: float, length: float, offset: float = 0.0):
+def _housing(frames: np.ndarray, k: int, radius: float, length: float, offset: float = 0.0) -> trimesh.Trimesh | None:
     """Cylinder around joint k+1's axis (z of frame k) centred ``offset`` along it from o_k."""
     z = frames[k, :3, 2]
     centre = frames[k, :3, 3] + offset * z
@@ -73,7 +76,8 @@ def _to_link(mesh: trimesh.Trimesh, frame: np.ndarray) -> np.ndarray:
     """Triangles of a world-coordinate mesh expressed in the link frame."""
     local = mesh.copy()
     local.apply_transform(np.linalg.inv(frame))
-    return local.triangles.astype(np.float32)
+    triangles: np.ndarray = local.triangles.astype(np.float32)
+    return triangles
 
 
 def make_irb120(folder: Path) -> list[Path]:

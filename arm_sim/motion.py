@@ -28,13 +28,13 @@ class JointMotion:
         self.lower = np.asarray(lower, dtype=float)
         self.upper = np.asarray(upper, dtype=float)
         self.vmax = np.asarray(vmax, dtype=float)
-        self.q = np.clip(np.asarray(q0, dtype=float), self.lower, self.upper)
+        self.q: np.ndarray = np.clip(np.asarray(q0, dtype=float), self.lower, self.upper)
         self.qd = np.zeros_like(self.q)
         self.qdd = np.zeros_like(self.q)
         self.time = 0.0
         # spline knots: absolute times (k,), positions and velocities (k, n)
         self._t = np.array([0.0])
-        self._p = self.q[None, :].copy()
+        self._p: np.ndarray = self.q[None, :].copy()
         self._v = np.zeros((1, self.q.size))
 
     @property

@@ -11,6 +11,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from functools import partial
+from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import Twist
@@ -33,7 +34,7 @@ TURN_ANGLES = (math.radians(60), math.radians(150))  # random turn between these
 class BumpTurnNode(CheckedNode):
     """Forward → (bump) → back up → turn away → forward."""
 
-    def __init__(self, node_name: str = "create_bump_turn", **node_kwargs) -> None:
+    def __init__(self, node_name: str = "create_bump_turn", **node_kwargs: Any) -> None:
         super().__init__(node_name, **node_kwargs)
         seed = self.declare_checked("seed", 0, None, "seed of the random turn angles", bounds=(0, 2**63 - 1))
         self.rng = np.random.default_rng(seed)
@@ -79,7 +80,7 @@ def demo(
     map_file: str | None = None,
     seed: int = 0,
     extra_nodes: Callable[[Context], Sequence[Node]] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Run the default world with this controller for ``duration`` sim seconds, as fast as the CPU
     allows, in this process; print and return a summary (distance driven, bumps, final pose).
 

@@ -53,7 +53,7 @@ def private_ros(args: Sequence[str] | None = None) -> Iterator[tuple[Context, Ex
         rclpy.shutdown(context=context)
 
 
-def drain(executor, timeout_sec: float = 1.0, max_rounds: int = 4) -> bool:
+def drain(executor: Executor, timeout_sec: float = 1.0, max_rounds: int = 4) -> bool:
     """Run every callback already queued on ``executor``, and what those callbacks queue in turn
     (a controller's answer to the sensor readings of this step), until a round finds nothing
     else queued or ``max_rounds`` rounds ran (a steady stream from another process, such as a
@@ -79,7 +79,7 @@ def drain(executor, timeout_sec: float = 1.0, max_rounds: int = 4) -> bool:
     return True
 
 
-def spin_steps(executor, world: SimWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
+def spin_steps(executor: Executor, world: SimWorldNode, steps: int, idle_timeout: float = 0.01) -> int:
     """Step ``world`` ``steps`` times as fast as it is ready (a lockstep world waits for its
     controllers), handling every queued callback after each step; returns the steps done
     (fewer if the world finishes first)."""

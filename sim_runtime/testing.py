@@ -6,6 +6,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
@@ -20,7 +21,7 @@ __all__ = ["WAIT_CEILING_S", "Collector", "TfBuffer", "drain", "make_executor", 
 WAIT_CEILING_S = 30.0
 
 
-def spin_until(executor, predicate: Callable[[], bool], timeout: float = WAIT_CEILING_S) -> bool:
+def spin_until(executor: Executor, predicate: Callable[[], bool], timeout: float = WAIT_CEILING_S) -> bool:
     """Spin ``executor`` until ``predicate()`` is true or ``timeout`` wall seconds pass."""
     deadline = time.monotonic() + timeout
     while not predicate():
@@ -31,7 +32,7 @@ def spin_until(executor, predicate: Callable[[], bool], timeout: float = WAIT_CE
 
 
 def wait_for_match(
-    executor, endpoint: Publisher | Subscription, count: int = 1, timeout: float = WAIT_CEILING_S
+    executor: Executor, endpoint: Publisher | Subscription, count: int = 1, timeout: float = WAIT_CEILING_S
 ) -> bool:
     """Spin until a publisher has ``count`` subscribers, or a subscription ``count`` publishers."""
     if isinstance(endpoint, Publisher):

@@ -11,6 +11,7 @@ from contextlib import AbstractContextManager, contextmanager
 from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
 from rclpy.timer import Timer
@@ -205,7 +206,7 @@ class SimWorldNode(CheckedNode):
             return f"{rate}, real time"
         return f"{rate}, {self.real_time_factor:g} x real time"
 
-    def stamp(self):
+    def stamp(self) -> Time:
         """Current sim time as a ``builtin_interfaces/Time``."""
         return time_msg(self.sim_time)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from functools import partial
+from typing import Any
 
 from sensor_msgs.msg import JointState, Range
 
@@ -36,7 +37,7 @@ class AvoidNode(CheckedNode):
     straight: tuple[float, float]
 
     def __init__(
-        self, robot: str | None = None, sensor: str = "sens1", node_name: str | None = None, **node_kwargs
+        self, robot: str | None = None, sensor: str = "sens1", node_name: str | None = None, **node_kwargs: Any
     ) -> None:
         """``robot``: the robot to drive, relative to the node's namespace (default: the namespace itself,
         e.g. ``simrobot_avoid --ros-args -r __ns:=/r1``)."""

@@ -70,7 +70,9 @@ def demo_world() -> WorldSpec:
     return dataclasses.replace(spec, robots=(*spec.robots, CRASH_ROBOT))
 
 
-def run_demo(out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None) -> dict:
+def run_demo(
+    out_dir: str | Path, steps: int = 300, extra_nodes: Callable[[Any], Sequence[Any]] | None = None
+) -> dict[str, Any]:
     """Run the demo world in lockstep with its five in-process alg2 controllers and write
     ``simrobot_tracks.png`` into ``out_dir``. Returns a summary (steps, per-robot distance
     travelled in metres, crashed robots, PNG path). ``extra_nodes(context)`` adds nodes (a

@@ -30,9 +30,9 @@ from typing import Any, BinaryIO
 
 import numba
 import numpy as np
-from mcap.records import Message
+from mcap.records import ChunkIndex, Message
 
-from sim_runtime.bag.reader import Bag, BagMessage, _chunk_records, open_bag
+from sim_runtime.bag.reader import Bag, BagMessage, _chunk_records, _FileInfo, open_bag
 
 __all__ = ["BagIndex", "TopicIndex"]
 
@@ -43,6 +43,9 @@ _OP_MESSAGE_INDEX = 0x07
 _RECORD_HEAD = struct.Struct("<BQ")
 _MESSAGE_HEAD = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 _INDEX_HEAD = struct.Struct("<BQHI")  # opcode, record length, channel id, byte length of the pairs
+
+#: While indexing: per topic, pieces of (log times, chunk table rows, record offsets).
+_Parts = dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]]
 
 
 @dataclass
@@ -108,7 +111,7 @@ class BagIndex:
         self._chunk_table: list[tuple[int, Any]] = []  # (file number, its ChunkIndex) or (-1, messages)
         self._cache: OrderedDict[int, bytes] = OrderedDict()
         self._streams: dict[int, BinaryIO] = {}
-        parts: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        parts: _Parts = {}
         for number, info in enumerate(bag._infos):
             topics_by_channel = {cid: ch.topic for cid, ch in info.channels.items()}
             if info.intact and (info.chunk_indexes or not info.counts):
@@ -134,7 +137,7 @@ class BagIndex:
         return cls(open_bag(path))
 
     # ------------------------------------------------------------------ building
-    def _index_chunks(self, number: int, info, topics_by_channel: dict[int, str], parts: dict) -> None:
+    def _index_chunks(self, number: int, info: _FileInfo, topics_by_channel: dict[int, str], parts: _Parts) -> None:
         stream = self._stream(number)
         for chunk_index in info.chunk_indexes:
             row = len(self._chunk_table)
@@ -165,7 +168,7 @@ class BagIndex:
                 )
 
     @staticmethod
-    def _message_indexes(stream, chunk_index) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    def _message_indexes(stream: BinaryIO, chunk_index: ChunkIndex) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """A chunk's MessageIndex records (channel → log times, record offsets), read without
         decompressing the chunk."""
         stream.seek(chunk_index.chunk_start_offset + chunk_index.chunk_length)
@@ -183,7 +186,7 @@ class BagIndex:
             pos += 9 + length
         return found
 
-    def _index_scan(self, number: int, info, parts: dict) -> None:
+    def _index_scan(self, number: int, info: _FileInfo, parts: _Parts) -> None:
         """A file without a usable summary: read once, keep its messages' bytes."""
         row = len(self._chunk_table)
         inline: list[tuple[int, int, int, bytes]] = []  # channel, log time, publish time, data

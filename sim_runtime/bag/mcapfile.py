@@ -48,7 +48,8 @@ def _record_bytes(*records: McapRecord) -> bytes:
     builder = RecordBuilder()
     for record in records:
         record.write(builder)
-    return builder.end()
+    data: bytes = builder.end()
+    return data
 
 
 class McapFile:

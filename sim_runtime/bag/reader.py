@@ -27,7 +27,7 @@ import re
 import struct
 import warnings
 import zlib
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -352,7 +352,7 @@ class Bag:
         )
 
 
-_DECOMPRESS = {
+_DECOMPRESS: dict[str, Callable[[bytes, int], bytes]] = {
     "": lambda data, _size: data,
     "zstd": lambda data, size: zstandard.ZstdDecompressor().decompress(data, max_output_size=size),
     "lz4": lambda data, _size: lz4.frame.decompress(data),

@@ -91,6 +91,8 @@ def adapted_qos(offered: Sequence[QoSProfile]) -> QoSProfile:
 
 def clock_ns(cdr: bytes) -> int:
     """Time in a serialised rosgraph_msgs/Clock, in ns (CDR: 4-byte header, int32, uint32)."""
+    sec: int
+    nanosec: int
     sec, nanosec = struct.unpack_from("<iI" if cdr[1] == 1 else ">iI", cdr, 4)
     return sec * 1_000_000_000 + nanosec
 

@@ -159,7 +159,7 @@ class Player(Node):
         self.create_service(Trigger, "~/step", self._srv_step)
 
     def _make_publishers(
-        self, bag: Bag, topics: Sequence[str] | None, excluded: re.Pattern | None, remap: dict[str, str]
+        self, bag: Bag, topics: Sequence[str] | None, excluded: re.Pattern[str] | None, remap: dict[str, str]
     ) -> None:
         wanted = None if not topics else {t if t.startswith("/") else "/" + t for t in topics}
         self._publishers_by_topic: dict[str, Any] = {}
@@ -398,7 +398,8 @@ def play_bag(
         player.start()
         while not player.finished.done():
             executor.spin_until_future_complete(player.finished, timeout_sec=0.1)
-        return player.finished.result()
+        stats: PlayStats = player.finished.result()  # rclpy's Future is not generic
+        return stats
     finally:
         player.stop()
         executor.remove_node(player)

@@ -388,7 +388,8 @@ def metadata_yaml(
         "custom_data": None,
         "ros_distro": ROS_DISTRO,
     }
-    return yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False, default_flow_style=False)
+    text: str = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False, default_flow_style=False)
+    return text
 
 
 def _recover_split(path: Path, bag: Any, info: Any) -> None:

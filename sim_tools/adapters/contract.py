@@ -18,7 +18,7 @@ the probe's :class:`EpisodeData` goes to the :data:`~WorldAdapter.METRICS`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -83,39 +83,58 @@ ExtraNodes = Callable[[Any], Sequence["Node"]]
 
 
 class WorldAdapter(Protocol):
-    """The ``world`` part of a simulator's adapter (every name here is a module member)."""
+    """The ``world`` part of a simulator's adapter (every name here is a module member).
+
+    The constants are read-only members (properties to a type checker), so a module's own
+    narrower types fit them: a ``dict`` of functions is a ``Mapping`` of callables, a ``demo``
+    function is an optional one. :mod:`sim_tools.adapters.checks` checks the built-in ones.
+    """
 
     #: The simulator's name in messages ("Create", "SIMROBOT").
-    LABEL: str
+    @property
+    def LABEL(self) -> str: ...
     #: The key of a sweep's world entry that says "this simulator" (exactly one per entry).
-    WORLD_KEY: str
+    @property
+    def WORLD_KEY(self) -> str: ...
     #: The entry's other keys this simulator takes → what they are, for "only <LABEL> worlds take ...".
-    WORLD_OPTIONS: dict[str, str]
+    @property
+    def WORLD_OPTIONS(self) -> Mapping[str, str]: ...
     #: The entry's keys that name files → the parser each is checked with before a sweep runs.
-    WORLD_FILES: dict[str, Callable[[str], Any]]
+    @property
+    def WORLD_FILES(self) -> Mapping[str, Callable[[str], Any]]: ...
     #: World parameters the sweep sets itself → the sweep field that says them.
-    RESERVED: dict[str, str]
+    @property
+    def RESERVED(self) -> Mapping[str, str]: ...
     #: Our executables that drive this simulator in a sweep → their node class, ``module:Class``.
-    CONTROLLERS: dict[str, str]
+    @property
+    def CONTROLLERS(self) -> Mapping[str, str]: ...
     #: The world node's name (its logger's).
-    WORLD_NODE_NAME: str
+    @property
+    def WORLD_NODE_NAME(self) -> str: ...
     #: Node executables → (``module:Class``, what follows the name in the usage), for ``--help``.
-    NODE_EXECUTABLES: dict[str, tuple[str, str]]
+    @property
+    def NODE_EXECUTABLES(self) -> Mapping[str, tuple[str, str]]: ...
     #: Whether a controller class runs once per robot in the robot's namespace (and must take **kwargs).
-    ROBOT_NAMESPACES: bool
+    @property
+    def ROBOT_NAMESPACES(self) -> bool: ...
     #: Built-in metrics: name → ``function(data: EpisodeData, **options)``; those without a
     #: required option are the default set.
-    METRICS: dict[str, Callable[..., Any]]
+    @property
+    def METRICS(self) -> Mapping[str, Callable[..., Any]]: ...
     #: What the metrics' type hints cannot say about an option: ``(metric, option)`` → a test and
     #: what it expects (``(lambda v: v > 0, "a radius > 0 m")``).
-    METRIC_RULES: dict[tuple[str, str], tuple[Callable[[Any], bool], str]]
+    @property
+    def METRIC_RULES(self) -> Mapping[tuple[str, str], tuple[Callable[[Any], bool], str]]: ...
     #: ``random_poses(world, count, seed, margin_m)``: start poses for a sweep's ``poses: {random: n}``;
     #: None: its episodes start where the world file puts the robots (no ``poses`` field).
-    random_poses: Callable[[dict[str, Any], int, int, float], list[Pose]] | None
+    @property
+    def random_poses(self) -> Callable[[dict[str, Any], int, int, float], list[Pose]] | None: ...
     #: ``demo(out_dir, extra_nodes)`` → a summary (``make demo``); None: no demo.
-    demo: Callable[[Path, ExtraNodes], dict[str, Any]] | None
+    @property
+    def demo(self) -> Callable[[Path, ExtraNodes], dict[str, Any]] | None: ...
     #: ``sample_run(folder)`` → a short recorded run (a bag) for warming the bag readers; None: none.
-    sample_run: Callable[[Path], Path] | None
+    @property
+    def sample_run(self) -> Callable[[Path], Path] | None: ...
 
     def read_world(self, r: EntryReader, entry: dict[str, Any], where: str) -> dict[str, Any]:
         """The world of a sweep entry (keys checked already): files resolved, options checked."""

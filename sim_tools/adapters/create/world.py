@@ -8,6 +8,7 @@ clearance to the nearest wall after every step.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -246,7 +247,7 @@ def create_final_pose(data: EpisodeData) -> dict[str, float]:
     return {f"final_{k}": float(data.arrays[k][-1]) for k in ("x", "y", "theta")} if len(data.t) else {}
 
 
-METRICS = {
+METRICS: dict[str, Callable[..., Any]] = {
     "distance_m": create_distance_m,
     "bumps": create_bumps,
     "collisions": create_collisions,
