@@ -306,7 +306,7 @@ print(json.dumps(run_episode(load_sweep(sys.argv[1]).episodes[0])["row"]))
 """
 
 
-def test_a_main_that_never_comes_back_to_spin_is_stopped_at_its_own_line_and_sim_time(tmp_path: Path) -> None:
+def test_a_main_that_never_comes_back_to_spin_names_its_own_function_and_the_sim_time(tmp_path: Path) -> None:
     import json
 
     (tmp_path / "stuck.py").write_text(STUCK, encoding="utf-8")
@@ -324,6 +324,6 @@ def test_a_main_that_never_comes_back_to_spin_is_stopped_at_its_own_line_and_sim
     row = json.loads(done.stdout.strip().splitlines()[-1])
     assert row["status"] == "error"
     assert row["error"].startswith("MainStuck: stuck:main ran 2 s of wall time without coming back to a spin call")
-    at = [f"; main() is at stuck.py:{n} in main, at sim time {row['sim_time_s']:g} s" for n in (11, 12)]  # its loop
-    assert row["error"].endswith(tuple(at)), row["error"]
+    assert row["error"].endswith(f"; main() is in main() of stuck.py, at sim time {row['sim_time_s']:g} s")
+    assert 'stuck.py", line 1' in done.stderr  # its stack, lines included, in the episode's output
     assert 0 < row["sim_time_s"] < 0.2 and "forms.py" not in row["error"]

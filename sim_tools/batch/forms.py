@@ -250,15 +250,20 @@ class MainRunner:
             return True
 
     def _where(self) -> str:
-        """`` in student.py:12 (loop)``: where ``main``'s thread is now, in the student's code."""
+        """``; main() is in loop() of student.py``: where ``main``'s thread is now, in the
+        student's code (its whole stack, lines included, goes to the episode's log: the row names
+        the function, as a loop is on one line or the next from run to run)."""
         import sys
         import traceback
 
         ident = self.thread.ident if self.thread is not None else None
         frame = sys._current_frames().get(ident) if ident is not None else None
         stack = traceback.extract_stack(frame) if frame is not None else []
+        if stack:
+            print(f"{self.target}: main()'s thread, stopped:", file=sys.stderr)
+            traceback.print_list(stack, file=sys.stderr)
         user = next((f for f in reversed(stack) if is_user_file(f.filename)), None)
-        return f"; main() is at {Path(user.filename).name}:{user.lineno} in {user.name}" if user else ""
+        return f"; main() is in {user.name}() of {Path(user.filename).name}" if user else ""
 
     def stop(self) -> None:
         """End the episode for ``main``: its spin calls return (``spin_once`` raises rclpy's
