@@ -41,6 +41,7 @@ CREATE_TOPICS = {
     "scan": LaserScan,
     "camera/beacons": MarkerArray,
     "battery_state": BatteryState,
+    "joint_states": JointState,
 }
 
 
@@ -178,6 +179,9 @@ def test_every_create_sensor_frame_is_on_tf_static_at_its_mount(executor, make_n
     create_world(executor, tmp_path, frame_prefix="robot1/")
     tf = TfBuffer(make_node("tf_listener"))
     assert spin_until(executor, lambda: all(f"robot1/{name}" in tf.parent for name in SENSOR_MOUNTS))
+    assert spin_until(executor, lambda: "robot1/base_footprint" in tf.parent)
+    assert tf.parent["robot1/base_footprint"] == "robot1/base_link"  # REP-120, for Nav2's AMCL
+    assert tf.matrix["robot1/base_footprint"] == pytest.approx(np.eye(4))
     for name, mount in SENSOR_MOUNTS.items():
         assert tf.parent[f"robot1/{name}"] == "robot1/base_link"
         m = tf.matrix[f"robot1/{name}"]
@@ -419,6 +423,7 @@ def test_the_create_publishes_a_latched_robot_description_with_every_sensor_fram
     robot = yourdfpy.URDF.load(str(urdf), load_meshes=False)
     assert {f"robot1/{name}" for name in SENSOR_MOUNTS} <= set(robot.link_map)
     assert robot.base_link == "robot1/base_link"
+    assert robot.actuated_joint_names == ["robot1/left_wheel_joint", "robot1/right_wheel_joint"]
 
 
 def test_a_paused_world_holds_its_time_and_the_step_service_advances_one_physics_step(executor, make_node, tmp_path):
