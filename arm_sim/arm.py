@@ -242,7 +242,9 @@ class Arm:
         goal = np.ascontiguousarray(T, dtype=float)
         start = self.mid_range() if q0 is None else np.asarray(q0, dtype=float)
         search = kin.IKSearch(float(tol), int(ilimit), int(slimit), int(seed))
-        q, ok, res, searches = _ikine_of(goal, start, *self.chain, *self.limits, *search)
+        # mypy pairs the three unpacked tables with the kernel's parameters wrongly (it expects an
+        # int where IKSearch.tol goes); the call is _ikine_of's signature, field for field
+        q, ok, res, searches = _ikine_of(goal, start, *self.chain, *self.limits, *search)  # type: ignore[arg-type]
         return IKResult(q=q, success=bool(ok), residual=float(res), searches=int(searches))
 
     def ikine_batch(

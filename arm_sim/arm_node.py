@@ -19,9 +19,12 @@ from __future__ import annotations
 import math
 import struct
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
-from geometry_msgs.msg import Point, PoseStamped
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
@@ -57,11 +60,11 @@ from sim_runtime.world_node import SimWorldNode
 AXES_LENGTH = 0.2  # m, RefSystem axes
 
 
-def _color(rgba, alpha: float = 1.0) -> ColorRGBA:
+def _color(rgba: Sequence[float] | np.ndarray, alpha: float = 1.0) -> ColorRGBA:
     return ColorRGBA(r=float(rgba[0]), g=float(rgba[1]), b=float(rgba[2]), a=float(rgba[3]) * alpha)
 
 
-def _axes_marker(frame_id: str, ns: str, pose: np.ndarray, stamp) -> Marker:
+def _axes_marker(frame_id: str, ns: str, pose: np.ndarray, stamp: Time) -> Marker:
     """RefSystem: x red, y green, z blue lines from the origin of ``pose``."""
     m = Marker(ns=ns, id=0, type=Marker.LINE_LIST, action=Marker.ADD)
     m.header.frame_id = frame_id
@@ -76,7 +79,7 @@ def _axes_marker(frame_id: str, ns: str, pose: np.ndarray, stamp) -> Marker:
     return m
 
 
-def arm_markers(arm: Arm, label: str, frame_id: str, alpha: float, stamp) -> MarkerArray:
+def arm_markers(arm: Arm, label: str, frame_id: str, alpha: float, stamp: Time) -> MarkerArray:
     """An arm's ``robot_markers``: every element's marker with its static fields (poses are filled
     at publish time, :func:`patched_markers`), then its base's axes."""
     markers = []
@@ -95,7 +98,8 @@ def arm_markers(arm: Arm, label: str, frame_id: str, alpha: float, stamp) -> Mar
     return MarkerArray(markers=[*markers, _axes_marker(frame_id, f"{label}/axes", arm.base, stamp)])
 
 
-def _set_pose(marker_or_pose, xyz, quat) -> None:
+def _set_pose(marker_or_pose: Any, xyz: Sequence[float] | np.ndarray, quat: Sequence[float] | np.ndarray) -> None:
+    # a Marker or a PoseStamped: anything with a ``pose`` (ROS messages are untyped)
     pose = marker_or_pose.pose
     pose.position.x, pose.position.y, pose.position.z = float(xyz[0]), float(xyz[1]), float(xyz[2])
     o = pose.orientation
@@ -113,7 +117,7 @@ class PatchedPoses:
     found by serializing sentinel values once.
     """
 
-    def __init__(self, msg, poses: list, stamps: list) -> None:
+    def __init__(self, msg: Any, poses: list[tuple[Any, Any]], stamps: list[Time]) -> None:
         sentinel_poses = 0x5EED0000 + np.arange(len(poses) * 7, dtype=float).reshape(len(poses), 7) + 0.25
         for (position, orientation), values in zip(poses, sentinel_poses.tolist(), strict=True):
             position.x, position.y, position.z = values[:3]
@@ -142,7 +146,7 @@ class PatchedPoses:
             raise RuntimeError("sentinel not found exactly once in the serialized message")
         return at
 
-    def fill(self, poses: np.ndarray, stamp) -> bytes:
+    def fill(self, poses: np.ndarray, stamp: Time) -> bytes:
         """Serialized message with ``poses`` (posed, 7: x y z qx qy qz qw) and ``stamp``."""
         self.buffer[self.pose_index] = np.ascontiguousarray(poses, dtype="<f8").view(np.uint8).reshape(-1, 56)
         self.stamps["sec"] = stamp.sec
@@ -224,7 +228,7 @@ class ArmInstance:
         self.axes = markers.markers[-1]
         return markers
 
-    def static_transforms(self) -> list:
+    def static_transforms(self) -> list[TransformStamped]:
         """The fixed joints of this arm's URDF (world -> base_link, link_n -> tool0), for /tf_static."""
         out = []
         for joint in fixed_transforms(self.tree):
@@ -233,7 +237,7 @@ class ArmInstance:
             out.append(transform_msg(joint.parent, joint.child, x, y, z, quaternion=quaternion))
         return out
 
-    def tf_entries(self) -> list:
+    def tf_entries(self) -> list[TransformStamped]:
         """One TransformStamped per moving joint (parent link -> child link), poses to be patched."""
         return [transform_msg(j.parent, j.child, 0.0, 0.0, 0.0) for j in self.tree.moving]
 
@@ -266,7 +270,7 @@ class ArmInstance:
     def _reject(self, what: str, why: str) -> None:
         self.node.warn_throttled(f"{self.label}/{what}", f"{self.prefix}{what} rejected: {why}")
 
-    def _joint_indices(self, names, what: str) -> np.ndarray | None:
+    def _joint_indices(self, names: Sequence[str], what: str) -> np.ndarray | None:
         unknown = [n for n in names if n not in self.index]
         if unknown or len({self.index[n] for n in names}) != len(names):
             self._reject(what, f"joint names {list(names)} must be distinct names of {self.joint_names}")
@@ -363,7 +367,7 @@ class ArmInstance:
 class ArmNode(SimWorldNode):
     """The arm world: arms from ``robot_config_file`` and ``scene_file``, scene objects, axes."""
 
-    def __init__(self, node_name: str = "arm", **node_kwargs) -> None:
+    def __init__(self, node_name: str = "arm", **node_kwargs: Any) -> None:
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()

@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+import numpy.typing as npt
 
 PRISMATIC = 4  # column of ``dh`` flagging a prismatic joint
 
@@ -69,11 +70,13 @@ class Dynamics(NamedTuple):
     gravity: np.ndarray
 
 
-def pack_dh(theta, d, a, alpha, prismatic) -> np.ndarray:
+def pack_dh(
+    theta: npt.ArrayLike, d: npt.ArrayLike, a: npt.ArrayLike, alpha: npt.ArrayLike, prismatic: npt.ArrayLike
+) -> np.ndarray:
     """The (n, 7) ``dh`` array of the kernels from per-joint parameters."""
-    alpha = np.asarray(alpha, dtype=float)
+    alphas = np.asarray(alpha, dtype=float)
     return np.ascontiguousarray(
-        np.column_stack([theta, d, a, alpha, np.asarray(prismatic, dtype=float), np.cos(alpha), np.sin(alpha)]),
+        np.column_stack([theta, d, a, alphas, np.asarray(prismatic, dtype=float), np.cos(alphas), np.sin(alphas)]),
         dtype=float,
     )
 
@@ -150,13 +153,13 @@ def _fk_frames(frames, q, chain, A):
 
 
 @numba.njit(cache=True)
-def fk_all_into(frames, q, chain):
+def fk_all_into(frames: np.ndarray, q: np.ndarray, chain: Chain) -> None:
     """Write the world pose of every link frame 0..n into ``frames`` (n+1, 4, 4)."""
     _fk_frames(frames, q, chain, np.empty((4, 4)))
 
 
 @numba.njit(cache=True)
-def fk_all(q, chain):
+def fk_all(q: np.ndarray, chain: Chain) -> np.ndarray:
     """World poses of every link frame 0..n, shape (n+1, 4, 4)."""
     frames = np.empty((chain.dh.shape[0] + 1, 4, 4))
     fk_all_into(frames, q, chain)
@@ -164,7 +167,7 @@ def fk_all(q, chain):
 
 
 @numba.njit(cache=True)
-def fk(q, chain):
+def fk(q: np.ndarray, chain: Chain) -> np.ndarray:
     """World pose (4x4) of the last frame (the flange)."""
     dh = chain.dh
     modified = chain.modified
@@ -179,7 +182,7 @@ def fk(q, chain):
 
 
 @numba.njit(cache=True)
-def fk_batch(Q, chain):
+def fk_batch(Q: np.ndarray, chain: Chain) -> np.ndarray:
     """Flange poses for many configurations: Q (m, n) -> (m, 4, 4)."""
     m = Q.shape[0]
     out = np.empty((m, 4, 4))
@@ -219,7 +222,7 @@ def _jacobian_from_frames(J, frames, chain):
 
 
 @numba.njit(cache=True)
-def jacob0(q, chain):
+def jacob0(q: np.ndarray, chain: Chain) -> np.ndarray:
     """Geometric Jacobian (6, n) of the flange in the world frame: rows vx vy vz wx wy wz."""
     frames = fk_all(q, chain)
     J = np.empty((6, chain.dh.shape[0]))
@@ -228,7 +231,7 @@ def jacob0(q, chain):
 
 
 @numba.njit(cache=True)
-def jacob0_batch(Q, chain):
+def jacob0_batch(Q: np.ndarray, chain: Chain) -> np.ndarray:
     """Jacobians for many configurations: Q (m, n) -> (m, 6, n)."""
     m = Q.shape[0]
     n = chain.dh.shape[0]
@@ -390,7 +393,9 @@ def _lm_search(q, Tgoal, chain, limits, search, best_q, best_res, ws):
 
 
 @numba.njit(cache=True)
-def ikine_lm(Tgoal, q0, chain, limits, search):
+def ikine_lm(
+    Tgoal: np.ndarray, q0: np.ndarray, chain: Chain, limits: Limits, search: IKSearch
+) -> tuple[np.ndarray, bool, float, int]:
     """Levenberg–Marquardt IK (Sugihara's damping) within joint :class:`Limits`, with random restarts.
 
     Starts from ``q0`` (clipped to the limits), then from uniform random configurations within
@@ -420,7 +425,9 @@ def ikine_lm(Tgoal, q0, chain, limits, search):
 
 
 @numba.njit(cache=True)
-def ikine_lm_batch(Tgoals, Q0, chain, limits, search):
+def ikine_lm_batch(
+    Tgoals: np.ndarray, Q0: np.ndarray, chain: Chain, limits: Limits, search: IKSearch
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """IK for many targets: Tgoals (m, 4, 4), Q0 (m, n) -> (Q, success, residual); target k's
     restarts are seeded with ``search.seed + k``."""
     m = Tgoals.shape[0]
@@ -560,7 +567,7 @@ def _rne_inward(tau, links, dh):
 
 
 @numba.njit(cache=True, inline="always")
-def rne_into(tau, frames, qd, qdd, chain, dyn):
+def rne_into(tau: np.ndarray, frames: np.ndarray, qd: np.ndarray, qdd: np.ndarray, chain: Chain, dyn: Dynamics) -> None:
     """Recursive Newton–Euler inverse dynamics, written in world coordinates.
 
     ``frames`` from :func:`fk_all` at the joint positions; ``qd``, ``qdd`` the joint velocities
@@ -576,7 +583,7 @@ def rne_into(tau, frames, qd, qdd, chain, dyn):
 
 
 @numba.njit(cache=True)
-def rne(q, qd, qdd, chain, dyn):
+def rne(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, chain: Chain, dyn: Dynamics) -> np.ndarray:
     """Joint torques/forces (n,) for motion (q, qd, qdd) of the arm ``chain`` with :class:`Dynamics` ``dyn``."""
     frames = fk_all(q, chain)
     tau = np.empty(chain.dh.shape[0])
@@ -585,7 +592,7 @@ def rne(q, qd, qdd, chain, dyn):
 
 
 @numba.njit(cache=True)
-def rne_batch(Q, QD, QDD, chain, dyn):
+def rne_batch(Q: np.ndarray, QD: np.ndarray, QDD: np.ndarray, chain: Chain, dyn: Dynamics) -> np.ndarray:
     """Inverse dynamics for many states: Q, QD, QDD (m, n) -> (m, n)."""
     m = Q.shape[0]
     n = chain.dh.shape[0]

@@ -87,7 +87,7 @@ def make_irb120(folder: Path) -> list[Path]:
     house = [(0.07, 0.17, 0.0), (0.06, 0.14, 0.0), (0.06, 0.12, 0.0), (0.04, 0.09, 0.0), (0.033, 0.06, 0.02)]
     shapes = {0: _merge([_box([0, 0, 0.01], [0.24, 0.18, 0.02]), _cylinder([0, 0, 0.02], [0, 0, 0.12], 0.09)])}
     for k in range(1, arm.n + 1):
-        parts = [_tube(frames, arm, k, tube_r[k - 1])]
+        parts: list[trimesh.Trimesh | None] = [_tube(frames, arm, k, tube_r[k - 1])]
         if k < arm.n:
             r, length, offset = house[k - 1]
             parts.append(_housing(frames, k, r, length, offset))

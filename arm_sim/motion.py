@@ -44,7 +44,8 @@ class JointMotion:
     @property
     def goal(self) -> np.ndarray:
         """The position the current command ends at."""
-        return self._p[-1].copy()
+        goal: np.ndarray = self._p[-1].copy()
+        return goal
 
     @property
     def end_time(self) -> float:

@@ -251,7 +251,7 @@ def _read_joint_names(r: FieldReader, raw: Any, dof: int) -> tuple[str, ...]:
     return names
 
 
-def _read_dh(r: FieldReader, dh: dict, dof: int) -> dict[str, np.ndarray]:
+def _read_dh(r: FieldReader, dh: dict[str, Any], dof: int) -> dict[str, np.ndarray]:
     params = {}
     for key in ("theta", "d", "a", "alpha"):
         value = r.require(dh, key, "dh.")
@@ -262,7 +262,7 @@ def _read_dh(r: FieldReader, dh: dict, dof: int) -> dict[str, np.ndarray]:
     return params
 
 
-def _read_limits(r: FieldReader, limits: dict, dof: int) -> tuple[np.ndarray, np.ndarray]:
+def _read_limits(r: FieldReader, limits: dict[str, Any], dof: int) -> tuple[np.ndarray, np.ndarray]:
     """(position (dof, 2) [min, max], velocity (dof,)) limits."""
     position = r.require(limits, "position", "limits.")
     if not isinstance(position, (list, tuple)) or len(position) != dof:

@@ -22,6 +22,7 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -120,13 +121,13 @@ def _mesh(r: FieldReader, path: Path, where: str) -> np.ndarray:
         raise r.error(where, str(error)) from None
 
 
-def _list(r: FieldReader, value, where: str) -> list:
+def _list(r: FieldReader, value: Any, where: str) -> list[Any]:
     if not isinstance(value, list):
         raise r.error(where, f"expected a list, got {short(value)}")
     return value
 
 
-def _name(r: FieldReader, entry: dict, where: str, seen: set[str]) -> str:
+def _name(r: FieldReader, entry: dict[str, Any], where: str, seen: set[str]) -> str:
     name = r.require(entry, "name", f"{where}.")
     if not isinstance(name, str) or not _NAME.match(name):
         raise r.error(f"{where}.name", f"expected a name of letters, digits and _, got {short(name)}")

@@ -454,7 +454,10 @@ class SegmentGrid(NamedTuple):
         self, ox: float, oy: float, heading: float, cos_off: np.ndarray, sin_off: np.ndarray, max_range: float
     ) -> np.ndarray:
         """Like :meth:`cast` for a sensor's fixed fan: angles heading + offsets (as cos, sin)."""
-        return grid_cast_fan(self, float(ox), float(oy), float(heading), cos_off, sin_off, float(max_range))
+        ranges: np.ndarray = grid_cast_fan(
+            self, float(ox), float(oy), float(heading), cos_off, sin_off, float(max_range)
+        )
+        return ranges
 
 
 def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray, max_range: float) -> np.ndarray:
@@ -470,7 +473,7 @@ def numpy_cast_fan(segs: np.ndarray, ox: float, oy: float, angles: np.ndarray, m
         t = (ax * sy - ay * sx) / denom
         u = (ax * dy - ay * dx) / denom
     hit = (denom != 0) & (t >= 0) & (u >= 0) & (u <= 1)
-    dist = np.where(hit, t, np.inf).min(axis=1)
+    dist: np.ndarray = np.where(hit, t, np.inf).min(axis=1)
     dist[dist > max_range] = np.inf
     return dist
 
@@ -677,7 +680,9 @@ def _mark_piece(occupied: np.ndarray, piece: np.ndarray, origin: np.ndarray, res
     occupied[c0[1] : c1[1] + 1, c0[0] : c1[0] + 1] |= near
 
 
-def _square_segment_distance(cx, cy, h: float, x1: float, y1: float, x2: float, y2: float) -> np.ndarray:
+def _square_segment_distance(
+    cx: np.ndarray, cy: np.ndarray, h: float, x1: float, y1: float, x2: float, y2: float
+) -> np.ndarray:
     """Distance between the segment and each axis-aligned square (centre cx, cy; half side h):
     0 where they meet (separating axes: the boxes overlap and the square's corners straddle the
     line), else the least of the segment's ends to the square and the square's corners to the

@@ -20,14 +20,14 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import numpy as np
 
 from create_sim import spec
 from create_sim.configfile import NoiseConfig
 from create_sim.geometry import SegmentGrid, circle_crossing_angles, nearest_distance
-from create_sim.mapfile import MAX_COORDINATE_M, CreateMap
+from create_sim.mapfile import CreateMap
 from create_sim.physics import CONTACT_SKIN, OVERLAP_TOL, advance_unpacked
 from create_sim.sensing import (
     bumper_hits_unpacked,
@@ -39,6 +39,7 @@ from create_sim.sensing import (
 from sim_runtime.angles import wrap_angle
 from sim_runtime.errors import InputError
 from sim_runtime.kernels import compiled_aside
+from sim_runtime.limits import MAX_COORDINATE_M
 
 # A ray to a beacon or emitter counts as blocked only if a wall is hit this much before it.
 _OCCLUSION_TOL = 1e-4
@@ -71,10 +72,10 @@ class CreateModel:
 
     RADIUS = spec.RADIUS_M
     WHEEL_BASE = spec.WHEEL_BASE_M
-    MAX_WHEEL_SPEED = 0.5
+    MAX_WHEEL_SPEED = spec.MAX_WHEEL_SPEED_MPS
     FRICTION = 0.35  # kinetic friction μ against walls
     MAX_STEP_S = 3600.0  # longest physics step (bounds the work of one step)
-    LIDAR_BEAMS = 681
+    LIDAR_BEAMS = spec.LIDAR_BEAMS
     LIDAR_FOV = math.radians(240.0)
     LIDAR_RANGE = (0.02, 4.0)
     SONAR_RANGE = (0.02, 3.0)
@@ -265,7 +266,11 @@ class CreateModel:
         self._normals_used += size
         return draws
 
-    def _noise(self, sensor: str, size: int | None = None):
+    @overload
+    def _noise(self, sensor: str, size: None = None) -> float: ...
+    @overload
+    def _noise(self, sensor: str, size: int) -> np.ndarray: ...
+    def _noise(self, sensor: str, size: int | None = None) -> float | np.ndarray:
         """mean + std·N(0, 1) of a sensor's noise; no draw when std is 0 (keeps ideal runs cheap)."""
         mean, std = self.noise.noise[sensor]
         if size is None:
@@ -288,7 +293,8 @@ class CreateModel:
         signals = np.full(4, self.CLIFF_FLOOR)
         if n:
             signals[cliff_windows_crossed(self._crossing_buf[:n], th, self.CLIFF_WINDOWS)] = self.CLIFF_LINE
-        return signals + self._noise("cliff", 4)
+        noisy: np.ndarray = signals + self._noise("cliff", 4)
+        return noisy
 
     def wall_sensor(self) -> bool:
         """IR wall sensor on the front-right, looking right: a wall within IR range (+ noise)."""
@@ -325,7 +331,7 @@ class CreateModel:
         """Sonar ranges [front, left, back, right] from the body's edge (m); +inf none, -inf too close."""
         x, y, th = self._pose
         lo, hi = self.SONAR_RANGE
-        return range_fan_unpacked(
+        ranges: np.ndarray = range_fan_unpacked(
             *self.grid,
             x,
             y,
@@ -337,6 +343,7 @@ class CreateModel:
             self._noise("sonar", 4),
             -np.inf,
         )
+        return ranges
 
     def lidar(self, beams: np.ndarray | None = None) -> np.ndarray:
         """LIDAR ranges (681,) float32 from -120° (index 0) to +120°; +inf no return within 4 m.
@@ -363,7 +370,8 @@ class CreateModel:
             noise,
             lo,
         )
-        return scan.astype(np.float32)
+        ranges: np.ndarray = scan.astype(np.float32)
+        return ranges
 
     def camera(self) -> list[BeaconSighting]:
         """Beacons within 6 m and ±60° of the camera (0.13 m ahead) with no wall in between."""
@@ -386,7 +394,7 @@ class CreateModel:
     def _camera_view(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Indices, distances and bearings of the beacons the camera sees (no noise)."""
         x, y, th = self._pose
-        return camera_view(
+        seen: tuple[np.ndarray, np.ndarray, np.ndarray] = camera_view(
             self.grid,
             x + self.CAMERA_OFFSET * math.cos(th),
             y + self.CAMERA_OFFSET * math.sin(th),
@@ -396,6 +404,7 @@ class CreateModel:
             self.CAMERA_HALF_FOV,
             _OCCLUSION_TOL,
         )
+        return seen
 
     # ----------------------------------------------------------------------------- numba
     def compile_kernels(self) -> None:

@@ -24,7 +24,8 @@ def _hidden(grid, mailbox, stamp, ox, oy, tx, ty, tol) -> bool:
     if dist <= tol:
         return False
     hit = grid_cast(grid, mailbox, stamp, ox, oy, dx / dist, dy / dist, dist)
-    return hit < dist - tol
+    hidden: bool = hit < dist - tol
+    return hidden
 
 
 @numba.njit(cache=True)

@@ -47,7 +47,8 @@ POLL_SECONDS = 0.0005
 
 
 def _ns(stamp: Time) -> int:
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
+    ns: int = stamp.sec * 1_000_000_000 + stamp.nanosec  # Time is untyped (a ROS message)
+    return ns
 
 
 @dataclass

@@ -69,7 +69,7 @@ def compiled_aside(obj: Any, method: str, enabled: bool = True) -> Iterator[None
     from numba.core import event
 
     pickled = pickle.dumps(obj) if enabled and (os.cpu_count() or 1) > 1 else b""
-    helpers: list[subprocess.Popen] = []
+    helpers: list[subprocess.Popen[bytes]] = []
 
     class StartHelper(event.Listener):
         def on_start(self, _event: event.Event) -> None:
@@ -85,7 +85,7 @@ def compiled_aside(obj: Any, method: str, enabled: bool = True) -> Iterator[None
         helper.wait()  # its outcome does not matter: anything it did not cache is compiled afterwards
 
 
-def _start_helper(pickled: bytes, method: str) -> subprocess.Popen:
+def _start_helper(pickled: bytes, method: str) -> subprocess.Popen[bytes]:
     """A process that unpickles an object from its stdin and calls its ``method``."""
     # the same modules from the same files (numba's cache is per file), nothing on the terminal
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))

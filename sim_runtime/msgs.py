@@ -25,7 +25,8 @@ def time_msg(t: float) -> Time:
 
 def time_from_msg(stamp: Time) -> float:
     """``builtin_interfaces/Time`` → seconds."""
-    return stamp.sec + stamp.nanosec * 1e-9
+    seconds: float = stamp.sec + stamp.nanosec * 1e-9  # Time is untyped (a ROS message)
+    return seconds
 
 
 def quaternion_from_yaw(yaw: float) -> Quaternion:
@@ -61,12 +62,12 @@ def matrix_from_quaternion(q: Quaternion) -> np.ndarray:
     )
 
 
-def float32_array(values: ArrayLike) -> array.array:
+def float32_array(values: ArrayLike) -> array.array[float]:
     """Fast fill for ``float32[]`` fields: ``msg.ranges = float32_array(ranges)``."""
     return array.array("f", np.ascontiguousarray(values, dtype=np.float32).tobytes())
 
 
-def float64_array(values: ArrayLike) -> array.array:
+def float64_array(values: ArrayLike) -> array.array[float]:
     """Fast fill for ``float64[]`` fields (JointState positions, …)."""
     return array.array("d", np.ascontiguousarray(values, dtype=np.float64).tobytes())
 

@@ -128,7 +128,7 @@ class CheckedNode(Node):
             lo, hi = bounds
             inner = check
 
-            def check(v: Any, inner=inner, lo=lo, hi=hi) -> bool:
+            def check(v: Any, inner: Callable[[Any], bool] | None = inner, lo: float = lo, hi: float = hi) -> bool:
                 return lo <= v <= hi and (inner is None or inner(v))
 
         spec = _Spec(default, check or (lambda _v: True), description, on_change if live else None)

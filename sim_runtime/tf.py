@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from typing import Any
 
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Quaternion, Transform, TransformStamped, Vector3
 from rclpy.node import Node
 from rclpy.publisher import Publisher
@@ -17,7 +19,7 @@ from rclpy.publisher import Publisher
 from sim_runtime.qos import LATCHED_QOS, TF_QOS
 
 try:
-    from tf2_msgs.msg import TFMessage
+    from tf2_msgs.msg import TFMessage as TFMessage  # re-exported: synthetic runs build tf messages too
 except ImportError:  # pip install without a compiler: see interfaces/tf2_msgs
     TFMessage = None
 
@@ -33,7 +35,13 @@ def tf_available() -> bool:
 
 
 def transform_msg(
-    parent: str, child: str, x: float, y: float, z: float = 0.0, yaw: float = 0.0, quaternion=None
+    parent: str,
+    child: str,
+    x: float,
+    y: float,
+    z: float = 0.0,
+    yaw: float = 0.0,
+    quaternion: Iterable[float] | None = None,
 ) -> TransformStamped:
     """``parent → child`` as a ``TransformStamped`` (stamp left zero): a planar ``yaw`` about +z, or a
     full rotation given as ``quaternion`` (x, y, z, w)."""
@@ -72,7 +80,7 @@ class TfBroadcaster:
             self.publishers = [self.publisher]
             self._static_pub = node.create_publisher(TFMessage, "/tf_static", LATCHED_QOS)
 
-    def send_static(self, transforms: Iterable[TransformStamped], stamp) -> None:
+    def send_static(self, transforms: Iterable[TransformStamped], stamp: Time) -> None:
         """Add fixed transforms and publish the whole set in one latched message, as tf2's static
         broadcaster does (a late joiner gets every static frame of this node)."""
         if not self.enabled:
@@ -83,7 +91,7 @@ class TfBroadcaster:
         self._static_pub.publish(TFMessage(transforms=list(self._static.values())))
 
     @staticmethod
-    def message(transforms: list[TransformStamped]):
+    def message(transforms: list[TransformStamped]) -> Any:
         """A ``TFMessage`` of ``transforms`` (stamps already set by the caller), for :attr:`publisher`."""
         return TFMessage(transforms=transforms)
 

@@ -68,7 +68,8 @@ def parse_yaml(text: str, source: str | os.PathLike[str]) -> Any:
 
 def _children(node: yaml.Node) -> list[yaml.Node]:
     if isinstance(node, yaml.SequenceNode):
-        return node.value
+        items: list[yaml.Node] = node.value  # yaml ships no types
+        return items
     if isinstance(node, yaml.MappingNode):
         return [part for pair in node.value for part in pair]
     return []
@@ -218,7 +219,7 @@ def read_bool(value: Any, where: str) -> bool:
     raise InputError(f"{where}: expected true/false (or on/off), got {_short(value)}")
 
 
-def check_keys(entry: dict, allowed: set[str], where: str) -> None:
+def check_keys(entry: dict[str, Any], allowed: set[str], where: str) -> None:
     """Every key of the mapping is a string among ``allowed``."""
     odd = [k for k in entry if not isinstance(k, str)]
     if odd:
@@ -362,7 +363,7 @@ class FieldReader:
     def mapping(self, value: Any, field: str, allowed: set[str] | None = None) -> dict[str, Any]:
         return read_mapping(value, self.where(field), allowed)
 
-    def require(self, mapping: dict, key: str, prefix: str = "") -> Any:
+    def require(self, mapping: dict[str, Any], key: str, prefix: str = "") -> Any:
         if key not in mapping:
             raise self.error(f"{prefix}{key}", "missing")
         return mapping[key]

@@ -951,7 +951,8 @@ class SimrobotWorld:
     def outline(self, i: int) -> np.ndarray:
         """Robot ``i``'s polygon in world metres, shape (vertices, 2)."""
         vx, vy = self._outline(i)
-        return np.column_stack([vx, vy]) * self.resolution + self.origin
+        polygon: np.ndarray = np.column_stack([vx, vy]) * self.resolution + self.origin
+        return polygon
 
     def tracks(self) -> dict[str, np.ndarray]:
         """Every robot's kept track: ``{name: (steps, 2)}`` in metres."""

@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import math
 import types
-from typing import Literal, NamedTuple, TypedDict
+from collections.abc import Callable
+from typing import Any, Literal, NamedTuple, TypedDict
 
 import numba
 import numpy as np
@@ -200,7 +201,7 @@ def clearance_field(walls: np.ndarray) -> np.ndarray:
     grown2[:, 1:] |= grown[:, :-1]
     grown2[:, :-1] |= grown[:, 1:]
     d = np.sqrt(squared_distance_transform(grown2))
-    field = np.clip(np.floor(d), 0, 254).astype(np.uint8)
+    field: np.ndarray = np.clip(np.floor(d), 0, 254).astype(np.uint8)
     field[walls] = WALL
     return field
 
@@ -299,7 +300,7 @@ def _traverse(
             return np.inf, 0
 
 
-def _renamed(func, name: str):
+def _renamed(func: Callable[..., Any], name: str) -> types.FunctionType:
     """``func``'s code under another name: numba files a kernel's cache entries by its function's
     name and first line, not by its options, so two kernels of one function would share (and
     overwrite) one entry, and either could load the other's machine code."""
@@ -686,7 +687,7 @@ def cast_scan_original(matrix: np.ndarray, fan: Fan, out_t: np.ndarray, out_v: n
 
 
 def cast_ray_plain_bresenham_python(
-    rows: list, ox: float, oy: float, angle: float, max_range: float, self_id: int = 0
+    rows: list[list[int]], ox: float, oy: float, angle: float, max_range: float, self_id: int = 0
 ) -> tuple[float, int]:
     """A plain 8-connected Bresenham ray in plain Python, the benchmark's speed baseline: from the
     sensor's cell to the rounded end point, first non-zero cell wins; Euclidean distance between

@@ -217,7 +217,7 @@ _WORLD_KEYS = {
 }
 
 
-def _resolve_aliases(entry: dict, where: str) -> dict:
+def _resolve_aliases(entry: dict[str, Any], where: str) -> dict[str, Any]:
     # the readable robot keys stand for the original's short ones; one of each pair at most
     out = dict(entry)
     for long, short in ROBOT_KEY_ALIASES.items():
@@ -283,7 +283,7 @@ def read_memory(value: Any, where: str) -> tuple[tuple[float, ...], ...] | None:
     return rows
 
 
-def _algorithm(entry: dict, where: str, base_dir: Path) -> str | None:
+def _algorithm(entry: dict[str, Any], where: str, base_dir: Path) -> str | None:
     # an m-file path, relative to the world file; a robot has a controller or an algorithm
     value = entry.get("algorithm")
     if value is None:

@@ -24,9 +24,11 @@ import array
 import time
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import rclpy.logging
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.exceptions import ParameterException
@@ -98,7 +100,7 @@ class _RobotIO:
 class SimrobotWorldNode(SimWorldNode):
     """A SIMROBOT world on ROS 2: see the module docstring for the interface."""
 
-    def __init__(self, spec: WorldSpec | None = None, node_name: str = "simrobot_world", **node_kwargs) -> None:
+    def __init__(self, spec: WorldSpec | None = None, node_name: str = "simrobot_world", **node_kwargs: Any) -> None:
         """Load ``spec`` or, when None, the world file named by parameter ``world_file``."""
         if spec is None:
             # parameters exist only once the node does: peek at world_file through a short-lived node
@@ -192,7 +194,7 @@ class SimrobotWorldNode(SimWorldNode):
         """Also end the Octave session of the algorithm m-files."""
         if self._algorithms is not None:
             self._algorithms.close()
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]  # rclpy leaves Node.destroy_node unannotated
 
     def _make_robot_io(self, i: int) -> _RobotIO:
         model = self.model
@@ -296,7 +298,7 @@ class SimrobotWorldNode(SimWorldNode):
         return msg
 
     # -- commands ---------------------------------------------------------------------------
-    def _counts_for_step(self, stamp) -> bool:
+    def _counts_for_step(self, stamp: Time) -> bool:
         if stamp.sec == 0 and stamp.nanosec == 0:
             return True  # unstamped: counts by arrival
         return time_from_msg(stamp) >= self.sim_time - 0.5 * self.physics_dt
@@ -471,7 +473,7 @@ class SimrobotWorldNode(SimWorldNode):
         self._published_wall = self._republished_wall = time.monotonic()
 
 
-def _spec_from_parameter(node_name: str, node_kwargs: dict) -> WorldSpec:
+def _spec_from_parameter(node_name: str, node_kwargs: dict[str, Any]) -> WorldSpec:
     try:
         probe = Node(node_name, **node_kwargs)
     except ParameterException as err:  # rclpy's own parameters, e.g. use_sim_time:=abc
