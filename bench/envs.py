@@ -52,7 +52,7 @@ from sim_tools.rl.arm_reach import ArmReachEnv, _moved, _observation
 from sim_tools.rl.create_cover import CreateCoverEnv
 from sim_tools.rl.create_nav import CreateNavEnv
 from sim_tools.rl.simrobot_parallel import SimrobotParallelEnv
-from sim_tools.rl.vector_create import vector_create_nav
+from sim_tools.rl.vector_create import CreateNavVectorEnv, vector_create_nav
 
 START = (-1.5, -1.0, 0.0)
 CIRCLE = np.array([0.05, 0.3], dtype=np.float32)  # a slow circle on the example map: no bump, no goal
@@ -247,10 +247,13 @@ def _spin(steps: int) -> None:
         sum(range(2000))
 
 
-def vector_run(workers: int, random: bool = True) -> tuple[Run, Callable[[], int], Callable[[], float]]:
-    """(run, close → episodes ended, CPU clock of every process stepping it) of the vector Create
-    env: random actions (episodes end and reset), or every sub-env on the slow circle (none ends:
-    the bare models' work)."""
+def vector_run(
+    workers: int, random: bool = True
+) -> tuple[Run, Callable[[], int], Callable[[], float], CreateNavVectorEnv]:
+    """(run, close → episodes ended, CPU clock of every process stepping it, the env) of the vector
+    Create env: random actions (episodes end and reset), or every sub-env on the slow circle (none
+    ends: the bare models' work). With 2 workers it measures itself on its first 45 steps and may
+    fall back to this process (``envs.fell_back``)."""
     envs = vector_create_nav(VECTOR_ENVS, workers=workers, sensors=("lidar", "bump", "goal"), max_steps=10**9)
     if random:
         envs.reset(seed=0)
@@ -273,7 +276,7 @@ def vector_run(workers: int, random: bool = True) -> tuple[Run, Callable[[], int
     def cpu_clock() -> float:
         return time.process_time() + sum(cpu_seconds(process.pid) for process in envs._processes)
 
-    return run, close, cpu_clock
+    return run, close, cpu_clock, envs
 
 
 def bare_models_run() -> Run:
@@ -327,7 +330,7 @@ def processes_row(name: str, make: Callable[[], Run], steps: int) -> None:
 
 def vector_rows(steps: int) -> None:
     """The vector Create env on 1 and 2 workers (the goal), and its cost over the bare models."""
-    (one_run, one_close, _), (two_run, two_close, two_cpu) = vector_run(1), vector_run(2)
+    (one_run, one_close, _, _), (two_run, two_close, two_cpu, two) = vector_run(1), vector_run(2)
     vector_steps = steps // VECTOR_ENVS * 2
     both = [VECTOR_ENVS * r for r in rates([one_run, two_run], vector_steps, time.perf_counter, 6)]
     per_cpu_second = VECTOR_ENVS * rate(two_run, vector_steps, two_cpu)
@@ -335,11 +338,13 @@ def vector_rows(steps: int) -> None:
     met = "met" if both[1] >= GOAL_VECTOR else "NOT met"
     row(f"vector CreateNav-v0 x {VECTOR_ENVS}, random actions, LIDAR", *both, f">= {GOAL_VECTOR:,.0f}: {met}")
     print(f"  ({ended} episodes ended and were reset during these runs)")
+    if two.fell_back:
+        print(f"  the 2-worker env fell back to one process: {two.fell_back}")
     print(
         f"  2 workers: {1e6 / per_cpu_second:.0f} us of CPU per env step (both processes): two idle cores"
         f" would make ~{2 * per_cpu_second:,.0f} env steps/s (a projection, not a measurement)"
     )
-    run, close, _ = vector_run(1, random=False)
+    run, close, _, _ = vector_run(1, random=False)
     circling, bare, cost = paired_cost(run, bare_models_run(), vector_steps, 2)
     close()
     print(

@@ -140,10 +140,9 @@ def test_workers_envs_taken_into_this_process_mid_episode_play_on_exactly_as_bef
 
 
 def test_workers_measure_themselves_and_whatever_they_decide_the_episodes_are_those_of_one_process() -> None:
-    steps = 60  # past the calibration (5 + 40 steps)
+    steps = 60  # past the first measurement (5 + 40 steps)
     one = _play(vector_create_nav(4, **SETTINGS), steps)
     envs = vector_create_nav(4, workers=2, **SETTINGS)
     played = _play(envs, steps)
-    assert not envs.fallback  # decided
-    assert (envs.fell_back is None) == (envs.workers == 2), envs.fell_back
+    assert (envs.fell_back is None) == (envs.workers == 2) == envs.fallback, envs.fell_back
     assert all(_same(x, y) for x, y in zip(one, played, strict=True))

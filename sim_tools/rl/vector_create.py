@@ -202,7 +202,7 @@ class CreateNavVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, num_envs)
         self._pipes: list[Connection] = []
         self._processes: list[Any] = []
-        #: Whether several workers still have to measure themselves (see :meth:`_measure`).
+        #: Whether several workers go on measuring themselves (see :meth:`_measure`).
         self.fallback = bool(fallback) and self.workers > 1
         self._timing = [0, 0.0, 0.0]  # steps measured, wall s of the steps, of this process's batch
         #: Why the workers were given up for this process (None: they were not).
@@ -287,7 +287,8 @@ class CreateNavVectorEnv(VectorEnv):
         return obs, rewards, terms, truncs, _join_infos([r[4] for r in results], sizes)
 
     def _measure(self, wall_s: float) -> None:
-        """Several workers against one process, measured on the first steps: this process's batch
+        """Several workers against one process, measured over every 40 steps (after 5 warm-up
+        steps) while they run: this process's batch
         stepped in ``_local_s`` of the step's ``wall_s``; one process would step them all in about
         ``_local_s × num_envs / batch size``. Slower with workers (on a loaded or small machine,
         or with cheap env steps, the pickling costs more than the parallel stepping gains): their
@@ -300,14 +301,16 @@ class CreateNavVectorEnv(VectorEnv):
         self._timing = [n, wall, local]
         if n < _WARMUP_STEPS + CALIBRATION_STEPS:
             return
-        self.fallback = False
         one_process = local * self.num_envs / self._sizes[0]
         if wall > one_process:
+            self.fallback = False
             self.fell_back = (
                 f"{self.workers} workers took {wall:.3f} s for {CALIBRATION_STEPS} steps, one process about "
                 f"{one_process:.3f} s: all {self.num_envs} envs now step in this process"
             )
             self._come_home()
+        else:  # faster for now: measured again over the next steps (the machine's load changes)
+            self._timing = [_WARMUP_STEPS, 0.0, 0.0]
 
     def _come_home(self) -> None:
         """Every worker's envs taken into this process; the workers closed."""
