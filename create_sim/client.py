@@ -214,7 +214,7 @@ class CreateRobot:
         self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
 
     # ------------------------------------------------------------ plumbing
-    def _store(self, topic: str, msg) -> None:
+    def _store(self, topic: str, msg: Any) -> None:
         with self._cond:
             self._latest[topic] = msg
             self._updates += 1
@@ -262,7 +262,7 @@ class CreateRobot:
                         f"(is create_world running in namespace {self.node.get_namespace()!r}?)"
                     )
 
-    def _msg(self, topic: str):
+    def _msg(self, topic: str) -> Any:
         self._wait_until(lambda: topic in self._latest, f"waiting for {topic}")
         return self._latest[topic]
 
@@ -337,7 +337,7 @@ class CreateRobot:
     def _odom_is(self, v: float, w: float) -> bool:
         """The newest odometry reports velocity (v, w)."""
         twist = self._latest["odom"].twist.twist
-        return abs(twist.linear.x - v) < 1e-6 and abs(twist.angular.z - w) < 1e-6
+        return bool(abs(twist.linear.x - v) < 1e-6 and abs(twist.angular.z - w) < 1e-6)
 
     def _await(self, done: Callable[[], bool], timeout: float) -> bool:
         """Wait up to ``timeout`` wall seconds for ``done()``, spinning in hosted mode; never raises."""
@@ -360,7 +360,7 @@ class CreateRobot:
     def __enter__(self) -> CreateRobot:
         return self
 
-    def __exit__(self, *_exc) -> None:
+    def __exit__(self, *_exc: object) -> None:
         self.close()
 
     # ------------------------------------------------------------ commands
@@ -502,7 +502,7 @@ class CreateRobot:
 
     # ------------------------------------------------------------ sensors
     def _detected(self, topic: str) -> bool:
-        return self._msg(topic).range == -math.inf
+        return bool(self._msg(topic).range == -math.inf)
 
     def bumps_wheel_drops(self) -> tuple[bool, bool, bool, bool, bool, bool]:
         """``BumpsWheelDropsSensorsRoomba``: (bump_right, bump_left, wheel_drop_right,

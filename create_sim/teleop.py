@@ -25,6 +25,7 @@ import sys
 import termios
 import time
 import tty
+from typing import Any, TextIO
 
 import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
@@ -83,7 +84,7 @@ def split_keys(data: bytes) -> list[bytes]:
 class TeleopNode(CheckedNode):
     """Publishes ``cmd_vel`` from key presses read from a terminal file descriptor."""
 
-    def __init__(self, node_name: str = "create_teleop", **node_kwargs) -> None:
+    def __init__(self, node_name: str = "create_teleop", **node_kwargs: Any) -> None:
         super().__init__(node_name, **node_kwargs)
         self.stamped = self.declare_checked(
             "cmd_vel_stamped", False, None, "publish geometry_msgs/TwistStamped instead of Twist"
@@ -134,7 +135,7 @@ class TeleopNode(CheckedNode):
         else:
             self.publisher.publish(twist)
 
-    def run(self, fd: int, out=sys.stdout) -> None:
+    def run(self, fd: int, out: TextIO = sys.stdout) -> None:
         """Read keys from terminal ``fd`` (switched to cbreak mode, restored on exit) until quit."""
         saved = termios.tcgetattr(fd)
         tty.setcbreak(fd)
@@ -171,7 +172,7 @@ class TeleopNode(CheckedNode):
                 time.sleep(STOP_GAP_S)
             self.publish()
 
-    def _show(self, out) -> None:
+    def _show(self, out: TextIO) -> None:
         v, w = self.velocity
         out.write(f"\rv = {v:+.1f} m/s   w = {w:+.1f} rad/s   ")
         out.flush()

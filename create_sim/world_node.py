@@ -19,15 +19,16 @@ from __future__ import annotations
 import math
 import os
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from typing import Any
 
 import numpy as np
-from builtin_interfaces.msg import Duration
+from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist, TwistStamped, Vector3
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.publisher import Publisher
+from rclpy.qos import QoSProfile
 from sensor_msgs.msg import BatteryState, Illuminance, JointState, Joy, LaserScan, Range
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
@@ -95,7 +96,7 @@ TWIST_RESOLUTION_VARIANCE = (_SPEED_STEP**2 / 12.0, 2.0 * _SPEED_STEP**2 / 12.0 
 class CreateWorldNode(SimWorldNode):
     """The simulated Create: parameters → :class:`CreateModel`, model state → messages."""
 
-    def __init__(self, node_name: str = "create_world", **node_kwargs) -> None:
+    def __init__(self, node_name: str = "create_world", **node_kwargs: Any) -> None:
         super().__init__(node_name, physics_rate=PHYSICS_RATE, **node_kwargs)
         try:
             self._declare_parameters()
@@ -291,7 +292,7 @@ class CreateWorldNode(SimWorldNode):
 
     # ---------------------------------------------------------------- topics
     def _make_publishers(self) -> None:
-        def pub(msg_type, topic: str, qos=SENSOR_PUBLISHER_QOS):
+        def pub(msg_type: Any, topic: str, qos: QoSProfile = SENSOR_PUBLISHER_QOS) -> Publisher:
             if qos is not SENSOR_PUBLISHER_QOS:
                 return self.create_publisher(msg_type, topic, qos)
             return create_sensor_publisher(self, msg_type, topic)
@@ -449,7 +450,7 @@ class CreateWorldNode(SimWorldNode):
             _, publisher, msg = queue.popleft()
             publisher.publish(msg)
 
-    def _message(self, publisher: Publisher):
+    def _message(self, publisher: Publisher) -> Any:
         """The message to fill for ``publisher``, its constant fields already set: one object reused
         for every publication (rclpy serialises on publish), or a fresh one while ``com_delay``
         holds messages back. Building messages is most of a world's cost at real_time_factor 0."""
@@ -571,7 +572,7 @@ class CreateWorldNode(SimWorldNode):
             ),
         }
 
-    def _publish_detections(self, publishers: list[Publisher], detected) -> None:
+    def _publish_detections(self, publishers: list[Publisher], detected: Sequence[bool] | np.ndarray) -> None:
         stamp = self.stamp()
         for publisher, hit in zip(publishers, detected, strict=True):
             msg = self._message(publisher)
@@ -690,7 +691,7 @@ class CreateWorldNode(SimWorldNode):
         half = 0.5 * WHEEL_BASE_M
         return (distance - half * turn) / WHEEL_RADIUS_M, (distance + half * turn) / WHEEL_RADIUS_M
 
-    def _publish_wheels(self, stamp) -> None:
+    def _publish_wheels(self, stamp: Time) -> None:
         """``joint_states`` of the two wheels: angles (:meth:`_wheel_angles`) and speeds (rad/s)."""
         v, w = (float(c) for c in self.model.velocity)
         half = 0.5 * WHEEL_BASE_M
@@ -802,7 +803,7 @@ def _segment_points(segments: np.ndarray, z: float = 0.0) -> list[Point]:
     return [Point(x=float(x), y=float(y), z=z) for x, y in segments.reshape(-1, 2)]
 
 
-def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], width: float, stamp) -> Marker:
+def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], width: float, stamp: Time) -> Marker:
     m = Marker(ns=ns, id=0, type=Marker.LINE_LIST, action=Marker.ADD, points=_segment_points(segments))
     m.header.frame_id = "map"
     m.header.stamp = stamp
@@ -812,7 +813,7 @@ def _line_list(ns: str, segments: np.ndarray, rgb: tuple[float, float, float], w
     return m
 
 
-def map_markers(create_map: CreateMap, stamp) -> MarkerArray:
+def map_markers(create_map: CreateMap, stamp: Time) -> MarkerArray:
     """RViz markers of a map: walls, floor lines, beacons with their ids, virtual-wall halos and fields.
 
     Namespaces (named in :mod:`create_sim.spec`): ``walls`` and ``lines`` (one LINE_LIST each),
