@@ -142,24 +142,29 @@ def warm_in_parallel(names: Sequence[str], jobs: int) -> list[str]:
 def export_cache(tree: Path, dest: Path) -> int:
     """Copy numba's cache entries of the packages under ``tree`` into the same places under
     ``dest`` (a build's ``lib`` folder), for the packages ``dest`` has: each index of this numba
-    version with the data files it names. The number of indexes copied."""
+    version and of the sources as they are (its stamp), with the data files it names. The number
+    of indexes copied."""
     import pickle
 
     import numba
 
+    from sim_runtime.numba_cache import source_stamp
+
     copied = 0
-    for index in sorted(tree.glob("**/__pycache__/*.nbi")):
+    tops = sorted(p.name for p in dest.iterdir() if (p / "__init__.py").is_file())
+    for index in sorted(index for top in tops for index in (tree / top).glob("**/__pycache__/*.nbi")):
         package = index.parent.parent.relative_to(tree)
-        if not (dest / package / "__init__.py").is_file():
-            continue  # not built (a test folder, the venv) or not a package
+        py_file = index.parent.parent / f"{index.name.split('.', 1)[0]}.py"
+        if not (dest / package / "__init__.py").is_file() or not py_file.is_file():
+            continue  # not built (a test folder) or not a package
         with index.open("rb") as f:
             if pickle.load(f) != numba.__version__:
                 continue
-            _stamp, overloads = pickle.loads(f.read())
-        target = dest / package / "__pycache__"
+            stamp, overloads = pickle.loads(f.read())
         data = [index.parent / name for name in overloads.values()]
-        if not overloads or not all(path.is_file() for path in data):
-            continue
+        if stamp != source_stamp(py_file) or not overloads or not all(path.is_file() for path in data):
+            continue  # stale: a kernel no warm-up compiled since its sources changed
+        target = dest / package / "__pycache__"
         target.mkdir(exist_ok=True)
         for path in [*data, index]:  # the index last: it names files already there
             shutil.copy2(path, target / path.name)
