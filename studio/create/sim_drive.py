@@ -208,6 +208,9 @@ class DrivePanel:
         """Hold or release the selected world (its live ``paused`` parameter)."""
         ns = self.tab.picked()
         if ns is None:
+            if e.value:  # nothing was paused: the switch must not say it was
+                self.pause_switch.set_value(False)
+                ui.notify("no robot selected", type="warning")
             return
         try:
             refused = await self.tab.ros.set_parameters(ns, {"paused": bool(e.value)})
