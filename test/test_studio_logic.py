@@ -310,7 +310,13 @@ def sleeper(tmp_path: Path, label: str, exit_after_s: float, clock: str = ""):
 
     code = (
         "import signal, sys, time\n"
-        f"signal.signal(signal.SIGINT, lambda *a: (time.sleep({exit_after_s!r}), sys.exit(0)))\n"
+        # Its stop's start and end on the machine-wide monotonic clock: tests compare children.
+        "def stop(*a):\n"
+        "    print('stopping', time.monotonic(), flush=True)\n"
+        f"    time.sleep({exit_after_s!r})\n"
+        "    print('stopped', time.monotonic(), flush=True)\n"
+        "    sys.exit(0)\n"
+        "signal.signal(signal.SIGINT, stop)\n"
         "print('ready', flush=True)\n"
         "while True: time.sleep(0.05)\n"
     )
@@ -383,11 +389,15 @@ def test_children_are_stopped_together_within_one_timeout(tmp_path):
     from studio.shell.processes import stop_all
 
     children = [sleeper(tmp_path, f"world {i}", 1.0) for i in range(5)]
-    started = time.monotonic()
-    stop_all(children, timeout=3.0)
-    took = time.monotonic() - started
-    assert [c.process.returncode for c in children] == [0] * 5
-    assert took < 2.5, f"five children that each take 1 s stopped in {took:.1f} s"
+    stop_all(children, timeout=10.0)  # one after another would still end in time: the stamps tell
+    assert [c.process.returncode for c in children] == [0] * 5  # none killed: each ended in the timeout
+    for child in children:
+        child.error_line()  # its last lines read
+    stamps = {what: [float(line.split()[1]) for c in children for line in c.output if line.startswith(what)]
+              for what in ("stopping ", "stopped ")}  # fmt: skip
+    # Together: every child had its SIGINT (and began its 1 s stop) before any had finished.
+    assert len(stamps["stopping "]) == len(stamps["stopped "]) == 5
+    assert max(stamps["stopping "]) < min(stamps["stopped "]), stamps
 
 
 def test_a_stuck_child_is_killed_when_the_timeout_runs_out(tmp_path):

@@ -21,6 +21,7 @@ import re
 import shutil
 import signal
 import threading
+import time
 from pathlib import Path
 
 from nicegui import ui
@@ -39,8 +40,6 @@ OCTAVE = "octave-cli"
 NO_OCTAVE = f"m-file programs need GNU Octave: {OCTAVE} not found (apt install octave octave-instrument-control)"
 BRIDGE_START_S = 30.0
 """How long Start waits for the bridge to listen (it imports rclpy: seconds on a loaded machine)."""
-OCTAVE_STOP_S = 1.0
-"""Octave's grace after SIGINT before SIGKILL (a program blocked in a socket read ignores SIGINT)."""
 BRIDGE_STOP_S = 5.0
 """The bridge's grace after SIGINT: it stops the robot (confirmed by odometry, at most 1 s) first."""
 OCTAVE_NOISE = ("error: called from", "error: ignoring const execution_exception")
@@ -150,16 +149,29 @@ class MatlabRun(Child):
         self.end_bridge()
 
     def wait(self, timeout: float) -> int | None:
-        """Octave's status once both it and the bridge ended (the bridge killed after ``timeout``)."""
-        status = super().wait(OCTAVE_STOP_S)
-        if self.bridge.wait(timeout) is None:
+        """Octave's status once both it and the bridge ended, within one shared ``timeout`` (the
+        bridge killed when it runs out); None while Octave still runs (its bridge serves it on).
+
+        Octave gets the caller's whole ``timeout``, not a fixed second: on a busy machine (load
+        20-40 on 2 cores) Octave takes seconds to start, run a short program and exit, and a
+        killed one seconds to be reaped, so a 1 s wait reported a program that was ending as
+        still running."""
+        deadline = time.monotonic() + timeout
+        status = super().wait(timeout)
+        if status is None:
+            return None
+        if self.bridge.wait(max(0.0, deadline - time.monotonic())) is None:
             self.bridge.process.kill()
             self.bridge.wait(2.0)
         return status
 
     def stop(self, timeout: float = BRIDGE_STOP_S) -> int | None:
         self.interrupt()
-        return self.wait(timeout)
+        status = self.wait(timeout)
+        if self.bridge.running:  # Octave not even reaped in time: the robot's server goes anyway
+            self.bridge.process.kill()
+            self.bridge.wait(2.0)
+        return status
 
 
 def program_path(workspace: Workspace, name: str) -> Path:
