@@ -121,9 +121,13 @@ def check_parameters(
             _check_name(fail, where, name, [declared[k]], [ep.controller["label"]], world)
             parameters[name] = _widened(parameters[name], [declared[k]], name)
     found = [declared[k] for k in working]
-    if working:
-        targets = [episodes[k].controller["label"] for k in working]
-        for name in grid_keys:
+    targets = [episodes[k].controller["label"] for k in working]
+    for name in grid_keys:
+        if checked.broken:
+            # a parameter only a broken controller would declare is no typo we can tell: the
+            # working ones are not swept over it (``applies``), the broken ones' rows are errors
+            _check_name(fail, f"grid.{name}", name, [None], targets[:1] or ["?"], world)
+        elif working:
             _check_name(fail, f"grid.{name}", name, found, targets, world)
     checked.grid_values = [
         [_widened(v, found, name) for v in values] for name, values in zip(grid_keys, grid_values, strict=True)
