@@ -26,6 +26,12 @@ BODY_HEIGHT_M = 0.07
 """Height of the body's top above the floor (the originals are 2-D; used for the 3-D frames only)."""
 WHEEL_BASE_M = 0.258
 """Distance between the wheels."""
+MAX_WHEEL_SPEED_MPS = 0.5
+"""Each wheel's speed limit (m/s): the model clamps each wheel to it on its own."""
+MAX_TURN_RATE_RADPS = 2.0 * MAX_WHEEL_SPEED_MPS / WHEEL_BASE_M
+"""Fastest turn (rad/s): spinning in place, the wheels at full speed in opposite directions."""
+LIDAR_BEAMS = 681
+"""Ranges in one LIDAR scan, from -120 degrees (index 0) counter-clockwise to +120 degrees."""
 CAMERA_OFFSET_M = 0.13
 """The camera sits this far ahead of the centre, looking forward."""
 IR_MOUNT_ANGLE_RAD = -0.225 * math.pi
@@ -102,6 +108,54 @@ def _sensor_mounts() -> dict[str, Mount]:
 
 SENSOR_MOUNTS: dict[str, Mount] = _sensor_mounts()
 """Sensor frame name (without the robot's prefix) → its mount on ``base_link``."""
+
+
+# ------------------------------------------------------------------------------ topics
+# Relative names: each resolves under the robot's namespace (``/<robot>/odom``); the world node
+# publishes them, the client, studio, learning envs and bridges subscribe to them.
+CMD_VEL_TOPIC = "cmd_vel"
+"""Velocity command (Twist, or TwistStamped with ``cmd_vel_stamped``)."""
+ODOM_TOPIC = "odom"
+"""Odometry (nav_msgs/Odometry); also the name of the odometry frame."""
+OVERHEAD_POSE_TOPIC = "overhead_pose"
+"""The true pose in the map (the original's overhead localisation), PoseStamped."""
+SCAN_TOPIC = "scan"
+"""LIDAR scan (LaserScan, ``LIDAR_BEAMS`` ranges)."""
+WALL_TOPIC = "wall"
+"""IR wall sensor (Range, -inf = wall seen)."""
+VIRTUAL_WALL_TOPIC = "virtual_wall"
+"""Virtual-wall receiver (Range, -inf = inside a halo or field)."""
+CAMERA_BEACONS_TOPIC = "camera/beacons"
+"""The camera's beacon sightings (MarkerArray)."""
+BUTTONS_TOPIC = "buttons"
+"""The Play and Advance buttons (Joy)."""
+BATTERY_TOPIC = "battery_state"
+"""Battery state (BatteryState)."""
+JOINT_STATES_TOPIC = "joint_states"
+"""The wheels' joint states (JointState)."""
+MAP_MARKERS_TOPIC = "map_markers"
+"""The map's latched MarkerArray (namespaces ``MAP_NAMESPACES``)."""
+MAP_TOPIC = "map"
+"""The map's walls as a latched OccupancyGrid."""
+SET_POSE_TOPIC = "set_pose"
+"""Moves the robot to a pose in the map (PoseStamped)."""
+BUMP_SIDES = ("left", "right")
+"""The bumpers (topics ``bump/<side>``)."""
+
+
+def bump_topic(side: str) -> str:
+    """Topic of one bumper (Range, -inf = pressed)."""
+    return f"bump/{side}"
+
+
+def cliff_topic(name: str) -> str:
+    """Topic of one cliff sensor of ``CLIFF_NAMES`` (Illuminance, the signal in %)."""
+    return f"cliff/{name}"
+
+
+def sonar_topic(name: str) -> str:
+    """Topic of one sonar of ``SONAR_NAMES`` (Range from the body's edge)."""
+    return f"sonar/{name}"
 
 
 # ------------------------------------------------------------------------------ rates
@@ -183,3 +237,9 @@ LINE_RGB = (0.2, 0.2, 0.9)
 """Colour (rgb 0..1) of the painted lines' markers."""
 VIRTUAL_WALL_RGBA = (0.0, 0.7, 0.0, 0.8)
 """Colour (rgba 0..1) of the virtual walls' halo and field markers."""
+
+
+def hex_colour(rgb: tuple[float, ...]) -> str:
+    """``#rrggbb`` of a colour above (alpha dropped), for the studio's SVG: it draws the map in
+    the same colours as the ROS markers and Rerun."""
+    return "#" + "".join(f"{round(min(max(c, 0.0), 1.0) * 255):02x}" for c in rgb[:3])
