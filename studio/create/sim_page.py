@@ -74,9 +74,8 @@ reload (the studio's own "last picked" is every tab's, so a reloaded tab took an
 
 def register(studio: Studio) -> None:
     @ui.page("/")
-    async def simulator_page() -> None:
-        page = SimulatorPage(studio)
-        await page.restore_choice()
+    def simulator_page() -> None:
+        SimulatorPage(studio)
 
 
 class SimulatorPage:
@@ -122,12 +121,12 @@ class SimulatorPage:
 
         ui.timer(FRAME_PERIOD_S, self.view.tick)
         ui.timer(0.5, self.slow_tick)
+        ui.timer(0.0, self.restore_choice, once=True)
 
     async def restore_choice(self) -> None:
         """The robot this tab picked before a reload (a new tab: the studio's last picked): until
         it is known the tab lists no robot, so no key press reaches another tab's robot."""
-        try:
-            await ui.context.client.connected(timeout=30.0)
+        try:  # run by a timer once the tab has connected
             stored = await ui.run_javascript(f"return sessionStorage.getItem({json.dumps(TAB_ROBOT_KEY)})")
         except TimeoutError:
             stored = None
