@@ -224,7 +224,8 @@ def main() -> int:
             prefix, site = install_copy(work, build_warmup=not opts.no_build_warmup)
             print(f"  installed in {time.monotonic() - t:.0f} s, {load()}")
             shutil.copytree(prefix, pristine, symlinks=True)
-        print(f"  numba cache shipped beside the installed sources: {shipped_cache(site)} kernels")
+        shipped = shipped_cache(site_packages(pristine))  # as installed, whatever a start added since
+        print(f"  numba cache shipped beside the installed sources: {shipped} kernels")
         for world in opts.worlds:
             for run in range(opts.repeat):
                 put_back(prefix, pristine)
