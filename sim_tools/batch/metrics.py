@@ -14,7 +14,7 @@ import inspect
 import math
 import sys
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -27,7 +27,7 @@ TIME_TO_SUFFIX = "_time_s"
 UNITS = {"_m": "m", "_m2": "m²", "_s": "s", "_rad": "rad", "_mps": "m/s"}
 
 
-def built_in(simulator: str) -> dict[str, Callable[..., Any]]:
+def built_in(simulator: str) -> Mapping[str, Callable[..., Any]]:
     """The built-in metrics of ``simulator`` by name (its adapter's ``METRICS``)."""
     return world_part(simulator).METRICS
 
@@ -120,7 +120,7 @@ def _check_options(
     options: dict[str, Any],
     where: str,
     fail: Callable[[str, str], Exception],
-    rules: dict[tuple[str, str], tuple[Callable[[Any], bool], str]],
+    rules: Mapping[tuple[str, str], tuple[Callable[[Any], bool], str]],
 ) -> None:
     """``options`` against ``function(data, **options)``'s signature, type hints and ``rules``."""
     try:
