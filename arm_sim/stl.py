@@ -68,7 +68,7 @@ def parse_stl(data: bytes, path: str | os.PathLike[str] = "<bytes>") -> np.ndarr
 
 
 @numba.njit(cache=True)
-def _copy_binary_vertices(buf, out_bytes, out_floats, count):
+def _copy_binary_vertices(buf: np.ndarray, out_bytes: np.ndarray, out_floats: np.ndarray, count: int) -> int:
     """Copy the 36 vertex bytes of every 50-byte record (one pass, no unaligned numpy path) and
     return the first triangle with a NaN/inf coordinate, or -1."""
     bad = -1
@@ -127,12 +127,12 @@ _POW10 = 10.0 ** np.arange(-60, 61)
 
 
 @numba.njit(cache=True, inline="always")
-def _is_space(c):
+def _is_space(c: int) -> bool:
     return c == 32 or c == 9 or c == 10 or c == 13 or c == 11 or c == 12
 
 
 @numba.njit(cache=True)
-def _parse_float(buf, i, pow10):
+def _parse_float(buf: np.ndarray, i: int, pow10: np.ndarray) -> tuple[float, int, bool]:
     """Parse a float at buf[i:] after skipping blanks; returns (value, next index, ok)."""
     n = buf.shape[0]
     while i < n and _is_space(buf[i]):
@@ -184,7 +184,7 @@ def _parse_float(buf, i, pow10):
 
 
 @numba.njit(cache=True)
-def _ascii_vertices_kernel(buf, out, word, pow10):
+def _ascii_vertices_kernel(buf: np.ndarray, out: np.ndarray, word: np.ndarray, pow10: np.ndarray) -> tuple[int, int]:
     n = buf.shape[0]
     count = 0
     i = 0

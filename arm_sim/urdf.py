@@ -34,7 +34,7 @@ as 0 (RViz, robot_state_publisher and MoveIt do not use it).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -161,7 +161,7 @@ def joint_transforms(tree: ArmTree, q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _joint_transforms_into(out, origins, prismatic, q):
+def _joint_transforms_into(out: np.ndarray, origins: np.ndarray, prismatic: np.ndarray, q: np.ndarray) -> None:
     """out[i] = origins[i] @ (Rz(q[i]) for a revolute joint, Tz(q[i]) for a prismatic one)."""
     out[:] = origins
     for i in range(q.shape[0]):
@@ -210,7 +210,7 @@ def rpy_from_matrix(R: np.ndarray) -> tuple[float, float, float]:
     return roll, pitch, yaw
 
 
-def _numbers(values) -> str:
+def _numbers(values: Iterable[float]) -> str:
     # repr gives the shortest text that reads back as the same double: no precision lost.
     return " ".join(repr(float(v) + 0.0) for v in values)
 

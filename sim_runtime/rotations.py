@@ -10,7 +10,7 @@ import numpy as np
 
 
 @numba.njit(cache=True)
-def quaternions_xyzw(frames):
+def quaternions_xyzw(frames: np.ndarray) -> np.ndarray:
     """Unit quaternions (m, 4) as x, y, z, w of the rotations of poses (m, 4, 4) (Shepperd)."""
     m = frames.shape[0]
     out = np.empty((m, 4))
