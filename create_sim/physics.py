@@ -43,7 +43,7 @@ MAX_SUBSTEPS = 1_000_000  # bounds one step's work whatever dt: 40 km of travel 
 
 
 @numba.njit(cache=True)
-def arc_motion(x, y, th, v, w, dt):
+def arc_motion(x: float, y: float, th: float, v: float, w: float, dt: float) -> tuple[float, float, float]:
     """Exact pose after driving at constant (v, ω) for dt (the original's driveNormal, sign fixed)."""
     dth = w * dt
     if abs(dth) < 1e-12:
@@ -69,7 +69,7 @@ def min_clearance(grid: SegmentGrid, px: float, py: float, radius: float, contac
 
 
 @numba.njit(cache=True)
-def _push_out(grid: SegmentGrid, px: float, py: float, radius: float, contacts: Contacts):
+def _push_out(grid: SegmentGrid, px: float, py: float, radius: float, contacts: Contacts) -> tuple[float, float, bool]:
     """Move the centre out of penetrating walls along their normals; returns (x, y, ok)."""
     segs = grid.segments
     for _ in range(16):
@@ -93,7 +93,18 @@ def _push_out(grid: SegmentGrid, px: float, py: float, radius: float, contacts: 
 
 
 @numba.njit(cache=True)
-def _substep(grid: SegmentGrid, x, y, th, v, w, h, radius, mu, contacts: Contacts):
+def _substep(
+    grid: SegmentGrid,
+    x: float,
+    y: float,
+    th: float,
+    v: float,
+    w: float,
+    h: float,
+    radius: float,
+    mu: float,
+    contacts: Contacts,
+) -> tuple[float, float, float]:
     n = grid_contacts(grid, x, y, radius + _TOUCH, contacts)
     hx = math.cos(th)
     hy = math.sin(th)
@@ -166,7 +177,9 @@ def _substep(grid: SegmentGrid, x, y, th, v, w, h, radius, mu, contacts: Contact
 
 
 @numba.njit(cache=True)
-def advance(grid: SegmentGrid, x, y, th, v, w, dt, radius, mu):
+def advance(
+    grid: SegmentGrid, x: float, y: float, th: float, v: float, w: float, dt: float, radius: float, mu: float
+) -> tuple[float, float, float]:
     """Pose (x, y, θ) after one physics step of dt at the intended (v, ω).
 
     Motion is cut into sub-steps of at most r/4 of travel, at most :data:`MAX_SUBSTEPS` of them
@@ -182,8 +195,23 @@ def advance(grid: SegmentGrid, x, y, th, v, w, dt, radius, mu):
 
 @numba.njit(cache=True)
 def advance_unpacked(
-    segments, origin_x_m, origin_y_m, cell_m, nx, ny, cell_start, cell_items, x, y, th, v, w, dt, radius, mu
-):
+    segments: np.ndarray,
+    origin_x_m: float,
+    origin_y_m: float,
+    cell_m: float,
+    nx: int,
+    ny: int,
+    cell_start: np.ndarray,
+    cell_items: np.ndarray,
+    x: float,
+    y: float,
+    th: float,
+    v: float,
+    w: float,
+    dt: float,
+    radius: float,
+    mu: float,
+) -> tuple[float, float, float]:
     """:func:`advance` with the grid's fields as arguments, ``advance_unpacked(*grid, …)``: the
     model's hot path. Numba works out a NamedTuple argument's type in Python on every call (about
     1 µs, more than a physics step's arithmetic); arrays and numbers it types in C."""
