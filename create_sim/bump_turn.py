@@ -19,6 +19,7 @@ from rclpy.context import Context
 from rclpy.node import Node
 from sensor_msgs.msg import Range
 
+from create_sim import spec
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
@@ -38,10 +39,10 @@ class BumpTurnNode(CheckedNode):
         super().__init__(node_name, **node_kwargs)
         seed = self.declare_checked("seed", 0, None, "seed of the random turn angles", bounds=(0, 2**63 - 1))
         self.rng = np.random.default_rng(seed)
-        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
+        self.cmd_pub = self.create_publisher(Twist, spec.CMD_VEL_TOPIC, COMMAND_PUBLISHER_QOS)
         self.pressed = {"left": False, "right": False}
         for side in self.pressed:
-            self.create_subscription(Range, f"bump/{side}", partial(self.on_bump, side), SENSOR_SUBSCRIBER_QOS)
+            self.create_subscription(Range, spec.bump_topic(side), partial(self.on_bump, side), SENSOR_SUBSCRIBER_QOS)
         self.state = "forward"
         self.state_end = 0.0  # sim time at which "back" or "turn" ends
         self.hit: set[str] = set()  # bumpers pressed since the last bump began

@@ -52,18 +52,20 @@ from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from visualization_msgs.msg import MarkerArray
 
+from create_sim import spec
 from sim_runtime.angles import wrap_angle
 from sim_runtime.msgs import time_from_msg, time_msg, yaw_from_quaternion
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
-MAX_WHEEL_SPEED = 0.5  # m/s
-WHEEL_BASE = 0.258  # m
-MAX_TURN_RATE = 2 * MAX_WHEEL_SPEED / WHEEL_BASE  # rad/s, wheels at full speed in opposite directions
+# The robot's limits, kept under the names programs and docs use.
+MAX_WHEEL_SPEED = spec.MAX_WHEEL_SPEED_MPS  # m/s
+WHEEL_BASE = spec.WHEEL_BASE_M  # m
+MAX_TURN_RATE = spec.MAX_TURN_RATE_RADPS  # rad/s, wheels at full speed in opposite directions
 TRAVEL_SPEED_RANGE = (0.025, 0.5)  # m/s, travelDist
 TURN_SPEED_RANGE = (0.025, 0.2)  # rad/s, turnAngle
 RADIUS_RANGE = (0.001, 2.0)  # m, SetFwdVelRadiusRoomba
 SONAR_NUMBERS = {1: "right", 2: "front", 3: "left", 4: "back"}  # the toolbox's ReadSonar numbering
-CLIFF_NAMES = ("left", "front_left", "front_right", "right")
+CLIFF_NAMES = spec.CLIFF_NAMES
 STOP_CONFIRM_TIMEOUT = 1.0  # s, wall: how long closing waits for the robot to report it has stopped
 
 # Standalone clients still open, stopped by SIGTERM before the process dies of it.
@@ -185,7 +187,9 @@ class CreateRobot:
         self._spin = spin or (lambda: rclpy.spin_once(node, timeout_sec=0.05))  # hosted mode only
         self._stamped = stamped
         self.commands_sent = 0  # velocity commands published
-        self._cmd_pub = node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
+        self._cmd_pub = node.create_publisher(
+            TwistStamped if stamped else Twist, spec.CMD_VEL_TOPIC, COMMAND_PUBLISHER_QOS
+        )
         self._subscribe()
         if self._thread:
             self._thread.start()
@@ -197,28 +201,27 @@ class CreateRobot:
 
     def _subscribe(self) -> None:
         topics: list[tuple[type, str]] = [
-            (Range, "bump/left"),
-            (Range, "bump/right"),
-            (Range, "wall"),
-            (Range, "virtual_wall"),
-            *((Illuminance, f"cliff/{n}") for n in CLIFF_NAMES),
-            *((Range, f"sonar/{n}") for n in SONAR_NUMBERS.values()),
-            (LaserScan, "scan"),
-            (MarkerArray, "camera/beacons"),
-            (PoseStamped, "overhead_pose"),
-            (Joy, "buttons"),
-            (BatteryState, "battery_state"),
+            *((Range, spec.bump_topic(side)) for side in spec.BUMP_SIDES),
+            (Range, spec.WALL_TOPIC),
+            (Range, spec.VIRTUAL_WALL_TOPIC),
+            *((Illuminance, spec.cliff_topic(n)) for n in CLIFF_NAMES),
+            *((Range, spec.sonar_topic(n)) for n in SONAR_NUMBERS.values()),
+            (LaserScan, spec.SCAN_TOPIC),
+            (MarkerArray, spec.CAMERA_BEACONS_TOPIC),
+            (PoseStamped, spec.OVERHEAD_POSE_TOPIC),
+            (Joy, spec.BUTTONS_TOPIC),
+            (BatteryState, spec.BATTERY_TOPIC),
         ]
         for msg_type, topic in topics:
             self.node.create_subscription(msg_type, topic, partial(self._store, topic), SENSOR_SUBSCRIBER_QOS)
-        self.node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        self.node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
 
     # ------------------------------------------------------------ plumbing
     def _store(self, topic: str, msg: Any) -> None:
         with self._cond:
             self._latest[topic] = msg
             self._updates += 1
-            if topic == "odom":
+            if topic == spec.ODOM_TOPIC:
                 self._odom_count += 1
             if hasattr(msg, "header"):
                 self._sim_time = max(self._sim_time, time_from_msg(msg.header.stamp))
@@ -240,7 +243,7 @@ class CreateRobot:
                     self._travelled += step
                     self._turned += turn
             self._odom_prev = (t, p.x, p.y, yaw)
-        self._store("odom", msg)
+        self._store(spec.ODOM_TOPIC, msg)
 
     def _wait_until(self, done: Callable[[], bool], what: str) -> None:
         with self._cond:
@@ -281,7 +284,7 @@ class CreateRobot:
     def pause(self, seconds: float) -> None:
         """Wait ``seconds`` of the robot's sim time (MATLAB ``pause`` for control loops)."""
         _check_finite(seconds=seconds)
-        self._msg("odom")
+        self._msg(spec.ODOM_TOPIC)
         end = self._sim_time + seconds
         self._wait_until(lambda: self._sim_time >= end - 1e-9, "pause")
 
@@ -336,7 +339,7 @@ class CreateRobot:
 
     def _odom_is(self, v: float, w: float) -> bool:
         """The newest odometry reports velocity (v, w)."""
-        twist = self._latest["odom"].twist.twist
+        twist = self._latest[spec.ODOM_TOPIC].twist.twist
         return bool(abs(twist.linear.x - v) < 1e-6 and abs(twist.angular.z - w) < 1e-6)
 
     def _await(self, done: Callable[[], bool], timeout: float) -> bool:
@@ -477,7 +480,7 @@ class CreateRobot:
     def _drive_until(
         self, v: float, w: float, goal: float, progress: Callable[[], float], timeout: float | None, what: str
     ) -> None:
-        self._msg("odom")
+        self._msg(spec.ODOM_TOPIC)
         if goal == 0.0:
             return
         deadline = math.inf if timeout is None else self._sim_time + timeout
@@ -507,20 +510,20 @@ class CreateRobot:
     def bumps_wheel_drops(self) -> tuple[bool, bool, bool, bool, bool, bool]:
         """``BumpsWheelDropsSensorsRoomba``: (bump_right, bump_left, wheel_drop_right,
         wheel_drop_left, wheel_drop_caster, bump_front). Both bumpers pressed reads as front only."""
-        left, right = self._detected("bump/left"), self._detected("bump/right")
+        left, right = (self._detected(spec.bump_topic(side)) for side in spec.BUMP_SIDES)
         front = left and right
         return (right and not front, left and not front, False, False, False, front)
 
     def wall_sensor(self) -> bool:
         """The IR wall sensor (front right, 0.1 m): True when a wall is there."""
-        return self._detected("wall")
+        return self._detected(spec.WALL_TOPIC)
 
     def virtual_wall_sensor(self) -> bool:
         """``VirtualWallSensorCreate``: True inside a virtual wall's halo or field."""
-        return self._detected("virtual_wall")
+        return self._detected(spec.VIRTUAL_WALL_TOPIC)
 
     def _cliff_strength(self, name: str) -> float:
-        return float(self._msg(f"cliff/{name}").illuminance)
+        return float(self._msg(spec.cliff_topic(name)).illuminance)
 
     def cliff_left_signal_strength(self) -> float:
         """``CliffLeftSignalStrengthRoomba``: percent (≈21.5 on floor, ≈1.5 over a line)."""
@@ -549,7 +552,7 @@ class CreateRobot:
         3 left or 4 back; ``None`` when nothing is in range (0.02–3 m)."""
         if sonar_num not in SONAR_NUMBERS:
             raise ValueError(f"sonar_num must be 1 (right), 2 (front), 3 (left) or 4 (back), got {sonar_num!r}")
-        value = self._msg(f"sonar/{SONAR_NUMBERS[sonar_num]}").range
+        value = self._msg(spec.sonar_topic(SONAR_NUMBERS[sonar_num])).range
         return float(value) if math.isfinite(value) else None
 
     def read_sonar_multiple(self, *sonar_nums: int) -> list[float | None]:
@@ -560,7 +563,7 @@ class CreateRobot:
     def lidar(self) -> np.ndarray:
         """``LidarSensorCreate``: 681 ranges (m), index 0 at −120° (right) counter-clockwise to +120°;
         ``inf`` = no return within 4 m."""
-        return np.asarray(self._msg("scan").ranges, dtype=np.float64)
+        return np.asarray(self._msg(spec.SCAN_TOPIC).ranges, dtype=np.float64)
 
     def camera(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``CameraSensorCreate``: (angles rad left-positive, distances m, colours N×3 RGB) of the
@@ -575,7 +578,7 @@ class CreateRobot:
     def beacons(self) -> list[tuple[str, float, float, tuple[float, float, float]]]:
         """Beacons in view as (id, distance m, angle rad, (r, g, b)); ids as written in the map."""
         out = []
-        for m in self._msg("camera/beacons").markers:
+        for m in self._msg(spec.CAMERA_BEACONS_TOPIC).markers:
             if m.action != m.ADD:
                 continue
             x, y = m.pose.position.x, m.pose.position.y
@@ -588,47 +591,47 @@ class CreateRobot:
 
     def overhead_localization(self) -> tuple[float, float, float]:
         """``OverheadLocalizationCreate``: exact (x, y, θ) in the map frame."""
-        pose = self._msg("overhead_pose").pose
+        pose = self._msg(spec.OVERHEAD_POSE_TOPIC).pose
         return pose.position.x, pose.position.y, yaw_from_quaternion(pose.orientation)
 
     def distance_sensor(self) -> float:
         """``DistanceSensorRoomba``: odometry distance (m) since the last call."""
-        self._msg("odom")
+        self._msg(spec.ODOM_TOPIC)
         with self._cond:
             value, self._distance_mark = self._travelled - self._distance_mark, self._travelled
         return value
 
     def angle_sensor(self) -> float:
         """``AngleSensorRoomba``: odometry turn (rad, CCW) since the last call."""
-        self._msg("odom")
+        self._msg(spec.ODOM_TOPIC)
         with self._cond:
             value, self._angle_mark = self._turned - self._angle_mark, self._turned
         return value
 
     def buttons(self) -> tuple[bool, bool]:
         """``ButtonsSensorRoomba``: (advance, play), in the toolbox's order."""
-        play, advance = self._msg("buttons").buttons[:2]
+        play, advance = self._msg(spec.BUTTONS_TOPIC).buttons[:2]
         return bool(advance), bool(play)
 
     def battery_charge(self) -> tuple[float, float, float]:
         """``BatteryChargeReaderRoomba``: (charge mAh, capacity mAh, percent)."""
-        msg = self._msg("battery_state")
+        msg = self._msg(spec.BATTERY_TOPIC)
         return msg.charge * 1000.0, msg.capacity * 1000.0, msg.percentage * 100.0
 
     def battery_voltage(self) -> float:
         """``BatteryVoltageRoomba``: volts."""
-        return float(self._msg("battery_state").voltage)
+        return float(self._msg(spec.BATTERY_TOPIC).voltage)
 
     def current_tester(self) -> float:
         """``CurrentTesterRoomba``: amperes (negative = discharging)."""
-        return float(self._msg("battery_state").current)
+        return float(self._msg(spec.BATTERY_TOPIC).current)
 
     def all_sensors_read(self) -> AllSensors:
         """``AllSensorsReadRoomba``: every basic sensor at once (distance and angle since last call)."""
         bump_right, bump_left, _, _, _, bump_front = self.bumps_wheel_drops()
         advance, play = self.buttons()
         charge, capacity, percent = self.battery_charge()
-        battery = self._msg("battery_state")
+        battery = self._msg(spec.BATTERY_TOPIC)
         return AllSensors(
             bump_right,
             bump_left,

@@ -29,6 +29,7 @@ from sensor_msgs.msg import BatteryState, Illuminance, Joy, LaserScan, Range
 from std_msgs.msg import String
 from visualization_msgs.msg import Marker, MarkerArray
 
+from create_sim import spec
 from create_sim.geometry import rasterise_walls
 from create_sim.mapfile import CreateMap, parse_map
 from create_sim.model import BeaconSighting, CreateModel
@@ -104,27 +105,27 @@ def world_topics(full: bool = False) -> dict[str, tuple[str, str]]:
     qos = qos_profiles_yaml([{}])
     extra = {
         "/robot_description": ("std_msgs/msg/String", latched),
-        "/map": ("nav_msgs/msg/OccupancyGrid", latched),
+        "/" + spec.MAP_TOPIC: ("nav_msgs/msg/OccupancyGrid", latched),
     }
     if TFMessage is not None:
         extra |= {"/tf": ("tf2_msgs/msg/TFMessage", qos), "/tf_static": ("tf2_msgs/msg/TFMessage", latched)}
     return {
         **(extra if full else {}),
-        "/map_markers": ("visualization_msgs/msg/MarkerArray", latched),
-        "/cmd_vel": ("geometry_msgs/msg/Twist", qos),
+        "/" + spec.MAP_MARKERS_TOPIC: ("visualization_msgs/msg/MarkerArray", latched),
+        "/" + spec.CMD_VEL_TOPIC: ("geometry_msgs/msg/Twist", qos),
         "/clock": ("rosgraph_msgs/msg/Clock", qos),
-        "/odom": ("nav_msgs/msg/Odometry", qos),
-        "/overhead_pose": ("geometry_msgs/msg/PoseStamped", qos),
-        "/bump/left": ("sensor_msgs/msg/Range", qos),
-        "/bump/right": ("sensor_msgs/msg/Range", qos),
-        "/wall": ("sensor_msgs/msg/Range", qos),
-        "/virtual_wall": ("sensor_msgs/msg/Range", qos),
-        **{f"/cliff/{n}": ("sensor_msgs/msg/Illuminance", qos) for n in CLIFF_NAMES},
-        **{f"/sonar/{n}": ("sensor_msgs/msg/Range", qos) for n in SONAR_NAMES},
-        "/scan": ("sensor_msgs/msg/LaserScan", qos),
-        "/camera/beacons": ("visualization_msgs/msg/MarkerArray", qos),
-        "/buttons": ("sensor_msgs/msg/Joy", qos),
-        "/battery_state": ("sensor_msgs/msg/BatteryState", qos),
+        "/" + spec.ODOM_TOPIC: ("nav_msgs/msg/Odometry", qos),
+        "/" + spec.OVERHEAD_POSE_TOPIC: ("geometry_msgs/msg/PoseStamped", qos),
+        "/" + spec.bump_topic("left"): ("sensor_msgs/msg/Range", qos),
+        "/" + spec.bump_topic("right"): ("sensor_msgs/msg/Range", qos),
+        "/" + spec.WALL_TOPIC: ("sensor_msgs/msg/Range", qos),
+        "/" + spec.VIRTUAL_WALL_TOPIC: ("sensor_msgs/msg/Range", qos),
+        **{"/" + spec.cliff_topic(n): ("sensor_msgs/msg/Illuminance", qos) for n in CLIFF_NAMES},
+        **{"/" + spec.sonar_topic(n): ("sensor_msgs/msg/Range", qos) for n in SONAR_NAMES},
+        "/" + spec.SCAN_TOPIC: ("sensor_msgs/msg/LaserScan", qos),
+        "/" + spec.CAMERA_BEACONS_TOPIC: ("visualization_msgs/msg/MarkerArray", qos),
+        "/" + spec.BUTTONS_TOPIC: ("sensor_msgs/msg/Joy", qos),
+        "/" + spec.BATTERY_TOPIC: ("sensor_msgs/msg/BatteryState", qos),
     }
 
 
@@ -163,7 +164,7 @@ def write_create_run(
         put = bag_topics(bag)
         write_latched(put, world, t0)
         model.set_velocity(*controller.command)
-        put("/cmd_vel", t0, twist_msg(*controller.command))
+        put("/" + spec.CMD_VEL_TOPIC, t0, twist_msg(*controller.command))
         for k in range(round(duration_s * PHYSICS_HZ) + 1):
             clock["now"] = k / PHYSICS_HZ
             if k:
@@ -178,7 +179,7 @@ def _drive(put: Put, model: CreateModel, controller: _BumpTurn, bumps: tuple[boo
     command = controller.update(bumps, k)
     if command != model.command:
         model.set_velocity(*command)
-        put("/cmd_vel", t_ns, twist_msg(*command))
+        put("/" + spec.CMD_VEL_TOPIC, t_ns, twist_msg(*command))
 
 
 def bag_topics(bag: BagWriter, *, full: bool = False) -> Put:
@@ -198,7 +199,7 @@ def write_latched(
     ``full``: also the sensor mounts, the robot description and the occupancy grid."""
     markers = map_markers(world, _stamp(t_ns))
     markers.markers.extend(extra_markers)
-    put("/map_markers", t_ns, markers)
+    put("/" + spec.MAP_MARKERS_TOPIC, t_ns, markers)
     if not full:
         return
     if TFMessage is not None:
@@ -209,7 +210,7 @@ def write_latched(
     put("/robot_description", t_ns, String(data=create_urdf("")))
     raster = rasterise_walls(world.walls, MAP_RESOLUTION_M)
     origin = (raster.origin_x_m, raster.origin_y_m)
-    put("/map", t_ns, occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, _stamp(t_ns)))
+    put("/" + spec.MAP_TOPIC, t_ns, occupancy_grid_msg(raster.occupied, raster.resolution_m, origin, _stamp(t_ns)))
 
 
 def write_due(
@@ -235,13 +236,13 @@ def write_due(
     if k % EVERY["sonar"] == 0:
         _sonar_messages(put, model, t_ns)
     if k % EVERY["scan"] == 0:
-        put("/scan", t_ns, _scan(model, t_ns))
+        put("/" + spec.SCAN_TOPIC, t_ns, _scan(model, t_ns))
     if k % EVERY["camera"] == 0:
-        put("/camera/beacons", t_ns, _camera(model, t_ns))
+        put("/" + spec.CAMERA_BEACONS_TOPIC, t_ns, _camera(model, t_ns))
     if k % EVERY["buttons"] == 0:
-        put("/buttons", t_ns, Joy(buttons=[0, 0]))
+        put("/" + spec.BUTTONS_TOPIC, t_ns, Joy(buttons=[0, 0]))
     if k % EVERY["battery"] == 0:
-        put("/battery_state", t_ns, BatteryState(voltage=CreateModel.BATTERY_VOLTAGE))
+        put("/" + spec.BATTERY_TOPIC, t_ns, BatteryState(voltage=CreateModel.BATTERY_VOLTAGE))
 
 
 def _odom_tf(model: Sensed, t_ns: int) -> object:
@@ -257,7 +258,7 @@ def _sonar_messages(put: Put, model: Sensed, t_ns: int) -> None:
     for name, value in zip(SONAR_NAMES, model.sonar().tolist(), strict=True):
         msg = Range(radiation_type=Range.ULTRASOUND, min_range=lo, max_range=hi, range=value)
         msg.header.stamp, msg.header.frame_id = _stamp(t_ns), f"sonar_{name}"
-        put(f"/sonar/{name}", t_ns, msg)
+        put("/" + spec.sonar_topic(name), t_ns, msg)
 
 
 def _scan(model: Sensed, t_ns: int) -> LaserScan:
@@ -299,16 +300,16 @@ def _state_messages(put: Put, model: Sensed, t_ns: int, bumps: tuple[bool, bool]
     odom.header.stamp, odom.header.frame_id = _stamp(t_ns), "odom"
     set_planar_pose(odom.pose.pose, *model.odometry_pose.tolist())
     odom.twist.twist.linear.x, odom.twist.twist.angular.z = model.velocity
-    put("/odom", t_ns, odom)
+    put("/" + spec.ODOM_TOPIC, t_ns, odom)
     pose = PoseStamped()
     pose.header.stamp, pose.header.frame_id = _stamp(t_ns), "map"
     set_planar_pose(pose.pose, *model.pose.tolist())
-    put("/overhead_pose", t_ns, pose)
-    put("/bump/left", t_ns, _detector(t_ns, "bump_left", bumps[0], Range.INFRARED))
-    put("/bump/right", t_ns, _detector(t_ns, "bump_right", bumps[1], Range.INFRARED))
-    put("/wall", t_ns, _detector(t_ns, "wall_ir", model.wall_sensor()))
-    put("/virtual_wall", t_ns, _detector(t_ns, "virtual_wall_ir", model.virtual_wall()))
+    put("/" + spec.OVERHEAD_POSE_TOPIC, t_ns, pose)
+    put("/" + spec.bump_topic("left"), t_ns, _detector(t_ns, "bump_left", bumps[0], Range.INFRARED))
+    put("/" + spec.bump_topic("right"), t_ns, _detector(t_ns, "bump_right", bumps[1], Range.INFRARED))
+    put("/" + spec.WALL_TOPIC, t_ns, _detector(t_ns, "wall_ir", model.wall_sensor()))
+    put("/" + spec.VIRTUAL_WALL_TOPIC, t_ns, _detector(t_ns, "virtual_wall_ir", model.virtual_wall()))
     for name, value in zip(CLIFF_NAMES, model.cliff_signals().tolist(), strict=True):
         msg = Illuminance(illuminance=value)
         msg.header.stamp, msg.header.frame_id = _stamp(t_ns), f"cliff_{name}"
-        put(f"/cliff/{name}", t_ns, msg)
+        put("/" + spec.cliff_topic(name), t_ns, msg)

@@ -30,6 +30,7 @@ from typing import Any, TextIO
 import rclpy
 from geometry_msgs.msg import Twist, TwistStamped
 
+from create_sim import spec
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
 
@@ -98,7 +99,7 @@ class TeleopNode(CheckedNode):
             bounds=(0.0, 1000.0),
         )
         msg_type = TwistStamped if self.stamped else Twist
-        self.publisher = self.create_publisher(msg_type, "cmd_vel", COMMAND_PUBLISHER_QOS)
+        self.publisher = self.create_publisher(msg_type, spec.CMD_VEL_TOPIC, COMMAND_PUBLISHER_QOS)
         self.linear_steps = 0
         self.angular_steps = 0
 

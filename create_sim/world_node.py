@@ -34,6 +34,7 @@ from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
+from create_sim import spec
 from create_sim.configfile import NoiseConfig, load_config
 from create_sim.geometry import MAX_MAP_CELLS, WALL_THICKNESS_M, rasterise_walls
 from create_sim.mapfile import CreateMap, load_map
@@ -297,20 +298,20 @@ class CreateWorldNode(SimWorldNode):
                 return self.create_publisher(msg_type, topic, qos)
             return create_sensor_publisher(self, msg_type, topic)
 
-        self.pub_odom = pub(Odometry, "odom")
-        self.pub_overhead = pub(PoseStamped, "overhead_pose")
-        self.pub_bump = [pub(Range, f"bump/{side}") for side in ("left", "right")]
-        self.pub_wall = pub(Range, "wall")
-        self.pub_virtual_wall = pub(Range, "virtual_wall")
-        self.pub_cliff = [pub(Illuminance, f"cliff/{n}") for n in CLIFF_NAMES]
-        self.pub_sonar = [pub(Range, f"sonar/{n}") for n in SONAR_NAMES]
-        self.pub_scan = pub(LaserScan, "scan")
-        self.pub_camera = pub(MarkerArray, "camera/beacons")
-        self.pub_buttons = pub(Joy, "buttons")
-        self.pub_battery = pub(BatteryState, "battery_state")
-        self.pub_joints = pub(JointState, "joint_states")
-        self.pub_map_markers = pub(MarkerArray, "map_markers", LATCHED_QOS)
-        self.pub_map = pub(OccupancyGrid, "map", LATCHED_QOS)
+        self.pub_odom = pub(Odometry, spec.ODOM_TOPIC)
+        self.pub_overhead = pub(PoseStamped, spec.OVERHEAD_POSE_TOPIC)
+        self.pub_bump = [pub(Range, spec.bump_topic(side)) for side in spec.BUMP_SIDES]
+        self.pub_wall = pub(Range, spec.WALL_TOPIC)
+        self.pub_virtual_wall = pub(Range, spec.VIRTUAL_WALL_TOPIC)
+        self.pub_cliff = [pub(Illuminance, spec.cliff_topic(n)) for n in CLIFF_NAMES]
+        self.pub_sonar = [pub(Range, spec.sonar_topic(n)) for n in SONAR_NAMES]
+        self.pub_scan = pub(LaserScan, spec.SCAN_TOPIC)
+        self.pub_camera = pub(MarkerArray, spec.CAMERA_BEACONS_TOPIC)
+        self.pub_buttons = pub(Joy, spec.BUTTONS_TOPIC)
+        self.pub_battery = pub(BatteryState, spec.BATTERY_TOPIC)
+        self.pub_joints = pub(JointState, spec.JOINT_STATES_TOPIC)
+        self.pub_map_markers = pub(MarkerArray, spec.MAP_MARKERS_TOPIC, LATCHED_QOS)
+        self.pub_map = pub(OccupancyGrid, spec.MAP_TOPIC, LATCHED_QOS)
         self._map_published = False  # whether pub_map holds a latched grid
         self._make_templates()
 
@@ -361,10 +362,10 @@ class CreateWorldNode(SimWorldNode):
 
     def _make_inputs(self) -> None:
         if self.cmd_vel_stamped:
-            create_command_subscription(self, TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
+            create_command_subscription(self, TwistStamped, spec.CMD_VEL_TOPIC, self._on_cmd_vel_stamped)
         else:
-            create_command_subscription(self, Twist, "cmd_vel", self._on_cmd_vel)
-        create_command_subscription(self, PoseStamped, "set_pose", self._on_set_pose)
+            create_command_subscription(self, Twist, spec.CMD_VEL_TOPIC, self._on_cmd_vel)
+        create_command_subscription(self, PoseStamped, spec.SET_POSE_TOPIC, self._on_set_pose)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
         self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))

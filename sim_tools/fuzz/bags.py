@@ -15,7 +15,7 @@ from typing import Any
 
 import yaml
 
-from create_sim.spec import WALLS_NS
+from create_sim.spec import MAP_MARKERS_TOPIC, WALLS_NS
 from sim_tools.fuzz.corpus import Seeds
 from sim_tools.fuzz.nodes import ensure_ros
 from sim_tools.fuzz_kit import Case, Defect, mutated_yaml
@@ -61,7 +61,7 @@ def _seed_plans() -> dict[str, list[tuple[str, str, Any, str]]]:
     latched = qos_profiles_yaml([{"durability": "transient_local", "history": "keep_last", "depth": 1}])
     return {
         "create_run": [
-            ("/map_markers", "visualization_msgs/msg/MarkerArray", m["markers"], latched),
+            ("/" + MAP_MARKERS_TOPIC, "visualization_msgs/msg/MarkerArray", m["markers"], latched),
             ("/create/overhead_pose", "geometry_msgs/msg/PoseStamped", None, qos),
             ("/create/odom", "nav_msgs/msg/Odometry", m["odom"], qos),
             ("/create/scan", "sensor_msgs/msg/LaserScan", m["scan"], qos),

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from create_sim.spec import OVERHEAD_POSE_TOPIC
 from sim_runtime.bag.reader import CorruptMessage, UnknownMessageType, open_bag
 from sim_runtime.errors import InputError
 
@@ -229,7 +230,7 @@ def bag_to_mat(bag_path: str | Path, output: str | Path | None = None, topics: I
         data[name] = table.struct()
         listing[i] = (name, table.topic, table.type)
     data["topics"] = listing
-    ground_truth = [t for t in tables if t.topic.rpartition("/")[2] == "overhead_pose"]
+    ground_truth = [t for t in tables if t.topic.rpartition("/")[2] == OVERHEAD_POSE_TOPIC]
     if len(ground_truth) == 1:
         namespace = ground_truth[0].topic.rpartition("/")[0]
         calls = next((t for t in tables if t.topic == f"{namespace}/matlab_calls"), None)

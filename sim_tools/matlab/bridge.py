@@ -74,6 +74,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import String
 
+from create_sim import spec
 from create_sim.client import STOP_CONFIRM_TIMEOUT, CreateRobot
 from sim_runtime.errors import InputError
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
@@ -260,9 +261,9 @@ class MatlabBridge:
         self._odom: Odometry | None = None
         self._odom_time = 0.0  # monotonic, when it came
         self._world_answered = 0.0  # monotonic, when the world last answered a probe
-        self._odom_topic = node.resolve_topic_name("odom")
+        self._odom_topic = node.resolve_topic_name(spec.ODOM_TOPIC)
         self._probes: dict[str, Client] = {}
-        node.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUBSCRIBER_QOS)
+        node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self._calls = node.create_publisher(String, "matlab_calls", 100)
         self.robot = CreateRobot(node=node, spin=self._spin)
         self._busy = threading.Lock()

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from create_sim import spec
 from create_sim.client import CreateRobot
 from create_sim.model import CreateModel
 
@@ -131,7 +132,7 @@ def _real_sense_tag(robot: CreateRobot) -> list[Any]:
     beacons = robot.beacons()
     if not beacons:
         return [[]]
-    age = robot.reading_age("camera/beacons")
+    age = robot.reading_age(spec.CAMERA_BEACONS_TOPIC)
     return [[[age, tag_number(i), d * math.cos(a), d * math.sin(a), 0.0] for i, d, a, _c in beacons]]
 
 
@@ -146,7 +147,7 @@ def depths(ranges: np.ndarray) -> list[float]:
 
 def _real_sense_dist(robot: CreateRobot) -> list[Any]:
     """[dt; 9 depths], a column: dt the reading's age (s)."""
-    return [[robot.reading_age("scan"), *depths(robot.lidar())]]
+    return [[robot.reading_age(spec.SCAN_TOPIC), *depths(robot.lidar())]]
 
 
 def _demo(robot: CreateRobot, number: float) -> list[Any]:

@@ -70,7 +70,7 @@ START_MARGIN_M = 0.1
 #: Random draws of a start and goal before giving up (a map with no room for a fair pair).
 MAX_DRAWS = 100
 GOAL_COLOR = (0.1, 0.8, 0.2)  # the goal region on the recorded bags' /map_markers
-MAX_W = 2.0 * CreateModel.MAX_WHEEL_SPEED / CreateModel.WHEEL_BASE  # spinning in place
+MAX_W = spec.MAX_TURN_RATE_RADPS  # spinning in place
 #: A wall within a control period's travel plus this (m: the contact reach and the physics' push-out
 #: slack) is checked for contact after every physics step.
 _CHECK_MARGIN_M = CreateModel.CONTACT_M + 1e-6

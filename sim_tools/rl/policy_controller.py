@@ -30,6 +30,7 @@ from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import Illuminance, LaserScan, Range
 
+from create_sim import spec
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import time_from_msg, yaw_from_quaternion
@@ -73,7 +74,7 @@ class PolicyControllerNode(CheckedNode):
             None,
             "stop (send [0, 0] every control period) once odometry puts the robot in the goal region",
         )
-        self.cmd_pub = self.create_publisher(Twist, "cmd_vel", COMMAND_PUBLISHER_QOS)
+        self.cmd_pub = self.create_publisher(Twist, spec.CMD_VEL_TOPIC, COMMAND_PUBLISHER_QOS)
         if self.describe_only:
             return
         self.policy = _checked_policy(path)
@@ -102,20 +103,20 @@ class PolicyControllerNode(CheckedNode):
     def _subscribe(self) -> None:
         sub = partial(self.create_subscription, qos_profile=SENSOR_SUBSCRIBER_QOS)
         self._track("goal", 1)  # the odometry pose is the goal part's reading
-        sub(Odometry, "odom", self.on_odom)
-        sub(PoseStamped, "overhead_pose", self.on_truth)
+        sub(Odometry, spec.ODOM_TOPIC, self.on_odom)
+        sub(PoseStamped, spec.OVERHEAD_POSE_TOPIC, self.on_truth)
         if "lidar" in self.sensors:
             self._track("lidar", 1)
-            sub(LaserScan, "scan", self.on_scan)
+            sub(LaserScan, spec.SCAN_TOPIC, self.on_scan)
         for part, names, msg_type, topic in (
-            ("sonar", SONAR_NAMES, Range, "sonar"),
-            ("bump", ("left", "right"), Range, "bump"),
-            ("cliff", CLIFF_NAMES, Illuminance, "cliff"),
+            ("sonar", SONAR_NAMES, Range, spec.sonar_topic),
+            ("bump", spec.BUMP_SIDES, Range, spec.bump_topic),
+            ("cliff", CLIFF_NAMES, Illuminance, spec.cliff_topic),
         ):
             if part in self.sensors:
                 self._track(part, len(names))
                 for i, name in enumerate(names):
-                    sub(msg_type, f"{topic}/{name}", partial(self.on_reading, part, i))
+                    sub(msg_type, topic(name), partial(self.on_reading, part, i))
 
     def _track(self, part: str, topics: int) -> None:
         self.raw[part] = np.full(topics, np.nan)

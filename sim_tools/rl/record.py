@@ -34,6 +34,7 @@ import yaml
 from geometry_msgs.msg import Point
 from visualization_msgs.msg import Marker
 
+from create_sim import spec
 from create_sim.model import BeaconSighting, CreateModel
 from create_sim.synthetic_run import PHYSICS_HZ, STEP_NS, bag_topics, twist_msg, write_due, write_latched
 from sim_runtime.bag.writer import BagWriter
@@ -165,7 +166,7 @@ class _EpisodeBag:
 
     def before_step(self, action: Any) -> None:
         """The action as a controller's ``cmd_vel``, at the start of the control period it drives."""
-        self.put("/cmd_vel", self.k * STEP_NS, twist_msg(float(action[0]), float(action[1])))
+        self.put("/" + spec.CMD_VEL_TOPIC, self.k * STEP_NS, twist_msg(float(action[0]), float(action[1])))
 
     def after_step(self, _action: Any, reward: float) -> None:
         self.summary["return"] += reward  # the messages were written at each physics step

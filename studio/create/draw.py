@@ -15,18 +15,23 @@ from create_sim.mapfile import CreateMap
 from create_sim.model import CreateModel
 from create_sim.spec import (
     CLIFF_NAMES,
+    LINE_RGB,
     RADIUS_M,
     SENSOR_MOUNTS,
     SONAR_NAMES,
+    VIRTUAL_WALL_RGBA,
     VWALL_HALO_M,
+    WALL_RGB,
     cliff_active,
+    hex_colour,
     virtual_wall_field,
 )
 from studio.shell.svg import View, fmt, points, rgb_hex
 
-WALL_COLOUR = "#222"
-LINE_COLOUR = "#2a4fd8"
-VWALL_COLOUR = "#12a012"
+# The map in the colours of its ROS markers and Rerun view.
+WALL_COLOUR = hex_colour(WALL_RGB)
+LINE_COLOUR = hex_colour(LINE_RGB)
+VWALL_COLOUR = hex_colour(VIRTUAL_WALL_RGBA)
 
 
 def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra: str = "") -> str:

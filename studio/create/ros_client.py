@@ -25,6 +25,7 @@ from sensor_msgs.msg import Illuminance, LaserScan, Range
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
+from create_sim import spec
 from create_sim.mapfile import CreateMap
 from create_sim.spec import (
     BEACONS_NS,
@@ -126,27 +127,29 @@ class _Robot:
         s = self.state
         sub, q = node.create_subscription, ANY_PUBLISHER_QOS
         self.subs = [
-            sub(PoseStamped, s.topic("overhead_pose"), self._on_pose, q),
-            sub(Odometry, s.topic("odom"), self._on_odom, q),
-            sub(LaserScan, s.topic("scan"), self._on_scan, q),
-            sub(Range, s.topic("wall"), self._on_wall, q),
-            sub(Range, s.topic("virtual_wall"), self._on_virtual_wall, q),
-            sub(Range, s.topic("bump/left"), lambda m: self._on_bump(0, m), q),
-            sub(Range, s.topic("bump/right"), lambda m: self._on_bump(1, m), q),
-            sub(MarkerArray, s.topic("camera/beacons"), self._on_camera, q),
-            sub(MarkerArray, s.topic("map_markers"), self._on_map, LATCHED_QOS),
+            sub(PoseStamped, s.topic(spec.OVERHEAD_POSE_TOPIC), self._on_pose, q),
+            sub(Odometry, s.topic(spec.ODOM_TOPIC), self._on_odom, q),
+            sub(LaserScan, s.topic(spec.SCAN_TOPIC), self._on_scan, q),
+            sub(Range, s.topic(spec.WALL_TOPIC), self._on_wall, q),
+            sub(Range, s.topic(spec.VIRTUAL_WALL_TOPIC), self._on_virtual_wall, q),
+            *(
+                sub(Range, s.topic(spec.bump_topic(side)), partial(self._on_bump, i), q)
+                for i, side in enumerate(spec.BUMP_SIDES)
+            ),
+            sub(MarkerArray, s.topic(spec.CAMERA_BEACONS_TOPIC), self._on_camera, q),
+            sub(MarkerArray, s.topic(spec.MAP_MARKERS_TOPIC), self._on_map, LATCHED_QOS),
         ]
         for name in SONAR_NAMES:
-            self.subs.append(sub(Range, s.topic(f"sonar/{name}"), partial(self._on_sonar, name), q))
+            self.subs.append(sub(Range, s.topic(spec.sonar_topic(name)), partial(self._on_sonar, name), q))
         for name in CLIFF_NAMES:
-            self.subs.append(sub(Illuminance, s.topic(f"cliff/{name}"), partial(self._on_cliff, name), q))
+            self.subs.append(sub(Illuminance, s.topic(spec.cliff_topic(name)), partial(self._on_cliff, name), q))
         # Every tab, teleop and controller commands the same world: the speed steps start from
         # its last command, whoever sent it.
         # Reliable, as the world listens: a best-effort reader loses a one-shot command from a
         # publisher it has not matched yet (the world would hear a stop the label never shows).
-        self.subs.append(sub(Twist, s.topic("cmd_vel"), self._on_command, COMMAND_SUBSCRIBER_QOS))
-        self.cmd_vel = node.create_publisher(Twist, s.topic("cmd_vel"), COMMAND_PUBLISHER_QOS)
-        self.set_pose = node.create_publisher(PoseStamped, s.topic("set_pose"), COMMAND_PUBLISHER_QOS)
+        self.subs.append(sub(Twist, s.topic(spec.CMD_VEL_TOPIC), self._on_command, COMMAND_SUBSCRIBER_QOS))
+        self.cmd_vel = node.create_publisher(Twist, s.topic(spec.CMD_VEL_TOPIC), COMMAND_PUBLISHER_QOS)
+        self.set_pose = node.create_publisher(PoseStamped, s.topic(spec.SET_POSE_TOPIC), COMMAND_PUBLISHER_QOS)
         self.reset = node.create_client(Trigger, s.topic("reset"))
         self.step = node.create_client(Trigger, s.topic("step"))
         self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
@@ -224,14 +227,14 @@ class CreateRos(StudioRos):
         now = time.monotonic()
         for ns, robot in list(self._robots.items()):
             if (
-                self.node.count_publishers(robot.state.topic("overhead_pose")) == 0
+                self.node.count_publishers(robot.state.topic(spec.OVERHEAD_POSE_TOPIC)) == 0
                 and now - robot.state.last_heard > 2.0
             ):
                 print(f"studio: the world in {ns or '/'} has gone", flush=True)
                 robot.destroy(self.node)
                 del self._robots[ns]
                 self.robots = {k: v for k, v in self.robots.items() if k != ns}
-        for ns, info in new_worlds(self.node, "overhead_pose", POSE_TYPE, self._robots):
+        for ns, info in new_worlds(self.node, spec.OVERHEAD_POSE_TOPIC, POSE_TYPE, self._robots):
             node_name = node_full_name(info)
             robot = _Robot(self.node, ns, node_name)
             print(f"studio: following the world in {ns or '/'} (node {node_name})", flush=True)

@@ -23,6 +23,7 @@ import numpy as np
 from nav_msgs.msg import OccupancyGrid
 from visualization_msgs.msg import MarkerArray
 
+from create_sim import spec
 from create_sim.mapfile import CreateMap
 from create_sim.spec import CLIFF_NAMES, MAP_NAMESPACES, SONAR_NAMES
 from sim_runtime.bag.cdr import track_positions
@@ -61,7 +62,7 @@ def is_world_topic(topic: str, kind: str) -> bool:
     """Whether ``topic`` is a world's own (not a robot's): a Create map, a SIMROBOT occupancy grid
     or robot outlines. Its namespace is the world's."""
     name = basename(topic)
-    return name == "map_markers" or kind == GRID or (name == ROBOTS_TOPIC and kind == MARKERS)
+    return name == spec.MAP_MARKERS_TOPIC or kind == GRID or (name == ROBOTS_TOPIC and kind == MARKERS)
 
 
 def in_world(topic: str, world: str | None) -> bool:
@@ -202,9 +203,11 @@ class Replay:
         self.end_ns = index.end_ns
         topics = index.topics
         self.robots: list[Robot] = []
-        poses = sorted(t for t, kind in topics.items() if kind == POSE and basename(t) in ("overhead_pose", "pose"))
+        poses = sorted(
+            t for t, kind in topics.items() if kind == POSE and basename(t) in (spec.OVERHEAD_POSE_TOPIC, "pose")
+        )
         for topic in poses:
-            kind = "create" if basename(topic) == "overhead_pose" else "simrobot"
+            kind = "create" if basename(topic) == spec.OVERHEAD_POSE_TOPIC else "simrobot"
             self.robots.append(Robot(namespace(topic), kind, topic))
         with_pose = {r.ns for r in self.robots}
         for topic in sorted(t for t, kind in topics.items() if kind == ODOM and basename(t) == "odom"):
@@ -252,7 +255,7 @@ class Replay:
         """Whether anything is drawn on the map view (robots, a Create map, an occupancy grid)."""
         topics = self.index.topics
         return bool(self.robots) or any(
-            basename(t) == "map_markers" or kind == "nav_msgs/msg/OccupancyGrid" for t, kind in topics.items()
+            basename(t) == spec.MAP_MARKERS_TOPIC or kind == "nav_msgs/msg/OccupancyGrid" for t, kind in topics.items()
         )
 
     @property
@@ -367,7 +370,7 @@ class Replay:
             (topic, (t_ns - m.log_time_ns) / 1e9, summary(m.type, decoded[topic])) for topic, m in sorted(state.items())
         ]
         create_map, extras = None, None
-        markers = [t for t in state if basename(t) == "map_markers" and in_world(t, world)]
+        markers = [t for t in state if basename(t) == spec.MAP_MARKERS_TOPIC and in_world(t, world)]
         if markers:
             create_map, extras = self._create_map(state[markers[0]], decoded[markers[0]])
         grids = [t for t, kind in index.topics.items() if kind == GRID and t in decoded and in_world(t, world)]
@@ -440,24 +443,24 @@ class Replay:
         rf.crashed = bool(crashed is not None and getattr(crashed, "data", False))
         if robot.kind != "create":
             return rf
-        scan = decoded.get(robot.topic("scan"))
+        scan = decoded.get(robot.topic(spec.SCAN_TOPIC))
         if scan is not None:
             rf.scan = (scan.angle_min, scan.angle_increment, np.asarray(scan.ranges, dtype=np.float32))
             rf.scan_stamp = scan.header.stamp.sec + 1e-9 * scan.header.stamp.nanosec
         for name in SONAR_NAMES:
-            sonar = decoded.get(robot.topic(f"sonar/{name}"))
+            sonar = decoded.get(robot.topic(spec.sonar_topic(name)))
             if sonar is not None:
                 rf.sonar[name] = sonar.range
         for name in CLIFF_NAMES:
-            cliff = decoded.get(robot.topic(f"cliff/{name}"))
+            cliff = decoded.get(robot.topic(spec.cliff_topic(name)))
             if cliff is not None:
                 rf.cliffs[name] = cliff.illuminance
-        wall = decoded.get(robot.topic("wall"))
+        wall = decoded.get(robot.topic(spec.WALL_TOPIC))
         rf.wall = None if wall is None else wall.range == -math.inf
-        left, right = decoded.get(robot.topic("bump/left")), decoded.get(robot.topic("bump/right"))
+        left, right = (decoded.get(robot.topic(spec.bump_topic(side))) for side in spec.BUMP_SIDES)
         if left is not None and right is not None:
             rf.bumps = (left.range == -math.inf, right.range == -math.inf)
-        camera = decoded.get(robot.topic("camera/beacons"))
+        camera = decoded.get(robot.topic(spec.CAMERA_BEACONS_TOPIC))
         if camera is not None:
             rf.sightings = [(mk.pose.position.x, mk.pose.position.y, mk.text) for mk in camera.markers]
         return rf

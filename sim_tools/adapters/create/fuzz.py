@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from create_sim import spec
 from sim_runtime.paths import config_path
 from sim_tools.adapters.create.world import NODE_EXECUTABLES
 from sim_tools.fuzz_kit import Case, Defect, check_finite, mutated_text
@@ -84,7 +85,7 @@ def _check_state(robot) -> None:
     check_finite(robot.pose, "Create pose")
     check_finite(robot.odometry_pose, "Create odometry")
     scan = robot.lidar()
-    if np.isnan(scan).any() or scan.shape != (681,):
+    if np.isnan(scan).any() or scan.shape != (spec.LIDAR_BEAMS,):
         raise Defect(f"LIDAR scan has NaN or shape {scan.shape}")
     if np.isnan(robot.sonar()).any() or np.isnan(robot.cliff_signals()).any():
         raise Defect("sonar or cliff reading is NaN")

@@ -18,9 +18,9 @@ from sim_tools.rerun_kit.drawer import Drawer
 from sim_tools.rerun_kit.ros import basename, namespace
 from sim_tools.rerun_kit.tf import Mount
 
-TRUTH_TOPIC = "overhead_pose"
+TRUTH_TOPIC = spec.OVERHEAD_POSE_TOPIC
 """The overhead camera's pose: ground truth, and what marks a namespace as a Create's."""
-MAP_TOPIC = "map_markers"
+MAP_TOPIC = spec.MAP_MARKERS_TOPIC
 OCCUPIED_UNDER_LINES = 175
 """Grey of the grid map's occupied cells under the map's exact walls: the cells a planner sees."""
 
@@ -77,7 +77,7 @@ class CreateDrawing(SimulatorDrawing):
     def legend_lines(self, topics: Mapping[str, str]) -> list[tuple[int, str]]:
         leaves = {basename(t) for t in topics}
         has_map = MAP_TOPIC in leaves
-        bumpers = any("/bump/" in f"/{t.strip('/')}/" for t in topics)
+        bumpers = any(f"/{spec.bump_topic(side)}" in t for t in topics for side in spec.BUMP_SIDES)
         grid_under_lines = has_map and "nav_msgs/msg/OccupancyGrid" in set(topics.values())
         lines = [
             (10, has_map, "- blue lines: painted lines; coloured dots: beacons with their id"),
