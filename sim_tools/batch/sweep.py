@@ -39,7 +39,7 @@ import itertools
 import math
 import os
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -304,7 +304,7 @@ def load_sweep(
     being tried (their check crashed a process before); ``stage`` is told which controller's code
     is about to run."""
     from sim_tools.batch.metrics import check_metrics
-    from sim_tools.batch.precheck import Refused, check_sweep, check_world_files
+    from sim_tools.batch.precheck import check_sweep, check_world_files
 
     source = Path(path)
     r = _Reader(source)
@@ -313,12 +313,7 @@ def load_sweep(
     raw_controllers = r.listing(_one_or_many(r, data, "controller"), "controllers")
     controllers = [_controller(r, c, f"controllers[{k}]", simulator) for k, c in enumerate(raw_controllers)]
     _unique_names(r, worlds, controllers, raw_controllers, data)
-    grid = r.mapping(data.get("grid", {}), "grid")
-    grid_keys = [str(k) for k in grid]
-    grid_values = [r.listing(grid[k], f"grid.{k}") for k in grid]
-    for name, values in zip(grid_keys, grid_values, strict=True):
-        where = [f"grid.{name}[{k}]" for k in range(len(values))]
-        _unique(r, values, where, "value", "each value once (a value twice is the same run)")
+    grid_keys, grid_values = _grid(r, data)
     seeds = _seeds(r, data.get("seeds", [0]))
     pose_specs = _poses(r, data.get("poses"), simulator)
     duration = r.number(data.get("duration_s"), "duration_s", positive=True)
@@ -329,26 +324,13 @@ def load_sweep(
         name = entry if isinstance(entry, str) else next(iter(entry))
         if ":" in name:
             _importable(r, name, f"metrics[{k}]")
-    time_limit = r.number(data.get("time_limit_s", default_time_limit(duration)), "time_limit_s", positive=True)
-    memory = data.get("memory_limit_mb")
-    memory_limit = None if memory is None else r.number(memory, "memory_limit_mb", positive=True)
-    keep = data.get("keep_bags", "none")
-    if keep not in KEEP_BAGS:
-        raise r.fail("keep_bags", f"{short(keep)}: expected one of {', '.join(KEEP_BAGS)}")
-    strict = data.get("file_warnings", "error")
-    if strict not in FILE_WARNINGS:
-        raise r.fail("file_warnings", f"{short(strict)}: expected one of {', '.join(FILE_WARNINGS)}")
+    time_limit, memory_limit = _limits(r, data, duration)
+    keep = _choice(r, data, "keep_bags", "none", KEEP_BAGS)
+    strict = _choice(r, data, "file_warnings", "error", FILE_WARNINGS)
     said = check_world_files(r.fail, worlds, strict == "error")
     _check_poses(r, simulator, worlds, pose_specs)
     tell = stage or (lambda k, label, what: None)
-    broken = {k: Refused(f"controllers[{k}]", why) for k, why in (refused or {}).items()}
-    for k, c in enumerate(controllers):  # a student's module that does not import: the next one is tried
-        if c["kind"] == "user" and k not in broken:
-            tell(k, c["label"], "importing it")
-            try:
-                _importable(r, c["target"], f"controllers[{k}].use")
-            except InputError as err:
-                broken[k] = Refused(f"controllers[{k}].use", str(err).split(f"field 'controllers[{k}].use': ", 1)[-1])
+    broken = _unimportable(r, controllers, refused or {}, tell)
     checked = check_sweep(
         r.fail, simulator, worlds, controllers, (grid_keys, grid_values), seeds[0], search, broken, tell
     )
@@ -377,6 +359,49 @@ def load_sweep(
         broken_episodes=[ep for ep in episodes if ep.controller["label"] in dead],
         grid_applies={c["label"]: applies[k] for k, c in enumerate(controllers) if c["label"] not in dead},
     )
+
+
+def _grid(r: _Reader, data: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
+    """The grid's parameter names and each one's values (each value once)."""
+    grid = r.mapping(data.get("grid", {}), "grid")
+    grid_keys = [str(k) for k in grid]
+    grid_values = [r.listing(grid[k], f"grid.{k}") for k in grid]
+    for name, values in zip(grid_keys, grid_values, strict=True):
+        where = [f"grid.{name}[{k}]" for k in range(len(values))]
+        _unique(r, values, where, "value", "each value once (a value twice is the same run)")
+    return grid_keys, grid_values
+
+
+def _limits(r: _Reader, data: dict[str, Any], duration: float) -> tuple[float, float | None]:
+    """An episode's time limit (s) and memory limit (MB, None: none)."""
+    time_limit = r.number(data.get("time_limit_s", default_time_limit(duration)), "time_limit_s", positive=True)
+    memory = data.get("memory_limit_mb")
+    return time_limit, None if memory is None else r.number(memory, "memory_limit_mb", positive=True)
+
+
+def _choice(r: _Reader, data: dict[str, Any], key: str, default: str, allowed: Sequence[str]) -> str:
+    value = data.get(key, default)
+    if value not in allowed:
+        raise r.fail(key, f"{short(value)}: expected one of {', '.join(allowed)}")
+    return str(value)
+
+
+def _unimportable(
+    r: _Reader, controllers: list[dict[str, Any]], refused: dict[int, str], tell: Stage
+) -> dict[int, Any]:
+    """The controllers refused up front: those ``refused`` names, and each student's module that
+    does not import (the next one is tried)."""
+    from sim_tools.batch.precheck import Refused
+
+    broken = {k: Refused(f"controllers[{k}]", why) for k, why in refused.items()}
+    for k, c in enumerate(controllers):
+        if c["kind"] == "user" and k not in broken:
+            tell(k, c["label"], "importing it")
+            try:
+                _importable(r, c["target"], f"controllers[{k}].use")
+            except InputError as err:
+                broken[k] = Refused(f"controllers[{k}].use", str(err).split(f"field 'controllers[{k}].use': ", 1)[-1])
+    return broken
 
 
 def broken_error(source: Path, refusals: list[Broken], total: int) -> InputError:
