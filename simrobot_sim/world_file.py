@@ -15,12 +15,11 @@ from PIL import Image, UnidentifiedImageError
 from sim_runtime.errors import InputError
 from sim_runtime.inputfile import read_input_bytes, shown
 from sim_runtime.yamlfile import check_keys as _check_keys
-from sim_runtime.yamlfile import load_yaml
+from sim_runtime.yamlfile import load_yaml, short_text
 from sim_runtime.yamlfile import read_bool as _bool
 from sim_runtime.yamlfile import read_number as _number
 from sim_runtime.yamlfile import read_pair as _pair
 from sim_runtime.yamlfile import short as _brief
-from sim_runtime.yamlfile import short_text
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
