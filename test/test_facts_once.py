@@ -14,7 +14,7 @@ from pathlib import Path
 from create_sim import spec
 
 ROOT = Path(__file__).resolve().parents[1]
-SOURCE_DIRS = ("create_sim", "sim_tools", "studio", "sim_runtime")
+SOURCE_DIRS = ("create_sim", "arm_sim", "simrobot_sim", "sim_tools", "studio", "sim_runtime")
 SPEC = Path("create_sim/spec.py")
 OTHER_FAMILIES = (
     # Their own topics share some leaves with the Create's (``odom``, ``cmd_vel``, ``scan``):
@@ -134,3 +134,13 @@ def test_the_turn_rate_limit_is_the_wheels_spinning_in_opposite_directions() -> 
     assert client.MAX_WHEEL_SPEED == CreateModel.MAX_WHEEL_SPEED == spec.MAX_WHEEL_SPEED_MPS
     assert client.CLIFF_NAMES == spec.CLIFF_NAMES
     assert CreateModel.LIDAR_BEAMS == spec.LIDAR_BEAMS
+
+
+def test_the_arm_topic_names_are_spelled_only_in_the_arm_spec() -> None:
+    from arm_sim import spec as arm_spec
+
+    names = (*arm_spec.ARM_TOPICS, arm_spec.SCENE_MARKERS_TOPIC)
+    pattern = re.compile("|".join(_literal(n) for n in names))
+    # joint_states is also the Create's wheels' topic, read from the Create's spec there.
+    hits = [h for h in _hits(pattern, skip=("arm_sim/spec.py",)) if not h.startswith("create_sim/")]
+    assert not hits, "read these topic names from arm_sim.spec:\n" + "\n".join(hits)

@@ -30,6 +30,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from visualization_msgs.msg import Marker, MarkerArray
 
 from arm_sim.robot_config import transform_from_xyz_rpy
+from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC, ROBOT_MARKERS_TOPIC
 from arm_sim.urdf import rpy_from_matrix
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
@@ -157,9 +158,9 @@ class _Arm:
         self.state = s = state
         q = ANY_PUBLISHER_QOS
         self.subs = [
-            node.create_subscription(JointState, s.topic("joint_states"), self._on_joints, q),
-            node.create_subscription(MarkerArray, s.topic("robot_markers"), self._on_markers, q),
-            node.create_subscription(PoseStamped, s.topic("end_effector_pose"), self._on_pose, q),
+            node.create_subscription(JointState, s.topic(JOINT_STATES_TOPIC), self._on_joints, q),
+            node.create_subscription(MarkerArray, s.topic(ROBOT_MARKERS_TOPIC), self._on_markers, q),
+            node.create_subscription(PoseStamped, s.topic(END_EFFECTOR_POSE_TOPIC), self._on_pose, q),
             node.create_subscription(String, s.topic("robot_description"), self._on_description, LATCHED_QOS),
         ]
         self.joint_command = node.create_publisher(JointState, s.topic("joint_command"), COMMAND_PUBLISHER_QOS)
@@ -231,12 +232,13 @@ class ArmRos:
     def _discover(self) -> None:
         node, now = self.node, time.monotonic()
         for prefix, arm in list(self._arms.items()):
-            if node.count_publishers(arm.state.topic("end_effector_pose")) == 0 and now - arm.state.last_heard > 2.0:
+            gone = node.count_publishers(arm.state.topic(END_EFFECTOR_POSE_TOPIC)) == 0
+            if gone and now - arm.state.last_heard > 2.0:
                 print(f"studio: the arm {arm.state.label} has gone", flush=True)
                 arm.destroy(node)
                 del self._arms[prefix]
                 self.arms = {k: v for k, v in self.arms.items() if k != prefix}
-        for prefix, info in new_worlds(node, "end_effector_pose", POSE_TYPE, self._arms):
+        for prefix, info in new_worlds(node, END_EFFECTOR_POSE_TOPIC, POSE_TYPE, self._arms):
             world_ns = info.node_namespace.rstrip("/")
             node_name = node_full_name(info)
             relative = prefix[len(world_ns) :].strip("/") if prefix.startswith(world_ns) else prefix.strip("/")

@@ -23,6 +23,7 @@ import numpy as np
 from nav_msgs.msg import OccupancyGrid
 from visualization_msgs.msg import MarkerArray
 
+from arm_sim import spec as arm_spec
 from create_sim import spec
 from create_sim.mapfile import CreateMap
 from create_sim.spec import CLIFF_NAMES, MAP_NAMESPACES, SONAR_NAMES
@@ -38,7 +39,7 @@ GRID = "nav_msgs/msg/OccupancyGrid"
 ODOM = "nav_msgs/msg/Odometry"
 JOINTS = "sensor_msgs/msg/JointState"
 MARKERS = "visualization_msgs/msg/MarkerArray"
-ARM_MARKER_TOPICS = ("robot_markers", "scene_markers")
+ARM_MARKER_TOPICS = (arm_spec.ROBOT_MARKERS_TOPIC, arm_spec.SCENE_MARKERS_TOPIC)
 """An arm world's 3D look: each arm's meshes posed (robot_markers), the scene's objects (scene_markers)."""
 COMMAND_TOPICS = ("cmd_vel", "wheel_cmd", "joint_command", "joint_trajectory", "target_pose", "set_pose")
 """What a controller or a person sends: the replay's list of calls made."""
@@ -214,7 +215,7 @@ class Replay:
             if namespace(topic) not in with_pose:
                 self.robots.append(Robot(namespace(topic), "mobile", topic))
         self.arms = sorted(
-            namespace(t) for t, kind in topics.items() if kind == JOINTS and basename(t) == "joint_states"
+            namespace(t) for t, kind in topics.items() if kind == JOINTS and basename(t) == arm_spec.JOINT_STATES_TOPIC
         )
         self.arm_marker_topics = sorted(
             t for t, kind in topics.items() if kind == MARKERS and basename(t) in ARM_MARKER_TOPICS
@@ -399,7 +400,7 @@ class Replay:
         if kept is None or kept[0] != position:
             look, poses = drawables(msg)
             ns = namespace(topic)
-            owner = ns if basename(topic) == "robot_markers" else f"scene:{ns}"
+            owner = ns if basename(topic) == arm_spec.ROBOT_MARKERS_TOPIC else f"scene:{ns}"
             kept = self._groups[topic] = (position, Group(owner, tuple(look), poses, position))
         return kept[1]
 

@@ -10,6 +10,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from arm_sim.spec import JOINT_STATES_TOPIC
 from sim_runtime.msgs import quaternion_from_matrix, time_from_msg
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 
@@ -31,7 +32,7 @@ class ArmTargetsNode(Node):
         self.hold_s = hold_s
         self.sent = 0
         self.publisher = self.create_publisher(PoseStamped, "target_pose", COMMAND_PUBLISHER_QOS)
-        self.create_subscription(JointState, "joint_states", self._on_state, SENSOR_SUBSCRIBER_QOS)
+        self.create_subscription(JointState, JOINT_STATES_TOPIC, self._on_state, SENSOR_SUBSCRIBER_QOS)
 
     def _on_state(self, msg: JointState) -> None:
         now = time_from_msg(msg.header.stamp)
