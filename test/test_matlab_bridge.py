@@ -3,8 +3,9 @@
 One world (its own process, real time, a wall 0.6 m ahead of the robot) and one bridge serve the
 module; each test resets the robot first. Octave programs are compared with their Python twins on
 the toolbox-style client (test/matlab_programs/create_*.m and .py): at real time the two runs see
-different message timings, so their tracks agree within TRACK_TOLERANCE (3 cm at real time;
-SQUARE_TOLERANCE for the square, run at three times real time to keep the test short), not exactly.
+different message timings, so their tracks agree within TRACK_TOLERANCE (3 cm), not exactly, plus
+what the sim time their stops took to reach the world explains (measured from the world's own
+odometry: a busy machine delays them, more at three times real time, where the square runs).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +44,6 @@ PROGRAMS = ROOT / "test" / "matlab_programs"
 NAMESPACE = "/matlab"
 TRACK_TOLERANCE = 0.03  # m: the furthest a point of one track may be from the other track
 HEADING_TOLERANCE = math.radians(3)
-SQUARE_TOLERANCE = 0.1  # m, the same for the square at three times real time (see its test)
 OCTAVE = shutil.which("octave-cli")
 needs_octave = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -122,11 +123,17 @@ class Robot:
         self.odom = Collector(node, Odometry, f"{NAMESPACE}/odom", SENSOR_SUBSCRIBER_QOS)
 
     def call(self, srv_type, name: str, request):
+        """The world's service ``name`` called (both are idempotent): again when no reply came in
+        15 s, as a new client's first reply can be lost while its reader is still being matched
+        (seen on a busy machine); a ceiling of four tries."""
         client = self.node.create_client(srv_type, f"{NAMESPACE}/{name}")
         assert client.wait_for_service(timeout_sec=120), f"no {name} service: is create_world up?"
-        future = client.call_async(request)
-        assert spin_until(self.executor, future.done, timeout=30)
-        return future.result()
+        for _try in range(4):
+            future = client.call_async(request)
+            if spin_until(self.executor, future.done, timeout=15):
+                return future.result()
+            client.remove_pending_request(future)
+        raise AssertionError(f"{name}: no reply to four calls in 60 s")
 
     def reset(self, real_time_factor: float = 1.0) -> None:
         """Real time factor set, robot back at the origin and standing, tracks cleared."""
@@ -195,8 +202,9 @@ def furthest(track: list[tuple[float, float]], other: list[tuple[float, float]])
     return max(one_way(track, other), one_way(other, track))
 
 
-def run_both(robot: Robot, port: int, name: str, real_time_factor: float = 1.0):
-    """The Octave program and its Python twin from the same start: (track, heading) of each."""
+def run_both(robot: Robot, port: int, name: str, real_time_factor: float = 1.0, odometry: list | None = None):
+    """The Octave program and its Python twin from the same start: (track, heading) of each (and
+    each run's odometry messages appended to ``odometry``)."""
     runs = []
     for argv in (octave(port, f"{name}(serPort)", PROGRAMS / "create_real_toolbox"), python_twin(name)):
         robot.reset(real_time_factor)
@@ -204,34 +212,128 @@ def run_both(robot: Robot, port: int, name: str, real_time_factor: float = 1.0):
         assert done.returncode == 0, done.stderr
         assert robot.standing()
         runs.append((robot.track(), robot.heading()))
+        if odometry is not None:
+            odometry.append(list(robot.odom.msgs))
     return runs
+
+
+ODOM_PERIOD = 1 / 50  # s (sim): the world's odometry rate
+# s (sim): two catch-up bursts (MAX_CATCH_UP_STEPS steps each, during which the world reads no
+# command) of a world behind real time. A stop later than that was missed, not late (seen on 2
+# cores at load 28, three times real time: 0.5 s).
+LAG_CEILING = 1.0
+
+
+@dataclass(frozen=True)
+class Move:
+    """One drive of a program, read from the world's odometry: its kind ("forward", "back",
+    "left", "right"), how far it went (m or rad), and how long (sim s) it ran on past its goal at
+    its speed: the sim time its stop took to reach the world, what a busy machine changes."""
+
+    kind: str
+    progress: float
+    lag: float
+
+
+def moves(odometry: list[Odometry], goals: dict[str, float], speeds: dict[str, float]) -> list[Move]:
+    """The drives in a run's odometry, each from the pose before its first message to the pose at
+    the first message of another kind (the stop, or the next command, had arrived by then). Poses
+    are absolute, so messages the probe missed on a busy machine change nothing."""
+
+    def kind(msg: Odometry) -> str:
+        v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
+        if abs(v) > 0.01:
+            return "forward" if v > 0 else "back"
+        return ("left" if w > 0 else "right") if abs(w) > 0.01 else "stand"
+
+    found, k = [], 1
+    while k < len(odometry):
+        what = kind(odometry[k])
+        if what == "stand":
+            k += 1
+            continue
+        start, progress = odometry[k - 1].pose.pose.position, 0.0
+        while k < len(odometry):
+            msg = odometry[k]
+            if what in ("forward", "back"):
+                progress = math.hypot(msg.pose.pose.position.x - start.x, msg.pose.pose.position.y - start.y)
+            else:
+                turn = yaw_from_quaternion(msg.pose.pose.orientation)
+                turn -= yaw_from_quaternion(odometry[k - 1].pose.pose.orientation)
+                progress += abs(math.remainder(turn, math.tau))
+            if kind(msg) != what:
+                break
+            k += 1
+        lag = max(progress - goals[what], 0.0) / speeds[what] if what in goals else 0.0
+        found.append(Move(what, progress, lag))
+    return found
+
+
+def stop_lags_allowed(runs: list[list[Move]], speeds: dict[str, float], reach: float) -> float:
+    """How far apart (m) the tracks of two runs of one program may be on top of TRACK_TOLERANCE,
+    given what their stops' lags, measured in sim time, explain: a drive that ran on ``lag`` longer
+    went ``speed * lag`` further; a turn that did turned the rest of the track (at most ``reach``
+    long) by ``speed * lag``. Each lag is checked against LAG_CEILING first: a stop later than one
+    catch-up burst of the world was missed, not late."""
+    for run in runs:
+        assert all(move.lag <= LAG_CEILING for move in run), run
+    one, other = runs
+    lin = sum(
+        speeds[a.kind] * abs(a.lag - b.lag) for a, b in zip(one, other, strict=True) if a.kind in ("forward", "back")
+    )
+    ang = sum(
+        speeds[a.kind] * abs(a.lag - b.lag) for a, b in zip(one, other, strict=True) if a.kind in ("left", "right")
+    )
+    return lin + ang * reach
 
 
 @needs_octave
 def test_a_bump_and_turn_program_runs_unchanged_in_octave_as_its_python_twin_does(robot, bridge_port):
-    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_bump_turn")
+    odometry: list[list[Odometry]] = []
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(
+        robot, bridge_port, "create_bump_turn", odometry=odometry
+    )
     # Two bumps at the wall (x = 0.6 - the body's radius), each followed by a 20° turn.
     assert max(x for x, _y in octave_track) == pytest.approx(0.6 - 0.17, abs=0.02)
     assert octave_heading == pytest.approx(math.radians(40), abs=HEADING_TOLERANCE)
-    assert furthest(octave_track, python_track) < TRACK_TOLERANCE
-    assert octave_heading == pytest.approx(python_heading, abs=HEADING_TOLERANCE)
+    # After each bump travelDist(0.2, -0.1) and turnAngle(0.2, 20), ended by odometry; the two
+    # runs' stops reach the world after different delays (more when a busy machine stalls a
+    # process): the tracks may differ by what those delays, measured in sim time, explain.
+    goals, speeds = {"back": 0.1, "left": math.radians(20)}, {"back": 0.2, "left": 0.2}
+    runs = [[m for m in moves(o, goals, speeds) if m.kind != "forward"] for o in odometry]
+    assert [[m.kind for m in run] for run in runs] == [["back", "left"] * 2] * 2, runs
+    for run in runs:
+        for move, goal in zip(run, [0.1, math.radians(20)] * 2, strict=True):
+            assert move.progress >= goal - speeds[move.kind] * ODOM_PERIOD - 1e-3, run  # on its goal, not before
+    explained = stop_lags_allowed(runs, speeds, reach=0.6)
+    assert furthest(octave_track, python_track) < TRACK_TOLERANCE + explained
+    turns = sum(0.2 * abs(a.lag - b.lag) for a, b in zip(*runs, strict=True) if a.kind == "left")
+    assert octave_heading == pytest.approx(python_heading, abs=HEADING_TOLERANCE + turns)
 
 
 @needs_octave
 def test_a_travel_dist_turn_angle_square_matches_its_python_twin_at_three_times_real_time(robot, bridge_port):
     # No pause or tic/toc in it: travelDist and turnAngle wait on the robot's odometry, so the
-    # program runs the same at any real_time_factor.
-    (octave_track, octave_heading), (python_track, python_heading) = run_both(robot, bridge_port, "create_square", 3.0)
-    assert math.dist(octave_track[-1], (0, 0)) < SQUARE_TOLERANCE
-    # Odometry arrives a little after the robot got there: at three times real time that is 1 cm.
-    assert max(x for x, _y in octave_track) == pytest.approx(0.25, abs=0.02)
-    assert max(y for _x, y in octave_track) == pytest.approx(0.25, abs=0.02)
-    # Each travelDist/turnAngle ends on the odometry message after the goal, read a little later:
-    # at three times real time the robot moves three times as far meanwhile, more when a loaded
-    # machine stalls a process, and the four turns' errors add up over the square. Seen on 2
-    # loaded cores: up to 7 cm.
-    assert furthest(octave_track, python_track) < SQUARE_TOLERANCE
-    assert math.remainder(octave_heading - python_heading, math.tau) == pytest.approx(0, abs=HEADING_TOLERANCE)
+    # program runs the same at any real_time_factor, but for when each stop reaches the world:
+    # at three times real time the robot goes three times as far per wall second of delay, more
+    # when a busy machine stalls a process. That delay is measured in sim time from the world's
+    # own odometry, and the checks allow what it explains, no more.
+    odometry: list[list[Odometry]] = []
+    (octave_track, octave_heading), (python_track, python_heading) = run_both(
+        robot, bridge_port, "create_square", 3.0, odometry
+    )
+    goals, speeds = {"forward": 0.25, "left": math.radians(90)}, {"forward": 0.25, "left": 0.2}
+    runs = [moves(o, goals, speeds) for o in odometry]
+    assert [[m.kind for m in run] for run in runs] == [["forward", "left"] * 4] * 2, runs
+    for run in runs:  # each side and turn ended on its goal, not before
+        assert all(m.progress >= goals[m.kind] - speeds[m.kind] * ODOM_PERIOD - 1e-3 for m in run), run
+    explained = stop_lags_allowed(runs, speeds, reach=4 * 0.25)
+    # Back where it started, but for what its own late stops explain (a turn's rotates the rest).
+    overshoot = sum(speeds[m.kind] * m.lag * (1.0 if m.kind == "forward" else 4 * 0.25) for m in runs[0])
+    assert math.dist(octave_track[-1], (0, 0)) < TRACK_TOLERANCE + overshoot
+    assert furthest(octave_track, python_track) < TRACK_TOLERANCE + explained
+    turns = sum(0.2 * abs(a.lag - b.lag) for a, b in zip(*runs, strict=True) if a.kind == "left")
+    assert math.remainder(octave_heading - python_heading, math.tau) == pytest.approx(0, abs=HEADING_TOLERANCE + turns)
 
 
 @needs_octave
