@@ -302,7 +302,7 @@ from sim_tools.batch import forms
 forms.TURN_TIMEOUT = 2.0
 from sim_tools.batch.episode import run_episode
 from sim_tools.batch.sweep import load_sweep
-print(json.dumps(run_episode(load_sweep(sys.argv[1]).episodes[0])["row"]))
+print(json.dumps(run_episode(load_sweep(sys.argv[1]).episodes[0])["row"].columns()))
 """
 
 

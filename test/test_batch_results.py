@@ -19,6 +19,7 @@ from sim_runtime.errors import InputError
 from sim_tools.adapters.create.world import create_min_clearance_m
 from sim_tools.batch import output
 from sim_tools.batch.metrics import EpisodeData
+from sim_tools.batch.row import Row, column_order
 from sim_tools.batch.sweep import load_sweep
 
 NAN = math.nan
@@ -26,12 +27,59 @@ NAN = math.nan
 
 def episode(index: int, status: str = "ok", controller: str = "ours", world: str = "map", **columns: Any) -> dict:
     """A row as an episode logs it: ids, ``param.*`` (``p_<name>=`` keywords), status, metrics."""
-    row: dict[str, Any] = {"episode": index, "key": f"k{index}", "world": world, "controller": controller}
-    row.update({f"param.{k[2:]}": v for k, v in columns.items() if k.startswith("p_")})
-    row.update(seed=0, status=status, error="" if status == "ok" else "RuntimeError: boom", sim_time_s=20.0)
-    if status == "ok":
-        row.update({k: v for k, v in columns.items() if not k.startswith("p_")})
-    return output.with_reached(row)
+    row = Row(
+        episode=index,
+        key=f"k{index}",
+        world=world,
+        controller=controller,
+        params={k[2:]: v for k, v in columns.items() if k.startswith("p_")},
+        pose=None,
+        seed=0,
+        status="ok" if status == "ok" else "error",
+        error="" if status == "ok" else "RuntimeError: boom",
+        sim_time_s=20.0,
+        metrics={k: v for k, v in columns.items() if not k.startswith("p_")} if status == "ok" else {},
+    )
+    return output.with_reached(row.columns())
+
+
+def test_a_rows_columns_come_in_the_tables_order_ids_settings_outcome_metrics() -> None:
+    row = Row(
+        episode=3,
+        key="k3",
+        world="map",
+        controller="ours",
+        params={"speed": 0.2},
+        pose=(1.0, -2.0, 0.5),
+        seed=7,
+        status="ok",
+        sim_time_s=20.0,
+        metrics={"distance_m": 4.0, "bumps": 2},
+    )
+    columns = row.columns()
+    assert (
+        list(columns)
+        == column_order([columns])
+        == [
+            "episode",
+            "key",
+            "world",
+            "controller",
+            "param.speed",
+            "pose_x",
+            "pose_y",
+            "pose_theta",
+            "seed",
+            "status",
+            "error",
+            "sim_time_s",
+            "distance_m",
+            "bumps",
+        ]
+    )
+    assert columns["pose_y"] == -2.0 and columns["error"] == ""
+    never_started = Row(**{**row.__dict__, "status": "error", "error": "boom", "sim_time_s": None, "metrics": {}})
+    assert "sim_time_s" not in never_started.columns()  # no world, no sim time: the cell stays empty
 
 
 def summary_text(rows: list[dict], grid_keys: list[str] | None = None) -> str:

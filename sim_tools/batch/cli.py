@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from sim_runtime.errors import InputError
+from sim_tools.batch.row import OK, Columns, Result, is_ok
 
 
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
@@ -93,10 +94,10 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
     progress = None if args.quiet else output.Progress(len(episodes) - len(broken_rows), skipped)
     limits = Limits(sweep.time_limit_s, sweep.memory_limit_mb)
 
-    def on_result(result: dict[str, Any]) -> None:
+    def on_result(result: Result) -> None:
         log.add(result)
         if progress is not None:
-            progress.update(result["row"]["status"] == "ok")
+            progress.update(result["row"].status == OK)
 
     try:
         if engine == "ray":
@@ -104,7 +105,7 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
         else:
             engines.run_local(todo, workers, on_result, limits, folder)
         if sweep.keep_bags == "failures":
-            failed = [ep for ep in todo if log.rows.get(ep.key, {}).get("status") != "ok"]
+            failed = [ep for ep in todo if not is_ok(log.rows.get(ep.key, {}))]
             _record_failures(failed, bags, limits, folder)
     finally:
         log.close()
@@ -124,11 +125,11 @@ def run_sweep(argv: Sequence[str]) -> dict[str, Any]:
         "plots": pngs,
         "ran": len(todo),
         "skipped": skipped,
-        "failed": sum(r.get("status") != "ok" for r in rows),
+        "failed": sum(not is_ok(r) for r in rows),
     }
 
 
-def _broken_rows(sweep: Any, episodes: list[Any]) -> dict[str, dict[str, Any]]:
+def _broken_rows(sweep: Any, episodes: list[Any]) -> dict[str, Columns]:
     """The error rows of the refused controllers' episodes (never logged: the next run checks
     those controllers again, and runs them once they work)."""
     from sim_tools.batch.supervisor import error_result
@@ -138,7 +139,7 @@ def _broken_rows(sweep: Any, episodes: list[Any]) -> dict[str, dict[str, Any]]:
     for ep in episodes:
         broken = why[ep.controller["label"]]
         reason = f"refused before the sweep: field '{broken.field}': {broken.reason}"
-        rows[ep.key] = error_result(ep, reason, -1, 0.0)["row"]
+        rows[ep.key] = error_result(ep, reason, -1, 0.0)["row"].columns()
     return rows
 
 

@@ -5,8 +5,8 @@ writes the table, so whatever a controller does (raise, ``sys.exit``, ``os._exit
 forever, allocate without end) ends as that episode's error row and the sweep goes on. A worker
 runs episodes one after another (start-up is paid once per worker) and is replaced when one kills
 it. Each episode's output goes to ``logs/<episode key>.log`` in the sweep's folder; an error row
-names that file. Results come back as plain dicts in whatever order episodes finish; the table
-orders them.
+names that file. Results (:class:`~sim_tools.batch.row.Result`) come back in whatever order
+episodes finish; the table orders them.
 """
 
 from __future__ import annotations
@@ -18,14 +18,13 @@ import os
 import shutil
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sim_tools.batch.supervisor import START_TIMEOUT_S, Limits, Supervisor, error_result
+from sim_tools.batch.row import OK, Result
+from sim_tools.batch.supervisor import START_TIMEOUT_S, Limits, OnResult, Supervisor, error_result
 from sim_tools.batch.sweep import Episode
-
-OnResult = Callable[[dict[str, Any]], None]
 
 #: Ray's object store for a local run: results are a few kB each, Ray's default is 30 % of RAM.
 RAY_OBJECT_STORE_BYTES = 100 * 1024 * 1024
@@ -44,11 +43,11 @@ def log_file(folder: Path, ep: Episode, suffix: str = "") -> Path:
     return folder / LOG_FOLDER / f"{ep.key}{suffix}.log"
 
 
-def _name_log(result: dict[str, Any]) -> dict[str, Any]:
+def _name_log(result: Result) -> Result:
     """An error row says where the episode's output is (relative to the sweep's folder)."""
     row = result["row"]
-    if row.get("status") != "ok":
-        row["error"] = f"{row.get('error', '')} [log: {LOG_FOLDER}/{row['key']}.log]"
+    if row.status != OK:
+        row.error = f"{row.error} [log: {LOG_FOLDER}/{row.key}.log]"
     return result
 
 
@@ -186,12 +185,12 @@ def _drive_ray(
                 on_result(_name_log(error_result(ep, error, -1, patience)))
 
 
-def _ray_result(ray: Any, ref: Any, ep: Episode, folder: Path) -> dict[str, Any]:
+def _ray_result(ray: Any, ref: Any, ep: Episode, folder: Path) -> Result:
     """A finished task's result (its log written to ``folder``), or its Ray error as an error row."""
     from ray.exceptions import RayError
 
     try:
-        result: dict[str, Any] = ray.get(ref)
+        result: Result = ray.get(ref)
     except RayError as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
         return error_result(ep, f"{type(exc).__name__}: {first}", -1, 0.0)
@@ -204,7 +203,7 @@ def _ray_result(ray: Any, ref: Any, ep: Episode, folder: Path) -> dict[str, Any]
 _ray_supervisor: Supervisor | None = None
 
 
-def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> dict[str, Any]:
+def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> Result:
     """A Ray task: run ``ep`` in this Ray worker's own worker process (kept between tasks);
     returns its result with its log's bytes."""
     global _ray_supervisor
@@ -214,11 +213,11 @@ def _ray_episode(ep: Episode, limits: Limits, ship: tuple[str, str] | None) -> d
     if _ray_supervisor is None:
         _ray_supervisor = Supervisor(1, _ray_scratch() / "worker.log")
     here = _ray_supervisor.output.parent
-    results: list[dict[str, Any]] = []
+    results: list[Result] = []
     log = here / "episode.log"
     _ray_supervisor.run([ep], results.append, limits, lambda _: log)
     result = results[0]
-    result["row"]["key"] = key  # the driver's key: the paths in this node's copy differ
+    result["row"].key = key  # the driver's key: the paths in this node's copy differ
     with log.open("rb") as f:
         f.seek(max(0, log.stat().st_size - RAY_LOG_BYTES))
         result["log"] = f.read()

@@ -14,7 +14,8 @@ every episode gets its own context on a domain id above the ones people use inte
 nothing outside the episode sees its topics and two episodes never share a graph, however many
 run side by side. All of an episode's nodes live in this process, where matching still works.
 
-:func:`run_episode` never raises: a failed episode is a row with ``status: error`` and the error.
+:func:`run_episode` never raises: a failed episode is a :class:`~sim_tools.batch.row.Row` with
+``status: error`` and the error.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from sim_tools.adapters.contract import EpisodeData, world_part
 from sim_tools.batch.forms import is_user_file
 from sim_tools.batch.metrics import compute, load_callable
 from sim_tools.batch.plan import Episode
+from sim_tools.batch.row import ERROR, OK, Result, Row
 
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
@@ -79,30 +81,14 @@ def isolate_process(worker: int | None = None) -> int:
 
 
 # ----------------------------------------------------------------------------------- results
-def base_row(ep: Episode) -> dict[str, Any]:
-    """The columns that say which episode a row is."""
-    row: dict[str, Any] = {
-        "episode": ep.index,
-        "key": ep.key,
-        "world": ep.world["label"],
-        "controller": ep.controller["label"],
-    }
-    row.update({f"param.{k}": v for k, v in ep.params.items()})
-    if ep.pose is not None:
-        row.update(pose_x=ep.pose[0], pose_y=ep.pose[1], pose_theta=ep.pose[2])
-    row["seed"] = ep.seed
-    return row
-
-
-def run_episode(ep: Episode) -> dict[str, Any]:
-    """Run ``ep``; returns ``{"row": table row, "timing": {...}}`` whatever happens."""
+def run_episode(ep: Episode) -> Result:
+    """Run ``ep``; returns its :class:`~sim_tools.batch.row.Row` and timing whatever happens."""
     global _running
     _running = None
     tell_sim_time(math.nan)
     if _domain_id is None:
         isolate_process()
     timing: dict[str, Any] = {"episode": ep.index, "pid": os.getpid()}
-    row = base_row(ep)
     start = time.perf_counter()
     try:
         data, sim_time, timing_parts = _simulate(ep)
@@ -110,16 +96,17 @@ def run_episode(ep: Episode) -> dict[str, Any]:
         collect_start = time.perf_counter()
         metrics = compute(ep.simulator, ep.metrics, data, ep.search_path)
         timing["collect_s"] = time.perf_counter() - collect_start
-        row.update(status="ok", error="", sim_time_s=round(sim_time, 9))
-        row.update(metrics)
+        row = Row.of(ep, OK)
+        row.sim_time_s = round(sim_time, 9)
+        row.metrics = metrics
     except Exception as exc:
         message = f"{type(exc).__name__}: {exc}".strip().replace("\n", " ")
         if not isinstance(exc, InputError | ImportError) and not getattr(exc, "located", False):
             message += at_line(exc)
-        row.update(status="error", error=message)
+        row = Row.of(ep, ERROR, message)
         reached = sim_time_now()
         if reached is not None:
-            row["sim_time_s"] = round(reached, 9)
+            row.sim_time_s = round(reached, 9)
     timing["total_s"] = time.perf_counter() - start
     return {"row": row, "timing": timing}
 

@@ -20,13 +20,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from sim_tools.batch.metrics import reached_column, split_unit, unit_of
+from sim_tools.batch.row import (
+    ID_COLUMNS,
+    PARAM_PREFIX,
+    STATUS_COLUMNS,
+    Columns,
+    Result,
+    column_order,
+    is_ok,
+    is_setting,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
-
-ID_COLUMNS = ("episode", "key", "world", "controller")
-STATUS_COLUMNS = ("status", "error", "sim_time_s")
 
 
 class ResultLog:
@@ -36,7 +43,7 @@ class ResultLog:
         self.folder = folder
         folder.mkdir(parents=True, exist_ok=True)
         self.path = folder / "episodes.jsonl"
-        self.rows: dict[str, dict[str, Any]] = {}
+        self.rows: dict[str, Columns] = {}
         self.timings: dict[str, dict[str, Any]] = {}
         if self.path.exists():
             for line in self.path.read_text(encoding="utf-8").splitlines():
@@ -48,15 +55,16 @@ class ResultLog:
                 self.timings[entry["row"]["key"]] = entry.get("timing", {})
         self._file: TextIO = self.path.open("a", encoding="utf-8")
 
-    def add(self, result: dict[str, Any]) -> None:
-        self.rows[result["row"]["key"]] = result["row"]
-        self.timings[result["row"]["key"]] = result["timing"]
-        self._file.write(json.dumps(result, default=_json_default) + "\n")
+    def add(self, result: Result) -> None:
+        row = result["row"].columns()
+        self.rows[row["key"]] = row
+        self.timings[row["key"]] = result["timing"]
+        self._file.write(json.dumps({"row": row, "timing": result["timing"]}, default=_json_default) + "\n")
         self._file.flush()
 
     def forget_failed(self) -> None:
         """Drop failed episodes so that they run again."""
-        for key in [k for k, row in self.rows.items() if row.get("status") != "ok"]:
+        for key in [k for k, row in self.rows.items() if not is_ok(row)]:
             del self.rows[key]
 
     def close(self) -> None:
@@ -69,21 +77,7 @@ def _json_default(value: Any) -> Any:
     return str(value)
 
 
-def _column_order(rows: list[dict[str, Any]]) -> list[str]:
-    seen: dict[str, None] = {}
-    for row in rows:
-        for key in row:
-            seen.setdefault(key, None)
-    first = [c for c in ID_COLUMNS if c in seen]
-    params = [c for c in seen if c.startswith("param.") or c.startswith("pose_") or c == "seed"]
-    status = [c for c in STATUS_COLUMNS if c in seen]
-    rest = [c for c in seen if c not in first and c not in params and c not in status]
-    return first + params + status + rest
-
-
-def table_rows(
-    log: ResultLog, keys: Iterable[str], extra: dict[str, dict[str, Any]] | None = None
-) -> list[dict[str, Any]]:
+def table_rows(log: ResultLog, keys: Iterable[str], extra: dict[str, Columns] | None = None) -> list[Columns]:
     """The logged rows of ``keys`` (the sweep's episodes, in order; missing ones are left out),
     each "time to" metric preceded by its ``<event>_reached`` column (:func:`with_reached`);
     ``extra`` rows (refused controllers' error rows) take the place of logged ones."""
@@ -91,13 +85,13 @@ def table_rows(
     return [with_reached(extra.get(k) or log.rows[k]) for k in keys if k in extra or k in log.rows]
 
 
-def with_reached(row: dict[str, Any]) -> dict[str, Any]:
+def with_reached(row: Columns) -> Columns:
     """``row`` with ``goal_reached`` (true/false) before ``goal_time_s``, and so for every
     ``<event>_time_s`` metric of an ok episode: its NaN means the event never happened, which a
     mean or a plot would otherwise drop without a word."""
-    if row.get("status") != "ok":
+    if not is_ok(row):
         return row
-    out: dict[str, Any] = {}
+    out: Columns = {}
     for name, value in row.items():
         reached = None if name in STATUS_COLUMNS else reached_column(name)
         if reached and reached not in row and (value is None or _is_number(value)):
@@ -110,13 +104,13 @@ def _is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
-def write_table(rows: list[dict[str, Any]], folder: Path) -> tuple[Path, Path]:
+def write_table(rows: list[Columns], folder: Path) -> tuple[Path, Path]:
     """``episodes.parquet`` and ``episodes.csv``: one row per episode, every column typed."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    columns = _column_order(rows)
+    columns = column_order(rows)
     arrays = {}
     for name in columns:
         values = [row.get(name) for row in rows]
@@ -154,20 +148,20 @@ def _fmt(value: Any) -> str:
     return f"{value:.6f}" if isinstance(value, float) else str(value)
 
 
-def metric_columns(rows: list[dict[str, Any]], grid_keys: list[str] | None = None) -> list[str]:
+def metric_columns(rows: list[Columns], grid_keys: list[str] | None = None) -> list[str]:
     """Numeric columns that are results (not ids, parameters, poses, seeds or per-robot columns)."""
-    skip = set(ID_COLUMNS) | set(STATUS_COLUMNS) | {"seed"}
+    skip = set(ID_COLUMNS) | set(STATUS_COLUMNS)
     out = []
-    for name in _column_order(rows):
-        if name in skip or name.startswith("param.") or name.startswith("pose_") or "." in name:
+    for name in column_order(rows):
+        if name in skip or is_setting(name) or "." in name:
             continue
-        values = [row.get(name) for row in rows if row.get("status") == "ok"]
+        values = [row.get(name) for row in rows if is_ok(row)]
         if values and all(_is_number(v) for v in values if v is not None):
             out.append(name)
     return out
 
 
-def _finite(rows: list[dict[str, Any]], metric: str) -> list[float]:
+def _finite(rows: list[Columns], metric: str) -> list[float]:
     """The metric's values that are numbers (a NaN or a missing value is not one)."""
     return [r[metric] for r in rows if _is_number(r.get(metric)) and not _nan(r[metric])]
 
@@ -185,7 +179,7 @@ SHOWN_FAILURES = 5
 
 
 def summary(
-    rows: list[dict[str, Any]],
+    rows: list[Columns],
     grid_keys: list[str],
     out: TextIO = sys.stdout,
     *,
@@ -197,8 +191,8 @@ def summary(
     more and where they all are: ``full``), which grid parameters each controller was swept over
     (``applies``), the mean of each metric per controller × world × grid point, then how many
     episodes reached each "time to" metric's event and how many NaN any other metric has."""
-    ok = [r for r in rows if r.get("status") == "ok"]
-    failed = [r for r in rows if r.get("status") != "ok"]
+    ok = [r for r in rows if is_ok(r)]
+    failed = [r for r in rows if not is_ok(r)]
     print(f"{len(rows)} episodes: {len(ok)} ok, {len(failed)} failed", file=out)
     listed = failed if shown_failures is None else failed[:shown_failures]
     for row in listed:
@@ -243,7 +237,7 @@ def grid_note(grid_keys: list[str], applies: dict[str, list[str]]) -> list[str]:
 
 
 def write_summary(
-    rows: list[dict[str, Any]], grid_keys: list[str], folder: Path, applies: dict[str, list[str]] | None = None
+    rows: list[Columns], grid_keys: list[str], folder: Path, applies: dict[str, list[str]] | None = None
 ) -> Path:
     """``summary.txt``: the summary with every failure and its reason, then the spread of each
     metric per group (n, mean, sd, min, max over the ok episodes)."""
@@ -252,7 +246,7 @@ def write_summary(
     text = io.StringIO()
     summary(rows, grid_keys, text, applies=applies, shown_failures=None)
     metrics = metric_columns(rows)
-    ok = [r for r in rows if r.get("status") == "ok"]
+    ok = [r for r in rows if is_ok(r)]
     if ok and metrics:
         print("spread per group (over its ok episodes; sd: sample standard deviation):", file=text)
         _print_table(_spread_table(rows, grid_keys, metrics), text)
@@ -261,10 +255,10 @@ def write_summary(
     return path
 
 
-def _spread_table(rows: list[dict[str, Any]], grid_keys: list[str], metrics: list[str]) -> list[list[str]]:
+def _spread_table(rows: list[Columns], grid_keys: list[str], metrics: list[str]) -> list[list[str]]:
     lines = [["controller", "world", *grid_keys, "metric", "n", "mean", "sd", "min", "max"]]
     for label, members in _groups(rows, grid_keys).items():
-        good = [r for r in members if r.get("status") == "ok"]
+        good = [r for r in members if is_ok(r)]
         if not good:
             lines.append([*label, "(none ok)", "0", "-", "-", "-", "-"])
             continue
@@ -280,9 +274,7 @@ def _spread_table(rows: list[dict[str, Any]], grid_keys: list[str], metrics: lis
     return lines
 
 
-def _group_table(
-    rows: list[dict[str, Any]], grid_keys: list[str], metrics: list[str], with_failed: bool
-) -> list[list[str]]:
+def _group_table(rows: list[Columns], grid_keys: list[str], metrics: list[str], with_failed: bool) -> list[list[str]]:
     """The summary's table: a head, then per group its ok episodes ``n`` (and ``failed``), and
     each metric's mean over the ok ones; a "time to" metric gets ``reached/n`` before its mean."""
     head = ["controller", "world", *grid_keys, "n", *(["failed"] if with_failed else [])]
@@ -290,7 +282,7 @@ def _group_table(
         head += [str(reached_column(m)), m] if reached_column(m) else [m]
     lines = [head]
     for label, members in _groups(rows, grid_keys).items():
-        good = [r for r in members if r.get("status") == "ok"]
+        good = [r for r in members if is_ok(r)]
         cells = [*label, str(len(good)), *([str(len(members) - len(good))] if with_failed else [])]
         for m in metrics:
             values = _finite(good, m)
@@ -309,16 +301,16 @@ def _mean_cell(values: list[float], ok: int, metric: str) -> str:
     return "-" if reached_column(metric) or not ok else "nan"
 
 
-def _groups(rows: list[dict[str, Any]], grid_keys: list[str]) -> dict[tuple[str, ...], list[dict[str, Any]]]:
+def _groups(rows: list[Columns], grid_keys: list[str]) -> dict[tuple[str, ...], list[Columns]]:
     """Rows per controller × world × grid point, in the order they first appear."""
-    groups: dict[tuple[str, ...], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, ...], list[Columns]] = {}
     for row in rows:
         label = (row["controller"], row["world"], *(_param(row, k) for k in grid_keys))
         groups.setdefault(tuple("-" if v is None else str(v) for v in label), []).append(row)
     return groups
 
 
-def _nan_note(ok: list[dict[str, Any]], metric: str) -> str:
+def _nan_note(ok: list[Columns], metric: str) -> str:
     """``goal_time_s: reached 331/1000 (33 %), mean of those 12.3 s``, or for any other metric
     with NaN ``x: NaN in 3 of 1000 episodes, left out of its mean``; "" when there is nothing
     to say."""
@@ -332,8 +324,8 @@ def _nan_note(ok: list[dict[str, Any]], metric: str) -> str:
     return ""
 
 
-def _param(row: dict[str, Any], key: str) -> Any:
-    return row.get(f"param.{key}")
+def _param(row: Columns, key: str) -> Any:
+    return row.get(f"{PARAM_PREFIX}{key}")
 
 
 def _nan(value: Any) -> bool:
@@ -353,7 +345,7 @@ MIN_SPAN_RELATIVE = 0.05
 MAX_COUNTED_SERIES = 4
 
 
-def plot_columns(rows: list[dict[str, Any]]) -> list[str]:
+def plot_columns(rows: list[Columns]) -> list[str]:
     """The columns :func:`plots` draws: every metric, each "time to" one after its reached share."""
     out = []
     for metric in metric_columns(rows):
@@ -364,7 +356,7 @@ def plot_columns(rows: list[dict[str, Any]]) -> list[str]:
     return out
 
 
-def plots(rows: list[dict[str, Any]], grid_keys: list[str], folder: Path) -> list[Path]:
+def plots(rows: list[Columns], grid_keys: list[str], folder: Path) -> list[Path]:
     """``<column>.png`` per column of :func:`plot_columns` (see :func:`figure`)."""
     plt = _pyplot()
     folder.mkdir(parents=True, exist_ok=True)
@@ -387,7 +379,7 @@ def _pyplot() -> Any:
     return plt
 
 
-def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Figure:
+def figure(rows: list[Columns], grid_keys: list[str], column: str) -> Figure:
     """One column of the ok episodes, nothing averaged away: against the first grid parameter (a
     line of means per controller × world over the episodes' dots), a column of panels per value of
     the second, a row per combination of the others; without a grid a box per controller × world.
@@ -398,7 +390,7 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
     episodes are crosses at the foot of their place, their reason in the legend: a student whose
     every episode failed is still in the figure."""
     plt = _pyplot()
-    ok = [r for r in rows if r.get("status") == "ok"]
+    ok = [r for r in rows if is_ok(r)]
     col_values = _values(rows, grid_keys[1]) if len(grid_keys) > 1 else [None]
     row_values = list(itertools.product(*(_values(rows, k) for k in grid_keys[2:])))
     series = list(dict.fromkeys((r["controller"], r["world"]) for r in rows))
@@ -419,10 +411,8 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
             # a controller not swept over a parameter (it does not declare it) is in every panel of it
             members = [r for r in rows if all(_param(r, k) in (v, None) for k, v in facet.items())]
             ax = axes[i][j]
-            _panel(ax, [r for r in members if r.get("status") == "ok"], ok, rows, grid_keys[:1], column, series)
-            ax.set_title(
-                _panel_title(facet, [r for r in members if r.get("status") == "ok"], column), fontsize="medium"
-            )
+            _panel(ax, [r for r in members if is_ok(r)], ok, rows, grid_keys[:1], column, series)
+            ax.set_title(_panel_title(facet, [r for r in members if is_ok(r)], column), fontsize="medium")
             if i == len(row_values) - 1 and grid_keys:
                 ax.set_xlabel(_axis_label(grid_keys[0]))
         axes[i][0].set_ylabel(_axis_label(column, share=_is_share(column, ok)))
@@ -435,12 +425,10 @@ def figure(rows: list[dict[str, Any]], grid_keys: list[str], column: str) -> Fig
             facet = dict(zip(grid_keys[2:], row_value, strict=True))
             if len(grid_keys) > 1:
                 facet = {grid_keys[1]: col_value, **facet}
-            failed = [
-                r for r in rows if r.get("status") != "ok" and all(_param(r, k) in (v, None) for k, v in facet.items())
-            ]
+            failed = [r for r in rows if not is_ok(r) and all(_param(r, k) in (v, None) for k, v in facet.items())]
             _failures(axes[i][j], failed, rows, grid_keys[:1], series, legend=(i, j) == (0, len(col_values) - 1))
     handles, _ = axes[0][-1].get_legend_handles_labels()
-    if handles and (len(series) > 1 or any(r.get("status") != "ok" for r in rows)):
+    if handles and (len(series) > 1 or any(not is_ok(r) for r in rows)):
         axes[0][-1].legend(fontsize="small")
     fig.suptitle(_figure_title(rows, ok, column))
     fig.tight_layout()
@@ -454,8 +442,8 @@ LEGEND_REASON = 60
 
 def _failures(
     ax: Axes,
-    failed: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
+    failed: list[Columns],
+    rows: list[Columns],
     x_key: list[str],
     series: list[tuple[str, str]],
     legend: bool,
@@ -482,20 +470,20 @@ def _failures(
         ax.scatter(positions, [0.04] * len(mine), transform=foot, marker="x", s=36, color=colour, label=label)
 
 
-def _reason(failed: list[dict[str, Any]]) -> str:
+def _reason(failed: list[Columns]) -> str:
     """The most common error of ``failed``, without its log file, cut for a legend."""
     reasons = [_REFUSED.sub("refused: ", str(r.get("error", "")).split(" [log: ")[0]) for r in failed]
     reason = max(set(reasons), key=reasons.count)
     return reason if len(reason) <= LEGEND_REASON else reason[: LEGEND_REASON - 1] + "…"
 
 
-def _is_share(column: str, ok: list[dict[str, Any]]) -> bool:
+def _is_share(column: str, ok: list[Columns]) -> bool:
     """A yes/no column (``goal_reached``): drawn as the share of episodes."""
     values = [r.get(column) for r in ok if r.get(column) is not None]
     return bool(values) and all(isinstance(v, bool) for v in values)
 
 
-def _values(ok: list[dict[str, Any]], key: str) -> list[Any]:
+def _values(ok: list[Columns], key: str) -> list[Any]:
     """The grid parameter's values, sorted when they are numbers, else in the sweep's order."""
     values: list[Any] = []
     for row in ok:
@@ -506,9 +494,9 @@ def _values(ok: list[dict[str, Any]], key: str) -> list[Any]:
 
 def _panel(
     ax: Axes,
-    members: list[dict[str, Any]],
-    ok: list[dict[str, Any]],
-    rows: list[dict[str, Any]],
+    members: list[Columns],
+    ok: list[Columns],
+    rows: list[Columns],
     x_key: list[str],
     column: str,
     series: list[tuple[str, str]],
@@ -577,19 +565,19 @@ def _reached_counts(ax: Axes, positions: list[Any], per_x: list[Any], data: list
             ax.text(p, 0.03 + 0.07 * k, text, transform=foot, ha="center", fontsize="x-small", color=f"C{k}")
 
 
-def _shares(rows: list[dict[str, Any]], column: str) -> list[float]:
+def _shares(rows: list[Columns], column: str) -> list[float]:
     """A yes/no column as 100 (yes) and 0 (no), so that their mean is the share in %."""
     return [100.0 * bool(r[column]) for r in rows if isinstance(r.get(column), bool)]
 
 
-def _series_tick(series: tuple[str, str], rows: list[dict[str, Any]], column: str) -> str:
+def _series_tick(series: tuple[str, str], rows: list[Columns], column: str) -> str:
     tick = f"{series[0]}\n{series[1]}"
     if reached_column(column):
         tick += f"\n{len(_finite(rows, column))}/{len(rows)} reached"
     return tick
 
 
-def _panel_title(facet: dict[str, Any], members: list[dict[str, Any]], column: str) -> str:
+def _panel_title(facet: dict[str, Any], members: list[Columns], column: str) -> str:
     """``turn = 0.5, speed = 0.2``: the panel's grid values, and for a "time to" metric how many
     of its episodes reached the event (the others have no time to draw)."""
     parts = [f"{k} = {v}" for k, v in facet.items()]
@@ -598,7 +586,7 @@ def _panel_title(facet: dict[str, Any], members: list[dict[str, Any]], column: s
     return ", ".join(parts)
 
 
-def _figure_title(rows: list[dict[str, Any]], ok: list[dict[str, Any]], column: str) -> str:
+def _figure_title(rows: list[Columns], ok: list[Columns], column: str) -> str:
     failed = len(rows) - len(ok)
     title = f"{column}: {len(ok)} episodes"
     if reached_column(column):
@@ -614,13 +602,13 @@ def _figure_title(rows: list[dict[str, Any]], ok: list[dict[str, Any]], column: 
 
 def _axis_label(name: str, share: bool = False) -> str:
     """``goal_time_s`` → ``goal time (s)``; a share → ``goal reached (% of episodes)``."""
-    stem, unit = split_unit(name.removeprefix("param."))
+    stem, unit = split_unit(name.removeprefix(PARAM_PREFIX))
     if share:
         unit = "% of episodes"
     return f"{stem.replace('_', ' ')} ({unit})" if unit else stem.replace("_", " ")
 
 
-def _value_axis(ax: Axes, ok: list[dict[str, Any]], column: str) -> None:
+def _value_axis(ax: Axes, ok: list[Columns], column: str) -> None:
     """Plain tick labels (no offset, no 1e-8 scale) on the value axis the panels share, at least
     :data:`MIN_SPAN` wide; a share spans 0–100 %, whole numbers get whole ticks."""
     from matplotlib.ticker import MaxNLocator

@@ -42,7 +42,9 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-OnResult = Callable[[dict[str, Any]], None]
+from sim_tools.batch.row import ERROR, Result, Row
+
+OnResult = Callable[[Result], None]
 LogPath = Callable[[Any], Path]
 
 #: Wall seconds a new worker may take to start (imports, numba's cache on a loaded machine).
@@ -85,13 +87,9 @@ def exit_reason(returncode: int) -> str:
     return f"the episode's process exited with code {returncode}"
 
 
-def error_result(ep: Any, error: str, pid: int, seconds: float) -> dict[str, Any]:
+def error_result(ep: Any, error: str, pid: int, seconds: float) -> Result:
     """The result of an episode that ended without a result of its own."""
-    from sim_tools.batch.episode import base_row
-
-    row = base_row(ep)
-    row.update(status="error", error=error)
-    return {"row": row, "timing": {"episode": ep.index, "pid": pid, "total_s": seconds}}
+    return {"row": Row.of(ep, ERROR, error), "timing": {"episode": ep.index, "pid": pid, "total_s": seconds}}
 
 
 def _resident_mb(pid: int) -> float:
@@ -298,7 +296,7 @@ class Supervisor:
                 worker.take(), reason + _stop_note(sim_time, where), worker.process.pid, now - worker.since
             )
             if sim_time is not None:
-                result["row"]["sim_time_s"] = sim_time
+                result["row"].sim_time_s = sim_time
             on_result(result)
 
 
@@ -370,7 +368,7 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, daemon=True, name="orphan-watch").start()
 
 
-def _exit_result(ep: Any, exc: BaseException, seconds: float) -> dict[str, Any]:
+def _exit_result(ep: Any, exc: BaseException, seconds: float) -> Result:
     """``sys.exit`` (or another BaseException) in a controller: the episode's row."""
     from sim_tools.batch.episode import at_line
 
@@ -382,7 +380,7 @@ def _exit_result(ep: Any, exc: BaseException, seconds: float) -> dict[str, Any]:
     return error_result(ep, what + where, os.getpid(), seconds)
 
 
-def _run_logged(ep: Any, log: str, base_fd: int) -> tuple[dict[str, Any], bool]:
+def _run_logged(ep: Any, log: str, base_fd: int) -> tuple[Result, bool]:
     """Run ``ep`` with fds 1 and 2 on its log file; returns its result and whether this process
     can run another episode."""
     from sim_tools.batch.episode import run_episode
@@ -406,7 +404,7 @@ def _run_logged(ep: Any, log: str, base_fd: int) -> tuple[dict[str, Any], bool]:
 def _warm_up(ep: Any) -> None:
     """Compile (or load from numba's cache) the simulator's kernels and build ``ep``'s world once,
     unstepped, so that imports, compiling and the first context are start-up, not the first
-    episode's set-up: that counts against its time limit (a first run compiles for ~30 s), and a
+    episode's set-up: that counts against its time limit (a first run may compile kernels), and a
     replaced worker would be slow to take over."""
     try:
         from sim_tools.adapters.contract import world_part
