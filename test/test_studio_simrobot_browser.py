@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import re
+import subprocess
 import time
 import urllib.request
 from pathlib import Path
@@ -29,6 +30,7 @@ from studio_browser_support import (
     open_page,
     screenshot,
     studio_domain,
+    studio_env,
     type_into,
     wait,
 )
@@ -449,3 +451,48 @@ def test_importing_a_file_that_is_no_image_says_so_in_a_sentence(browser, worksp
     click_text(browser, "Import")
     wait(browser, lambda d: "the file is not an image; save the map as a 1-bit or greyscale PNG or BMP" in message(d))
     assert "BytesIO" not in message(browser) and "object at 0x" not in message(browser)
+
+
+def world_shown(driver) -> str:
+    """The world the SIMROBOT page's selector shows ('' while none)."""
+    return text(driver, ".simrobot-world .q-field__native")
+
+
+def test_each_tab_keeps_the_world_it_picked_over_a_reload(browser, studio_url, ros):
+    from sim_tools.cli import executable_command
+
+    # a second world beside the editor's /simrobot1, started from a terminal as a user would
+    other = subprocess.Popen(
+        executable_command(
+            "simrobot_world", ["--ros-args", "-r", "__ns:=/other", "-p", "world_file:=simrobot/demo.yaml"]
+        ),
+        env=studio_env(STUDIO_DOMAIN),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    first = browser.current_window_handle
+    try:
+        # up once it publishes (a first start may compile kernels)
+        deadline = time.monotonic() + 300
+        while not any(name.startswith("/other/") for name, _types in ros.get_topic_names_and_types()):
+            assert other.poll() is None and time.monotonic() < deadline, "the second world did not start"
+            time.sleep(0.5)
+        open_page(browser, studio_url + "/simrobot")
+        wait(browser, lambda d: world_shown(d) != "", timeout=60)
+        choose(browser, ".simrobot-world", "/other")
+        wait(browser, lambda d: world_shown(d) == "/other")
+        browser.switch_to.new_window("tab")
+        try:
+            open_page(browser, studio_url + "/simrobot")
+            choose(browser, ".simrobot-world", "/simrobot1")  # the world picked last, by another tab
+            wait(browser, lambda d: world_shown(d) == "/simrobot1")
+        finally:
+            browser.close()
+            browser.switch_to.window(first)
+        for _reload in range(2):
+            open_page(browser, studio_url + "/simrobot")
+            shown = wait(browser, lambda d: world_shown(d) in ("/other", "/simrobot1") and world_shown(d))
+            assert shown == "/other"
+    finally:
+        other.terminate()
+        other.wait(timeout=30)

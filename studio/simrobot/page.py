@@ -9,6 +9,8 @@ the page writes into the drawing) and shows frames/s under the view: what the be
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 from nicegui import events, ui
 
@@ -48,12 +50,18 @@ FPS_JS = """
 """
 
 
+TAB_WORLD_KEY = "robot_sims.studio.simrobot_world"
+"""Where a tab keeps its choice of world: the browser's sessionStorage, one per tab, kept over a
+reload (the studio's "last picked" is every tab's: a reloaded tab would take another tab's world)."""
+
+
 def register(studio: Studio) -> None:
     side(studio)
 
     @ui.page("/simrobot")
-    def simrobot_page() -> None:
-        SimrobotPage(studio)
+    async def simrobot_page() -> None:
+        page = SimrobotPage(studio)
+        await page.restore_choice()
 
 
 class SimrobotPage(SimrobotView):
@@ -73,6 +81,7 @@ class SimrobotPage(SimrobotView):
         self.map_url = ""
         self.mouse_down: tuple[float, float, float, float] | None = None  # pixel, view centre at the press
         self.tracks_drawn = 0.0
+        self.restored = False  # the tab's own choice is read back from the browser (until then: none)
         self.build()
         ui.timer(FRAME_PERIOD_S, self.tick)
         ui.timer(0.5, self.slow_tick)
@@ -137,11 +146,23 @@ class SimrobotPage(SimrobotView):
                     self.tracks_image = ui.image().classes("w-full")
                     self.tracks_image.set_visibility(False)
 
+    async def restore_choice(self) -> None:
+        """The world this tab picked before a reload (a new tab: the studio's last picked): until it
+        is known the tab lists no world, so no command reaches another tab's world."""
+        try:
+            await ui.context.client.connected(timeout=30.0)
+            stored = await ui.run_javascript(f"return sessionStorage.getItem({json.dumps(TAB_WORLD_KEY)})")
+        except TimeoutError:
+            stored = None
+        if isinstance(stored, str) and self.ns is None:
+            self.ns = json.loads(stored)
+        self.restored = True
+
     def slow_tick(self) -> None:
         ros = self.side.ros
         if ros is None:
             return
-        names = ros.namespaces()
+        names = ros.namespaces() if self.restored else []
         if names != list(self.world_select.options):
             current = self.ns if self.ns in names else self.side.selected if self.side.selected in names else None
             value = current if current is not None else (names[0] if names else None)
@@ -160,7 +181,9 @@ class SimrobotPage(SimrobotView):
 
     def on_world(self, e) -> None:
         self.ns = e.value
-        self.side.selected = e.value
+        if e.value is not None:
+            self.side.selected = e.value
+            ui.run_javascript(f"sessionStorage.setItem({json.dumps(TAB_WORLD_KEY)}, {json.dumps(json.dumps(e.value))})")
         self.robot = None
         self.drawn_map = None
         self.view_dirty = True
