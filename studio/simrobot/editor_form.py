@@ -83,7 +83,7 @@ class EditorForm(EditorBase):
                     self.f_shape = (
                         ui.textarea("shape: x, y per vertex (m)")
                         .props("rows=5")
-                        .classes("w-48 font-mono simrobot-shape")
+                        .classes("w-56 font-mono simrobot-shape")
                     )
                     with ui.column().classes("gap-1"):
                         ui.button("Apply shape", on_click=self.apply_shape).props("dense outline")
