@@ -159,21 +159,27 @@ def _substep(
         nth = th + w_eff * h
     px, py, ok = _push_out(grid, nx_, ny_, radius, contacts)
     if not ok:
-        # Bisection between the valid start and the target: the robot is a circle, so heading
-        # never matters for overlap.
-        lo = 0.0
-        hi = 1.0
-        for _ in range(30):
-            mid = 0.5 * (lo + hi)
-            mx = x + (nx_ - x) * mid
-            my = y + (ny_ - y) * mid
-            if min_clearance(grid, mx, my, radius, contacts) >= radius - _SOLVER_TOL:
-                lo = mid
-            else:
-                hi = mid
-        px = x + (nx_ - x) * lo
-        py = y + (ny_ - y) * lo
+        px, py = _last_free(grid, x, y, nx_, ny_, radius, contacts)
     return px, py, wrap_angle(nth)
+
+
+@numba.njit(cache=True, inline="always")
+def _last_free(
+    grid: SegmentGrid, x: float, y: float, nx_: float, ny_: float, radius: float, contacts: Contacts
+) -> tuple[float, float]:
+    """The last free point from the valid start (x, y) towards the target, by bisection: the robot
+    is a circle, so heading never matters for overlap."""
+    lo = 0.0
+    hi = 1.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        mx = x + (nx_ - x) * mid
+        my = y + (ny_ - y) * mid
+        if min_clearance(grid, mx, my, radius, contacts) >= radius - _SOLVER_TOL:
+            lo = mid
+        else:
+            hi = mid
+    return x + (nx_ - x) * lo, y + (ny_ - y) * lo
 
 
 @numba.njit(cache=True)

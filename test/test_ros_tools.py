@@ -16,7 +16,7 @@ from std_msgs.msg import UInt8
 from visualization_msgs.msg import MarkerArray
 
 from arm_sim.arm_node import ArmNode
-from create_sim.spec import SENSOR_MOUNTS
+from create_sim.spec import FOOTPRINT_FRAME, SENSOR_MOUNTS
 from create_sim.world_node import CreateWorldNode
 from sim_runtime.msgs import time_from_msg
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS
@@ -393,7 +393,8 @@ def test_a_recorder_started_after_the_world_still_gets_its_static_transforms_and
     recorder.destroy_node()
     bag = open_bag(tmp_path / "bag")
     static = [m.msg for m in bag.messages() if m.topic == "/tf_static"]
-    assert {t.child_frame_id for t in static[0].transforms} == {f"late/{n}" for n in SENSOR_MOUNTS}
+    # every sensor's mount and the footprint (REP-120) under base_link
+    assert {t.child_frame_id for t in static[0].transforms} == {f"late/{n}" for n in (*SENSOR_MOUNTS, FOOTPRINT_FRAME)}
     assert any(m.topic == "/tf" for m in bag.messages())
     assert "transient_local" in bag.topic_metadata["/tf_static"]["offered_qos_profiles"]
 

@@ -113,7 +113,10 @@ def worker_environment() -> dict[str, str]:
 class _Worker:
     """One worker process, its socket, and the episode it runs (if any)."""
 
-    def __init__(self, output: Path, warm: Any) -> None:
+    def __init__(self, output: Path, warm: Any, register: Callable[[_Worker], None]) -> None:
+        """Start the process; ``register`` is given this worker as soon as the process exists, so a
+        Ctrl-C while it is being set up cannot leave it running (in its own session, a terminal's
+        Ctrl-C does not reach it: only the supervisor's kill does)."""
         ours, theirs = socket.socketpair()
         self.clock_fd = os.memfd_create("robot_sims-batch-sim-time")  # no file anywhere to clean up
         os.ftruncate(self.clock_fd, 8)
@@ -133,16 +136,17 @@ class _Worker:
             )
         theirs.close()
         self.conn = Connection(ours.detach())
-        self.conn.send(warm)  # the first episode it will see, to warm up on
         self.output = output
         self.started = time.monotonic()
         self.ready = False
         self.episode: Any = None
         self.log: Path | None = None
-        self.clock = mmap.mmap(self.clock_fd, 8)  # the sim time its episode got to (a double)
-        os.close(self.clock_fd)
         self.since = 0.0
         self.deadline = float("inf")
+        register(self)
+        self.clock = mmap.mmap(self.clock_fd, 8)  # the sim time its episode got to (a double)
+        os.close(self.clock_fd)
+        self.conn.send(warm)  # the first episode it will see, to warm up on
 
     def send(self, ep: Any, log: Path, limits: Limits) -> None:
         struct.pack_into("d", self.clock, 0, math.nan)
@@ -226,7 +230,7 @@ class Supervisor:
             busy += 1
         wanted = min(self.size + self.spare, busy + len(queue))
         while queue and len(self.workers) < wanted:
-            self.workers.append(_Worker(self.output, queue[0]))
+            _Worker(self.output, queue[0], register=self.workers.append)
 
     def _step(self, on_result: OnResult, limits: Limits) -> None:
         """Wait for the next message, death or deadline; handle what happened."""
