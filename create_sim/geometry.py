@@ -528,17 +528,7 @@ def rasterise_walls(
     half = 0.5 * thickness
     if segs.shape[0] == 0:
         return WallRaster(np.zeros((0, 0), dtype=bool), resolution, 0.0, 0.0)
-    points = segs.reshape(-1, 2)
-    lo = points.min(axis=0) - half
-    hi = points.max(axis=0) + half
-    while True:
-        first = np.floor(lo / resolution)
-        shape = (np.floor(hi / resolution) - first + 1).astype(np.int64)
-        if float(shape[0]) * float(shape[1]) <= MAX_MAP_CELLS:
-            break
-        resolution *= 2.0
-    occupied = np.zeros((int(shape[1]), int(shape[0])), dtype=bool)
-    origin = first * resolution
+    occupied, origin, resolution = _raster_layout(segs, resolution, half)
     total = segs.shape[0]
     for start in range(0, total, RASTER_CHUNK_WALLS):
         chunk = segs[start : start + RASTER_CHUNK_WALLS]
@@ -632,12 +622,9 @@ def _point_segment(px, py, x1, y1, x2, y2):  # pragma: no cover - numba
     return np.hypot(px - (x1 + u * sx), py - (y1 + u * sy))
 
 
-def _rasterise_reference(segs: np.ndarray, resolution: float, thickness: float = WALL_THICKNESS_M) -> WallRaster:
-    """The rasteriser as numpy over each piece of wall (slow: the kernel's reference in tests)."""
-    segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
-    half = 0.5 * thickness
-    if segs.shape[0] == 0:
-        return WallRaster(np.zeros((0, 0), dtype=bool), resolution, 0.0, 0.0)
+def _raster_layout(segs: np.ndarray, resolution: float, half: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """An empty grid over the walls plus ``half`` their thickness, its origin (m) and its
+    resolution (doubled until the grid has at most :data:`MAX_MAP_CELLS` cells)."""
     points = segs.reshape(-1, 2)
     lo = points.min(axis=0) - half
     hi = points.max(axis=0) + half
@@ -647,8 +634,16 @@ def _rasterise_reference(segs: np.ndarray, resolution: float, thickness: float =
         if float(shape[0]) * float(shape[1]) <= MAX_MAP_CELLS:
             break
         resolution *= 2.0
-    occupied = np.zeros((int(shape[1]), int(shape[0])), dtype=bool)
-    origin = first * resolution
+    return np.zeros((int(shape[1]), int(shape[0])), dtype=bool), first * resolution, resolution
+
+
+def _rasterise_reference(segs: np.ndarray, resolution: float, thickness: float = WALL_THICKNESS_M) -> WallRaster:
+    """The rasteriser as numpy over each piece of wall (slow: the kernel's reference in tests)."""
+    segs = np.ascontiguousarray(segs, dtype=np.float64).reshape(-1, 4)
+    half = 0.5 * thickness
+    if segs.shape[0] == 0:
+        return WallRaster(np.zeros((0, 0), dtype=bool), resolution, 0.0, 0.0)
+    occupied, origin, resolution = _raster_layout(segs, resolution, half)
     for piece in _wall_pieces(segs, _PIECE_CELLS * resolution):
         _mark_piece(occupied, piece, origin, resolution, half)
     return WallRaster(occupied, resolution, float(origin[0]), float(origin[1]))
