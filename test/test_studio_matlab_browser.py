@@ -55,10 +55,11 @@ new = simrobot;
 """
 GIVES_UP = """\
 function gives_up(serPort)
-SetFwdVelAngVelCreate(serPort, 0.2, 0);
-% gives up once the robot has moved 5 cm (in the world's time: a busy machine cannot skip it)
+% gives up once the robot has moved 5 cm (in the world's time: a busy machine cannot skip it),
+% commanding its speed every turn of the loop as a control program does
 moved = 0;
 while moved < 0.05
+  SetFwdVelAngVelCreate(serPort, 0.2, 0);
   moved = moved + DistanceSensorRoomba(serPort);
   pause(0.05);
 end
