@@ -26,4 +26,5 @@ EXECUTABLES: dict[str, tuple[str, str]] = {
     "matlab_bridge": ("sim_tools.matlab.bridge:main", "serve one Create's toolbox calls to a MATLAB/Octave program"),
     "matlab_path": ("sim_tools.matlab.paths:main", "print the folder of the m-files (the Create toolbox) for addpath"),
     "bag_to_mat": ("sim_tools.matlab.bag_to_mat:main", "write a bag as a .mat file for MATLAB/Octave (load)"),
+    "classroom": ("sim_tools.classroom.cli:main", "a course server (JupyterHub) and its assignments: init, serve, ..."),
 }
