@@ -13,12 +13,14 @@ export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
 venv: $(STAMP)
 
-$(STAMP): setup.py interfaces/build_tf2_msgs.py interfaces/tf2_msgs/pyproject.toml
+$(STAMP): setup.py interfaces/build_interfaces.py interfaces/cmake/pip_prefix.cmake \
+	  interfaces/tf2_msgs/pyproject.toml interfaces/robot_sims_interfaces/pyproject.toml \
+	  interfaces/robot_sims_interfaces/srv/SetPose.srv
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
-	# After the project: tf2_msgs' build finds the ROS wheels (fastrtps_cmake_module, ...) in the venv.
-	$(PY) interfaces/build_tf2_msgs.py
+	# After the project: the interfaces' build finds the ROS wheels (fastrtps_cmake_module, ...) in the venv.
+	$(PY) interfaces/build_interfaces.py
 	$(PY) -m sim_tools.warmup
 	touch $@
 

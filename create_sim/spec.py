@@ -139,6 +139,8 @@ MAP_TOPIC = "map"
 """The map's walls as a latched OccupancyGrid."""
 SET_POSE_TOPIC = "set_pose"
 """Moves the robot to a pose in the map (PoseStamped)."""
+SET_POSE_SERVICE = "set_pose"
+"""The same move as a service (robot_sims_interfaces/SetPose) that answers whether it was done and why not."""
 BUMP_SIDES = ("left", "right")
 """The bumpers (topics ``bump/<side>``)."""
 

@@ -85,6 +85,16 @@ from sim_runtime.run import run_nodes
 from sim_runtime.tf import TfBroadcaster, set_planar, transform_msg
 from sim_runtime.world_node import SimWorldNode, namespace_prefix
 
+try:
+    from robot_sims_interfaces.srv import SetPose
+except ImportError:  # a pip install without a compiler: see interfaces/build_interfaces.py
+    SetPose = None
+
+SET_POSE_SERVICE_OFF = (
+    "the set_pose service is off: robot_sims_interfaces is not installed (interfaces/build_interfaces.py "
+    "builds it, which needs a C/C++ compiler and the Python headers); the set_pose topic works"
+)
+
 BUMP_FOV = math.pi / 2  # each bumper half covers a quarter of the circle
 # one ray per sonar: the cone within which that ray reads as a cone would, to the physics' contact skin
 SONAR_FIELD_OF_VIEW = sonar_field_of_view(CreateModel.SONAR_RANGE[1], CONTACT_SKIN)
@@ -366,6 +376,10 @@ class CreateWorldNode(SimWorldNode):
         else:
             create_command_subscription(self, Twist, spec.CMD_VEL_TOPIC, self._on_cmd_vel)
         create_command_subscription(self, PoseStamped, spec.SET_POSE_TOPIC, self._on_set_pose)
+        if SetPose is None:
+            self.get_logger().warning(SET_POSE_SERVICE_OFF)
+        else:
+            self.create_service(SetPose, spec.SET_POSE_SERVICE, self._on_set_pose_service)
         self.create_service(Trigger, "reset", self._on_reset)
         self.create_service(SetBool, "press_play", lambda req, res: self._on_button(0, req, res))
         self.create_service(SetBool, "press_advance", lambda req, res: self._on_button(1, req, res))
@@ -406,20 +420,35 @@ class CreateWorldNode(SimWorldNode):
             self.model.set_velocity(0.0, 0.0)
             self._last_cmd_time = None
 
-    def _on_set_pose(self, msg: PoseStamped) -> None:
+    def place(self, msg: PoseStamped) -> str | None:
+        """Move the robot to the pose ``msg`` gives in the map; None when done, else why not (the
+        robot stays where it was). The one check behind the ``set_pose`` topic and service."""
         p = msg.pose.position
         yaw = yaw_from_quaternion(msg.pose.orientation)
         if msg.header.frame_id not in ("", "map"):
-            self.warn_throttled("set_pose", f"set_pose ignored: frame {msg.header.frame_id!r} is not 'map'")
-            return
+            return f"frame {msg.header.frame_id!r} is not 'map'"
         if not all_within((p.x, p.y, yaw)):
-            pose = f"({p.x:.6g}, {p.y:.6g}, {yaw:.6g})"
-            self.warn_throttled("set_pose", f"set_pose ignored: pose {pose} not finite within ±{MAX_COORDINATE_M:g}")
-            return
+            return f"pose ({p.x:.6g}, {p.y:.6g}, {yaw:.6g}) not finite within ±{MAX_COORDINATE_M:g}"
         try:
             self.model.set_pose(p.x, p.y, yaw)
         except InputError as err:
-            self.warn_throttled("set_pose", f"set_pose ignored: {err}")
+            return str(err)
+        return None
+
+    def _on_set_pose(self, msg: PoseStamped) -> None:
+        refused = self.place(msg)
+        if refused is not None:
+            self.warn_throttled("set_pose", f"set_pose ignored: {refused}")
+
+    def _on_set_pose_service(self, request: Any, response: Any) -> Any:
+        refused = self.place(request.pose)
+        response.success = refused is None
+        if refused is None:
+            x, y, theta = self.model.pose
+            response.message = f"robot at ({x:.6g}, {y:.6g}, {theta:.6g}) in the map"
+        else:
+            response.message = f"set_pose refused: {refused}"
+        return response
 
     def _on_reset(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         self.model.reset()

@@ -81,7 +81,7 @@ def tf2_msgs():
     import importlib.util
 
     if importlib.util.find_spec("tf2_msgs") is None:
-        spec = importlib.util.spec_from_file_location("build_tf2_msgs", ROOT / "interfaces" / "build_tf2_msgs.py")
+        spec = importlib.util.spec_from_file_location("build_interfaces", ROOT / "interfaces" / "build_interfaces.py")
         build = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(build)
         missing = build.missing_build_tools()

@@ -13,13 +13,13 @@ from pathlib import Path
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 
 ROOT = Path(__file__).resolve().parent.parent
-BUILD_SCRIPT = ROOT / "interfaces" / "build_tf2_msgs.py"
+BUILD_SCRIPT = ROOT / "interfaces" / "build_interfaces.py"
 # What `ros2 topic info -v /tf` reports on a stock Jazzy system (robot_state_publisher, amcl).
 JAZZY_TFMESSAGE_HASH = "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"
 
 
 def load_build_script():
-    spec = importlib.util.spec_from_file_location("build_tf2_msgs", BUILD_SCRIPT)
+    spec = importlib.util.spec_from_file_location("build_interfaces", BUILD_SCRIPT)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -70,16 +70,17 @@ def test_the_rest_of_jazzys_tf2_msgs_is_there(tf2_msgs):
     assert LookupTransform.Result().error.error == TF2Error.NO_ERROR
 
 
-def test_without_a_compiler_the_setup_step_says_tf_is_off_and_goes_on():
+def test_without_a_compiler_the_setup_step_says_tf_and_the_set_pose_service_are_off_and_goes_on():
     env = dict(os.environ, CC="/nonexistent/cc", CXX="/nonexistent/c++")
     done = subprocess.run(
         [sys.executable, str(BUILD_SCRIPT), "--force"], env=env, capture_output=True, text=True, timeout=60
     )
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert len(lines) == 1, done.stdout
-    assert lines[0].startswith("TF is off:") and "/nonexistent/cc" in lines[0], lines[0]
-    assert lines[0].endswith("install gcc g++ python3-dev to enable"), lines[0]
+    assert len(lines) == 2, done.stdout
+    assert lines[0].startswith("TF is off: tf2_msgs is not built") and "/nonexistent/cc" in lines[0], lines[0]
+    assert lines[1].startswith("The set_pose service is off: robot_sims_interfaces is not built"), lines[1]
+    assert all(line.endswith("install gcc g++ python3-dev to enable") for line in lines), lines
     assert done.stderr == ""
 
 
@@ -89,6 +90,6 @@ def test_the_makefile_builds_tf2_msgs_after_the_project_has_put_the_ros_wheels_i
     )
     assert done.returncode == 0, done.stderr
     recipe = done.stdout
-    assert "interfaces/build_tf2_msgs.py" in recipe
+    assert "interfaces/build_interfaces.py" in recipe
     # its CMake build finds fastrtps_cmake_module & co. in the venv, where the project's install puts them
-    assert recipe.index("pip install --quiet -e") < recipe.index("interfaces/build_tf2_msgs.py")
+    assert recipe.index("pip install --quiet -e") < recipe.index("interfaces/build_interfaces.py")

@@ -1,4 +1,5 @@
-# Included right after project() (CMAKE_PROJECT_INCLUDE) when tf2_msgs is built by pip.
+# Included right after project() (CMAKE_PROJECT_INCLUDE) when an interface package of interfaces/ is
+# built by pip (its pyproject.toml names this file relative to its own folder).
 #
 # 1. The ROS wheels install ament packages into Python environment prefixes: the build's isolated
 #    environment (the rosidl toolchain) and the target environment (geometry_msgs, the rosidl
