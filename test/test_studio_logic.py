@@ -268,12 +268,13 @@ def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
     from rclpy.topic_endpoint_info import TopicEndpointInfo
 
     from studio.create.ros_client import POSE_TYPE, CreateRos
-    from studio.shell.ros import UNKNOWN_NODE_NAME
+    from studio.shell.ros import UNKNOWN_NODE_NAME, StudioRos
 
     def endpoint(name: str, namespace: str) -> TopicEndpointInfo:
         return TopicEndpointInfo(node_name=name, node_namespace=namespace, topic_type=POSE_TYPE)
 
-    ros = CreateRos()
+    shared = StudioRos()  # not spun: this test runs the discovery rounds itself
+    ros = CreateRos(shared)
     try:
         for timer in list(ros.node.timers):  # this test runs the discovery rounds itself
             ros.node.destroy_timer(timer)
@@ -288,7 +289,7 @@ def test_a_world_is_followed_only_once_its_node_name_is_known(monkeypatch):
         assert ros.namespaces() == ["/box"] and ros.robots["/box"].node_name == "/box/create_world"
         assert ros._robots["/box"].set_params.srv_name == "/box/create_world/set_parameters"
     finally:
-        ros.shutdown()
+        shared.shutdown()
 
 
 # ---------------------------------------------------------------- namespaces, clocks, recording, stopping
@@ -329,9 +330,10 @@ def sleeper(tmp_path: Path, label: str, exit_after_s: float, clock: str = ""):
 
 
 def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refused_with_the_reason(tmp_path):
+    from studio.create.family import CreateFamily
     from studio.shell.app import Studio
 
-    studio = Studio(workspace=Workspace(tmp_path), controllers={})
+    studio = Studio(workspace=Workspace(tmp_path), controllers={}, families=(CreateFamily(),))
     studio.ros = FakeGraph([("/clock", "/create1"), ("/arm1/clock", "/arm1")])  # one world owns /clock
     assert studio.free_namespace("create") == "/create2"
     assert studio.free_namespace("arm") == "/arm2"
@@ -350,7 +352,7 @@ def test_each_new_world_defaults_to_a_free_namespace_and_an_occupied_one_is_refu
     assert (studio.clock_of("/create1"), studio.clock_of("/arm1")) == ("/clock", "/arm1/clock")  # for controllers
     studio.ros = FakeGraph([])
     started = sleeper(tmp_path, "create_world /mine", 0.0, clock="/clock")
-    studio.worlds["/mine"] = started  # started a moment ago: not on the graph yet
+    studio.family(CreateFamily).worlds["/mine"] = started  # started a moment ago: not on the graph yet
     try:
         assert "create_world /mine already runs in /mine" in studio.namespace_refusal("/mine")
         assert studio.clock_owner() == "/mine"

@@ -23,7 +23,7 @@ from sim_runtime.paths import mesh_path
 from studio.arm.joints import ArmJoints
 from studio.arm.meshes import DISPLAY_FACES
 from studio.arm.motion import ArmMotion
-from studio.arm.page_base import arm_ros, arm_worlds, made_arm_ros
+from studio.arm.page_base import arm_ros, arm_worlds
 from studio.arm.ros_client import Group
 from studio.arm.scene import MESH_ROUTE, MESHES, ArmScene
 from studio.arm.worlds import ArmWorlds
@@ -46,7 +46,7 @@ def prefetch(studio: Studio) -> None:
     failed: set[str] = set()
     while True:
         time.sleep(0.5)
-        ros = made_arm_ros(studio)
+        ros = arm_ros(studio)
         if ros is None:
             continue
         looks = [s.look for s in ros.arms.values()] + [s.look for s in ros.scenes.values()]
@@ -63,7 +63,6 @@ def prefetch(studio: Studio) -> None:
 
 
 def register(studio: Studio) -> None:
-    app.on_startup(lambda: arm_ros(studio))  # discovery starts before anyone opens the page
     app.on_startup(lambda: threading.Thread(target=prefetch, args=(studio,), name="studio-meshes", daemon=True).start())
 
     @app.get(MESH_ROUTE + "/{key}.stl")

@@ -11,33 +11,21 @@ import math
 
 from nicegui import ui
 
+from studio.arm.family import ArmFamily
 from studio.arm.ros_client import ArmRos, ArmState
 from studio.shell.app import Studio
 from studio.shell.processes import Child
 
 
-def made_arm_ros(studio: Studio) -> ArmRos | None:
-    """The studio's arm client if it has been made."""
-    made = studio.families.get("arm")
-    return made if isinstance(made, ArmRos) else None
-
-
 def arm_ros(studio: Studio) -> ArmRos | None:
-    """The studio's arm client (made on first use, once the studio's ROS node runs)."""
-    made = made_arm_ros(studio)
-    if made is None and studio.ros is not None:
-        made = studio.families["arm"] = ArmRos(studio.ros)
-    return made
+    """The studio's arm client (None until the app has started)."""
+    return studio.family(ArmFamily).client
 
 
 def arm_worlds(studio: Studio) -> dict[str, Child]:
-    """namespace → arm world the studio started: a table of the arm family's own (the Create
-    page shows the end of its own worlds only), which the studio's namespace checks and Ctrl-C see."""
-    table = studio.families.get("arm_worlds")
-    if not isinstance(table, dict):
-        table = studio.families["arm_worlds"] = {}
-        studio.family_worlds.append(table)
-    return table
+    """namespace → arm world the studio started: the arm family's own table (the Create page
+    shows the end of its own worlds only), which the studio's namespace checks and Ctrl-C see."""
+    return studio.family(ArmFamily).worlds
 
 
 class ArmPageBase:

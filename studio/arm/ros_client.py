@@ -7,8 +7,9 @@ a namespace with an ``end_effector_pose`` PoseStamped topic. Per arm it reads ``
 latched ``scene_markers``; and ``/rosout``, where the arm node says that a target pose is
 unreachable. It publishes ``joint_command``, ``target_pose`` and ``joint_trajectory``.
 
-It shares the studio's node and executor (:class:`studio.shell.ros.StudioRos`): subscriptions
-are made by its discovery timer, in the executor thread; callbacks only replace attributes of an
+It is the arm family's client (:class:`studio.arm.family.ArmFamily`), on the studio's node and
+executor (:class:`studio.shell.ros.StudioRos`): subscriptions are made by its discovery timer, in
+the executor thread; callbacks only replace attributes of an
 :class:`ArmState`, which the page reads from NiceGUI's event loop.
 """
 
@@ -34,7 +35,7 @@ from arm_sim.spec import END_EFFECTOR_POSE_TOPIC, JOINT_STATES_TOPIC, ROBOT_MARK
 from arm_sim.urdf import rpy_from_matrix
 from sim_runtime.msgs import matrix_from_quaternion, quaternion_from_matrix
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, LATCHED_QOS
-from studio.shell.ros import new_worlds, node_full_name
+from studio.shell.ros import StudioRos, new_worlds, node_full_name
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
 UNREACHABLE = "target_pose unreachable"
@@ -220,14 +221,15 @@ class _Scene:
 class ArmRos:
     """Every arm on the studio's ROS domain, and the commands the arm page sends them."""
 
-    def __init__(self, ros) -> None:
+    def __init__(self, ros: StudioRos) -> None:
+        self.ros = ros
         self.node = ros.node
         self._arms: dict[str, _Arm] = {}
         self._scenes: dict[str, _Scene] = {}
         self.arms: dict[str, ArmState] = {}  # prefix -> state, replaced (never mutated) on changes
         self.scenes: dict[str, SceneState] = {}  # world node namespace -> scene
         self.rosout = self.node.create_subscription(Log, "/rosout", self._on_log, ROSOUT_QOS)
-        self.timer = self.node.create_timer(0.5, self._discover)
+        self.timer = ros.every(0.5, self._discover)
 
     def _discover(self) -> None:
         node, now = self.node, time.monotonic()

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 from sim_runtime.errors import InputError
-from studio.create.ros_client import create_ros
+from studio.create.family import create_ros
 from studio.shell.app import Studio
 from studio.shell.kit import DraftGuard
 

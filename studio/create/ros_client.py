@@ -1,4 +1,5 @@
-"""The studio's Create side of ROS, on the studio's node (:class:`studio.shell.ros.StudioRos`).
+"""The studio's Create side of ROS, on the studio's node (:class:`studio.shell.ros.StudioRos`),
+the Create family's client (:class:`studio.create.family.CreateFamily`).
 
 Like RViz it is only a client: it finds Create worlds by their ``overhead_pose`` topics (any
 namespace, started by the studio or not) and talks to them through topics, services and
@@ -38,7 +39,6 @@ from create_sim.spec import (
 )
 from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
-from studio.shell.app import Studio
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
@@ -213,13 +213,16 @@ class _Robot:
         self.state.seq += 1
 
 
-class CreateRos(StudioRos):
-    """The studio's ROS client for Create worlds; ``robots`` maps namespace → :class:`RobotState`."""
+class CreateRos:
+    """The studio's ROS client for Create worlds, on the studio's node ``ros``; ``robots`` maps
+    namespace → :class:`RobotState`."""
 
-    def __init__(self) -> None:
+    def __init__(self, ros: StudioRos) -> None:
+        self.ros = ros
+        self.node = ros.node
         self._robots: dict[str, _Robot] = {}
         self.robots: dict[str, RobotState] = {}
-        super().__init__()
+        self.timer = ros.every(0.5, self._discover)
 
     def _discover(self) -> None:
         """Follow every namespace with a Create world (an ``overhead_pose`` PoseStamped topic);
@@ -261,22 +264,22 @@ class CreateRos(StudioRos):
         self._robots[ns].set_pose.publish(msg)
 
     async def reset(self, ns: str) -> str:
-        response = await self._call(self._robots[ns].reset, Trigger.Request())
+        response = await self.ros.call(self._robots[ns].reset, Trigger.Request())
         return response.message
 
     async def step(self, ns: str) -> tuple[bool, str]:
         """One physics step of a paused world: (done, the world's answer)."""
-        response = await self._call(self._robots[ns].step, Trigger.Request())
+        response = await self.ros.call(self._robots[ns].step, Trigger.Request())
         return response.success, response.message
 
     async def press(self, ns: str, button: int, down: bool) -> str:
-        response = await self._call(self._robots[ns].buttons[button], SetBool.Request(data=down))
+        response = await self.ros.call(self._robots[ns].buttons[button], SetBool.Request(data=down))
         return response.message
 
     async def set_parameters(self, ns: str, values: dict[str, bool | float | str | list[float]]) -> list[str]:
         """Set the world's parameters; the reasons of refused ones (empty when all were taken)."""
         request = SetParameters.Request(parameters=[parameter(k, v) for k, v in values.items()])
-        response = await self._call(self._robots[ns].set_params, request)
+        response = await self.ros.call(self._robots[ns].set_params, request)
         return [
             f"{name}: {r.reason or 'refused'}"
             for name, r in zip(values, response.results, strict=True)
@@ -285,7 +288,7 @@ class CreateRos(StudioRos):
 
     async def get_parameter(self, ns: str, name: str):
         """A parameter of the world (python value), or None when it has none."""
-        response = await self._call(self._robots[ns].get_params, GetParameters.Request(names=[name]))
+        response = await self.ros.call(self._robots[ns].get_params, GetParameters.Request(names=[name]))
         if not response.values:
             return None
         v = response.values[0]
@@ -295,9 +298,3 @@ class CreateRos(StudioRos):
             ParameterType.PARAMETER_STRING: v.string_value,
             ParameterType.PARAMETER_BOOL: v.bool_value,
         }.get(v.type)
-
-
-def create_ros(studio: Studio) -> CreateRos | None:
-    """The studio's ROS client as the Create's pages use it (None until the app has started)."""
-    ros = studio.ros
-    return ros if isinstance(ros, CreateRos) else None

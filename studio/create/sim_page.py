@@ -15,8 +15,9 @@ import numpy as np
 from nicegui import events, ui
 
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
+from studio.create.family import create_ros
 from studio.create.lidar_plot import lidar_plot_svg
-from studio.create.ros_client import RobotState, create_ros
+from studio.create.ros_client import RobotState
 from studio.create.sim_drive import DrivePanel
 from studio.create.sim_files import WorldFilesPanel
 from studio.create.sim_runs import ControllerPanel, RecordPanel, WorldPanel

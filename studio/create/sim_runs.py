@@ -76,7 +76,7 @@ class WorldPanel:
 
     def show_endings(self) -> None:
         """The end of every world the studio started that ended since the last look."""
-        for ns, world in list(self.tab.studio.worlds.items()):
+        for ns, world in list(self.tab.worlds.items()):
             if not world.running and world not in self.endings_shown:
                 self.show_ending(ns, world)
 
@@ -113,7 +113,7 @@ class WorldPanel:
             cwd=studio.workspace.root,
             clock=clock_topic(ns, owns_clock),
         )
-        studio.worlds[ns] = child
+        self.tab.worlds[ns] = child
         self.world_label.set_text(f"starting a world in {ns or '/'}…")
         if await self.followed(ns, child):
             self.world_label.set_text("")
@@ -134,7 +134,7 @@ class WorldPanel:
         return False
 
     def stop_world(self) -> None:
-        stop_started_world(self.tab.studio.worlds, self.tab.selected or "")
+        stop_started_world(self.tab.worlds, self.tab.selected or "")
 
 
 class ControllerPanel:
@@ -220,7 +220,7 @@ class RecordPanel:
         ws = studio.workspace
         name = ws.new_folder_name("studio_data/SimulatorOutputData")
         ws.path(name).parent.mkdir(parents=True, exist_ok=True)
-        topics = self.tab.ros.published_topics()  # what "recording" promises to be in the bag
+        topics = self.tab.ros.ros.published_topics()  # what "recording" promises to be in the bag
         clock, timeline = recording_clock(studio.graph_worlds())
         node_name = f"studio_record_{os.getpid()}_{next(RECORDINGS)}"
         args = ["-o", str(ws.path(name)), "--clock", clock, "--ros-args", "-r", f"__node:={node_name}"]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from studio.create.ros_client import CreateRos, RobotState, create_ros
+from studio.create.family import create_family, create_ros
+from studio.create.ros_client import CreateRos, RobotState
 from studio.shell.app import Studio
+from studio.shell.processes import Child
 
 
 class SimTab:
@@ -20,6 +22,11 @@ class SimTab:
         if ros is None:
             raise RuntimeError("the studio's ROS client has not started")
         return ros
+
+    @property
+    def worlds(self) -> dict[str, Child]:
+        """namespace → Create world the studio started (the Create family's table)."""
+        return create_family(self.studio).worlds
 
     def robot(self) -> RobotState | None:
         """The selected robot's latest readings (None: none selected, or its world is not followed)."""

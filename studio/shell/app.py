@@ -1,5 +1,6 @@
-"""The studio's shell: what every page shares (:class:`Studio`) and the web app that serves the
-pages the entry point (:mod:`studio.main`) hands it. It imports no page."""
+"""The studio's shell: what every page shares (:class:`Studio`), the one shape of a family of
+pages (:class:`Family`) and the web app that serves the families the entry point
+(:mod:`studio.main`) lists. It imports no family: it knows each only as a :class:`Family`."""
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ import re
 import signal
 import socket
 import sys
-from collections.abc import Callable
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, Protocol, TypeVar
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
@@ -23,24 +25,71 @@ from studio.shell.workspace import Workspace
 if TYPE_CHECKING:  # rclpy loads once the arguments are checked (a mistyped option answers at once)
     from studio.shell.ros import StudioRos
 
+Register = Callable[["Studio"], None]
+"""A page's ``register(studio)``: its routes and start-up hooks."""
+
+
+class FamilyClient(Protocol):
+    """A family's ROS client: entities on the studio's one node, callbacks on its executor (no
+    family has a context, node or thread of its own)."""
+
+    @property
+    def ros(self) -> StudioRos:
+        """The studio's node and executor the client was made on."""
+        ...
+
+
+ClientT = TypeVar("ClientT", bound=FamilyClient)
+
+
+class Family(ABC, Generic[ClientT]):
+    """One family of pages, the shape the Create's, SIMROBOT's, the arm's and Replay's share: its
+    name, its pages, its client on the studio's node and the worlds it started (namespace →
+    :class:`Child`), which the namespace checks, Ctrl-C and SIGHUP see.
+
+    The client exists while the app runs (:meth:`start` at start-up, :meth:`stop` once the
+    studio's node has stopped spinning: destroying entities under a spinning executor could crash
+    the process); the pages read it as ``studio.family(Kind).client`` (None before start-up)."""
+
+    name: ClassVar[str]
+    """What the family is called (``create``, ``simrobot``, ``arm``, ``replay``)."""
+
+    def __init__(self, pages: Sequence[Register] = ()) -> None:
+        self.pages = list(pages)  # each page's register(studio), given by the entry point
+        self.client: ClientT | None = None
+        self.worlds: dict[str, Child] = {}  # namespace → world the studio started for this family
+
+    @abstractmethod
+    def make_client(self, ros: StudioRos) -> ClientT | None:
+        """The family's client on the studio's node (None: the family talks to no world)."""
+
+    def children(self) -> list[Child]:
+        """Every process of the family that Ctrl-C must stop: its worlds."""
+        return list(self.worlds.values())
+
+    def start(self, ros: StudioRos) -> None:
+        self.client = self.make_client(ros)
+
+    def stop(self) -> None:
+        self.client = None  # its entities go with the studio's node
+
+
+FamilyT = TypeVar("FamilyT", bound="Family[Any]")
+
 DEFAULT_CONTROLLERS = {"create_bump_turn": "create_bump_turn"}
 
 
 @dataclass
 class Studio:
-    """What every page shares: the workspace, the ROS client and the child processes."""
+    """What every page shares: the workspace, the families, the studio's node and the child processes."""
 
     workspace: Workspace
     controllers: dict[str, str]
-    ros: StudioRos | None = None  # the studio's ROS client (the entry point's kind) once the app has started
-    worlds: dict[str, Child] = field(default_factory=dict)  # namespace → Create world the studio started
+    families: tuple[Family[Any], ...] = ()  # what the entry point lists, each in its one shape
+    ros: StudioRos | None = None  # the studio's one node, shared by every family, once the app has started
     running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
     selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
-    # A family's shared state (its client, its worlds), made on first use; the family's accessor
-    # knows its type (the shell knows no family).
-    families: dict[str, object] = field(default_factory=dict)
-    family_worlds: list[dict[str, Child]] = field(default_factory=list)  # tables of worlds beside ``worlds``
     recording_to: str = ""
     recording_status: str = ""  # the Save Data line every tab shows: starting, recording to, saved
 
@@ -51,11 +100,16 @@ class Studio:
                 return choice
         return names[0] if names else None
 
+    def family(self, kind: type[FamilyT]) -> FamilyT:
+        """The studio's family of class ``kind`` (how a page finds its client and its worlds)."""
+        for family in self.families:
+            if isinstance(family, kind):
+                return family
+        raise LookupError(f"the studio has no {kind.__name__}: studio.main lists the families")
+
     def world_children(self) -> dict[str, Child]:
-        """namespace → running world the studio started, of every kind (Create, arm, SIMROBOT)."""
-        started = dict(self.worlds)
-        for table in self.family_worlds:
-            started.update(table)
+        """namespace → running world the studio started, of every family (Create, arm, SIMROBOT)."""
+        started = {ns: child for family in self.families for ns, child in family.worlds.items()}
         return {ns: child for ns, child in started.items() if child.running}
 
     def graph_worlds(self) -> list[tuple[str, str]]:
@@ -110,10 +164,30 @@ class Studio:
         children = [
             self.recorder,
             *self.running_controllers.values(),
-            *self.worlds.values(),
-            *(child for table in self.family_worlds for child in table.values()),
+            *(child for family in self.families for child in family.children()),
         ]
         stop_all([child for child in children if child is not None], patient=self.recorder)
+
+    def start(self) -> None:
+        """The studio's node, every family's client on it, then its executor spinning (the app's
+        start-up: the clients' entities are made before any callback can run)."""
+        from studio.shell.ros import StudioRos
+
+        self.ros = StudioRos()
+        for family in self.families:
+            family.start(self.ros)
+        self.ros.spin()
+
+    def shutdown(self) -> None:
+        """Stop what the studio started, then its node (once; again is a no-op)."""
+        if self.ros is None:
+            return
+        print("robot_sims studio: stopping what it started", flush=True)
+        self.stop_children()
+        self.ros.shutdown()
+        for family in self.families:
+            family.stop()
+        self.ros = None
 
 
 NAMESPACE_PART = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -202,15 +276,6 @@ def host_warning(host: str) -> str | None:
     )
 
 
-@dataclass
-class Pages:
-    """What the entry point hands the shell: how to make the studio's ROS client, and each family's
-    ``register(studio)`` (its routes and start-up hooks)."""
-
-    make_ros: Callable[[], StudioRos]
-    register: list[Callable[[Studio], None]]
-
-
 def prepare(argv: list[str] | None) -> tuple[argparse.Namespace, Studio] | int:
     """The options and the studio they describe, or the exit status after a one-line error (a bad
     workspace or controller, a taken port or unknown address: not uvicorn's traceback)."""
@@ -246,32 +311,23 @@ def hang_up(_signum: int, _frame: object) -> None:
     os.kill(os.getpid(), signal.SIGINT)  # uvicorn's own Ctrl-C: the app's shutdown, then ours
 
 
-def run(argv: list[str] | None, load_pages: Callable[[], Pages]) -> int:
-    """Serve the pages ``load_pages()`` returns (loaded once the options are checked) until Ctrl-C."""
+def run(argv: list[str] | None, load_families: Callable[[], Sequence[Family[Any]]]) -> int:
+    """Serve the pages of the families ``load_families()`` returns (loaded once the options are
+    checked) until Ctrl-C."""
     prepared = prepare(argv)
     if isinstance(prepared, int):
         return prepared
     options, studio = prepared
     from nicegui import app, ui
 
-    pages = load_pages()
-
-    def startup() -> None:
-        studio.ros = pages.make_ros()
-
-    def shutdown() -> None:
-        if studio.ros is None:
-            return  # done already
-        print("robot_sims studio: stopping what it started", flush=True)
-        studio.stop_children()
-        studio.ros.shutdown()
-        studio.ros = None
-
-    app.on_startup(startup)
+    studio.families = tuple(load_families())
+    shutdown = studio.shutdown
+    app.on_startup(studio.start)
     app.on_shutdown(shutdown)
     signal.signal(signal.SIGHUP, hang_up)
-    for register in pages.register:
-        register(studio)
+    for family in studio.families:
+        for register in family.pages:
+            register(studio)
     where = f"http://{options.host}:{options.port}/ (workspace {studio.workspace.root})"
     print(f"robot_sims studio: open {where}", flush=True)
     try:

@@ -1,10 +1,11 @@
 """The studio's ROS node: one rclpy node in its own context, spun by an executor in a daemon thread.
 
-Like RViz it is only a client. Each family of pages follows its own kind of world (a subclass
-says how in :meth:`StudioRos._discover`, or shares the node); what is common lives here: the
-graph queries the recorder and the clock checks need, service calls awaited from NiceGUI's event
-loop, and finding the worlds of a kind by a topic each publishes. Every ROS entity is created in
-the executor thread; the pages publish and call services.
+Like RViz it is only a client. Every family's client (:class:`studio.shell.family.Family`) is
+made on this one node and follows its own kind of world with a discovery timer
+(:meth:`StudioRos.every`); what is common lives here: the graph queries the recorder and the
+clock checks need, service calls awaited from NiceGUI's event loop, and finding the worlds of a
+kind by a topic each publishes. Callbacks run in the executor thread and only store what they
+read; the pages read it from NiceGUI's event loop, publish and call services.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import itertools
 import os
 import threading
 import time
-from collections.abc import Container, Iterator
+from collections.abc import Callable, Container, Iterator
 from typing import Any
 
 import rclpy
@@ -24,6 +25,7 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
+from rclpy.timer import Timer
 from rclpy.topic_endpoint_info import TopicEndpointInfo
 
 from sim_runtime.run import make_executor
@@ -76,10 +78,10 @@ def node_full_name(info: TopicEndpointInfo) -> str:
 
 
 class StudioRos:
-    """The studio's node and executor thread, with a discovery round every 0.5 s (:meth:`_discover`).
+    """The studio's node and the executor spinning it in a thread of its own (from :meth:`spin`).
 
-    A subclass sets its own attributes before calling ``super().__init__()``: the executor thread
-    starts here and may run a discovery round at once."""
+    The families' clients add their entities before :meth:`spin` (the app's start-up); later ones
+    (a world found) are made by their discovery timers, in the executor thread."""
 
     _ids = itertools.count()
 
@@ -89,8 +91,10 @@ class StudioRos:
         self.node = Node(f"studio_{os.getpid()}_{next(self._ids)}", context=self.context)
         self.executor = make_executor(self.context)
         self.executor.add_node(self.node)
-        self.node.create_timer(0.5, self._discover_while_open)
         self._thread = threading.Thread(target=self._spin, name="studio-ros", daemon=True)
+
+    def spin(self) -> None:
+        """Start the executor thread: from now on callbacks run."""
         self._thread.start()
 
     def _spin(self) -> None:
@@ -101,16 +105,18 @@ class StudioRos:
             if self.context.ok():
                 raise
 
-    def _discover_while_open(self) -> None:
-        """A discovery round; one cut short by the studio shutting down its context is no error."""
-        try:
-            self._discover()
-        except Exception:
-            if self.context.ok():
-                raise
+    def every(self, period_s: float, round_: Callable[[], None]) -> Timer:
+        """A timer on the studio's node running ``round_`` (a family's discovery round); a round
+        cut short by the studio shutting down its context is no error."""
 
-    def _discover(self) -> None:
-        """Follow the worlds of the subclass's kind (the node alone follows none)."""
+        def guarded() -> None:
+            try:
+                round_()
+            except Exception:
+                if self.context.ok():
+                    raise
+
+        return self.node.create_timer(period_s, guarded)
 
     def clock_publishers(self) -> list[tuple[str, str]]:
         """``(clock topic, publishing node's namespace, '' for the root)`` of every world on the domain."""
@@ -141,7 +147,7 @@ class StudioRos:
                 waiting.append(topic)
         return waiting
 
-    async def _call(self, client: Client, request: Any, timeout: float = 15.0) -> Any:
+    async def call(self, client: Client, request: Any, timeout: float = 15.0) -> Any:
         """The response of ``client`` to ``request`` (any service type, hence ``Any``), awaited from
         NiceGUI's loop; TimeoutError when the service is missing or silent for ``timeout`` s."""
         if not client.wait_for_service(timeout_sec=0.0):
@@ -165,7 +171,8 @@ class StudioRos:
     def shutdown(self) -> None:
         if self.context.ok():
             rclpy.shutdown(context=self.context)
-        self._thread.join(timeout=10.0)
+        if self._thread.ident is not None:
+            self._thread.join(timeout=10.0)
         if self._thread.is_alive():  # still inside the executor: destroying under it would crash the process
             return
         self.executor.shutdown()

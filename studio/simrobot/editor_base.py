@@ -18,8 +18,8 @@ from studio.shell import svg
 from studio.shell.app import Studio
 from studio.shell.kit import DraftGuard
 from studio.simrobot.doc import WorldDraft
+from studio.simrobot.family import SimrobotFamily
 from studio.simrobot.fields import Quantity
-from studio.simrobot.ros_client import SimrobotSide
 
 
 def field_width(label: str) -> str:
@@ -44,7 +44,7 @@ class EditorBase(DraftGuard):
     """The state the parts share and the calls they make on one another."""
 
     studio: Studio
-    side: SimrobotSide
+    side: SimrobotFamily
     doc: WorldDraft
     view: svg.View
     selected: int | None  # the robot picked, an index into ``doc.robots``

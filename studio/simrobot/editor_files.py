@@ -236,9 +236,9 @@ class EditorFiles(EditorBase):
         owns_clock = rerun.clock == "/clock" if rerun is not None else self.studio.clock_owner() is None
         if rerun is not None:
             rerun.stop()
-        old = simrobot.ros.worlds.get(ns) if simrobot.ros is not None else None
-        if simrobot.ros is not None:
-            simrobot.ros.forget(ns)
+        old = simrobot.client.worlds.get(ns) if simrobot.client is not None else None
+        if simrobot.client is not None:
+            simrobot.client.forget(ns)
         path = ws.path(self.world_name.value or "")
         args = ["--ros-args", "-p", f"world_file:={yaml_string(str(path))}"]
         args += namespace_args(ns, owns_clock)
@@ -262,7 +262,7 @@ class EditorFiles(EditorBase):
             if not child.running:
                 self.say(f"{child.label}: {child.error_line()}", error=True)
                 return
-            ros = simrobot.ros
+            ros = simrobot.client
             st = ros.worlds.get(ns) if ros is not None else None
             if st is not None and st is not old and st.spec is not None:
                 break

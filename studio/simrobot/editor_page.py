@@ -16,7 +16,7 @@ from studio.simrobot.doc import WorldDraft
 from studio.simrobot.editor_canvas import EditorCanvas
 from studio.simrobot.editor_files import EditorFiles
 from studio.simrobot.editor_form import EditorForm
-from studio.simrobot.ros_client import side
+from studio.simrobot.family import side
 
 
 def register(studio: Studio) -> None:

@@ -19,7 +19,7 @@ from simrobot_sim.world_file import WorldSpec
 from studio.shell import svg
 from studio.shell.app import Studio
 from studio.shell.kit import VIEW_SIZE, nav, stop_started_world, view_image
-from studio.simrobot.ros_client import side
+from studio.simrobot.family import side
 from studio.simrobot.view import SimrobotView, info_html
 
 FRAME_PERIOD_S = 0.05
@@ -56,8 +56,6 @@ reload (the studio's "last picked" is every tab's: a reloaded tab would take ano
 
 
 def register(studio: Studio) -> None:
-    side(studio)
-
     @ui.page("/simrobot")
     async def simrobot_page() -> None:
         page = SimrobotPage(studio)
@@ -159,7 +157,7 @@ class SimrobotPage(SimrobotView):
         self.restored = True
 
     def slow_tick(self) -> None:
-        ros = self.side.ros
+        ros = self.side.client
         if ros is None:
             return
         names = ros.namespaces() if self.restored else []

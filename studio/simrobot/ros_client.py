@@ -6,8 +6,13 @@ sensors come from its own world file (the node's ``world_file`` parameter, read 
 loader); every step's poses, crash and power flags and each sensor's nearest hit come in that one
 flat ``robot_states`` message, decoded with one numpy call however many robots (the ``robots``
 MarkerArray of 200 robots takes ~50 ms to deserialise in Python, more than the step lasts); a
-laser's rays come from its own topic. Callbacks only store arrays on a :class:`WorldState`; the
-page reads them from NiceGUI's loop.
+laser's rays come from its own topic.
+
+It is the SIMROBOT family's client (:class:`studio.simrobot.family.SimrobotFamily`), on the
+studio's one node: its subscriptions, clients and discovery timer are the node's, its callbacks
+run in the studio's executor thread (one at a time: the node's default callback group) and only
+store arrays on a :class:`WorldState`, replacing them whole; the pages read them from NiceGUI's
+loop and call services from there (:meth:`StudioRos.call`).
 """
 
 from __future__ import annotations
@@ -18,7 +23,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import GetParameters, SetParameters
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64MultiArray
@@ -28,8 +32,6 @@ from sim_runtime.errors import InputError
 from sim_runtime.qos import ANY_PUBLISHER_QOS
 from simrobot_sim.spec import ROBOT_STATE_FIELDS, ROBOT_STATES_TOPIC
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
-from studio.shell.app import Studio
-from studio.shell.processes import Child, stop_all
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
 STATES_TYPE = "std_msgs/msg/Float64MultiArray"
@@ -156,15 +158,18 @@ class _World:
             self.node.destroy_client(client)
 
 
-class SimrobotRos(StudioRos):
-    """The studio's ROS client for SIMROBOT worlds: ``worlds`` maps namespace → :class:`WorldState`."""
+class SimrobotRos:
+    """The studio's ROS client for SIMROBOT worlds, on the studio's node ``ros``: ``worlds`` maps
+    namespace → :class:`WorldState`."""
 
-    def __init__(self) -> None:
+    def __init__(self, ros: StudioRos) -> None:
+        self.ros = ros
+        self.node = ros.node
         self._worlds: dict[str, _World] = {}
         self.worlds: dict[str, WorldState] = {}
-        self._forget: set[str] = set()
+        self._forget: set[str] = set()  # swapped whole by the executor thread, added to by the pages
         self._rounds = 0
-        super().__init__()
+        self.timer = ros.every(0.5, self._discover)
 
     def forget(self, ns: str) -> None:
         """Drop what is known of the world in ``ns`` (restarted with another file): the next
@@ -208,59 +213,19 @@ class SimrobotRos(StudioRos):
     async def set_world_parameters(self, ns: str, values: dict[str, bool | float]) -> list[str]:
         """Set the world's live parameters (``paused``, ``real_time_factor``); reasons of refusals."""
         request = SetParameters.Request(parameters=[parameter(k, v) for k, v in values.items()])
-        response = await self._call(self._worlds[ns].set_params, request)
+        response = await self.ros.call(self._worlds[ns].set_params, request)
         return [
             f"{k}: {r.reason or 'refused'}" for k, r in zip(values, response.results, strict=True) if not r.successful
         ]
 
-    async def world_parameter(self, ns: str, name: str):
-        response = await self._call(self._worlds[ns].get_params, GetParameters.Request(names=[name]))
-        if not response.values:
-            return None
-        v = response.values[0]
-        return {ParameterType.PARAMETER_BOOL: v.bool_value, ParameterType.PARAMETER_DOUBLE: v.double_value}.get(v.type)
-
     async def step_world(self, ns: str) -> tuple[bool, str]:
-        response = await self._call(self._worlds[ns].step, Trigger.Request())
+        response = await self.ros.call(self._worlds[ns].step, Trigger.Request())
         return response.success, response.message
 
     async def set_power(self, ns: str, robot: int, on: bool) -> str:
-        response = await self._call(self._worlds[ns].power_clients[robot], SetBool.Request(data=on))
+        response = await self.ros.call(self._worlds[ns].power_clients[robot], SetBool.Request(data=on))
         return response.message
 
     async def clear_crash(self, ns: str, robot: int) -> str:
-        response = await self._call(self._worlds[ns].clear_clients[robot], Trigger.Request())
+        response = await self.ros.call(self._worlds[ns].clear_clients[robot], Trigger.Request())
         return response.message
-
-
-@dataclass
-class SimrobotSide:
-    """What both SIMROBOT pages share: the ROS client and the worlds the studio started."""
-
-    ros: SimrobotRos | None = None
-    worlds: dict[str, Child] = field(default_factory=dict)  # namespace → simrobot_world child
-    selected: str | None = None
-
-    def stop(self) -> None:
-        stop_all(list(self.worlds.values()))
-        if self.ros is not None:
-            self.ros.shutdown()
-
-
-def side(studio: Studio) -> SimrobotSide:
-    """The studio's SIMROBOT side, made (and hooked to the app's start and stop) on first use."""
-    existing = studio.families.get("simrobot")
-    if isinstance(existing, SimrobotSide):
-        return existing
-    from nicegui import app
-
-    made = SimrobotSide()
-    studio.families["simrobot"] = made
-    studio.family_worlds.append(made.worlds)  # the studio's namespace checks and Ctrl-C see them
-
-    def startup() -> None:
-        made.ros = SimrobotRos()
-
-    app.on_startup(startup)
-    app.on_shutdown(made.stop)
-    return made

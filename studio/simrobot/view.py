@@ -15,7 +15,8 @@ from simrobot_sim.world_file import WorldSpec
 from studio.shell import svg
 from studio.shell.kit import ZoomableView
 from studio.simrobot.draw import beams_svg, hit_radius_m, map_data_url, map_svg, robot_svg, track_svg
-from studio.simrobot.ros_client import SimrobotRos, SimrobotSide, WorldState
+from studio.simrobot.family import SimrobotFamily
+from studio.simrobot.ros_client import SimrobotRos, WorldState
 
 TRACKS_PERIOD_S = 1.0
 
@@ -51,7 +52,7 @@ def info_html(st: WorldState, i: int) -> str:
 class SimrobotView(ZoomableView):
     """The selected world (``ns``) drawn, redrawn by :meth:`tick` when a new step came in."""
 
-    side: SimrobotSide
+    side: SimrobotFamily
     view: svg.View
     ns: str | None  # the selected world's namespace
     layers: set[str]
@@ -79,7 +80,7 @@ class SimrobotView(ZoomableView):
 
     def loaded(self) -> tuple[WorldState, WorldSpec] | None:
         """The selected world and its spec, once its file is read (before, nothing is drawn)."""
-        ros = self.side.ros
+        ros = self.side.client
         if ros is None or self.ns is None:
             return None
         st = ros.worlds.get(self.ns)
@@ -87,7 +88,7 @@ class SimrobotView(ZoomableView):
 
     def commanded(self) -> tuple[SimrobotRos, str] | None:
         """The client and the namespace a command goes to (None: no world selected)."""
-        ros = self.side.ros
+        ros = self.side.client
         return (ros, self.ns) if ros is not None and self.ns is not None and self.world() is not None else None
 
     # ---------------------------------------------------------------- drawing
