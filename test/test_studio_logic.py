@@ -429,6 +429,41 @@ def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
     assert not fit_due(0, 0)
 
 
+def test_the_live_view_sends_only_what_changed_and_each_track_point_once():
+    from types import SimpleNamespace
+
+    from studio.create.ros_client import RobotState
+    from studio.create.sim_view import SimView
+
+    st = RobotState(ns="/r", pose=(1.0, 2.0, 0.5))
+    st.scan, st.scan_stamp = (-2.0, 4.0 / 680, np.array([1.0, np.inf, 0.25])), 3.5
+    st.track.extend([(0.0, 0.0), (0.5, 0.0)])
+    tab = SimpleNamespace(selected="/r", ros=SimpleNamespace(robots={"/r": st}))
+    view = SimView(tab)
+    first = view.live_message(st, "/r")
+    assert first["pose"] == [1.0, 2.0, 0.5] and first["label"] == "/r" and first["track_reset"]
+    assert first["scan"] == [-2.0, 4.0 / 680, [1000, -1, 250], "3.500000000"]  # -1: nothing in range
+    assert first["track"] == [[0.0, 0.0], [0.5, 0.0]]
+    assert view.live_message(st, "/r") == {}  # nothing new: nothing sent
+    st.pose = (1.1, 2.0, 0.5)
+    st.track.append((1.0, 0.0))
+    assert view.live_message(st, "/r") == {"pose": [1.1, 2.0, 0.5], "track": [[1.0, 0.0]]}
+    st.track.clear()  # Set position: the track starts again
+    st.track.append((5.0, 5.0))
+    assert view.live_message(st, "/r") == {"track_reset": True, "track": [[5.0, 5.0]]}
+    view.zoom(2.0)
+    assert set(view.live_message(st, "/r")) == {"view"}
+
+
+def test_the_live_view_s_style_names_every_mount_the_page_draws():
+    js = (ROOT / "studio" / "create" / "static" / "sim_view.js").read_text()
+    style = draw.live_style((800, 600), 2000)
+    for name in re.findall(r"mount\(pose, \"(\w+)\"\)", js):
+        assert name in style["mounts"]
+    for key in set(re.findall(r"\bst\.(\w+)", js)):
+        assert key in style, key  # the page draws with the studio's colours and facts, none of its own
+
+
 def test_an_upload_that_is_not_text_or_too_large_is_an_error_naming_the_file():
     from studio.shell.workspace import upload_text
 
@@ -478,3 +513,35 @@ def test_the_lidar_plot_draws_each_beam_at_its_angle_and_range_and_no_return_at_
     svg = lidar_plot_svg((math.radians(-120), math.radians(240) / 680, np.full(681, 1.5, np.float32)))
     assert svg.count(",") == 681 and "lidar-ranges" in svg
     assert "lidar-ranges" not in lidar_plot_svg(None)  # the axes only, until a scan arrives
+
+
+def test_stopping_a_controller_waits_off_the_event_loop_showing_it_stopping_until_it_has_ended(tmp_path):
+    """A controller takes seconds to end after SIGINT (up to 7 s before it is killed): the page's
+    Stop must not freeze the event loop every tab is served from meanwhile."""
+    import asyncio
+
+    from studio.create.family import CreateFamily
+    from studio.create.sim_runs import stop_controller
+    from studio.shell.app import Studio
+
+    create = CreateFamily()
+    studio = Studio(workspace=Workspace(tmp_path), controllers={}, families=(create,))
+    child = studio.running_controllers["/r1"] = sleeper(tmp_path, "slow_controller", 1.0)
+    stops: list[bool] = []  # per robot stop: was the controller still running then?
+
+    async def run() -> list[str]:
+        seen = []
+        stopping = asyncio.create_task(stop_controller(studio, "/r1", lambda: stops.append(child.running)))
+        await asyncio.sleep(0)  # the task runs up to its wait
+        while not stopping.done():  # the loop runs on while the controller ends
+            if child.running:
+                seen.append(f"{'/r1' in create.stopping} {'/r1' in studio.running_controllers}")
+            await asyncio.sleep(0.01)
+        assert await stopping is child
+        return seen
+
+    seen = asyncio.run(run())
+    assert seen and set(seen) == {"True False"}  # shown as stopping, no longer the namespace's controller
+    assert not child.running and child.process.returncode == 0 and create.stopping == {}
+    assert stops == [True, False]  # the robot stopped at once and again once its controller had ended
+    assert "stopped" in " ".join(child.output)

@@ -11,6 +11,7 @@ from collections.abc import Callable
 from nicegui import ui
 
 from sim_runtime.errors import InputError
+from studio.create.family import create_family
 from studio.create.matlab_program import ProgramChoice, program_of
 from studio.create.sim_tab import SimTab
 from studio.shell.app import Studio, recording_clock
@@ -158,9 +159,13 @@ class ControllerPanel:
             self.controller_label = ui.label("").classes("text-sm studio-controller-state")
 
     def show_state(self) -> None:
-        child = self.tab.studio.running_controllers.get(self.tab.selected or "")
+        ns = self.tab.selected or ""
+        stopping = create_family(self.tab.studio).stopping.get(ns)
+        child = self.tab.studio.running_controllers.get(ns)
         self.controller_label.set_text(
-            f"{child.label} running"
+            f"stopping {stopping.label}…"
+            if stopping is not None
+            else f"{child.label} running"
             if child and child.running
             else (f"{child.label} ended: {child.error_line()}" if child else "manual control")
         )
@@ -174,6 +179,10 @@ class ControllerPanel:
         if running and running.running:
             ui.notify(f"{running.label} already runs for {ns or '/'}", type="warning")
             return
+        stopping = create_family(studio).stopping.get(ns)
+        if stopping is not None:
+            ui.notify(f"{stopping.label} is still stopping: start again once it has ended", type="warning")
+            return
         name = self.controller_select.value
         program = program_of(name)
         if program is not None:
@@ -185,11 +194,33 @@ class ControllerPanel:
         studio.running_controllers[ns] = Child(name, controller_command(target, ros_args), cwd=studio.workspace.root)
         ui.notify(f"{name} started for {ns or '/'}")
 
-    def stop_controller(self) -> None:
-        child = self.tab.studio.running_controllers.pop(self.tab.selected or "", None)
-        if child is not None:
-            child.stop()
-        self.stop_robot()
+    async def stop_controller(self) -> None:
+        ns = self.tab.selected or ""
+        if ns in create_family(self.tab.studio).stopping:
+            return  # pressed again while it stops
+        stopping = stop_controller(self.tab.studio, ns, self.stop_robot)
+        self.show_state()  # "stopping …" at once, the end when it has ended
+        await stopping
+        self.show_state()
+
+
+async def stop_controller(studio: Studio, ns: str, stop_robot: Callable[[], None]) -> Child | None:
+    """Stop the controller of the Create in ``ns`` (it is gone from ``running_controllers`` at
+    once: a bridge still starting sees it was stopped) and leave the robot standing. The wait for
+    it to end (up to 7 s: SIGINT, then SIGKILL) runs off NiceGUI's event loop, which keeps serving
+    every tab meanwhile; the family's ``stopping`` table holds it until it has ended."""
+    stop_robot()
+    child = studio.running_controllers.pop(ns, None)
+    if child is None:
+        return None
+    stopping = create_family(studio).stopping
+    stopping[ns] = child
+    try:
+        await asyncio.to_thread(child.stop)
+    finally:
+        del stopping[ns]
+    stop_robot()  # again: a command it sent while stopping must not keep the robot moving
+    return child
 
 
 class RecordPanel:
