@@ -17,7 +17,7 @@ def families() -> list[Family[Any]]:
     """Every family with its pages, in the order of the pages' routes."""
     from studio.arm import page as arm_page
     from studio.arm.family import ArmFamily
-    from studio.create import config_page, map_page, sim_page
+    from studio.create import config_page, map_page, sim_page, submit_page
     from studio.create.family import CreateFamily
     from studio.replay import page as replay_page
     from studio.replay.family import ReplayFamily
@@ -26,7 +26,7 @@ def families() -> list[Family[Any]]:
     from studio.simrobot.family import SimrobotFamily
 
     return [
-        CreateFamily([sim_page.register, map_page.register, config_page.register]),
+        CreateFamily([sim_page.register, map_page.register, config_page.register, submit_page.register]),
         ArmFamily([arm_page.register]),
         ReplayFamily([replay_page.register]),
         SimrobotFamily([simrobot_page.register, simrobot_editor_page.register]),

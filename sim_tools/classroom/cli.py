@@ -15,6 +15,8 @@ from collections.abc import Callable, Sequence
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "init": ("sim_tools.classroom.hub_config:main", "write a ready JupyterHub configuration into DIR"),
     "serve": ("sim_tools.classroom.serve:main", "start the course server configured in DIR"),
+    "submit": ("sim_tools.classroom.submit:main", "hand in a controller (Python module or m-file) for ASSIGNMENT"),
+    "grade": ("sim_tools.classroom.grade:main", "open ASSIGNMENT's drop folders (--open), or grade every submission"),
 }
 
 USAGE = "usage: robot_sims classroom <subcommand> [arguments]   (robot_sims classroom <subcommand> --help)"
