@@ -22,6 +22,7 @@ from sim_runtime.msgs import float64_array
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import COMMAND_PUBLISHER_QOS, SENSOR_SUBSCRIBER_QOS
 from sim_runtime.run import run_nodes
+from simrobot_sim.spec import WHEEL_CMD_TOPIC
 
 #: alg2's constants: 20 cm, [0 0.5] and [0.5 0.5] rad/s.
 THRESHOLD = 0.20
@@ -65,7 +66,7 @@ class AvoidNode(CheckedNode):
         self._cmd = JointState()
         self._cmd.name = ["left_wheel", "right_wheel"]
         prefix = f"{robot}/" if robot else ""
-        self.publisher = self.create_publisher(JointState, prefix + "wheel_cmd", COMMAND_PUBLISHER_QOS)
+        self.publisher = self.create_publisher(JointState, prefix + WHEEL_CMD_TOPIC, COMMAND_PUBLISHER_QOS)
         self.subscription = self.create_subscription(Range, prefix + self.sensor, self._on_range, SENSOR_SUBSCRIBER_QOS)
 
     def _set_speeds(self, name: str, value: list[float]) -> None:

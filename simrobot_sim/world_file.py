@@ -20,6 +20,7 @@ from sim_runtime.yamlfile import read_bool as _bool
 from sim_runtime.yamlfile import read_number as _number
 from sim_runtime.yamlfile import read_pair as _pair
 from sim_runtime.yamlfile import short as _brief
+from simrobot_sim.spec import ROBOT_ENDPOINTS
 
 #: Grey level (0-255) below which a pixel of an 8-bit/greyscale image is an obstacle.
 OBSTACLE_THRESHOLD = 128
@@ -334,16 +335,7 @@ def _robot(entry: Any, where: str, base_dir: Path = Path()) -> RobotSpec:
     sensors = tuple(_sensor(s, f"{where}.sensors[{i}]") for i, s in enumerate(sensors_in))
     seen: set[str] = set()
     for i, s in enumerate(sensors):
-        if s.name in seen or s.name in (
-            "cmd_vel",
-            "wheel_cmd",
-            "odom",
-            "pose",
-            "crashed",
-            "set_power",
-            "clear_crash",
-            "power",
-        ):
+        if s.name in seen or s.name in ROBOT_ENDPOINTS:
             raise InputError(f"{where}.sensors[{i}].name: {_brief(s.name)} is used twice or clashes with a robot topic")
         seen.add(s.name)
     controller = entry.get("controller")

@@ -62,13 +62,23 @@ from sim_runtime.world_node import SimWorldNode, namespace_prefix, startup_phase
 from simrobot_sim.matlab_alg import OctaveAlgorithms
 from simrobot_sim.model import SimrobotWorld
 from simrobot_sim.spec import (
+    CLEAR_CRASH_SERVICE,
+    CMD_VEL_TOPIC,
+    CRASHED_TOPIC,
     FOOTPRINT_FRAME,
+    MAP_TOPIC,
     OBSTACLE_SUFFIX,
+    ODOM_TOPIC,
+    POSE_TOPIC,
+    POWER_TOPIC,
     ROBOT_STATE_FIELDS,
     ROBOT_STATES_TOPIC,
     ROBOTS_NS,
     ROBOTS_TOPIC,
+    SET_POWER_SERVICE,
+    WHEEL_CMD_TOPIC,
     frame_name,
+    robot_topic,
     sensor_mount,
 )
 from simrobot_sim.world_file import WorldSpec, load_world
@@ -149,7 +159,7 @@ class SimrobotWorldNode(SimWorldNode):
         self._published_wall = time.monotonic()
         self._republished_wall = self._published_wall
         self._io = [self._make_robot_io(i) for i in range(n)]
-        self._map_pub = self.create_publisher(OccupancyGrid, "map", LATCHED_QOS)
+        self._map_pub = self.create_publisher(OccupancyGrid, MAP_TOPIC, LATCHED_QOS)
         self._map_pub.publish(self._map_msg())
         self._robots_pub = self.create_publisher(MarkerArray, ROBOTS_TOPIC, SENSOR_PUBLISHER_QOS)
         self._markers = self._marker_msgs()
@@ -161,7 +171,7 @@ class SimrobotWorldNode(SimWorldNode):
         self.tf = TfBroadcaster(self)
         # /tf messages reused every step: rclpy serialises on publish
         self._odom_tf = [
-            transform_msg(self.robot_frame(i, "odom"), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
+            transform_msg(self.robot_frame(i, ODOM_TOPIC), self.robot_frame(i, "base_link"), 0.0, 0.0) for i in range(n)
         ]
         self.tf.send_static(static_transforms(self.spec, self.prefix), self.stamp())
         self.every(self.physics_rate, self._publish_step)
@@ -215,7 +225,7 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.range_min = 0.0
                 msg.range_max = float(s.range)
                 msg.scan_time = float(self.spec.dt)
-                pub = self.create_publisher(LaserScan, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
+                pub = self.create_publisher(LaserScan, robot_topic(name, s.name), SENSOR_PUBLISHER_QOS)
                 io.pubs.append((k, "laser", pub, None))
                 io.msgs.append((msg, None))
             else:
@@ -225,34 +235,36 @@ class SimrobotWorldNode(SimWorldNode):
                 msg.field_of_view = float(s.beamwidth)
                 msg.min_range = 0.0
                 msg.max_range = float(s.range)
-                pub = self.create_publisher(Range, f"{name}/{s.name}", SENSOR_PUBLISHER_QOS)
-                obst_pub = self.create_publisher(UInt8, f"{name}/{s.name}/{OBSTACLE_SUFFIX}", SENSOR_PUBLISHER_QOS)
+                pub = self.create_publisher(Range, robot_topic(name, s.name), SENSOR_PUBLISHER_QOS)
+                obst_pub = self.create_publisher(
+                    UInt8, robot_topic(name, f"{s.name}/{OBSTACLE_SUFFIX}"), SENSOR_PUBLISHER_QOS
+                )
                 io.pubs.append((k, "ultrasonic", pub, obst_pub))
                 io.msgs.append((msg, UInt8()))
-        io.odom_pub = self.create_publisher(Odometry, f"{name}/odom", SENSOR_PUBLISHER_QOS)
+        io.odom_pub = self.create_publisher(Odometry, robot_topic(name, ODOM_TOPIC), SENSOR_PUBLISHER_QOS)
         io.odom = Odometry()
-        io.odom.header.frame_id = frame_name(self.prefix, name, "odom")
+        io.odom.header.frame_id = frame_name(self.prefix, name, ODOM_TOPIC)
         io.odom.child_frame_id = frame_name(self.prefix, name, "base_link")
         io.odom.pose.covariance, io.odom.twist.covariance = odometry_covariances(self.spec)
-        io.pose_pub = self.create_publisher(PoseStamped, f"{name}/pose", SENSOR_PUBLISHER_QOS)
+        io.pose_pub = self.create_publisher(PoseStamped, robot_topic(name, POSE_TOPIC), SENSOR_PUBLISHER_QOS)
         io.pose = PoseStamped()
         io.pose.header.frame_id = "map"
-        io.crashed_pub = self.create_publisher(Bool, f"{name}/crashed", LATCHED_QOS)
-        io.power_pub = self.create_publisher(Bool, f"{name}/power", LATCHED_QOS)
+        io.crashed_pub = self.create_publisher(Bool, robot_topic(name, CRASHED_TOPIC), LATCHED_QOS)
+        io.power_pub = self.create_publisher(Bool, robot_topic(name, POWER_TOPIC), LATCHED_QOS)
         io.subs = [
             self.create_subscription(
                 TwistStamped if self.cmd_vel_stamped else Twist,
-                f"{name}/cmd_vel",
+                robot_topic(name, CMD_VEL_TOPIC),
                 partial(self._on_cmd_vel, i),
                 COMMAND_SUBSCRIBER_QOS,
             ),
             self.create_subscription(
-                JointState, f"{name}/wheel_cmd", partial(self._on_wheel_cmd, i), COMMAND_SUBSCRIBER_QOS
+                JointState, robot_topic(name, WHEEL_CMD_TOPIC), partial(self._on_wheel_cmd, i), COMMAND_SUBSCRIBER_QOS
             ),
         ]
         io.services = [
-            self.create_service(SetBool, f"{name}/set_power", partial(self._on_set_power, i)),
-            self.create_service(Trigger, f"{name}/clear_crash", partial(self._on_clear_crash, i)),
+            self.create_service(SetBool, robot_topic(name, SET_POWER_SERVICE), partial(self._on_set_power, i)),
+            self.create_service(Trigger, robot_topic(name, CLEAR_CRASH_SERVICE), partial(self._on_clear_crash, i)),
         ]
         return io
 
@@ -533,7 +545,7 @@ def static_transforms(spec: WorldSpec, prefix: str) -> list[TransformStamped]:
     transforms = []
     for robot in spec.robots:
         x, y = robot.position
-        transforms.append(transform_msg("map", frame_name(prefix, robot.name, "odom"), x, y, yaw=robot.heading))
+        transforms.append(transform_msg("map", frame_name(prefix, robot.name, ODOM_TOPIC), x, y, yaw=robot.heading))
         base = frame_name(prefix, robot.name, "base_link")
         transforms.append(transform_msg(base, frame_name(prefix, robot.name, FOOTPRINT_FRAME), 0.0, 0.0))
         for sensor in robot.sensors:

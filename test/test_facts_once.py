@@ -1,4 +1,5 @@
-"""Each fact once: the Create's topic names and map colours are spelled only in ``create_sim/spec.py``.
+"""Each fact once: the Create's topic names and map colours are spelled only in ``create_sim/spec.py``,
+SIMROBOT's topic and service names only in ``simrobot_sim/spec.py``.
 
 The node, client, studio, Rerun, learning envs, bridges and fuzz adapters read them from there, so a
 renamed topic or a new colour changes in one place. These tests read the source tree (not the
@@ -10,6 +11,8 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
+
+import pytest
 
 from create_sim import spec
 
@@ -144,3 +147,62 @@ def test_the_arm_topic_names_are_spelled_only_in_the_arm_spec() -> None:
     # joint_states is also the Create's wheels' topic, read from the Create's spec there.
     hits = [h for h in _hits(pattern, skip=("arm_sim/spec.py",)) if not h.startswith("create_sim/")]
     assert not hits, "read these topic names from arm_sim.spec:\n" + "\n".join(hits)
+
+
+# ------------------------------------------------------------------------------ SIMROBOT
+SIMROBOT_SPEC = "simrobot_sim/spec.py"
+SIMROBOT_FAMILY = ("simrobot_sim/", "studio/simrobot/", "sim_tools/adapters/simrobot/")
+
+
+def _simrobot_spec():
+    from simrobot_sim import spec as simrobot_spec
+
+    return simrobot_spec
+
+
+def test_the_simrobot_only_topic_and_service_names_are_spelled_only_in_its_spec() -> None:
+    s = _simrobot_spec()
+    # ("crashed" and "power" are also the words of a robot's state: the family test below finds them as topics)
+    names = (s.WHEEL_CMD_TOPIC, s.SET_POWER_SERVICE, s.CLEAR_CRASH_SERVICE, s.ROBOT_STATES_TOPIC)
+    pattern = re.compile("|".join(_literal(n) for n in names))
+    hits = _hits(pattern, skip=(SIMROBOT_SPEC, *FAMILY_BLIND))  # the replay reads any family's bags by leaf
+    assert not hits, "read these names from simrobot_sim.spec:\n" + "\n".join(hits)
+
+
+def test_no_simrobot_robot_topic_is_spelled_out_under_a_robots_name() -> None:
+    leaves = "|".join(re.escape(leaf) for leaf in _simrobot_spec().ROBOT_ENDPOINTS)
+    # f"{name}/odom", f"{robot}/set_power": build them with spec.robot_topic
+    pattern = re.compile(rf"""f["']\{{[^{{}}"']+\}}/({leaves})["'/]""")
+    hits = _hits(pattern, skip=(SIMROBOT_SPEC,))
+    assert not hits, "use simrobot_sim.spec.robot_topic and its names:\n" + "\n".join(hits)
+
+
+def test_the_simrobot_family_names_no_robot_topic_by_a_literal() -> None:
+    s = _simrobot_spec()
+    names = (*s.ROBOT_ENDPOINTS, s.MAP_TOPIC, s.ROBOTS_TOPIC)
+    literal = "(" + "|".join(_literal(n) for n in names) + ")"
+    in_call = re.compile(TOPIC_CALLS + r"[^()\n]*?" + literal)
+    handler_key = re.compile(r"\(" + literal + r""",\s*["'][a-z_]+/msg/""")  # (leaf, type) → drawer
+    topic_tuple = re.compile(r"_topics\s*=\s*\(" + literal)
+    hits = [
+        h
+        for pattern in (in_call, handler_key, topic_tuple)
+        for h in _hits(pattern, skip=(SIMROBOT_SPEC,))
+        if h.startswith(SIMROBOT_FAMILY)
+    ]
+    assert not hits, "read these topic names from simrobot_sim.spec:\n" + "\n".join(hits)
+
+
+@pytest.mark.parametrize(
+    "leaf", ["cmd_vel", "wheel_cmd", "odom", "pose", "crashed", "power", "set_power", "clear_crash"]
+)
+def test_a_simrobot_sensor_may_not_take_the_name_of_one_of_its_robots_topics(leaf: str) -> None:
+    from sim_runtime.errors import InputError
+    from sim_runtime.paths import config_path
+    from simrobot_sim.world_file import parse_world
+
+    assert leaf in _simrobot_spec().ROBOT_ENDPOINTS
+    sensor = {"name": leaf, "type": "ultrasonic", "position": [0.05, 0], "axis": 0, "range": 0.3}
+    world = {"map": "demo_map.png", "robots": [{"name": "r1", "position": [1.3, 1.55], "sensors": [sensor]}]}
+    with pytest.raises(InputError, match="clashes with a robot topic"):
+        parse_world(world, "world.yaml", config_path("simrobot/demo.yaml").parent)

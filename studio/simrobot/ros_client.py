@@ -30,7 +30,13 @@ from std_srvs.srv import SetBool, Trigger
 
 from sim_runtime.errors import InputError
 from sim_runtime.qos import ANY_PUBLISHER_QOS
-from simrobot_sim.spec import ROBOT_STATE_FIELDS, ROBOT_STATES_TOPIC
+from simrobot_sim.spec import (
+    CLEAR_CRASH_SERVICE,
+    ROBOT_STATE_FIELDS,
+    ROBOT_STATES_TOPIC,
+    SET_POWER_SERVICE,
+    robot_topic,
+)
 from simrobot_sim.world_file import SensorSpec, WorldSpec, load_world
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
@@ -117,10 +123,10 @@ class _World:
         s.history = deque(maxlen=min(spec.history_steps, max(100, REPLAY_VALUES // (3 * max(n, 1)))))
         sub = self.node.create_subscription
         for name in s.names:
-            self.power_clients.append(self.node.create_client(SetBool, s.topic(f"{name}/set_power")))
-            self.clear_clients.append(self.node.create_client(Trigger, s.topic(f"{name}/clear_crash")))
+            self.power_clients.append(self.node.create_client(SetBool, s.topic(robot_topic(name, SET_POWER_SERVICE))))
+            self.clear_clients.append(self.node.create_client(Trigger, s.topic(robot_topic(name, CLEAR_CRASH_SERVICE))))
         for k, (i, sensor) in enumerate(s.sensors):
-            topic = s.topic(f"{s.names[i]}/{sensor.name}")
+            topic = s.topic(robot_topic(s.names[i], sensor.name))
             if sensor.kind == "laser":
                 self.subs.append(sub(LaserScan, topic, lambda m, k=k: self._on_scan(k, m), ANY_PUBLISHER_QOS))
         s.spec = spec  # last: the page draws once everything above is in place

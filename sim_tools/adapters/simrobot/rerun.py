@@ -18,7 +18,15 @@ from sim_tools.rerun_kit.drawer import Drawer
 from sim_tools.rerun_kit.ros import basename, namespace, points, rgba
 from sim_tools.rerun_kit.state import Robot
 from sim_tools.rerun_kit.style import LIDAR_COLOR, LIDAR_ROBOT_COLOR
-from simrobot_sim.spec import OBSTACLE_SUFFIX, ROBOT_STATES_TOPIC, ROBOTS_TOPIC
+from simrobot_sim.spec import (
+    CRASHED_TOPIC,
+    OBSTACLE_SUFFIX,
+    POSE_TOPIC,
+    POWER_TOPIC,
+    ROBOT_STATES_TOPIC,
+    ROBOTS_TOPIC,
+    WHEEL_CMD_TOPIC,
+)
 
 FIRST_NUMBER = 2
 """Outline i is robot i, whose obstacle number is i + 2 (1 is a wall)."""
@@ -91,16 +99,16 @@ def draw_wheel_cmd(view: Drawer, topic: str, msg) -> None:
 class SimrobotDrawing(SimulatorDrawing):
     """SIMROBOT's part of the views."""
 
-    truth_pose_topics = ("pose",)
+    truth_pose_topics = (POSE_TOPIC,)
     outline_topics = (ROBOTS_TOPIC,)
     outline_match_m = MATCH_M
     quiet_topics = (ROBOT_STATES_TOPIC,)  # a compact summary of what the other topics carry
     plot_tabs = (PlotTab("obstacle", "Obstacle seen (number)", None, 70),)
     handlers: ClassVar[Mapping[tuple[str | None, str], Handler]] = {
         **{(OBSTACLE_SUFFIX, f"std_msgs/msg/{kind}"): draw_obstacle for kind in ("UInt8", "Float64", "Float32")},
-        ("power", "std_msgs/msg/Bool"): draw_power,
-        ("crashed", "std_msgs/msg/Bool"): draw_crashed,
-        ("wheel_cmd", "sensor_msgs/msg/JointState"): draw_wheel_cmd,
+        (POWER_TOPIC, "std_msgs/msg/Bool"): draw_power,
+        (CRASHED_TOPIC, "std_msgs/msg/Bool"): draw_crashed,
+        (WHEEL_CMD_TOPIC, "sensor_msgs/msg/JointState"): draw_wheel_cmd,
     }
 
     def outlines(self, markers: Iterable) -> list[Outline]:
@@ -115,12 +123,12 @@ class SimrobotDrawing(SimulatorDrawing):
 
     def legend_notes(self, leaves: set[str]) -> list[str]:
         notes = ["#n: its obstacle number" if OBSTACLE_SUFFIX in leaves else ""]
-        return [*notes, "*off*: powered off, *crashed*: stopped by a collision" if "crashed" in leaves else ""]
+        return [*notes, "*off*: powered off, *crashed*: stopped by a collision" if CRASHED_TOPIC in leaves else ""]
 
     def legend_lines(self, topics) -> list[tuple[int, str]]:
         leaves = {basename(t) for t in topics}
         lines = [
-            (80, "crashed" in leaves, "- dark red x: where a robot crashed (time in Events)"),
+            (80, CRASHED_TOPIC in leaves, "- dark red x: where a robot crashed (time in Events)"),
             (90, OBSTACLE_SUFFIX in leaves, "- *Obstacle seen* plot: 0 nothing, 1 a wall, n the robot labelled #n"),
         ]
         return [(rank, line) for rank, shown, line in lines if shown]
