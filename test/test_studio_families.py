@@ -96,3 +96,31 @@ def test_the_namespace_checks_and_ctrl_c_see_the_worlds_of_every_family(tmp_path
     finally:
         for child in worlds.values():
             child.stop()
+
+
+def test_a_family_callback_that_raises_is_reported_and_the_other_families_go_on(capfd):
+    """The families share one executor thread: a bug in one's callback must not end it for all."""
+    from studio.shell.ros import StudioRos
+
+    ros = StudioRos()
+    calls = {"bad": 0, "good": 0}
+
+    def bad() -> None:
+        calls["bad"] += 1
+        raise RuntimeError("a bug in one family's round")
+
+    def good() -> None:
+        calls["good"] += 1
+
+    ros.every(0.05, bad)
+    ros.every(0.05, good)
+    ros.spin()
+    try:
+        deadline = time.monotonic() + 60.0
+        while calls["bad"] < 3 or calls["good"] < 10:  # the bad one raised again and again
+            assert time.monotonic() < deadline and ros._thread.is_alive(), calls
+            time.sleep(0.05)
+    finally:
+        ros.shutdown()
+    err = capfd.readouterr()
+    assert "a bug in one family's round" in err.err and "the studio goes on" in err.out

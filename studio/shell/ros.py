@@ -15,6 +15,7 @@ import itertools
 import os
 import threading
 import time
+import traceback
 from collections.abc import Callable, Container, Iterator
 from typing import Any
 
@@ -98,25 +99,22 @@ class StudioRos:
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            while self.context.ok():
+        """Spin until the context is shut down. Every family's callbacks run here: one that raises
+        is reported with its traceback and the others go on (the thread must not end with it);
+        one cut short by the studio shutting down is no error."""
+        while self.context.ok():
+            try:
                 self.executor.spin_once(timeout_sec=0.1)
-        except Exception:
-            if self.context.ok():
-                raise
+            except Exception:
+                if not self.context.ok():
+                    return
+                print("studio: a ROS callback failed (the studio goes on):", flush=True)
+                traceback.print_exc()
 
     def every(self, period_s: float, round_: Callable[[], None]) -> Timer:
-        """A timer on the studio's node running ``round_`` (a family's discovery round); a round
-        cut short by the studio shutting down its context is no error."""
-
-        def guarded() -> None:
-            try:
-                round_()
-            except Exception:
-                if self.context.ok():
-                    raise
-
-        return self.node.create_timer(period_s, guarded)
+        """A timer on the studio's node running ``round_`` (a family's discovery round) in the
+        executor thread."""
+        return self.node.create_timer(period_s, round_)
 
     def clock_publishers(self) -> list[tuple[str, str]]:
         """``(clock topic, publishing node's namespace, '' for the root)`` of every world on the domain."""
