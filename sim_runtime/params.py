@@ -16,7 +16,6 @@ Whole numbers are accepted where a float is expected, on the command line
 from __future__ import annotations
 
 import array
-import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -192,8 +191,3 @@ class CheckedNode(Node):
                 except InputError as error:
                     return SetParametersResult(successful=False, reason=f"{parameter.name} refused: {error}")
         return SetParametersResult(successful=True)
-
-
-def finite_at_least(lo: float) -> Callable[[float], bool]:
-    """A check: a finite number ≥ ``lo``."""
-    return lambda v: math.isfinite(v) and v >= lo

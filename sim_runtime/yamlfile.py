@@ -346,9 +346,6 @@ class FieldReader:
             raise self.error(field, f"expected a {rows}x{cols} matrix (list of {rows} rows), got {_short(value)}")
         return np.array([self.vector(row, f"{field}[{i}]", cols) for i, row in enumerate(value)]).reshape(rows, cols)
 
-    def boolean(self, value: Any, field: str) -> bool:
-        return read_bool(value, self.where(field))
-
     def text(self, value: Any, field: str) -> str:
         """A non-empty string."""
         if not isinstance(value, str) or not value:
