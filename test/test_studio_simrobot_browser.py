@@ -229,6 +229,50 @@ def test_run_it_shows_both_robots_moving_and_the_laser_beams(browser, ros):
         ros.destroy_publisher(pub)
 
 
+def test_the_studio_is_one_ros_node_following_both_simrobot_and_arm_worlds(browser, ros):
+    """Every family's client is made on the studio's one node (no second context, node or thread
+    for SIMROBOT): with a SIMROBOT world and an arm world followed, the graph holds one studio
+    node, subscribed to both."""
+    from sim_runtime.paths import config_path
+    from sim_tools.cli import executable_command
+    from studio.arm.worlds import arm_world_ros_args
+
+    args = arm_world_ros_args("/familyarm", str(config_path("arm/irb120.yaml")), "")
+    arm = subprocess.Popen(
+        executable_command("arm", args),
+        env=studio_env(STUDIO_DOMAIN),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.STDOUT,
+    )
+
+    def studio_nodes() -> list[tuple[str, str]]:
+        return [
+            (name, ns)
+            for name, ns in ros.get_node_names_and_namespaces()
+            if name.startswith("studio_") and not name.startswith("studio_record")
+        ]
+
+    def subscribed(_d) -> set[str]:
+        return {topic for node in studio_nodes() for topic, _ in ros.get_subscriber_names_and_types_by_node(*node)}
+
+    def following_both(d) -> bool:
+        topics = subscribed(d)
+        return "/simrobot1/robot_states" in topics and any(
+            t.startswith("/familyarm/") and t.endswith("/joint_states") for t in topics
+        )
+
+    try:
+        wait(browser, following_both, timeout=180)  # an arm world's first start loads its meshes
+        assert len(studio_nodes()) == 1, studio_nodes()
+    finally:
+        arm.terminate()
+        try:
+            arm.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            arm.kill()
+            arm.wait()
+
+
 def test_a_clicked_robot_shows_its_info_and_can_be_powered_off(browser):
     r2 = robots_drawn(browser, ".simrobot-view")["r2"]
     click_at(browser, ".simrobot-view", *r2)
