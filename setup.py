@@ -70,6 +70,12 @@ class BuildPyWithKernels(build_py):
 
 ROS_WHEELS = ["ros-jazzy-rclpy[fastrtps]", "ros-jazzy-common-interfaces"]
 RAY = ["ray>=2.60"]
+# The studio in every user's JupyterLab launcher (studio/jupyter.py; its Unix socket needs
+# jupyter-server-proxy >= 4 and Tornado >= 6.3).
+JUPYTER = ["jupyterlab>=4", "jupyter-server-proxy>=4.6"]
+# A course server (`robot_sims classroom init/serve`, docs/classroom.md): JupyterHub, its sign-up
+# authenticator and idle culler (configurable-http-proxy comes from npm).
+CLASSROOM = [*JUPYTER, "jupyterhub>=5", "jupyterhub-nativeauthenticator>=1.3", "jupyterhub-idle-culler>=1.4"]
 RL = ["gymnasium>=1.0", "pettingzoo>=1.24", "cma>=3.3"]
 # torch pinned to the release whose CPU wheel lies on this project's machines (pip takes it from
 # there; a newer or open range pulls PyPI's CUDA build, several GB). Not in "test": `make test-sb3`.
@@ -134,9 +140,15 @@ setup(
             "oct2py",  # SIMROBOT algorithm m-files driven from Python through Octave
             *RAY,
             *RL,
+            *JUPYTER,  # test/test_studio_jupyter.py: a real Jupyter server proxying the studio
+            *CLASSROOM,  # test/test_classroom_hub.py: a real hub, proxy and students' servers
         ],
         # `robot_sims batch --ray`: run sweeps on Ray (a local one, or a cluster).
         "ray": RAY,
+        # The studio in JupyterLab (and so in a JupyterHub): "robot_sims studio" in the launcher.
+        "jupyter": JUPYTER,
+        # A course server for a class: `robot_sims classroom init DIR` and `serve DIR`.
+        "classroom": CLASSROOM,
         # Learning environments (docs/learning.md): `gymnasium.make("robot_sims/CreateNav-v0")`.
         "rl": RL,
         # A Stable-Baselines3 policy as a policy file (sim_tools/rl/sb3.py): SB3 and torch (CPU).
@@ -149,6 +161,8 @@ setup(
         "robot_sims.executables": [f"{name} = {target}" for name, (target, _what) in EXECUTABLES.items()],
         # Gymnasium releases that load plugins register our ids from here (sim_tools/rl/registration.py).
         "gymnasium.envs": ["robot_sims = sim_tools.rl.registration:register_envs"],
+        # jupyter-server-proxy's launcher entry: /robot_sims/ under each user's Jupyter server.
+        "jupyter_serverproxy_servers": ["robot_sims = studio.jupyter:setup_studio"],
     },
     cmdclass={"build_py": BuildPyWithKernels},
     zip_safe=False,

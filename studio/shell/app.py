@@ -5,21 +5,26 @@ pages (:class:`Family`) and the web app that serves the families the entry point
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ipaddress
 import os
 import re
 import signal
 import socket
+import stat
 import sys
+import threading
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, Protocol, TypeVar
 
 from sim_runtime.errors import InputError
 from sim_runtime.run import split_ros_args
 from studio.shell.kit import pages_help
-from studio.shell.processes import CLOCK, Child, parse_controller, stop_all
+from studio.shell.processes import CLOCK, OUTPUT_FOLDER, PROCESSES, Child, parse_controller, stop_all
 from studio.shell.workspace import Workspace
 
 if TYPE_CHECKING:  # rclpy loads once the arguments are checked (a mistyped option answers at once)
@@ -119,7 +124,7 @@ class Studio:
     def namespace_refusal(self, ns: str) -> str | None:
         """Why a new world may not start in ``ns`` (None: it may): a world already runs there, or
         in the root where ``/clock`` is taken (a root world cannot move its clock)."""
-        problem = namespace_problem(ns)
+        problem = namespace_problem(ns) or PROCESSES.world_refusal(len(self.world_children()))
         if problem:
             return problem
         where = ns or "/"
@@ -249,7 +254,28 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     )
     parser.add_argument("--port", type=int, default=8080, help="port (default 8080)")
     parser.add_argument(
-        "--workspace", default=".", help="the only folder whose files the pages read and write (default: here)"
+        "--unix-socket",
+        metavar="PATH",
+        help="listen on this Unix socket (made 0600, its folder 0700 if new) instead of any TCP port: "
+        "only its owner can connect (what JupyterLab's launcher entry uses)",
+    )
+    parser.add_argument(
+        "--workspace",
+        default=os.environ.get("ROBOT_SIMS_WORKSPACE") or ".",
+        help="the only folder whose files the pages read and write (default: $ROBOT_SIMS_WORKSPACE, else here)",
+    )
+    parser.add_argument(
+        "--max-worlds",
+        type=int,
+        metavar="N",
+        default=None,
+        help="refuse to start more than N worlds at once (default: $ROBOT_SIMS_MAX_WORLDS, else no limit)",
+    )
+    parser.add_argument(
+        "--exit-with-parent",
+        action="store_true",
+        help="stop (and stop everything started) when the process that started the studio ends "
+        "(a Jupyter server, even one killed outright)",
     )
     parser.add_argument(
         "--controller",
@@ -276,28 +302,122 @@ def host_warning(host: str) -> str | None:
     )
 
 
+def max_worlds(option: int | None) -> int | None:
+    """The world limit: ``--max-worlds``, else ``$ROBOT_SIMS_MAX_WORLDS`` (set by a classroom's
+    spawner), else None (no limit). InputError: not a whole number ≥ 1."""
+    where = "--max-worlds"
+    value: object = option
+    if option is None:
+        where, value = "ROBOT_SIMS_MAX_WORLDS", os.environ.get("ROBOT_SIMS_MAX_WORLDS", "").strip()
+        if not value:
+            return None
+    try:
+        limit = int(str(value))
+    except ValueError:
+        limit = 0
+    if limit < 1:
+        raise InputError(f"{where} {value!r}: give the number of worlds the studio may run at once (1 or more)")
+    return limit
+
+
+def bind_unix_socket(path: str) -> socket.socket:
+    """A Unix socket bound at ``path``, readable and writable by its owner only (0600): uvicorn's
+    own ``uds`` makes it 0666. Its folder is made 0700 if missing. A stale socket (nobody
+    listening) is replaced; a live one is refused. OSError: the folder or the bind failed."""
+    where = Path(path).absolute()
+    where.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    if where.exists() or where.is_symlink():
+        if not stat.S_ISSOCK(where.lstat().st_mode):
+            raise OSError(f"{where} exists and is not a socket")
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as probe:
+            if probe.connect_ex(str(where)) == 0:
+                raise OSError(f"another server listens on {where}")
+        where.unlink()
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    old = os.umask(0o177)  # no moment with a socket others could connect to
+    try:
+        sock.bind(str(where))
+    finally:
+        os.umask(old)
+    os.chmod(where, 0o600)
+    return sock
+
+
 def prepare(argv: list[str] | None) -> tuple[argparse.Namespace, Studio] | int:
     """The options and the studio they describe, or the exit status after a one-line error (a bad
-    workspace or controller, a taken port or unknown address: not uvicorn's traceback)."""
+    workspace or controller, a taken port or unknown address: not uvicorn's traceback). With
+    ``--unix-socket`` the bound socket is kept in ``options.listener``."""
     args, _ros_args = split_ros_args(sys.argv if argv is None else ["studio", *argv])
     options = parse_args(args)
     try:
         workspace = Workspace(options.workspace)
         controllers = dict(DEFAULT_CONTROLLERS)
         controllers.update(parse_controller(spec) for spec in options.controller)
+        PROCESSES.max_worlds = max_worlds(options.max_worlds)
     except InputError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    try:
-        with socket.create_server((options.host, options.port)):
-            pass
-    except OSError as err:
-        print(f"error: cannot listen on {options.host}:{options.port}: {err.strerror or err}", file=sys.stderr)
-        return 2
-    warning = host_warning(options.host)
-    if warning:
-        print(warning, file=sys.stderr)
+    options.listener = None
+    if options.unix_socket:
+        try:
+            options.listener = bind_unix_socket(options.unix_socket)
+        except OSError as err:
+            print(f"error: cannot listen on {options.unix_socket}: {err.strerror or err}", file=sys.stderr)
+            return 2
+    else:
+        try:
+            with socket.create_server((options.host, options.port)):
+                pass
+        except OSError as err:
+            print(f"error: cannot listen on {options.host}:{options.port}: {err.strerror or err}", file=sys.stderr)
+            return 2
+        warning = host_warning(options.host)
+        if warning:
+            print(warning, file=sys.stderr)
+    PROCESSES.log_folder = workspace.root / OUTPUT_FOLDER
     return options, Studio(workspace=workspace, controllers=controllers)
+
+
+def where_line(options: argparse.Namespace, workspace: Path) -> str:
+    """The start-up line: where to open the studio. Behind a Jupyter server's proxy a loopback
+    URL would be wrong: the socket is named, and the path under the server if it is known."""
+    if not options.unix_socket:
+        return f"open http://{options.host}:{options.port}/ (workspace {workspace})"
+    line = f"listening on the Unix socket {Path(options.unix_socket).absolute()} (workspace {workspace})"
+    path = os.environ.get("ROBOT_SIMS_PROXY_PATH") or (
+        os.environ["JUPYTERHUB_SERVICE_PREFIX"].rstrip("/") + "/robot_sims/"
+        if os.environ.get("JUPYTERHUB_SERVICE_PREFIX")
+        else ""
+    )
+    return f"{line}; open {path} on your Jupyter server" if path else line
+
+
+def quiet_output() -> None:
+    """Lines still to come go nowhere (the terminal or the Jupyter server that read them is gone)
+    instead of failing the shutdown."""
+    for fd in (1, 2):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+
+
+PARENT_POLL = 0.25  # s between two looks at the parent: the studio ends within a second of it
+FORCED_AFTER = 15.0  # s a clean stop may take before everything is killed
+
+
+def watch_parent(parent: int) -> None:
+    """End the studio when ``parent`` (the Jupyter server that started it) has ended, even by
+    SIGKILL: as Ctrl-C would (every child stopped, the bag finished), and if that has not ended the
+    studio within :data:`FORCED_AFTER`, by killing every child and exiting."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL)
+        quiet_output()
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(FORCED_AFTER)
+        stop_all(PROCESSES.running(), timeout=1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="studio-parent-watch", daemon=True).start()
 
 
 def hang_up(_signum: int, _frame: object) -> None:
@@ -305,9 +425,8 @@ def hang_up(_signum: int, _frame: object) -> None:
     does: every world, controller and recorder stops and the bag is finished. The worlds run in
     sessions of their own, so nothing else would stop them. A closed terminal takes the studio's
     output with it: the lines still to come go nowhere instead of failing the shutdown."""
-    for fd in (1, 2):
-        if os.isatty(fd):
-            os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    if os.isatty(1) or os.isatty(2):
+        quiet_output()
     os.kill(os.getpid(), signal.SIGINT)  # uvicorn's own Ctrl-C: the app's shutdown, then ours
 
 
@@ -328,10 +447,16 @@ def run(argv: list[str] | None, load_families: Callable[[], Sequence[Family[Any]
     for family in studio.families:
         for register in family.pages:
             register(studio)
-    where = f"http://{options.host}:{options.port}/ (workspace {studio.workspace.root})"
-    print(f"robot_sims studio: open {where}", flush=True)
+    from studio.shell import output_page
+
+    output_page.register()  # every child's output, whichever page started it
+    if options.exit_with_parent:
+        watch_parent(os.getppid())
+    print(f"robot_sims studio: {where_line(options, studio.workspace.root)}", flush=True)
+    listening = {"fd": options.listener.fileno()} if options.listener is not None else {}
     try:
         ui.run(
+            **listening,  # a Unix socket: uvicorn serves on it, and on no TCP port
             host=options.host,
             port=options.port,
             title="robot_sims studio",
@@ -346,6 +471,9 @@ def run(argv: list[str] | None, load_families: Callable[[], Sequence[Family[Any]
         pass
     finally:
         shutdown()  # already done unless the interrupt cut the app's own shutdown short
+        if options.listener is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(options.unix_socket)
     print("robot_sims studio: stopped", flush=True)
     # Everything the studio started has stopped (bags finished) and its ROS contexts are shut down;
     # what is left is unloading NiceGUI, numba, rclpy and DDS, which took 2-3 s more on a loaded

@@ -136,6 +136,7 @@ PAGES = (
     ("/simrobot/editor", "SIMROBOT editor", "SIMROBOT worlds: the map bitmap, robots, sensors, algorithms"),
     ("/arm", "Arm", "arm worlds (IRB120, CSA7, scenes): joints, target poses, trajectories"),
     ("/replay", "Replay", "a recorded bag of any world, played or stepped (ReplayGUI)"),
+    ("/output", "Output", "what the worlds, controllers, recorders and Octave programs started here printed"),
 )
 """Every page: its address, its link text and what it is (the original window it stands for)."""
 
