@@ -105,11 +105,16 @@ def create_command_subscription(
     reliability users may override at start with ``qos_overrides.<topic>.subscription.*``; an
     override rclpy cannot apply is an :class:`InputError` naming the topic."""
     try:  # a copy: rclpy writes the overrides into the profile it is given
-        return node.create_subscription(
+        subscription = node.create_subscription(
             msg_type, topic, callback, copy.copy(COMMAND_SUBSCRIBER_QOS), qos_overriding_options=COMMAND_QOS_OVERRIDES
         )
     except _OVERRIDE_ERRORS as err:
         raise InputError(f"parameter 'qos_overrides' of {node.resolve_topic_name(topic)}: {err}") from None
+    # A world (SimWorldNode) also takes its commands between the steps of a catch-up burst.
+    taken_between_steps = getattr(node, "command_subscriptions", None)
+    if isinstance(taken_between_steps, list):
+        taken_between_steps.append(subscription)
+    return subscription
 
 
 #: Maps, robot descriptions, /tf_static, crash flags: late joiners still get the last message.

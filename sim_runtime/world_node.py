@@ -14,6 +14,8 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from rclpy.clock import Clock as RosClock
 from rclpy.clock import ClockType
+from rclpy.exceptions import InvalidHandle
+from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Trigger
@@ -24,10 +26,17 @@ from sim_runtime.msgs import time_msg
 from sim_runtime.params import CheckedNode
 from sim_runtime.qos import CLOCK_QOS
 
-#: How many physics steps one wall-timer tick may run to catch up before the world
-#: gives up on real time (like the MATLAB timer's BusyMode "drop"): physics never
-#: takes bigger steps, the run just falls behind the wall clock.
+#: How many physics steps a world may be behind its wall clock before it gives up on real time
+#: (like the MATLAB timer's BusyMode "drop"): physics never takes bigger steps, the run just falls
+#: behind the wall clock.
 MAX_CATCH_UP_STEPS = 50
+
+#: The most sim time (s) one wall-timer tick runs while catching up; the rest of the backlog is
+#: run at the next ticks, with the executor handling what arrived in between. A burst of 50
+#: steps read no message for 0.5 s of a Create's sim time: a stop sent by a MATLAB travelDist
+#: then came 12 cm late at 3x real time on a busy machine. Commands (subscriptions made with
+#: :func:`sim_runtime.qos.create_command_subscription`) are also taken between the steps of a burst.
+MAX_BURST_SIM_S = 0.1
 
 
 #: A start-up phase lasting longer than this (wall seconds) says what it is doing, then again every
@@ -81,6 +90,16 @@ def namespace_prefix(namespace: str) -> str:
     """The frame prefix a node's namespace gives its robot frames: ``/robot1`` → ``robot1/``, ``/`` → ``''``."""
     ns = namespace.strip("/")
     return f"{ns}/" if ns else ""
+
+
+def _take(subscription: Subscription) -> Any:
+    """The next message waiting on ``subscription`` (None: none waits, or it was destroyed)."""
+    try:
+        with subscription.handle:
+            taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+    except InvalidHandle:
+        return None
+    return None if taken is None else taken[0]
 
 
 class _Scheduled:
@@ -157,7 +176,11 @@ class SimWorldNode(CheckedNode):
         # Recorders report the /clock they follow: a world whose clock is remapped (a second world
         # in a namespace) is not theirs to wait for.
         self._recorders = RecorderGate(self, self.physics_dt) if self._clock_pub.topic_name == "/clock" else None
+        #: Taken between the steps of a catch-up burst too (:meth:`take_commands`); filled by
+        #: :func:`sim_runtime.qos.create_command_subscription`.
+        self.command_subscriptions: list[Subscription] = []
         self._pacer: Timer | None = None
+        self._pace_period = 0.01  # s, wall: the pacing timer's (start_pacing)
         self._paced = False  # stepped by a wall timer (run_nodes), not only by calls to step()
 
     # -- for subclasses -------------------------------------------------------------------
@@ -248,9 +271,9 @@ class SimWorldNode(CheckedNode):
             return
         # At most 10 ms between looks, however long a step is: a lockstep world with 1 s steps
         # must notice its controllers' answers promptly, not at the next 1 s tick.
-        period = min(max(self.physics_dt / self.real_time_factor, 0.001), 0.01)
+        self._pace_period = min(max(self.physics_dt / self.real_time_factor, 0.001), 0.01)
         self._pace_origin = (time.monotonic(), self.sim_time)
-        self._pacer = self.create_timer(period, self._pace, clock=RosClock(clock_type=ClockType.STEADY_TIME))
+        self._pacer = self.create_timer(self._pace_period, self._pace, clock=RosClock(clock_type=ClockType.STEADY_TIME))
 
     def stop_pacing(self) -> None:
         """Stop the wall timer (the world then steps only when told to)."""
@@ -269,15 +292,38 @@ class SimWorldNode(CheckedNode):
 
     def _pace(self) -> None:
         wall0, sim0 = self._pace_origin
-        target = sim0 + (time.monotonic() - wall0) * self.real_time_factor
-        due = int((target - self.sim_time) / self.physics_dt + 1e-9)
+        now = time.monotonic()
+        due = int((sim0 + (now - wall0) * self.real_time_factor - self.sim_time) / self.physics_dt + 1e-9)
         if due > MAX_CATCH_UP_STEPS:
-            # Too slow for this rate: run a bounded burst and re-anchor rather than spiral.
+            # Too slow for this rate: keep a bounded backlog and re-anchor rather than spiral.
             due = MAX_CATCH_UP_STEPS
-            self._pace_origin = (time.monotonic(), self.sim_time + due * self.physics_dt)
-        for _ in range(due):
+            self._pace_origin = (now, self.sim_time + due * self.physics_dt)
+        for k in range(min(due, self.burst_steps)):  # the rest of the backlog at the next ticks
+            if k:
+                self.take_commands()  # what came during the burst's last step counts from the next
             if not self.ready_to_step():
                 # Lockstep: the wall clock keeps going, so re-anchor when we resume.
                 self._pace_origin = (time.monotonic(), self.sim_time)
                 break
             self.step()
+
+    @property
+    def burst_steps(self) -> int:
+        """The most physics steps one wall-timer tick runs: :data:`MAX_BURST_SIM_S` of sim time, at
+        least one step, and at least a timer period's worth (a world at 1000x real time still keeps up)."""
+        per_tick = float(self._pace_period * self.real_time_factor / self.physics_dt)
+        return max(1, int(MAX_BURST_SIM_S / self.physics_dt + 1e-9), math.ceil(per_tick - 1e-9))
+
+    def take_commands(self) -> int:
+        """Handle every message waiting on the world's command subscriptions now, as the executor
+        would after this callback (their callbacks run in this thread); returns how many. Between
+        the steps of a catch-up burst: a command takes effect at the next step, not the burst's end.
+        Only the subscriptions made with :func:`sim_runtime.qos.create_command_subscription`: a take
+        costs some 50 us on 2 busy cores (load 25), too much for SIMROBOT's two per robot of a thousand
+        robots, which the executor takes between ticks (:data:`MAX_BURST_SIM_S` bounds the wait)."""
+        taken = 0
+        for subscription in self.command_subscriptions:
+            while (message := _take(subscription)) is not None:
+                subscription.callback(message)
+                taken += 1
+        return taken

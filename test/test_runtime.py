@@ -1,9 +1,11 @@
 """The shared runtime: sim clock and stepping, scheduled publishers, checked parameters, messages."""
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
+from rclpy.duration import Duration
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
@@ -18,6 +20,7 @@ from sim_runtime.msgs import (
     time_msg,
     yaw_from_quaternion,
 )
+from sim_runtime.qos import COMMAND_PUBLISHER_QOS, create_command_subscription
 from sim_runtime.run import drain
 from sim_runtime.testing import Collector, spin_until, wait_for_match
 from sim_runtime.world_node import SimWorldNode
@@ -115,18 +118,65 @@ def test_real_time_factor_paces_the_world_against_the_wall_clock(ros, monkeypatc
     monkeypatch.setattr(world_node.time, "monotonic", lambda: wall[0])
     world = CounterWorld(parameter_overrides=[Parameter("real_time_factor", value=2.0)])
     world.start_pacing()
-    wall[0] += 0.2  # 0.2 wall seconds at twice real time: 0.4 sim seconds
-    world._pace()
+    wall[0] += 0.2  # 0.2 wall seconds at twice real time: 0.4 sim seconds, 0.1 s (10 steps) a tick
+    for _tick in range(4):
+        world._pace()
     assert world.sim_time == pytest.approx(0.4) and world.physics_steps == 40
     wall[0] += 0.004  # less than one step's worth (0.005 s wall): nothing yet
     world._pace()
     assert world.physics_steps == 40
-    wall[0] += 10.0  # far behind: a bounded burst, then real time from here (physics never skips)
-    world._pace()
+    wall[0] += 10.0  # far behind: a bounded backlog, then real time from there (physics never skips)
+    burst = world.burst_steps  # MAX_BURST_SIM_S per tick: the executor takes messages in between
+    assert burst == 10
+    for tick in range(1, world_node.MAX_CATCH_UP_STEPS // burst + 1):
+        world._pace()
+        assert world.physics_steps == 40 + tick * burst
+    world._pace()  # the backlog is done: nothing more due at this wall time
     assert world.physics_steps == 40 + world_node.MAX_CATCH_UP_STEPS
     wall[0] += 0.05
     world._pace()
     assert world.physics_steps == 40 + world_node.MAX_CATCH_UP_STEPS + 10
+    world.destroy_node()
+
+
+class CommandedWorld(CounterWorld):
+    """A counter world with a command subscription: each step records the last command it had,
+    and a test may publish during a step (``during``: step number -> action)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.command = 0.0
+        self.seen: list[float] = []  # the command each physics step ran with
+        self.during: dict[int, Callable[[], None]] = {}
+        create_command_subscription(self, Float64, "command", lambda msg: setattr(self, "command", msg.data))
+
+    def physics_step(self):
+        super().physics_step()
+        self.seen.append(self.command)
+        if action := self.during.get(self.physics_steps):
+            action()
+
+
+def test_a_command_sent_during_a_catch_up_burst_takes_effect_at_the_next_step(executor, make_node, monkeypatch):
+    import sim_runtime.world_node as world_node
+
+    wall = [100.0]
+    monkeypatch.setattr(world_node.time, "monotonic", lambda: wall[0])
+    world = CommandedWorld()
+    executor.add_node(world)
+    publisher = make_node("commander").create_publisher(Float64, "command", COMMAND_PUBLISHER_QOS)
+    assert wait_for_match(executor, publisher) and wait_for_match(executor, world.command_subscriptions[0])
+    world.start_pacing()
+
+    def send(value: float) -> None:  # in the world's step, as if it came from another process then
+        publisher.publish(Float64(data=value))
+        assert publisher.wait_for_all_acked(Duration(seconds=30))  # it waits in the world's reader
+
+    world.during = {3: lambda: send(1.0), 7: lambda: send(2.0)}
+    wall[0] += 1.0  # 100 steps behind: a backlog of MAX_CATCH_UP_STEPS, burst_steps a tick
+    world._pace()  # no executor turn inside: only the world itself takes the commands
+    assert world.physics_steps == world.burst_steps == 10
+    assert world.seen == [0.0] * 3 + [1.0] * 4 + [2.0] * 3  # one step after each, in sim time
     world.destroy_node()
 
 
