@@ -52,6 +52,8 @@ class Grade:
     rows: list[dict[str, Any]] = field(default_factory=list)
     error: str = ""
     run: Path | None = None
+    #: Why the student's feedback could not be written ("": it was).
+    feedback_error: str = ""
 
     def episode_scores(self, a: Assignment) -> list[float]:
         scores = []
