@@ -18,18 +18,32 @@ ROOT = Path(__file__).resolve().parent.parent
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 
+def _base_domain() -> int:
+    """The caller's ROS domain (its ROS_DOMAIN_ID), else one from the run's process id (1-100).
+    Kept in ROBOT_SIMS_TEST_DOMAIN, which pytest-xdist's workers inherit from the controller, so
+    every worker derives its own domain from the same base."""
+    base = os.environ.get("ROBOT_SIMS_TEST_DOMAIN") or os.environ.get("ROS_DOMAIN_ID")
+    if not base:
+        # a worker whose controller set nothing (not loaded there): the controller is its parent
+        pid = os.getppid() if os.environ.get("PYTEST_XDIST_WORKER") else os.getpid()
+        base = str(1 + pid % 100)
+    os.environ["ROBOT_SIMS_TEST_DOMAIN"] = base
+    return int(base)
+
+
 def _suite_domain() -> int:
-    """The run's ROS domain (1-100): from the process id, or under pytest-xdist from the
-    controller's and the worker's number, so parallel workers never share one. The studio
-    modules' domains (`studio_browser_support.studio_domain`, 101-201) lie above these."""
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ...
+    """This process's ROS domain: the base one, or under pytest-xdist the base plus the worker's
+    number (gw0, gw1, ...), wrapped into 1-100, so workers never share one even where the caller's
+    environment sets ROS_DOMAIN_ID. The studio modules' domains
+    (`studio_browser_support.studio_domain`, 101-201) lie above these and follow the base."""
+    base = _base_domain()
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
     if not worker.startswith("gw"):
-        return 1 + os.getpid() % 100
-    # 37 apart: each worker's studio domains (an offset of 50-60 from its own) stay disjoint
-    return 1 + (os.getppid() + 37 * int(worker[2:])) % 100
+        return base
+    return 1 + (base - 1 + int(worker[2:])) % 100
 
 
-os.environ.setdefault("ROS_DOMAIN_ID", str(_suite_domain()))
+os.environ["ROS_DOMAIN_ID"] = str(_suite_domain())
 os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "fastdds_localhost.xml"))
 os.environ.setdefault("AMENT_PREFIX_PATH", sys.prefix)
 
@@ -109,3 +123,24 @@ def browser(request, studio_url):
 
     with new_browser(getattr(request.module, "WINDOW_SIZE", "1400,1600")) as driver:
         yield driver
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist's file-grouped scheduling (``--dist loadfile``, `make test`), a worker
+    replaced after a crash (a hang's timeout ends its process) must not be given work before its
+    collection has arrived: xdist 3.8 then stops the whole run with an INTERNALERROR (KeyError in
+    ``LoadScopeScheduling._assign_work_unit``). It is given its share once its collection is in."""
+    if not config.pluginmanager.hasplugin("xdist") or hasattr(config, "workerinput"):
+        return
+    from xdist.scheduler.loadscope import LoadScopeScheduling
+
+    reschedule = LoadScopeScheduling._reschedule
+    if getattr(reschedule, "waits_for_collection", False):
+        return
+
+    def reschedule_collected(self: LoadScopeScheduling, node) -> None:
+        if node in self.registered_collections:
+            reschedule(self, node)
+
+    reschedule_collected.waits_for_collection = True  # type: ignore[attr-defined]
+    LoadScopeScheduling._reschedule = reschedule_collected  # type: ignore[method-assign]

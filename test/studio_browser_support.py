@@ -42,8 +42,11 @@ _logs: list[Path] = []  # the running studio's output file, for the failure mess
 def studio_domain(offset: int) -> int:
     """A ROS domain for one module's studio, its worlds and its listener: worlds or graph entries
     that other tests leave behind in the suite's domain must not show up in the studio. Above
-    the suite's own domains (1-100, test/conftest.py), so no parallel worker's suite uses it."""
-    return 101 + (int(os.environ.get("ROS_DOMAIN_ID", "0")) + offset) % 101
+    the suite's own domains (1-100, test/conftest.py), so no parallel worker's suite uses it.
+    From the run's base domain, not the worker's: each module has its own offset and runs in one
+    worker (`--dist loadgroup`), so two workers' studios never meet."""
+    base = os.environ.get("ROBOT_SIMS_TEST_DOMAIN") or os.environ.get("ROS_DOMAIN_ID", "0")
+    return 101 + (int(base) + offset) % 101
 
 
 def studio_env(domain: int) -> dict[str, str]:

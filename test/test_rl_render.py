@@ -5,9 +5,9 @@ window on a real (virtual) X display, where PettingZoo's own ``render_test`` run
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import subprocess
-import time
 from collections.abc import Iterator
 
 import numpy as np
@@ -83,20 +83,23 @@ def display() -> Iterator[str]:
     """A virtual X display (Debian's xvfb; .ci/run installs it)."""
     if shutil.which("Xvfb") is None:
         pytest.skip("Xvfb not installed (.ci/run installs xvfb)")
-    number = 90 + os.getpid() % 100
+    # Xvfb picks a free display itself and writes its number here: a fixed or guessed one may be
+    # another run's (parallel workers, other users of the machine).
+    read, write = os.pipe()
     server = subprocess.Popen(
-        ["Xvfb", f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        ["Xvfb", "-displayfd", str(write), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        pass_fds=(write,),
     )
+    os.close(write)
     try:
-        deadline = time.monotonic() + 30.0
-        while not os.path.exists(f"/tmp/.X11-unix/X{number}"):
-            assert server.poll() is None, "Xvfb exited"
-            assert time.monotonic() < deadline, "Xvfb did not start in 30 s"
-            time.sleep(0.05)
+        ready, _, _ = select.select([read], [], [], 30.0)
+        number = os.read(read, 64).decode().strip() if ready else ""
+        assert number, "Xvfb exited" if server.poll() is not None else "Xvfb did not start in 30 s"
         yield f":{number}"
     finally:
+        os.close(read)
         server.terminate()
         server.wait(10)
 
