@@ -71,10 +71,22 @@ def student_python() -> str:
     for lib in (Path(sys.prefix) / "lib").iterdir():
         if not lib.name.startswith("python"):
             (venv / "lib" / lib.name).symlink_to(lib)
+    if not studio_entry_installed():  # an editable install older than the studio's entry point
+        info = site / "robot_sims_studio_entry-0.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text("Metadata-Version: 2.1\nName: robot_sims_studio_entry\nVersion: 0\n")
+        entry = "robot_sims = studio.jupyter:setup_studio"
+        (info / "entry_points.txt").write_text(f"[jupyter_serverproxy_servers]\n{entry}\n")
     for folder in ("etc", "share"):  # Jupyter's extensions are enabled (etc/) and served (share/) from there
         (venv / folder).symlink_to(Path(sys.prefix) / folder)
     venv.chmod(0o755)
     return str(venv / "bin" / "python")
+
+
+def studio_entry_installed() -> bool:
+    from importlib.metadata import entry_points
+
+    return any(entry.name == "robot_sims" for entry in entry_points(group="jupyter_serverproxy_servers"))
 
 
 def remove_users() -> None:
@@ -266,6 +278,37 @@ def test_a_student_reaches_their_own_server_and_not_a_classmates(hub, classroom,
     assert anonymous.url.startswith(f"{hub.url}/hub/login"), hub.what(anonymous)
 
 
+def test_a_student_opens_their_studio_and_not_a_classmates(hub, classroom, running):
+    studio = classroom[ALICE].get(f"{hub.url}/user/{ALICE}/robot_sims/", timeout=300)  # started on first use
+    assert studio.status_code == 200 and "nicegui" in studio.text.lower(), hub.what(studio)
+    theirs = classroom[ALICE].get(f"{hub.url}/user/{BOB}/robot_sims/", timeout=60)
+    assert theirs.status_code == 403, hub.what(theirs)
+
+
+def listening_addresses(uid: int) -> set[str]:
+    """The local addresses of every TCP socket that a process of ``uid`` listens on."""
+    inodes = set()
+    for pid in processes_of(uid):
+        try:
+            links = [os.readlink(fd) for fd in Path(f"/proc/{pid}/fd").iterdir()]
+        except OSError:
+            continue
+        inodes |= {link[8:-1] for link in links if link.startswith("socket:[")}
+    addresses = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        for line in Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A" and fields[9] in inodes:  # 0A: LISTEN
+                addresses.add(fields[1].rsplit(":", 1)[0])
+    return addresses
+
+
+def test_a_students_processes_listen_on_the_loopback_only(running):
+    loopback = {"0100007F", "00000000000000000000000001000000"}  # 127.0.0.1, ::1 as /proc/net spells them
+    addresses = listening_addresses(pwd.getpwnam(ALICE).pw_uid)
+    assert addresses and addresses <= loopback, addresses
+
+
 def test_homes_are_private_and_a_student_cannot_list_a_classmates(running):
     for name in (ALICE, BOB):
         assert Path(pwd.getpwnam(name).pw_dir).stat().st_mode & 0o777 == 0o700
@@ -319,7 +362,14 @@ def test_a_domain_held_by_a_dead_server_is_free_again(tmp_path):
 
 
 def test_an_existing_account_outside_the_course_cannot_become_a_student():
-    with pytest.raises(NotAStudent, match="not a student of this course"):
-        ensure_student("daemon", GROUP)
-    with pytest.raises(NotAStudent, match="cannot be a Unix account"):
-        ensure_student("../etc", GROUP)
+    import grp
+
+    made_group = GROUP not in {group.gr_name for group in grp.getgrall()}
+    try:
+        with pytest.raises(NotAStudent, match="not a student of this course"):
+            ensure_student("daemon", GROUP)
+        with pytest.raises(NotAStudent, match="cannot be a Unix account"):
+            ensure_student("../etc", GROUP)
+    finally:
+        if made_group:
+            subprocess.run(["groupdel", GROUP], capture_output=True)
