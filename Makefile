@@ -9,7 +9,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export FASTRTPS_DEFAULT_PROFILES_FILE := $(CURDIR)/config/fastdds_localhost.xml
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
-.PHONY: venv test demo screenshots bench lint clean fuzz soak test-boundscheck architecture test-sb3
+.PHONY: venv test test-long test-random demo screenshots bench lint clean fuzz soak test-boundscheck architecture test-sb3
 
 venv: $(STAMP)
 
@@ -27,8 +27,26 @@ $(STAMP): setup.py interfaces/build_interfaces.py interfaces/cmake/pip_prefix.cm
 lint: venv
 	$(PY) -m ruff check . && $(PY) -m ruff format --check . && $(PY) -m mypy && $(VENV)/bin/lint-imports
 
+# The suite on $(TEST_WORKERS) pytest-xdist workers, each in a ROS domain of its own (test/conftest.py:
+# the caller's ROS_DOMAIN_ID plus the worker's number). More workers than the 2 cores: most tests
+# wait on real-time worlds, browsers and subprocesses rather than compute. `--dist loadfile` keeps
+# each file on one worker: a module's expensive fixtures (worlds, a studio, a browser) start once,
+# and each studio module keeps its own domain. The `long` tests (minutes each) run in `make test-long`.
+TEST_WORKERS ?= 4
+PYTEST_PARALLEL := $(PY) -m pytest -q -p no:randomly -n $(TEST_WORKERS) --dist loadfile
 test: venv lint
-	$(PY) -m pytest -q
+	$(PYTEST_PARALLEL) -m "not long"
+
+# What `make test` leaves out: the tests marked `long` (pyproject.toml); .ci/run runs them too.
+test-long: venv
+	$(PYTEST_PARALLEL) -m long
+
+# The suite in a random order (pytest-random-order: tests shuffled within each file, files
+# shuffled), to find tests that need the ones before them. Opt-in: `make test` keeps the file's
+# order. Again with the order printed at the top: `make test-random SEED=<that seed>`.
+SEED ?= $(shell od -An -N3 -tu4 /dev/urandom | tr -d ' ')
+test-random: venv
+	$(PYTEST_PARALLEL) --random-order-bucket=module --random-order-seed=$(SEED) -m "not long"
 
 demo: venv
 	$(PY) -m sim_tools.demo

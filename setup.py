@@ -128,6 +128,8 @@ setup(
             *ROS_WHEELS,
             "pytest",
             "pytest-timeout",  # a hung test fails with every thread's stack (pyproject.toml: timeout)
+            "pytest-xdist",  # `make test` runs the suite on several workers (Makefile: TEST_WORKERS)
+            "pytest-random-order",  # `make test-random`: the suite shuffled (opt-in, off by default)
             "hypothesis",
             "ruff",
             "mypy",  # `make lint` type-checks every package (settings in pyproject.toml)

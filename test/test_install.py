@@ -19,7 +19,7 @@ EXECUTABLES = list(DECLARED)  # declared once, in sim_tools/executables.py
 PACKAGES = ("sim_runtime", "create_sim", "simrobot_sim", "arm_sim", "sim_tools", "studio")
 # The install's build runs the numba warm-up: seconds when this checkout's cache is warm (make
 # venv), minutes of compiling for sources changed since, on a loaded machine.
-pytestmark = pytest.mark.timeout(3600)
+pytestmark = [pytest.mark.timeout(3600), pytest.mark.long]  # minutes: `make test-long`
 
 
 def copy_tree(dest: Path) -> Path:
