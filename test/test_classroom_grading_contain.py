@@ -208,3 +208,43 @@ def test_the_teacher_opens_an_assignment_from_the_command_line(folder: Path) -> 
     assert done.stderr.startswith(
         f"error: {teacher / 'a.yaml'}:6: field 'score': 'distance_m ** 2': unsupported expression"
     )
+
+
+def test_a_late_submission_marked_late_loses_its_penalty_and_failed_episodes_score_zero(tmp_path: Path) -> None:
+    import datetime
+
+    from sim_tools.classroom.assignment import load_assignment
+    from sim_tools.classroom.gradebook import Grade, Student, gradebook_row
+
+    path = tmp_path / "a.yaml"
+    path.write_text(
+        "name: lab1\ndeadline: 2026-01-01T00:00:00Z\nlate: mark\nlate_penalty: 0.25\nmax_score: 4\n"
+        "worlds: [{map: create/example.map, config: ''}]\nmetrics: [distance_m, bumps]\n"
+        "score: distance_m - bumps / 2\ncolumns: [distance_m]\n"
+    )
+    a = load_assignment(path)
+    rows = [
+        {"world": "example", "status": "ok", "distance_m": 3.0, "bumps": 2},
+        {"world": "hidden 1", "status": "ok", "distance_m": 5.0, "bumps": 0},
+        {"world": "hidden 1", "status": "error", "error": "ValueError: x", "distance_m": "", "bumps": ""},
+    ]
+    when = datetime.datetime(2026, 1, 2, tzinfo=datetime.UTC)
+    g = Grade(Student("alice", 1, 1, tmp_path), when, a.is_late(when), rows)
+    book = gradebook_row(a, g)
+    assert book == {
+        "assignment": "lab1",
+        "duedate": "2026-01-01T00:00:00+00:00",
+        "timestamp": "2026-01-02T00:00:00+00:00",
+        "student_id": "alice",
+        "raw_score": 2.333333,  # (2 + 5 + 0) / 3
+        "late_submission_penalty": 0.583333,
+        "score": 1.75,
+        "max_score": 4.0,
+        "late": True,
+        "episodes": 3,
+        "failed": 1,
+        "score_visible": 2.0,
+        "score_hidden": 2.5,
+        "distance_m": 4.0,
+        "errors": "hidden 1: ValueError: x",
+    }
