@@ -248,3 +248,39 @@ def test_a_late_submission_marked_late_loses_its_penalty_and_failed_episodes_sco
         "distance_m": 4.0,
         "errors": "hidden 1: ValueError: x",
     }
+
+
+@root_only
+def test_ctrl_c_in_the_grader_stops_every_run_at_once_and_leaves_no_process(folder: Path) -> None:
+    import signal
+    import time
+
+    homes = folder / "homes"
+    (homes / "carol").mkdir(parents=True, mode=0o700)
+    os.chown(homes / "carol", UID + 20, UID + 20)
+    teacher = folder / "teacher"
+    teacher.mkdir(mode=0o700)
+    (teacher / "a.yaml").write_text(
+        "name: lab1\ndeadline: 2099-01-01T00:00:00Z\nworlds: [{map: create/example.map, config: ''}]\n"
+        "controller: {form: python, entry: main}\nduration_s: 2\ntime_limit_s: 600\n"
+        "metrics: [distance_m]\nscore: distance_m\nstudents: [carol]\ncourse: ../course\n"
+    )
+    command = [str(Path(sys.executable).parent / "robot_sims"), "classroom", "grade", str(teacher / "a.yaml")]
+    options = ["--homes", str(homes), "--domains", str(DOMAIN - 1)]
+    subprocess.run([*command, "--open", *options], check=True, capture_output=True, timeout=60)
+    mine = folder / "course" / "submissions" / "lab1" / "carol"
+    (mine / "controller.py").write_text("def main():\n    while True:\n        pass\n")  # as if submitted
+    os.chown(mine / "controller.py", UID + 20, UID + 20)
+    grader = subprocess.Popen([*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    run_uid = UID_BASE + DOMAIN - 1
+    deadline = time.monotonic() + 120
+    while not processes_of(run_uid):  # carol's run has started
+        assert grader.poll() is None and time.monotonic() < deadline, grader.communicate()
+        time.sleep(0.1)
+    time.sleep(2.0)
+    grader.send_signal(signal.SIGINT)
+    out, err = grader.communicate(timeout=60)
+    assert grader.returncode == 130, (out, err)
+    assert err.endswith("interrupted: every grading run was stopped; no gradebook was written\n")
+    assert processes_of(run_uid) == []
+    assert not (folder / "course" / "grading" / "lab1" / "gradebook.csv").exists()

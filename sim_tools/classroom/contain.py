@@ -35,6 +35,7 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -66,6 +67,19 @@ class Jail:
     max_file_mb: int = 256
     #: Keep the host's network (``--ray ADDRESS``: the run must reach the cluster).
     network: bool = False
+
+
+#: The runs under way (each grading thread's), so that Ctrl-C in the grader stops them all now.
+_RUNNING: set[subprocess.Popen[bytes]] = set()
+_RUNNING_LOCK = threading.Lock()
+
+
+def stop_all() -> None:
+    """Kill every run under way (its session; :func:`run_contained` then kills its uid's rest)."""
+    with _RUNNING_LOCK:
+        for process in _RUNNING:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(process.pid, signal.SIGKILL)
 
 
 @dataclass(frozen=True)
@@ -102,6 +116,8 @@ def run_contained(
             start_new_session=True,
             preexec_fn=_enter(folder, jail) if jailed else _limit_only(jail),
         )
+    with _RUNNING_LOCK:
+        _RUNNING.add(process)
     timed_out = False
     try:
         code = process.wait(timeout=timeout_s)
@@ -115,6 +131,8 @@ def run_contained(
             os.killpg(process.pid, signal.SIGKILL)
         raise
     finally:
+        with _RUNNING_LOCK:
+            _RUNNING.discard(process)
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(process.pid, signal.SIGKILL)  # what stayed in its session
         if jailed and jail.uid is not None:

@@ -123,8 +123,14 @@ def grade(
     a.grading.chmod(0o711)  # runs' uids pass through to their own folder; nothing here is listable
     (a.grading / "runs").mkdir(exist_ok=True)
     (a.grading / "runs").chmod(0o711)
-    with concurrent.futures.ThreadPoolExecutor(max(1, jobs)) as pool:
+    pool = concurrent.futures.ThreadPoolExecutor(max(1, jobs))
+    try:
         grades = list(pool.map(lambda sd: _grade_one(a, sd[0], sd[1], ray), zip(students, domains, strict=False)))
+    except BaseException:  # Ctrl-C: every run stops now (and its uid's processes), none is waited for
+        pool.shutdown(wait=False, cancel_futures=True)
+        contain.stop_all()
+        raise
+    pool.shutdown()
     book = write_gradebook(a, grades)
     if feedback:
         from sim_tools.classroom.feedback import write_feedback
@@ -341,6 +347,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("\ninterrupted: every grading run was stopped; no gradebook was written", file=sys.stderr)
+        return 130
     for g in grades:
         print(f"{g.student.name}: {gradebook_row(a, g)['score']}" + (f"  ({g.error})" if g.error else ""))
         if g.feedback_error:
