@@ -24,6 +24,7 @@ from pathlib import Path
 import pytest
 
 from sim_tools.classroom.domains import DomainPool, NoDomainLeft, parse_range
+from sim_tools.classroom.limits import cgroup_of, parse_bytes, remove_cgroup
 from sim_tools.classroom.users import NotAStudent, ensure_student, processes_of
 from sim_tools.cli import executable_command
 
@@ -97,12 +98,13 @@ def remove_users() -> None:
             continue
         subprocess.run(["pkill", "-KILL", "-U", str(uid)], capture_output=True)  # by uid: only theirs
         subprocess.run(["userdel", "-r", name], capture_output=True)
+        remove_cgroup(name)
     subprocess.run(["groupdel", GROUP], capture_output=True)
 
 
 class Hub:
-    def __init__(self, url: str, course: Path, log: Path):
-        self.url, self.course, self.log = url.rstrip("/"), course, log
+    def __init__(self, url: str, course: Path, log: Path, pid: int):
+        self.url, self.course, self.log, self.pid = url.rstrip("/"), course, log, pid
 
     def session(self) -> requests.Session:
         return requests.Session()
@@ -183,7 +185,7 @@ def hub() -> Iterator[Hub]:
         server = subprocess.Popen(
             executable_command("classroom", ["serve", str(course)]), stdout=out, stderr=subprocess.STDOUT, env=env
         )
-    running = Hub(f"http://127.0.0.1:{port}", course, log)
+    running = Hub(f"http://127.0.0.1:{port}", course, log, server.pid)
     try:
         deadline = time.monotonic() + HUB_START_SECONDS
         while time.monotonic() < deadline and server.poll() is None:
@@ -262,6 +264,11 @@ def test_each_students_server_runs_as_them_in_a_domain_of_its_own(hub, running):
         assert re.search(rf"Max address space\s+{4 << 30}\s+{4 << 30}", limits), limits
         assert re.search(r"Max processes\s+512\s+512", limits), limits
         assert int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[16]) == 5  # nice
+        group = cgroup_of(name)  # made where the hub may write a memory cgroup (here: yes)
+        if group is not None:
+            assert str(pid) in (group / "cgroup.procs").read_text().split()
+            limit = group / ("memory.max" if (group / "memory.max").exists() else "memory.limit_in_bytes")
+            assert int(limit.read_text()) == parse_bytes("4G")
     assert len(set(domains.values())) == 2 and set(domains.values()) <= set(parse_range(DOMAINS)), domains
     held = json.loads((hub.course / "domains.json").read_text())
     assert {holder["user"]: int(domain) for domain, holder in held.items()} == domains
@@ -318,6 +325,14 @@ def test_homes_are_private_and_a_student_cannot_list_a_classmates(running):
     assert listing.returncode != 0 and "Permission denied" in listing.stderr
 
 
+def test_the_idle_culler_runs_as_a_hub_service(hub, classroom):
+    service = hub.api(classroom[ADMIN], "GET", "services/idle-culler")
+    assert service.status_code == 200, hub.what(service)
+    assert "--timeout=3600" in service.json()["command"]
+    culler = subprocess.run(["pgrep", "-f", "-P", str(hub.pid), "jupyterhub_idle_culler"], capture_output=True)
+    assert culler.returncode == 0, hub.tail()
+
+
 def test_the_teachers_approvals_are_in_the_audit_log(hub, classroom):
     lines = (hub.course / "audit.log").read_text().splitlines()
     for name in (ALICE, BOB):
@@ -338,6 +353,7 @@ def test_stopping_a_server_leaves_no_process_of_the_student(hub, classroom, runn
     ps = subprocess.run(["ps", "-u", ALICE, "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
     assert [line for line in ps.splitlines() if " Z" not in line] == [], ps
     stray.wait(10)
+    assert cgroup_of(ALICE) is None  # her memory cgroup is removed with her processes
     held = json.loads((hub.course / "domains.json").read_text())
     assert ALICE not in {holder["user"] for holder in held.values()}  # her domain is free again
     assert BOB in {holder["user"] for holder in held.values()}

@@ -18,6 +18,7 @@ What each does, and does not, guarantee (docs/classroom.md repeats it for teache
 
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 from dataclasses import dataclass
@@ -86,3 +87,18 @@ def memory_cgroup(user: str, memory: int) -> Path | None:
 def join_cgroup(group: Path) -> None:
     """Move this process into ``group`` (the spawner's preexec: children follow)."""
     (group / "cgroup.procs").write_text(str(os.getpid()))
+
+
+def remove_cgroup(user: str) -> None:
+    """Remove ``user``'s memory cgroup, if any (once their processes are gone)."""
+    for root in (CGROUP_ROOT, CGROUP_ROOT / "memory"):
+        with contextlib.suppress(OSError):  # none there, or a process still in it (the next start reuses it)
+            (root / CGROUP_NAME / user).rmdir()
+
+
+def cgroup_of(user: str) -> Path | None:
+    """The memory cgroup folder of ``user`` if the spawner made one."""
+    for root in (CGROUP_ROOT, CGROUP_ROOT / "memory"):
+        if (root / CGROUP_NAME / user).is_dir():
+            return root / CGROUP_NAME / user
+    return None

@@ -22,7 +22,7 @@ from jupyterhub.spawner import LocalProcessSpawner, set_user_setuid
 from traitlets import Integer, Unicode
 
 from sim_tools.classroom.domains import DomainPool, parse_range
-from sim_tools.classroom.limits import Limits, join_cgroup, memory_cgroup, parse_bytes
+from sim_tools.classroom.limits import Limits, join_cgroup, memory_cgroup, parse_bytes, remove_cgroup
 from sim_tools.classroom.users import ensure_student, kill_everything_of
 
 
@@ -88,6 +88,7 @@ class ClassroomSpawner(LocalProcessSpawner):
             left = await asyncio.to_thread(kill_everything_of, account.pw_uid, account.pw_gid)
             if left:
                 self.log.warning("processes of %s outlived their server: %s", self.user.name, left)
+            remove_cgroup(self.user.name)
         self.pool.release(self.user.name)
         self.ros_domain = -1
         return super().run_post_stop_hook()
