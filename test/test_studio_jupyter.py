@@ -28,6 +28,7 @@ if NO_CHROMIUM:
     pytest.skip(NO_CHROMIUM, allow_module_level=True)
 
 import psutil
+from selenium.common.exceptions import StaleElementReferenceException
 from studio_browser_support import (
     ROOT,
     find,
@@ -83,7 +84,7 @@ class JupyterServer:
             "PYTHONPATH": str(ROOT),  # the config imports studio.jupyter from this tree
         }
         env.pop("ROBOT_SIMS_WORKSPACE", None)
-        env.pop("ROBOT_SIMS_MAX_WORLDS", None)
+        env["ROBOT_SIMS_MAX_WORLDS"] = "1"  # as a classroom's spawner sets it
         with self.log.open("w") as out:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "jupyter_server", f"--port={self.port}", f"--ServerApp.root_dir={root}"],
@@ -190,9 +191,17 @@ def test_the_studio_listens_on_a_private_unix_socket_and_no_tcp_port(server):
     assert studio.cwd() and Path(studio.cmdline()[studio.cmdline().index("--workspace") + 1]) == server.root
 
 
+def text_of(driver, css: str) -> str:
+    """An element's text, '' while the page is redrawing it (a stale element)."""
+    try:
+        return find(driver, css).text
+    except StaleElementReferenceException:
+        return ""
+
+
 def controller_started(driver) -> bool:
     """Start pressed (again, every few seconds, until the page has selected the new robot)."""
-    if "running" in find(driver, ".studio-controller-state").text:
+    if "running" in text_of(driver, ".studio-controller-state"):
         return True
     now = time.monotonic()
     if now - getattr(controller_started, "pressed", 0.0) > 3.0:
@@ -207,14 +216,18 @@ def test_a_world_started_from_the_page_through_the_proxy_runs_and_its_output_is_
     type_into(browser, ".studio-world-ns", NS)
     find(browser, ".studio-start-world").click()
     # The page follows the world (its websocket works through the proxy): the robot selector has it.
-    wait(browser, lambda d: NS in find(d, ".studio-robot").text, timeout=300.0)  # a first start compiles
+    wait(browser, lambda d: NS in text_of(d, ".studio-robot"), timeout=300.0)  # a first start compiles
     wait(browser, controller_started, timeout=60.0)
+    # A second world is one more than the hub allows this student: refused, saying why.
+    type_into(browser, ".studio-world-ns", "/another")
+    find(browser, ".studio-start-world").click()
+    wait(browser, lambda d: "at most 1 world at once" in text_of(d, ".studio-world-error"), timeout=30.0)
     open_page(browser, server.url(f"/{NAME}/output"))  # the newest first: the controller
-    wait(browser, lambda d: "create_bump_turn" in find(d, ".studio-output-select").text, timeout=30.0)
+    wait(browser, lambda d: "create_bump_turn" in text_of(d, ".studio-output-select"), timeout=30.0)
     world = next(p for p in server.studio().children() if "create_world" in p.cmdline())
     open_page(browser, server.url(f"/{NAME}/output?pid={world.pid}"))
-    wait(browser, lambda d: f"create_world {NS}" in find(d, ".studio-output-select").text, timeout=30.0)
-    wait(browser, lambda d: "ready" in find(d, ".studio-output-text").text, timeout=30.0)
+    wait(browser, lambda d: f"create_world {NS}" in text_of(d, ".studio-output-select"), timeout=30.0)
+    wait(browser, lambda d: "ready" in text_of(d, ".studio-output-text"), timeout=30.0)
     logs = list((server.root / ".robot_sims" / "output").glob("*create_world*.log"))
     assert len(logs) == 1 and "ready" in logs[0].read_text()
     assert str(logs[0]) in find(browser, ".studio-output-file").text
@@ -229,3 +242,18 @@ def test_a_jupyter_server_killed_outright_takes_the_studio_and_its_worlds_with_i
     server.process.wait(timeout=10)
     _gone, alive = psutil.wait_procs(family, timeout=30.0)
     assert alive == [], [p.cmdline() for p in alive]
+
+
+def test_a_jupyter_server_stopped_with_sigterm_stops_the_studio_cleanly(tmp_path):
+    jupyter = JupyterServer(tmp_path, Path(tempfile.mkdtemp(prefix="jupyter_cfg_")))
+    try:
+        status, _page = jupyter.get(f"/{NAME}/")
+        assert status == 200, jupyter.log.read_text()[-3000:]
+        studio = jupyter.studio()
+        jupyter.process.terminate()  # as the hub stops a server; the proxy passes SIGTERM on
+        jupyter.process.wait(timeout=60)
+        studio.wait(timeout=60)
+        lines = jupyter.log.read_text()
+        assert "robot_sims studio: stopping what it started" in lines  # its own shutdown ran
+    finally:
+        jupyter.stop()

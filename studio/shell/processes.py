@@ -93,9 +93,11 @@ class Processes:
         """Why one more world may not start beside ``running_worlds`` (None: it may)."""
         if self.max_worlds is None or running_worlds < self.max_worlds:
             return None
+        worlds = "world" if self.max_worlds == 1 else "worlds"
+        verb = "runs" if running_worlds == 1 else "run"
         return (
-            f"this studio runs at most {self.max_worlds} world{'s' if self.max_worlds != 1 else ''} at once "
-            f"(--max-worlds, ROBOT_SIMS_MAX_WORLDS) and {running_worlds} already run: stop one first"
+            f"this studio runs at most {self.max_worlds} {worlds} at once (--max-worlds, "
+            f"ROBOT_SIMS_MAX_WORLDS) and {running_worlds} already {verb}: stop one first"
         )
 
 

@@ -267,6 +267,6 @@ class EditorFiles(EditorBase):
             if st is not None and st is not old and st.spec is not None:
                 break
         else:
-            self.say(f"{child.label} was not seen on ROS in 10 min: see its lines in the studio's terminal", True)
+            self.say(f"{child.label} was not seen on ROS in 10 min: see its lines on the Output page", True)
             return
         ui.navigate.to("/simrobot")
