@@ -100,6 +100,7 @@ setup(
     packages=find_packages(
         include=["sim_runtime*", "create_sim*", "simrobot_sim*", "arm_sim*", "sim_tools*", "studio*"]
     ),
+    package_data={"studio.create": ["static/*.js"]},  # the Simulator page's drawing in the browser
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         (f"share/{PACKAGE}", ["package.xml"]),

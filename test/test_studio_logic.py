@@ -429,6 +429,41 @@ def test_the_view_fits_again_when_the_map_arrives_after_the_first_fit():
     assert not fit_due(0, 0)
 
 
+def test_the_live_view_sends_only_what_changed_and_each_track_point_once():
+    from types import SimpleNamespace
+
+    from studio.create.ros_client import RobotState
+    from studio.create.sim_view import SimView
+
+    st = RobotState(ns="/r", pose=(1.0, 2.0, 0.5))
+    st.scan, st.scan_stamp = (-2.0, 4.0 / 680, np.array([1.0, np.inf, 0.25])), 3.5
+    st.track.extend([(0.0, 0.0), (0.5, 0.0)])
+    tab = SimpleNamespace(selected="/r", ros=SimpleNamespace(robots={"/r": st}))
+    view = SimView(tab)
+    first = view.live_message(st, "/r")
+    assert first["pose"] == [1.0, 2.0, 0.5] and first["label"] == "/r" and first["track_reset"]
+    assert first["scan"] == [-2.0, 4.0 / 680, [1000, -1, 250], "3.500000000"]  # -1: nothing in range
+    assert first["track"] == [[0.0, 0.0], [0.5, 0.0]]
+    assert view.live_message(st, "/r") == {}  # nothing new: nothing sent
+    st.pose = (1.1, 2.0, 0.5)
+    st.track.append((1.0, 0.0))
+    assert view.live_message(st, "/r") == {"pose": [1.1, 2.0, 0.5], "track": [[1.0, 0.0]]}
+    st.track.clear()  # Set position: the track starts again
+    st.track.append((5.0, 5.0))
+    assert view.live_message(st, "/r") == {"track_reset": True, "track": [[5.0, 5.0]]}
+    view.zoom(2.0)
+    assert set(view.live_message(st, "/r")) == {"view"}
+
+
+def test_the_live_view_s_style_names_every_mount_the_page_draws():
+    js = (ROOT / "studio" / "create" / "static" / "sim_view.js").read_text()
+    style = draw.live_style((800, 600), 2000)
+    for name in re.findall(r"mount\(pose, \"(\w+)\"\)", js):
+        assert name in style["mounts"]
+    for key in set(re.findall(r"\bst\.(\w+)", js)):
+        assert key in style, key  # the page draws with the studio's colours and facts, none of its own
+
+
 def test_an_upload_that_is_not_text_or_too_large_is_an_error_naming_the_file():
     from studio.shell.workspace import upload_text
 

@@ -32,6 +32,18 @@ from studio.shell.svg import View, fmt, points, rgb_hex
 WALL_COLOUR = hex_colour(WALL_RGB)
 LINE_COLOUR = hex_colour(LINE_RGB)
 VWALL_COLOUR = hex_colour(VIRTUAL_WALL_RGBA)
+# The robots and the selected one's sensor layers (the live view draws them in the browser with
+# the same values: :func:`live_style`).
+ROBOT_SELECTED = "#f0c419"
+ROBOT_OTHER = "#d9d9d9"
+OUTLINE = "#000"
+TRACK_COLOUR = "#8e44ad"
+CAMERA_COLOUR = "#f39c12"
+LIDAR_COLOUR = "#ff1a1a"
+SONAR_COLOUR = "#27ae60"
+WALL_IR_COLOUR = "#ff0000"
+BUMP_COLOUR = "#ff4fd8"
+CLIFF_COLOUR = "#0050ff"
 
 
 def _segments(view: View, segments: np.ndarray, colour: str, width: float, extra: str = "") -> str:
@@ -100,7 +112,7 @@ def robot_svg(view: View, pose: tuple[float, float, float], *, selected: bool, l
     x, y, theta = pose
     px, py = view.to_px(x, y)
     hx, hy = view.to_px(x + RADIUS_M * math.cos(theta), y + RADIUS_M * math.sin(theta))
-    fill = "#f0c419" if selected else "#d9d9d9"
+    fill = ROBOT_SELECTED if selected else ROBOT_OTHER
     text = (
         f'<text x="{fmt(px)}" y="{fmt(py - RADIUS_M * view.scale - 4)}" font-size="12" text-anchor="middle">'
         f"{escape(label)}</text>"
@@ -109,8 +121,8 @@ def robot_svg(view: View, pose: tuple[float, float, float], *, selected: bool, l
     )
     return (
         f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(RADIUS_M * view.scale)}" fill="{fill}" fill-opacity="0.85" '
-        f'stroke="#000" stroke-width="1.5"/>'
-        f'<line x1="{fmt(px)}" y1="{fmt(py)}" x2="{fmt(hx)}" y2="{fmt(hy)}" stroke="#000" stroke-width="2"/>{text}'
+        f'stroke="{OUTLINE}" stroke-width="1.5"/>'
+        f'<line x1="{fmt(px)}" y1="{fmt(py)}" x2="{fmt(hx)}" y2="{fmt(hy)}" stroke="{OUTLINE}" stroke-width="2"/>{text}'
     )
 
 
@@ -141,7 +153,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
     parts = []
     if "track" in layers and r.track is not None and len(r.track) > 1:
         tx, ty = view.to_px(r.track[:, 0], r.track[:, 1])
-        parts.append(f'<polyline points="{points(tx, ty)}" fill="none" stroke="#8e44ad" stroke-width="1.5"/>')
+        parts.append(f'<polyline points="{points(tx, ty)}" fill="none" stroke="{TRACK_COLOUR}" stroke-width="1.5"/>')
     if "camera" in layers:
         cx, cy, cyaw = _mount_world(r.pose, "camera")
         rng, half = CreateModel.CAMERA_RANGE, CreateModel.CAMERA_HALF_FOV
@@ -150,8 +162,8 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
             [cy, cy + rng * math.sin(cyaw + half), cy + rng * math.sin(cyaw - half)],
         )
         parts.append(
-            f'<polygon points="{points(fx, fy)}" fill="#f39c12" fill-opacity="0.06" '
-            'stroke="#f39c12" stroke-opacity="0.5"/>'
+            f'<polygon points="{points(fx, fy)}" fill="{CAMERA_COLOUR}" fill-opacity="0.06" '
+            f'stroke="{CAMERA_COLOUR}" stroke-opacity="0.5"/>'
         )
         for sx, sy, _id in r.sightings or []:
             wx = cx + sx * math.cos(cyaw) - sy * math.sin(cyaw)
@@ -159,7 +171,7 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
             px, py = view.to_px(wx, wy)
             parts.append(
                 f'<circle cx="{fmt(px)}" cy="{fmt(py)}" r="{fmt(max(0.12 * view.scale, 6))}" '
-                'fill="none" stroke="#f39c12" stroke-width="3"/>'
+                f'fill="none" stroke="{CAMERA_COLOUR}" stroke-width="3"/>'
             )
     if "lidar" in layers and r.scan is not None:
         angle_min, increment, ranges = r.scan
@@ -170,20 +182,20 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
         px, py = view.to_px(lx + d * np.cos(angles), ly + d * np.sin(angles))
         parts.append(
             f'<polyline class="lidar" data-stamp="{r.scan_stamp:.9f}" points="{points(px, py)}" fill="none" '
-            'stroke="#ff1a1a" stroke-width="2" stroke-opacity="0.9"/>'
+            f'stroke="{LIDAR_COLOUR}" stroke-width="2" stroke-opacity="0.9"/>'
         )
     if "sonar" in layers and r.sonar:
         for name in SONAR_NAMES:
             value = r.sonar.get(name)
             if value is not None:
                 length = value if math.isfinite(value) else CreateModel.SONAR_RANGE[1]
-                parts.append(_ray(view, _mount_world(r.pose, f"sonar_{name}"), length, "#27ae60"))
+                parts.append(_ray(view, _mount_world(r.pose, f"sonar_{name}"), length, SONAR_COLOUR))
     if "wall" in layers and r.wall:
-        parts.append(_ray(view, _mount_world(r.pose, "wall_ir"), CreateModel.IR_RANGE, "#ff0000", 4))
+        parts.append(_ray(view, _mount_world(r.pose, "wall_ir"), CreateModel.IR_RANGE, WALL_IR_COLOUR, 4))
     if "bump" in layers and r.bumps:
         for pressed, side in zip(r.bumps, ("left", "right"), strict=True):
             if pressed:
-                parts.append(_arc(view, r.pose, SENSOR_MOUNTS[f"bump_{side}"].yaw_rad, "#ff4fd8"))
+                parts.append(_arc(view, r.pose, SENSOR_MOUNTS[f"bump_{side}"].yaw_rad, BUMP_COLOUR))
     if "cliff" in layers and r.cliffs:
         for name in CLIFF_NAMES:
             signal = r.cliffs.get(name)
@@ -191,7 +203,8 @@ def sensors_svg(view: View, r: Readings, layers: set[str]) -> str:
                 x, y, _ = _mount_world(r.pose, f"cliff_{name}")
                 px, py = view.to_px(x, y)
                 parts.append(
-                    f'<text x="{fmt(px)}" y="{fmt(py + 7)}" font-size="20" text-anchor="middle" fill="#0050ff">*</text>'
+                    f'<text x="{fmt(px)}" y="{fmt(py + 7)}" font-size="20" text-anchor="middle" '
+                    f'fill="{CLIFF_COLOUR}">*</text>'
                 )
     return "".join(parts)
 
@@ -203,3 +216,71 @@ def _arc(view: View, pose: tuple[float, float, float], bearing: float, colour: s
     r = RADIUS_M * 1.08
     px, py = view.to_px(x + r * np.cos(a), y + r * np.sin(a))
     return f'<polyline class="bump" points="{points(px, py)}" fill="none" stroke="{colour}" stroke-width="5"/>'
+
+
+# ---------------------------------------------------------------- the live view, drawn in the browser
+LIVE_MOUNTS = (
+    "camera",
+    "laser",
+    "wall_ir",
+    "bump_left",
+    "bump_right",
+    *(f"sonar_{name}" for name in SONAR_NAMES),
+    *(f"cliff_{name}" for name in CLIFF_NAMES),
+)
+
+
+def live_style(size: tuple[int, int], track_points: int) -> dict:
+    """What ``static/sim_view.js`` draws with: the colours and sizes above and the Create's facts
+    (radius, sensor mounts and ranges), sent to the page once."""
+    return {
+        "size": list(size),
+        "track_points": track_points,
+        "radius": RADIUS_M,
+        "mounts": {n: [SENSOR_MOUNTS[n].x_m, SENSOR_MOUNTS[n].y_m, SENSOR_MOUNTS[n].yaw_rad] for n in LIVE_MOUNTS},
+        "camera_range": CreateModel.CAMERA_RANGE,
+        "camera_half_fov": CreateModel.CAMERA_HALF_FOV,
+        "lidar_max": CreateModel.LIDAR_RANGE[1],
+        "sonar_max": CreateModel.SONAR_RANGE[1],
+        "ir_range": CreateModel.IR_RANGE,
+        "sonar_names": list(SONAR_NAMES),
+        "cliff_names": list(CLIFF_NAMES),
+        "robot_selected": ROBOT_SELECTED,
+        "robot_other": ROBOT_OTHER,
+        "outline": OUTLINE,
+        "track": TRACK_COLOUR,
+        "camera": CAMERA_COLOUR,
+        "lidar": LIDAR_COLOUR,
+        "sonar": SONAR_COLOUR,
+        "wall": WALL_IR_COLOUR,
+        "bump": BUMP_COLOUR,
+        "cliff": CLIFF_COLOUR,
+    }
+
+
+def live_scan(scan: tuple[float, float, np.ndarray], stamp: float) -> list:
+    """A scan as the page draws it: [angle_min, increment, ranges in whole mm (-1: nothing in
+    range, drawn at the LIDAR's limit), stamp] (a millimetre is a tenth of a pixel at 100 px/m)."""
+    angle_min, increment, ranges = scan
+    r = np.asarray(ranges, dtype=float)
+    mm = np.where(np.isfinite(r), np.round(r * 1000.0), -1.0).astype(np.int64)
+    return [float(angle_min), float(increment), mm.tolist(), f"{stamp:.9f}"]
+
+
+def live_readings(r: Readings) -> dict:
+    """The selected robot's readings as the page draws them (no track: it is sent point by point)."""
+    return {
+        "pose": [float(v) for v in r.pose],
+        "sonar": [
+            None if (v := (r.sonar or {}).get(n)) is None else (float(v) if math.isfinite(v) else -1.0)
+            for n in SONAR_NAMES
+        ]
+        if r.sonar
+        else None,
+        "wall": bool(r.wall),
+        "bumps": [bool(b) for b in r.bumps] if r.bumps else None,
+        "cliffs": [bool(v is not None and cliff_active(v)) for v in (r.cliffs.get(n) for n in CLIFF_NAMES)]
+        if r.cliffs
+        else None,
+        "sightings": [[float(x), float(y)] for x, y, _id in r.sightings or []],
+    }
