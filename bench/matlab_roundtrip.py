@@ -23,16 +23,11 @@ Prints the machine's load (os.getloadavg) before and after.
 from __future__ import annotations
 
 import argparse
-import fcntl
 import os
-import pty
-import select
-import shutil
 import signal
 import statistics
 import subprocess
 import sys
-import termios
 import threading
 import time
 from pathlib import Path
@@ -40,6 +35,7 @@ from pathlib import Path
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(1, str(ROOT / "test"))  # octave_support: the Octave driver the MATLAB tests use
 
 FUNCTIONS = (
     "BumpsWheelDropsSensorsRoomba(s)",
@@ -143,67 +139,36 @@ def stop_latency(odom: Odometry, interrupt) -> float:
     return odom.stood_at - sent
 
 
-def prompt_runs(octave: str, port: int, odom: Odometry, runs: int, env: dict[str, str]) -> list[float]:
+def prompt_runs(port: int, odom: Odometry, runs: int, env: dict[str, str]) -> list[float]:
     """Ctrl-C at an interactive prompt (a pseudo-terminal) inside travelDist, ``runs`` times."""
-    master, slave = pty.openpty()
-
-    def own_terminal() -> None:
-        os.setsid()
-        fcntl.ioctl(0, termios.TIOCSCTTY, 0)
-
-    process = subprocess.Popen(
-        [octave, "--no-gui", "--quiet", "--no-history", "--no-init-file"],
-        stdin=slave,
-        stdout=slave,
-        stderr=slave,
-        env=env,
-        preexec_fn=own_terminal,
-    )
-    os.close(slave)
-    seen = bytearray()
-
-    def read_until(marker: bytes, timeout: float = 60.0) -> None:
-        end = time.monotonic() + timeout
-        while marker not in seen:
-            if time.monotonic() > end:
-                raise RuntimeError(f"Octave did not print {marker!r}: {bytes(seen[-500:])!r}")
-            if select.select([master], [], [], 0.05)[0]:
-                seen.extend(os.read(master, 65536))
-
-    def typed(line: str) -> None:
-        os.write(master, line.encode() + b"\n")
+    from octave_support import OctavePrompt
 
     from sim_tools.matlab.paths import matlab_dir
 
-    typed(f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); disp('READY')")
-    read_until(b"READY\r\n")
+    prompt = OctavePrompt(f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); disp('READY')", env)
     latencies = []
-    for k in range(runs):
-        del seen[:]
-        typed("travelDist(s, 0.2, 50)")
-        latencies.append(stop_latency(odom, lambda: os.write(master, b"\x03")))
-        typed(f"[x, y, a] = OverheadLocalizationCreate(s); printf('POSE%d %.3f\\n', {k}, x)")
-        read_until(f"POSE{k} ".encode())
+    try:
+        for k in range(runs):
+            prompt.type("travelDist(s, 0.2, 50)")
+            latencies.append(stop_latency(odom, prompt.ctrl_c))
+            prompt.type(f"[x, y, a] = OverheadLocalizationCreate(s); printf('POSE%d %.3f\\n', {k}, x)")
+            prompt.expect(f"^POSE{k} ", timeout=60)
+    finally:
+        prompt.close()
     print(f"  the next call after each Ctrl-C answered with the pose ({runs}/{runs})")
-    typed("exit")
-    process.wait(timeout=30)
-    os.close(master)
     return latencies
 
 
-def signal_runs(octave: str, port: int, odom: Odometry, runs: int, signum: int, env: dict[str, str]) -> list[float]:
+def signal_runs(port: int, odom: Odometry, runs: int, signum: int, env: dict[str, str]) -> list[float]:
     """SIGINT/SIGTERM to ``octave --eval`` inside travelDist, ``runs`` times."""
+    from octave_support import octave_eval
+
     from sim_tools.matlab.paths import matlab_dir
 
     latencies = []
     script = f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); travelDist(s, 0.2, 50)"
     for _ in range(runs):
-        process = subprocess.Popen(
-            [octave, "--no-gui", "--quiet", "--eval", script],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
+        process = octave_eval(script, env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         latencies.append(stop_latency(odom, lambda p=process: p.send_signal(signum)))
         process.wait(timeout=30)
         time.sleep(1.2)  # the bridge confirms the stop before it takes the next program
@@ -224,8 +189,10 @@ end
 """
 
 
-def dead_world_run(octave: str, env: dict[str, str]) -> float:
+def dead_world_run(env: dict[str, str]) -> float:
     """Wall s from SIGKILL of the world to the program's CreateRobot:bridge error."""
+    from octave_support import octave_eval
+
     from sim_tools.cli import executable_command
     from sim_tools.matlab.bridge import spawn_bridge
     from sim_tools.matlab.paths import matlab_dir
@@ -238,9 +205,7 @@ def dead_world_run(octave: str, env: dict[str, str]) -> float:
     bridge, port = spawn_bridge("/bench_dead", env=env)
     try:
         script = DEAD_LOOP.format(toolbox=matlab_dir("create"), port=port)
-        program = subprocess.Popen(
-            [octave, "--no-gui", "--quiet", "--eval", script], env=env, stdout=subprocess.PIPE, text=True
-        )
+        program = octave_eval(script, env, stdout=subprocess.PIPE, text=True)
         assert program.stdout is not None
         while "LOOPING" not in program.stdout.readline():
             pass
@@ -269,8 +234,9 @@ def main() -> int:
     parser.add_argument("--program-seconds", type=float, default=60.0, help="control program length (0: skip)")
     parser.add_argument("--interrupts", type=int, default=5, help="runs of each interruption (0: skip)")
     args = parser.parse_args()
-    octave = shutil.which("octave-cli")
-    if octave is None:
+    from octave_support import OCTAVE, octave_eval
+
+    if OCTAVE is None:
         print("octave-cli not found: install octave and octave-instrument-control", file=sys.stderr)
         return 2
     from sim_tools.cli import executable_command
@@ -290,15 +256,16 @@ def main() -> int:
         script = OCTAVE_LOOP.format(toolbox=matlab_dir("create"), port=port, calls=calls, n=args.calls)
         if args.program_seconds > 0:
             script += OCTAVE_PROGRAM.format(seconds=args.program_seconds)
-        subprocess.run([octave, "--no-gui", "--quiet", "--eval", script], check=True, timeout=600)
+        if octave_eval(script, env).wait(timeout=600) != 0:
+            raise RuntimeError("the timing program failed in Octave")
         if args.interrupts > 0:
             print(f"programs that end badly (load {os.getloadavg()[0]:.2f}): interrupt -> robot standing")
             odom = Odometry("/bench")
-            summary("Ctrl-C at the prompt inside travelDist", prompt_runs(octave, port, odom, args.interrupts, env))
+            summary("Ctrl-C at the prompt inside travelDist", prompt_runs(port, odom, args.interrupts, env))
             for signum in (signal.SIGINT, signal.SIGTERM):
-                latencies = signal_runs(octave, port, odom, args.interrupts, signum, env)
+                latencies = signal_runs(port, odom, args.interrupts, signum, env)
                 summary(f"{signal.Signals(signum).name} to octave --eval inside travelDist", latencies)
-            summary("world killed -> CreateRobot:bridge", [dead_world_run(octave, env) for _ in range(args.interrupts)])
+            summary("world killed -> CreateRobot:bridge", [dead_world_run(env) for _ in range(args.interrupts)])
         print(f"load after: {os.getloadavg()[0]:.2f}")
     finally:
         for process in (bridge, world):

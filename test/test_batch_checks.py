@@ -13,10 +13,10 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import pytest
+from batch_support import ctrl_c, start_batch, wait_while_running
 from test_batch import ROOT, batch, rows, write_sweep
 
 from sim_runtime.errors import InputError
@@ -234,23 +234,10 @@ def test_ctrl_c_while_a_submission_is_being_checked_leaves_no_scratch_folder(tmp
     scratch = tmp_path / "tmp"
     scratch.mkdir()
     env = dict(os.environ, PYTHONPATH=str(ROOT), TMPDIR=str(scratch))
-    run = subprocess.Popen(
-        [sys.executable, "-m", "sim_tools.batch.cli", str(sweep), "--out", "out"],
-        cwd=tmp_path,
-        env=env,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,
-    )
-    deadline = time.monotonic() + 90
-    stage = None
-    while time.monotonic() < deadline and stage is None:
-        assert run.poll() is None, run.stderr.read() if run.stderr else ""
-        stage = next(iter(scratch.glob("robot_sims-sweep-*/stage.json")), None)  # building Hangs now
-        time.sleep(0.05)
-    assert stage is not None
-    os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in the terminal
-    _, err = run.communicate(timeout=30)
+    run = start_batch([str(sweep), "--out", "out"], tmp_path, env)
+    # building Hangs now
+    wait_while_running(run, lambda: next(iter(scratch.glob("robot_sims-sweep-*/stage.json")), None), within=90)
+    err = ctrl_c(run)
     assert run.returncode == 130, err
     assert list(scratch.iterdir()) == []
 
@@ -262,18 +249,11 @@ def test_ctrl_c_on_ray_leaves_no_scratch_folder_of_its_workers(tmp_path: Path) -
     scratch, short = tmp_path / "tmp", Path("/tmp") / f"rayk{os.getpid()}"  # Ray's socket paths must stay short
     scratch.mkdir()
     env = dict(os.environ, PYTHONPATH=str(ROOT), TMPDIR=str(scratch), RAY_AUTH_MODE="disabled", RAY_TMPDIR=str(short))
-    command = [sys.executable, "-m", "sim_tools.batch.cli", str(sweep), "--ray", "--workers", "1", "--out", "out"]
-    run = subprocess.Popen(command, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    run = start_batch([str(sweep), "--ray", "--workers", "1", "--out", "out"], tmp_path, env)
     try:
-        deadline = time.monotonic() + 180
-        episode = None
-        while time.monotonic() < deadline and episode is None:
-            assert run.poll() is None, run.stderr.read() if run.stderr else ""
-            episode = next(iter(scratch.glob("robot_sims_batch_*/*/episode.log")), None)  # a Ray worker runs it
-            time.sleep(0.1)
-        assert episode is not None
-        os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in the terminal
-        _, err = run.communicate(timeout=60)
+        # a Ray worker runs it
+        wait_while_running(run, lambda: next(iter(scratch.glob("robot_sims_batch_*/*/episode.log")), None), 180)
+        err = ctrl_c(run)
         assert run.returncode == 130, err
         assert list(scratch.iterdir()) == []
     finally:

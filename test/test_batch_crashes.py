@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import os
 import shutil
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from batch_support import ctrl_c, start_batch, wait_while_running
 from test_batch import RAY_CLUSTER, ROOT, batch, rows, write_sweep
 
 SWEEP = """
@@ -81,18 +80,11 @@ def test_episode_logs_hold_what_the_controllers_printed_and_the_terminal_only_th
 def test_two_workers_interrupted_and_resumed_give_the_table_of_one_worker(tmp_path: Path, one_worker) -> None:
     sweep = _sweep_folder(tmp_path)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    command = [sys.executable, "-m", "sim_tools.batch.cli", str(sweep), "--workers", "2", "--out", "out"]
-    run = subprocess.Popen(
-        [*command, "--no-plots"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True
-    )
+    run = start_batch([str(sweep), "--workers", "2", "--out", "out", "--no-plots"], tmp_path, env)
     log = tmp_path / "out" / "episodes.jsonl"
-    deadline = time.monotonic() + 90
-    while not (log.exists() and len(log.read_text().splitlines()) >= 2) and time.monotonic() < deadline:
-        assert run.poll() is None, run.stderr.read() if run.stderr else ""
-        time.sleep(0.05)
+    wait_while_running(run, lambda: log.exists() and len(log.read_text().splitlines()) >= 2, within=90)
     workers = subprocess.run(["pgrep", "-P", str(run.pid)], capture_output=True, text=True).stdout.split()
-    os.killpg(run.pid, signal.SIGINT)  # Ctrl-C in the terminal: the whole foreground group
-    _, err = run.communicate(timeout=30)
+    err = ctrl_c(run)
     assert run.returncode == 130 and "run the same command to resume" in err
     assert workers and not [pid for pid in workers if Path(f"/proc/{pid}").exists()]
     again = batch(str(sweep), "--workers", "2", "--out", "out", "--no-plots", cwd=tmp_path, timeout=120)

@@ -10,24 +10,18 @@ ceilings are generous (a loaded machine); the figures the bridge is built for (a
 
 from __future__ import annotations
 
-import fcntl
 import math
 import os
-import pty
-import re
-import select
-import shutil
 import signal
 import socket
 import subprocess
-import termios
-import threading
 import time
 from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
+from octave_support import NO_CORE, OCTAVE, OctavePrompt, octave_eval
 from std_srvs.srv import Trigger
 
 from sim_runtime.msgs import yaw_from_quaternion
@@ -40,15 +34,11 @@ from sim_tools.matlab.paths import matlab_dir
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "test" / "matlab_programs"
 NAMESPACE = "/matlab_ends"
-OCTAVE = shutil.which("octave-cli")
 pytestmark = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 STOPS_WITHIN = 5.0  # s, wall: generous on a loaded machine (the bridge's goal is 0.2 s)
 ERRORS_WITHIN = 5.0  # s, wall: likewise (the goal is 1 s)
-# A killed Octave would otherwise leave an octave-workspace file in its working directory.
-NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false); "
 MAP = "wall 0.6 -3 0.6 3\n"  # a wall across the floor 0.6 m ahead of the robot
-TERMINAL_CODES = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")  # the prompt's cursor moves and modes
 
 
 def start_world(map_file: Path, namespace: str) -> subprocess.Popen:
@@ -135,83 +125,14 @@ def robot(world, executor, make_node):
     return robot
 
 
-class OctavePrompt:
-    """octave-cli at its interactive prompt on a pseudo-terminal, as a user types into it: a
-    Ctrl-C typed is a SIGINT to Octave from its terminal."""
-
-    def __init__(self, port: int) -> None:
-        master, slave = pty.openpty()
-
-        def own_terminal() -> None:  # Octave's session leader and controlling terminal: ^C reaches it
-            os.setsid()
-            fcntl.ioctl(0, termios.TIOCSCTTY, 0)
-
-        self.process = subprocess.Popen(
-            [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--no-history", "--no-init-file"],
-            stdin=slave,
-            stdout=slave,
-            stderr=slave,
-            env=ENV,
-            cwd=ROOT,
-            preexec_fn=own_terminal,
-        )
-        os.close(slave)
-        self.master = master
-        self.output = ""
-        self._mark = 0
-        self._lock = threading.Lock()
-        threading.Thread(target=self._read, daemon=True).start()
-        self.type(f"{NO_CORE}addpath('{matlab_dir('create')}', '{PROGRAMS}'); s = CreateRobot({port}); disp('READY')")
-        self.expect(r"^READY", timeout=60)
-
-    def _read(self) -> None:
-        while True:
-            ready, _, _ = select.select([self.master], [], [], 0.1)
-            if ready:
-                try:
-                    chunk = os.read(self.master, 65536).decode(errors="replace")
-                except OSError:
-                    return
-                with self._lock:
-                    self.output += chunk
-
-    def type(self, line: str) -> None:
-        """Type ``line`` and Enter; :meth:`expect` then looks at what is printed from here on."""
-        with self._lock:
-            self._mark = len(self.output)
-        os.write(self.master, line.encode() + b"\n")
-
-    def ctrl_c(self) -> None:
-        os.write(self.master, b"\x03")
-
-    def expect(self, pattern: str, timeout: float = 30) -> re.Match[str]:
-        """The first line matching ``pattern`` printed since the last line typed."""
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            with self._lock:
-                text = TERMINAL_CODES.sub("", self.output[self._mark :]).replace("\r", "")
-            match = re.search(pattern, text, re.MULTILINE)
-            if match:
-                return match
-            time.sleep(0.02)
-        raise AssertionError(f"Octave never printed {pattern!r}; it printed:\n{self.output[-2000:]}")
-
-    def close(self) -> None:
-        self.type("exit")
-        try:
-            self.process.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
-        os.close(self.master)
-
-
 # A program of the manual's structure Ctrl-C'd inside its travelDist; a turnAngle typed at the prompt.
 @pytest.mark.parametrize("call", ["create_travel_loop(s)", "turnAngle(s, 0.1, 170)"])
 def test_ctrl_c_inside_a_call_at_the_prompt_stops_the_robot_and_the_next_calls_get_their_own_answers(
     robot, bridge, call
 ):
-    prompt = OctavePrompt(bridge)
+    prompt = OctavePrompt(
+        f"addpath('{matlab_dir('create')}', '{PROGRAMS}'); s = CreateRobot({bridge}); disp('READY')", ENV
+    )
     try:
         prompt.type(call)
         assert spin_until(robot.executor, robot.moving, timeout=30), f"{call} never drove"
@@ -256,13 +177,7 @@ def test_ctrl_c_inside_a_call_at_the_prompt_stops_the_robot_and_the_next_calls_g
 )
 def test_a_signal_to_octave_inside_a_blocking_call_ends_it_and_stops_the_robot(robot, bridge, program, signum):
     script = f"{NO_CORE}addpath('{matlab_dir('create')}'); serPort = CreateRobot({bridge}); {program}"
-    octave = subprocess.Popen(
-        [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", script],
-        env=ENV,
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
+    octave = octave_eval(script, ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         assert spin_until(robot.executor, robot.moving, timeout=30), "the program never drove"
         spin_until(robot.executor, lambda: False, timeout=0.5)
@@ -304,14 +219,7 @@ def test_a_killed_world_makes_a_running_call_and_every_later_call_a_bridge_error
         "end\n"
     )
     script = f"{NO_CORE}addpath('{matlab_dir('create')}', '{tmp_path}'); s = CreateRobot({port}); survive(s)"
-    octave = subprocess.Popen(
-        [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", script],
-        env=ENV,
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    octave = octave_eval(script, ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert spin_until(executor, robot.moving, timeout=120), "travelDist never drove"
         world.kill()  # SIGKILL: no goodbye to anyone
@@ -348,7 +256,9 @@ def test_the_bridge_ends_quietly_however_often_it_is_told_to_while_a_program_is_
     )
     try:
         assert bridge.stdout is not None
-        listening = LISTENING.search(bridge.stdout.readline())
+        listening = None  # Fast DDS may write its own errors (a stale shared-memory port) first
+        while listening is None and (line := bridge.stdout.readline()):
+            listening = LISTENING.search(line)
         assert listening, "the bridge did not start"
         with socket.create_connection(("127.0.0.1", int(listening[2])), timeout=10) as sock:
             reply = sock.makefile("r")

@@ -23,6 +23,7 @@ import tempfile
 import time
 import traceback
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -146,12 +147,24 @@ def _worker(
         shutil.rmtree(scratch, ignore_errors=True)
 
 
+def outcome_of(run: Callable[[], object], meter: Meter) -> str:
+    """``run()`` measured by ``meter``: "ok", or "input_error" where it refused its input; any
+    other exception (a defect) goes on to the caller."""
+    from sim_runtime.errors import InputError
+
+    try:
+        with meter:
+            run()
+    except InputError:
+        return "input_error"
+    return "ok"
+
+
 def _run_input(
     index: int, seed: int, seeds: Any, folder: Path, out: Path, budget: Budget | None = None
 ) -> tuple[int, str, str, str]:
     """Make and run input ``index`` in ``folder``, saving it if it is a defect: (index, target,
     outcome, signature). An input over ``budget`` (CPU seconds, memory) is a defect too."""
-    from sim_runtime.errors import InputError
     from sim_tools.fuzz.targets import make_case, target_of
 
     name = target_of(index, seed)
@@ -159,12 +172,7 @@ def _run_input(
     meter = Meter()
     try:
         name, case = make_case(index, seed, seeds, folder)
-        try:
-            with meter:
-                case.run()
-            outcome = "ok"
-        except InputError:
-            outcome = "input_error"
+        outcome = outcome_of(case.run, meter)
         over = meter.over(budget) if budget is not None else None
         if over is not None:
             outcome, signature = "defect", f"{name}: over budget ({'CPU' if 'CPU' in over else 'memory'})"

@@ -76,7 +76,11 @@ def _short_enough(error: BaseException, what: str) -> None:
         raise Defect(f"{what}: a message of {len(str(error))} characters: {str(error)[:200]}")
 
 
-def _must_refuse(load: Callable[[Path], object], path: Path, what: str) -> Callable[[], None]:
+def _must_refuse(
+    load: Callable[[Path], object], path: Path, what: str, because: str, loaded: str
+) -> Callable[[], None]:
+    """The case's run: ``load(path)`` must raise an InputError (the case's outcome), a short one
+    that says ``because``; loading, another reason first or a long message is a defect."""
     from sim_runtime.errors import InputError
 
     def run() -> None:
@@ -84,10 +88,10 @@ def _must_refuse(load: Callable[[Path], object], path: Path, what: str) -> Calla
             load(path)
         except InputError as error:
             _short_enough(error, what)
-            if "alias" not in str(error):
+            if because not in str(error):
                 raise Defect(f"{what}: refused for another reason first: {str(error)[:200]}") from None
             raise
-        raise Defect(f"{what}: an alias bomb loaded")
+        raise Defect(f"{what}: {loaded}")
 
     return run
 
@@ -116,7 +120,8 @@ def alias_bomb_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
     path = rng.choice([*yaml_paths(tree), ("not_a_field",)])
     file.write_text(bombed_yaml(tree, path), encoding="utf-8")
     load = _load_sweep if kind == "sweep" else loaders[kind]
-    return Case(folder, _must_refuse(load, file, f"{kind} bomb at {path}"), f"{kind} {path}")
+    run = _must_refuse(load, file, f"{kind} bomb at {path}", "alias", "an alias bomb loaded")
+    return Case(folder, run, f"{kind} {path}")
 
 
 _VARIANTS: dict[str, Callable[[bytes], bytes]] = {
@@ -213,24 +218,12 @@ def _big_bitmap(rng: random.Random, folder: Path) -> Callable[[], None]:
 
 
 def _beyond_limit_bitmap(rng: random.Random, folder: Path) -> Callable[[], None]:
-    from sim_runtime.errors import InputError
     from simrobot_sim.world_file import load_bitmap
 
     side = rng.choice((8001, 13_000, 30_000, 100_000, 2**31 - 1))
     path = folder / "announced.png"
     path.write_bytes(_png_header(side, side))
-
-    def run() -> None:
-        try:
-            load_bitmap(path)
-        except InputError as error:
-            _short_enough(error, f"a {side}² image")
-            if "limit" not in str(error):
-                raise Defect(f"a {side}² image refused, but not for its size: {str(error)[:200]}") from None
-            raise
-        raise Defect(f"a {side}² image was read")
-
-    return run
+    return _must_refuse(load_bitmap, path, f"a {side}² image", "limit", "it was read")
 
 
 def huge_input_case(rng: random.Random, seeds: Seeds, folder: Path) -> Case:
