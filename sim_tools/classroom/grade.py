@@ -38,8 +38,10 @@ from sim_tools.classroom.submit import PUBLIC_FILE, STEM
 UID_BASE = 1_900_000_000
 #: Wall seconds a whole run may take beyond its episodes' time limits (batch's start-up, the check).
 RUN_MARGIN_S = 240.0
-#: The packages whose numba caches a run gets a copy of (:func:`_numba_cache`), and where.
-CACHED_PACKAGES = ("sim_runtime", "create_sim", "simrobot_sim", "arm_sim", "sim_tools")
+#: The packages whose numba caches a run gets a copy of (:func:`_numba_cache`): the base's, and
+#: the simulator's of the worlds (known by the key naming their file), and where.
+CACHED_BASE = ("sim_runtime",)
+CACHED_BY_WORLD_KEY = {"map": "create_sim", "world_file": "simrobot_sim", "robot_config": "arm_sim"}
 NUMBA_FOLDER = ".numba"
 #: The world files batch reads (copied into each run folder).
 WORLD_FILE_KEYS = ("map", "config", "world_file", "robot_config")
@@ -175,7 +177,7 @@ def _run(a: Assignment, s: Student, path: Path, domain: int, ray: str | None) ->
     uid = UID_BASE + domain if contain.contained() else None
     env = worker_environment()
     if uid is not None:
-        _numba_cache(run / NUMBA_FOLDER)
+        _numba_cache(run / NUMBA_FOLDER, _simulator_packages(a))
         env["NUMBA_CACHE_DIR"] = f"{contain.INSIDE}/{NUMBA_FOLDER}"
         _chown_tree(run, uid, uid)
     n = len(names) * _seed_count(a)
@@ -204,14 +206,20 @@ def _run(a: Assignment, s: Student, path: Path, domain: int, ray: str | None) ->
     return run, rows, ""
 
 
-def _numba_cache(folder: Path) -> None:
+def _simulator_packages(a: Assignment) -> list[str]:
+    worlds = [*a.worlds, *a.hidden_worlds]
+    found = {pkg for key, pkg in CACHED_BY_WORLD_KEY.items() if any(key in w for w in worlds)}
+    return [*CACHED_BASE, *sorted(found or CACHED_BY_WORLD_KEY.values())]
+
+
+def _numba_cache(folder: Path, packages: Sequence[str]) -> None:
     """Copies of the simulators' compiled kernels (numba's cache beside their sources) where
     numba looks for them when ``NUMBA_CACHE_DIR`` is ``folder``: a run's uid may not write beside
     the sources, and compiling every kernel again took a run 4 times as long. A run can spoil
     only its own copies."""
     import hashlib
 
-    for package in CACHED_PACKAGES:
+    for package in packages:
         spec = importlib.util.find_spec(package)
         if spec is None or spec.origin is None:
             continue
