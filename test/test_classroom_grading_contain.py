@@ -11,6 +11,7 @@ import stat
 import subprocess
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import pytest
@@ -284,3 +285,50 @@ def test_ctrl_c_in_the_grader_stops_every_run_at_once_and_leaves_no_process(fold
     assert err.endswith("interrupted: every grading run was stopped; no gradebook was written\n")
     assert processes_of(run_uid) == []
     assert not (folder / "course" / "grading" / "lab1" / "gradebook.csv").exists()
+
+
+FLOOD = """
+import time
+import rclpy
+from std_msgs.msg import String
+
+rclpy.init()
+node = rclpy.create_node("flood")
+pub = node.create_publisher(String, "/flood", 10)
+end = time.monotonic() + {seconds}
+n = 0
+while time.monotonic() < end:
+    pub.publish(String(data="x"))
+    n += 1
+    time.sleep(0.001)
+print("published", n)
+"""
+
+
+@root_only
+def test_a_run_flooding_dds_reaches_no_one_in_its_domain_outside_it(folder: Path) -> None:
+    """The same publisher reaches a listener of its domain when run as is (the control), and
+    nothing when run contained: its own network namespace, /dev/shm and domain."""
+    from std_msgs.msg import String
+    from studio_browser_support import listener_node
+
+    got: list[str] = []
+    with listener_node(DOMAIN, "flood_listener") as (executor, node):
+        node.create_subscription(String, "/flood", lambda m: got.append(m.data), 10)
+        env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        control = subprocess.Popen([sys.executable, "-c", FLOOD.format(seconds=4)], env=env)
+        while control.poll() is None:
+            executor.spin_once(timeout_sec=0.1)
+        assert control.returncode == 0 and len(got) > 10  # a listener that hears the flood uncontained
+        got.clear()
+        log = folder / "log.txt"
+        jail = Jail(UID, UID, DOMAIN)
+        runs = threading.Thread(
+            target=run_contained,
+            args=([sys.executable, "-c", FLOOD.format(seconds=6)], folder / "run", env, jail, 120, log),
+        )
+        runs.start()
+        while runs.is_alive():
+            executor.spin_once(timeout_sec=0.1)
+    assert int(log.read_text().split("published ")[1].split()[0]) > 10, log.read_text()  # it flooded
+    assert got == []
