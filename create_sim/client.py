@@ -142,7 +142,9 @@ class CreateRobot:
     world and spins their executor.
 
     ``timeout`` (wall seconds) bounds how long a call waits without any new message from the
-    robot before raising :class:`TimeoutError`.
+    robot before raising :class:`TimeoutError`. ``confirm_first_command`` (wall seconds, 0 = no):
+    the first velocity command is sent again until the robot's odometry shows it, at most this
+    long; by default standalone clients do for ``STOP_CONFIRM_TIMEOUT`` (1 s), hosted ones not.
     """
 
     def __init__(
@@ -153,6 +155,7 @@ class CreateRobot:
         spin: Callable[[], None] | None = None,
         stamped: bool = False,
         timeout: float = 5.0,
+        confirm_first_command: float | None = None,
     ) -> None:
         self.timeout = timeout
         self._cond = threading.Condition()
@@ -185,6 +188,11 @@ class CreateRobot:
             self._owned_node = False
         self.node = node
         self._spin = spin or (lambda: rclpy.spin_once(node, timeout_sec=0.05))  # hosted mode only
+        # Hosted clients whose spin steps an in-process world (tests) leave the first command
+        # unconfirmed, so that it costs no extra steps; a hosted one over a separate world (the
+        # MATLAB bridge) asks for it.
+        default_confirm = STOP_CONFIRM_TIMEOUT if self._thread is not None else 0.0
+        self._confirm_first = default_confirm if confirm_first_command is None else confirm_first_command
         self._stamped = stamped
         self.commands_sent = 0  # velocity commands published
         self._cmd_pub = node.create_publisher(
@@ -408,20 +416,32 @@ class CreateRobot:
             self._wait_until(
                 lambda: self._cmd_pub.get_subscription_count() > 0, "waiting for the world to subscribe to cmd_vel"
             )
+        first = not self._heard and self._confirm_first > 0.0
+        if first:  # another node's subscription to cmd_vel (the studio's display) is not the world's
+            self._await(self._world_subscribed, self._confirm_first)
         self._publish(v, w)
-        if not self._heard and self._thread is not None:
+        if first:
             self._confirm_first_command(v, w)
         return v, w
 
+    def _world_subscribed(self) -> bool:
+        """Whether a node publishing this robot's odometry (the world) subscribes to our cmd_vel."""
+        odom_topic = self.node.resolve_topic_name(spec.ODOM_TOPIC)
+        worlds = {(i.node_namespace, i.node_name) for i in self.node.get_publishers_info_by_topic(odom_topic)}
+        readers = self.node.get_subscriptions_info_by_topic(self._cmd_pub.topic_name)
+        return any((i.node_namespace, i.node_name) in worlds for i in readers)
+
     def _confirm_first_command(self, v: float, w: float) -> None:
-        """Repeat the first command until the robot's odometry shows it (at most 1 s).
+        """Repeat the first command until the robot's odometry shows it (``confirm_first_command`` s).
 
         Just after discovery our publisher may see the world before the world sees it, and the
         world then drops what we send (a reliable subscription asks for it again only while we
-        are alive; one overridden to best effort never does). A ported MATLAB program commands
-        once and waits, so that first command must arrive.
+        are alive; one overridden to best effort never does). Worse, another node's subscription
+        to cmd_vel (the studio shows the commands) can be the one our publisher matched first: a
+        sample published then is never sent to the world's reader matched after it (volatile).
+        A ported MATLAB program commands once and waits, so that first command must arrive.
         """
-        deadline = time.monotonic() + STOP_CONFIRM_TIMEOUT
+        deadline = time.monotonic() + self._confirm_first
         while time.monotonic() < deadline:
             with self._cond:
                 sent_after = self._odom_count

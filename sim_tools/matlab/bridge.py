@@ -92,6 +92,9 @@ LISTENING = re.compile(r"listening on ([\d.:a-f\[\]]+):(\d+)")
 # waits at most before a dead world is an error.
 WORLD_QUIET = 0.3
 WORLD_ANSWER = 0.5
+# s, wall: how long a program's first command is sent again until the odometry shows it (a world
+# on a loaded machine took 1.5 s to match a new bridge's writer, at load 30 on 2 cores).
+FIRST_COMMAND_CONFIRM = 5.0
 
 
 class ProgramLost(Exception):
@@ -265,7 +268,10 @@ class MatlabBridge:
         self._probes: dict[str, Client] = {}
         node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self._calls = node.create_publisher(String, "matlab_calls", 100)
-        self.robot = CreateRobot(node=node, spin=self._spin)
+        # Its first command repeated until the odometry shows it (at most FIRST_COMMAND_CONFIRM s):
+        # a new bridge's writer may have matched only the studio's cmd_vel display, or the world's
+        # reader before the world matched the writer; either way the world would not get it.
+        self.robot = CreateRobot(node=node, spin=self._spin, confirm_first_command=FIRST_COMMAND_CONFIRM)
         self._busy = threading.Lock()
         self._session: Session | None = None
         self._closed = threading.Event()
@@ -460,12 +466,13 @@ def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = Non
         env=env,
     )
     assert process.stdout is not None
-    first = process.stdout.readline()
-    match = LISTENING.search(first)
-    if match is None:
+    said = []  # Fast DDS writes its own errors to stdout (a stale shared-memory port): skip them
+    while (line := process.stdout.readline()) and (match := LISTENING.search(line)) is None:
+        said.append(line)
+    if not line or match is None:
         process.kill()
         process.wait()
-        raise RuntimeError(f"matlab_bridge did not start (said {first!r}); see its stderr")
+        raise RuntimeError(f"matlab_bridge did not start (said {''.join(said)!r}); see its stderr")
     return process, int(match.group(2))
 
 
