@@ -28,6 +28,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,6 +40,8 @@ os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(ROOT / "config" / "f
 from record_worlds import exe, stop  # noqa: E402
 
 BUSY_LOOP = "while 1: pass"
+LOADS: list[float] = []  # the 1-minute load average after each try
+ACKS: Counter[tuple[str, str]] = Counter()  # (verdict, acked or unacked as our publisher left): tries
 
 
 def publish_once(topic: str, turn: float, reliability: str, keep_alive: float, acked: float = 0.0) -> None:
@@ -58,11 +61,14 @@ def publish_once(topic: str, turn: float, reliability: str, keep_alive: float, a
     msg = Twist()
     msg.angular.z = turn
     publisher.publish(msg)
-    if acked > 0.0:
-        from rclpy.duration import Duration
+    from rclpy.duration import Duration
 
+    if acked > 0.0:
         publisher.wait_for_all_acked(Duration(seconds=acked))
     time.sleep(keep_alive)
+    # Whether every matched reader had acknowledged the sample as this writer leaves: after that
+    # nothing can resend it (the bench prints it beside each verdict).
+    print("acked" if publisher.wait_for_all_acked(Duration(nanoseconds=1)) else "unacked", flush=True)
     node.destroy_node()
     rclpy.shutdown()
 
@@ -145,6 +151,8 @@ def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
     world = exe("create_world", "--ros-args", "-p", "real_time_factor:=1.0", *shlex.split(opts.world_args))
     busy = [subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) for _ in range(opts.busy)]
     applied, durations, tries = 0, [], opts.tries
+    loads = LOADS
+    acks = ACKS
     try:
         if not watcher.wait_for_speed(0.0, 600.0):  # a first start compiles kernels: minutes on a busy machine
             raise SystemExit(f"the world did not start:\n{stop(world)}")
@@ -153,15 +161,27 @@ def run(opts: argparse.Namespace) -> tuple[int, int, list[float]]:
             begin = time.monotonic()
             env = dict(os.environ, PYTHONPATH=opts.cli) if opts.cli else None
             command = once_command("/cmd_vel", speed, opts)
-            subprocess.run(command, check=True, timeout=60, env=env, stdout=subprocess.DEVNULL)
+            try:  # a python start can take a minute at load 40: a publisher that never ran says nothing
+                said = subprocess.run(command, check=True, timeout=300, env=env, capture_output=True, text=True)
+            except subprocess.TimeoutExpired:
+                print(f"  try {i + 1}: the publisher did not end in 300 s (left out)   load {os.getloadavg()[0]:.1f}")
+                tries -= 1
+                continue
             ok = watcher.wait_for_speed(speed, opts.settle)
             verdict = "applied" if ok else watcher.verdict(speed, 60.0)
             durations.append(time.monotonic() - begin)
+            loads.append(os.getloadavg()[0])
             applied += verdict in ("applied", "late")
             tries -= verdict == "stalled"
+            exit_state = said.stdout.split()[-1] if said.stdout.split() and not opts.cli else "-"
+            acks[verdict, exit_state] += 1
             if not ok:
-                load = os.getloadavg()[0]
-                print(f"  try {i + 1}: v={speed} {verdict} (odom says {watcher.speed})   load {load:.1f}")
+                print(
+                    f"  try {i + 1}: v={speed} {verdict} (odom says {watcher.speed}; {exit_state} at exit)"
+                    f"   load {loads[-1]:.1f}"
+                )
+            if (i + 1) % 10 == 0:
+                print(f"  {i + 1} tries: {applied} applied; load {loads[-1]:.1f}", flush=True)
     finally:
         for process in busy:
             process.kill()
@@ -197,8 +217,11 @@ def main() -> None:
     durations.sort()
     print(
         f"applied {applied} of {tries} one-shot commands ({'met' if applied == tries else 'MISSED'}); "
-        f"median {durations[len(durations) // 2]:.2f} s per try; load {os.getloadavg()[0]:.1f}"
+        f"median {durations[len(durations) // 2]:.2f} s per try; load {os.getloadavg()[0]:.1f} "
+        f"(over the tries {min(LOADS, default=0):.1f}-{max(LOADS, default=0):.1f})"
     )
+    if not opts.cli:
+        print("verdict by acknowledgement as the publisher left:", dict(sorted(ACKS.items())))
 
 
 if __name__ == "__main__":
