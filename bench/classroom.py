@@ -28,13 +28,11 @@ the Jupyter server's 1.6 % measured with the hub), and how many the 2 cores here
 from __future__ import annotations
 
 import argparse
-import contextlib
 import itertools
 import os
 import statistics
 import subprocess
 import sys
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,7 +96,7 @@ class Window:
 
 class Listener:
     """This process's node in one student's domain: the world's clock, when each scan arrived, and
-    the turn command; spun in a thread of its own."""
+    the turn command (spun by :func:`wait_until`)."""
 
     def __init__(self, domain: int) -> None:
         import rclpy
@@ -129,32 +127,41 @@ class Listener:
             Clock, "/clock", lambda m: setattr(self, "clock", (time.monotonic(), time_from_msg(m.clock))), CLOCK_QOS
         )
         self.cmd = self.node.create_publisher(Twist, "/cmd_vel", COMMAND_PUBLISHER_QOS)
+        LISTENERS.append(self)
         self.turn = Twist()
         self.turn.angular.z = 1.0  # every layer keeps changing
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self) -> None:
-        from rclpy.executors import ExternalShutdownException
-
-        with contextlib.suppress(ExternalShutdownException):  # closed by close()
-            self.executor.spin()
 
     def close(self) -> None:
         import rclpy
 
+        LISTENERS.remove(self)
         self.executor.shutdown()
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
 
 
+def say(text: str) -> None:
+    """Progress, on stderr (a slow machine takes minutes to bring a classroom up)."""
+    print(f"[classroom {time.strftime('%H:%M:%S')}] {text}", file=sys.stderr, flush=True)
+
+
+LISTENERS: list[Listener] = []  # every student's, spun in turn by this process's only thread
+
+
 def wait_until(condition, timeout: float) -> bool:
+    """Spin every listener until ``condition()`` or ``timeout`` seconds."""
     deadline = time.monotonic() + timeout
     while not condition():
         if time.monotonic() > deadline:
             return False
-        time.sleep(0.05)
+        for listener in LISTENERS:
+            listener.executor.spin_once(timeout_sec=0.002)
     return True
+
+
+def spin_for(seconds: float) -> None:
+    end = time.monotonic() + seconds
+    wait_until(lambda: time.monotonic() >= end, seconds + 1.0)
 
 
 def start_student(domain: int, tree: Path) -> Student:
@@ -220,7 +227,7 @@ def measure_window(students: list[Student], seconds: float, with_pages: bool) ->
     c0 = [(cpu_seconds(s.studio.pid), cpu_seconds(s.world.pid)) for s in students]
     k0 = [s.ros.clock for s in students]
     b0, t0 = browser_cpu(drivers), time.monotonic()
-    time.sleep(seconds)
+    spin_for(seconds)
     c1 = [(cpu_seconds(s.studio.pid), cpu_seconds(s.world.pid)) for s in students]
     k1 = [s.ros.clock for s in students]
     w = Window(wall_s=time.monotonic() - t0, load=os.getloadavg())
@@ -246,20 +253,24 @@ def run_classroom(tree: Path, n: int, seconds: float, first_domain: int) -> tupl
     """N students on ``tree``'s studio: (the window without pages, the one with every page open)."""
     students: list[Student] = []
     try:
+        say(f"{tree}: starting {n} worlds and studios")
         for i in range(n):
             students.append(start_student(first_domain + i, tree))
         for s in students:
             assert wait_until(lambda s=s: len(s.ros.arrivals) > 5, 90.0), f"no scans in domain {s.domain}"
             s.ros.cmd.publish(s.ros.turn)
-        time.sleep(3.0)  # the studios have found their worlds
+        say("every world publishes; the robots turn")
+        spin_for(3.0)  # the studios have found their worlds
         idle = measure_window(students, seconds / 2, with_pages=False)
+        say("measured without pages; opening the pages")
         lidar = "return !!document.querySelector('.studio-view polyline.lidar')"
         for s in students:
             s.driver = new_driver()
             s.driver.get(f"http://127.0.0.1:{s.port}/")
         for s in students:
             assert wait_until(lambda s=s: s.driver.execute_script(lidar), 90.0), f"no view in domain {s.domain}"
-        time.sleep(2.0)  # past the page's first drawing
+        say("every page draws; measuring")
+        spin_for(2.0)  # past the page's first drawing
         paged = measure_window(students, seconds, with_pages=True)
     finally:
         for s in students:
