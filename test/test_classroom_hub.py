@@ -33,11 +33,13 @@ requests = pytest.importorskip("requests")
 
 ROOT = Path(__file__).resolve().parent.parent
 GROUP = "rstest_students"
-ADMIN, ALICE, BOB = "rstest_teacher", "rstest_alice", "rstest_bob"
+ADMIN, ALICE, BOB, CAROL = "rstest_teacher", "rstest_alice", "rstest_bob", "rstest_carol"
 PASSWORD = "a long classroom password 1"
 DOMAINS = "202-216"  # this module's domains (no other test hands them out)
 HUB_START_SECONDS = 180.0  # ceilings: a busy 2-core machine starts a hub and servers slowly
 SPAWN_SECONDS = 240.0
+
+pytestmark = pytest.mark.timeout(600)  # the first test waits for the hub and two servers (2 min here)
 
 if os.geteuid() != 0 or shutil.which("useradd") is None:
     pytest.skip("the course server makes Unix users: run as root", allow_module_level=True)
@@ -91,7 +93,7 @@ def studio_entry_installed() -> bool:
 
 
 def remove_users() -> None:
-    for name in (ADMIN, ALICE, BOB):
+    for name in (ADMIN, ALICE, BOB, CAROL):
         try:
             uid = pwd.getpwnam(name).pw_uid
         except KeyError:
@@ -212,17 +214,17 @@ def hub() -> Iterator[Hub]:
 
 @pytest.fixture(scope="module")
 def classroom(hub: Hub) -> dict[str, requests.Session]:
-    """The teacher and two approved students, signed in."""
-    for name in (ADMIN, ALICE, BOB):
+    """The teacher and three approved students, signed in."""
+    for name in (ADMIN, ALICE, BOB, CAROL):
         hub.sign_up(name)
     unapproved = hub.form(hub.session(), "login", username=ALICE, password=PASSWORD)
     assert "has not been authorized by an administrator yet" in unapproved.text, hub.what(unapproved)
     teacher = hub.sign_in(ADMIN)
-    for name in (ALICE, BOB):  # the approve buttons of /hub/authorize
+    for name in (ALICE, BOB, CAROL):  # the approve buttons of /hub/authorize
         page = teacher.get(f"{hub.url}/hub/authorize", timeout=60)
         assert f"authorize/{name}" in page.text, hub.what(page)
         assert teacher.get(f"{hub.url}/hub/authorize/{name}", timeout=60).status_code == 200
-    return {ADMIN: teacher, ALICE: hub.sign_in(ALICE), BOB: hub.sign_in(BOB)}
+    return {ADMIN: teacher, **{name: hub.sign_in(name) for name in (ALICE, BOB, CAROL)}}
 
 
 def server_process(name: str) -> int:
@@ -335,28 +337,30 @@ def test_the_idle_culler_runs_as_a_hub_service(hub, classroom):
 
 def test_the_teachers_approvals_are_in_the_audit_log(hub, classroom):
     lines = (hub.course / "audit.log").read_text().splitlines()
-    for name in (ALICE, BOB):
+    for name in (ALICE, BOB, CAROL):
         assert any(f" {ADMIN} GET /hub/authorize/{name} -> " in line for line in lines), lines
 
 
 def test_stopping_a_server_leaves_no_process_of_the_student(hub, classroom, running):
-    uid = pwd.getpwnam(ALICE).pw_uid
-    # A process of Alice's outside her server's tree (as a world is: its own session).
-    stray = subprocess.Popen(["setpriv", "--reuid", ALICE, "--regid", GROUP, "--init-groups", "setsid", "sleep", "600"])
+    """Carol's server (started here: the others' stay up for the other tests, in any order)."""
+    hub.start_server(classroom[CAROL], CAROL)
+    hub.wait_ready(classroom[CAROL], CAROL)
+    uid = pwd.getpwnam(CAROL).pw_uid
+    # A process of Carol's outside her server's tree (as a world is: its own session).
+    stray = subprocess.Popen(["setpriv", "--reuid", CAROL, "--regid", GROUP, "--init-groups", "setsid", "sleep", "600"])
     assert len(processes_of(uid)) >= 2
-    done = hub.api(classroom[ALICE], "DELETE", f"users/{ALICE}/server")
+    done = hub.api(classroom[CAROL], "DELETE", f"users/{CAROL}/server")
     assert done.status_code in (202, 204), hub.what(done)
-    hub.wait_stopped(classroom[ALICE], ALICE)
+    hub.wait_stopped(classroom[CAROL], CAROL)
     deadline = time.monotonic() + 30
     while processes_of(uid) and time.monotonic() < deadline:
         time.sleep(0.2)
-    ps = subprocess.run(["ps", "-u", ALICE, "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
+    ps = subprocess.run(["ps", "-u", CAROL, "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
     assert [line for line in ps.splitlines() if " Z" not in line] == [], ps
     stray.wait(10)
-    assert cgroup_of(ALICE) is None  # her memory cgroup is removed with her processes
-    held = json.loads((hub.course / "domains.json").read_text())
-    assert ALICE not in {holder["user"] for holder in held.values()}  # her domain is free again
-    assert BOB in {holder["user"] for holder in held.values()}
+    assert cgroup_of(CAROL) is None  # her memory cgroup is removed with her processes
+    held = {holder["user"] for holder in json.loads((hub.course / "domains.json").read_text()).values()}
+    assert CAROL not in held and {ALICE, BOB} <= held  # her domain is free again, theirs are kept
 
 
 def test_more_servers_than_domains_are_refused_with_what_to_do(tmp_path):
