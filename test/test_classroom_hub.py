@@ -33,9 +33,10 @@ requests = pytest.importorskip("requests")
 
 ROOT = Path(__file__).resolve().parent.parent
 GROUP = "rstest_students"
-ADMIN, ALICE, BOB, CAROL = "rstest_teacher", "rstest_alice", "rstest_bob", "rstest_carol"
+ADMIN, ALICE, BOB, CAROL, DAVE = "rstest_teacher", "rstest_alice", "rstest_bob", "rstest_carol", "rstest_dave"
+STUDENTS = (ALICE, BOB, CAROL, DAVE)
 PASSWORD = "a long classroom password 1"
-DOMAINS = "202-216"  # this module's domains (no other test hands them out)
+DOMAINS = "202-204"  # this module's domains (of 202-216, which no other test hands out): 3 for 4 students
 HUB_START_SECONDS = 180.0  # ceilings: a busy 2-core machine starts a hub and servers slowly
 SPAWN_SECONDS = 240.0
 
@@ -93,7 +94,7 @@ def studio_entry_installed() -> bool:
 
 
 def remove_users() -> None:
-    for name in (ADMIN, ALICE, BOB, CAROL):
+    for name in (ADMIN, *STUDENTS):
         try:
             uid = pwd.getpwnam(name).pw_uid
         except KeyError:
@@ -214,17 +215,17 @@ def hub() -> Iterator[Hub]:
 
 @pytest.fixture(scope="module")
 def classroom(hub: Hub) -> dict[str, requests.Session]:
-    """The teacher and three approved students, signed in."""
-    for name in (ADMIN, ALICE, BOB, CAROL):
+    """The teacher and four approved students, signed in."""
+    for name in (ADMIN, *STUDENTS):
         hub.sign_up(name)
     unapproved = hub.form(hub.session(), "login", username=ALICE, password=PASSWORD)
     assert "has not been authorized by an administrator yet" in unapproved.text, hub.what(unapproved)
     teacher = hub.sign_in(ADMIN)
-    for name in (ALICE, BOB, CAROL):  # the approve buttons of /hub/authorize
+    for name in STUDENTS:  # the approve buttons of /hub/authorize
         page = teacher.get(f"{hub.url}/hub/authorize", timeout=60)
         assert f"authorize/{name}" in page.text, hub.what(page)
         assert teacher.get(f"{hub.url}/hub/authorize/{name}", timeout=60).status_code == 200
-    return {ADMIN: teacher, **{name: hub.sign_in(name) for name in (ALICE, BOB, CAROL)}}
+    return {ADMIN: teacher, **{name: hub.sign_in(name) for name in STUDENTS}}
 
 
 def server_process(name: str) -> int:
@@ -337,7 +338,7 @@ def test_the_idle_culler_runs_as_a_hub_service(hub, classroom):
 
 def test_the_teachers_approvals_are_in_the_audit_log(hub, classroom):
     lines = (hub.course / "audit.log").read_text().splitlines()
-    for name in (ALICE, BOB, CAROL):
+    for name in STUDENTS:
         assert any(f" {ADMIN} GET /hub/authorize/{name} -> " in line for line in lines), lines
 
 
@@ -345,6 +346,11 @@ def test_stopping_a_server_leaves_no_process_of_the_student(hub, classroom, runn
     """Carol's server (started here: the others' stay up for the other tests, in any order)."""
     hub.start_server(classroom[CAROL], CAROL)
     hub.wait_ready(classroom[CAROL], CAROL)
+    # Three servers hold the three domains: a fourth student is refused, told why.
+    refused = hub.api(classroom[DAVE], "POST", f"users/{DAVE}/server")
+    said = refused.text + hub.api(classroom[DAVE], "GET", f"users/{DAVE}/server/progress").text
+    assert "all 3 ROS domains of this course server (202-204) are in use" in said, hub.what(refused)
+    assert not hub.api(classroom[DAVE], "GET", f"users/{DAVE}").json().get("servers"), hub.tail()
     uid = pwd.getpwnam(CAROL).pw_uid
     # A process of Carol's outside her server's tree (as a world is: its own session).
     stray = subprocess.Popen(["setpriv", "--reuid", CAROL, "--regid", GROUP, "--init-groups", "setsid", "sleep", "600"])
