@@ -6,8 +6,8 @@ Nothing here names a simulator: the episode's simulator's ``world`` adapter (its
 (``make_world``), places the controller nodes (``controller_nodes``), samples the model after
 every step (``probe``) and computes the metrics (``METRICS``). An episode is set up, run and torn
 down by :class:`_EpisodeRun`; each controller kind (a node class, ours or a user's; a user's
-``main``; a model function) is one small class (:class:`_NodeController`,
-:class:`_MainController`, :class:`_ModelController`).
+``main``; a model function) is one small class of :mod:`sim_tools.batch.forms`
+(:func:`~sim_tools.batch.forms.make_controller`).
 
 Isolation: the process sets ``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF`` (:func:`isolate_process`) and
 every episode gets its own context on a domain id above the ones people use interactively, so
@@ -35,7 +35,15 @@ import numpy as np
 
 from sim_runtime.errors import InputError
 from sim_tools.adapters.contract import EpisodeData, world_part
-from sim_tools.batch.forms import is_user_file
+from sim_tools.batch.forms import (
+    LEAN_NODE,
+    MATCH_TIMEOUT,
+    controller_args,
+    controller_form,
+    controller_node,
+    is_user_file,
+    make_controller,
+)
 from sim_tools.batch.metrics import compute, load_callable
 from sim_tools.batch.plan import Episode
 from sim_tools.batch.row import ERROR, OK, Result, Row
@@ -43,12 +51,6 @@ from sim_tools.batch.row import ERROR, OK, Result, Row
 #: Domain ids of batch episodes start here (people use 0–20 interactively; discovery is off anyway).
 DOMAIN_BASE = 100
 _T = TypeVar("_T")
-#: Wall seconds to wait for an episode's publishers and subscriptions to match.
-MATCH_TIMEOUT = 10.0
-
-#: Our nodes in an episode go without what nobody can reach there (parameter services, /rosout):
-#: leaving them out halved the set-up plus tear-down (median 0.22 -> 0.10 s, measured alternating).
-LEAN_NODE: dict[str, Any] = {"start_parameter_services": False, "enable_rosout": False}
 #: The world ignores the episode context's command line, which carries the controller's parameters.
 WORLD_NODE: dict[str, Any] = {**LEAN_NODE, "use_global_arguments": False}
 
@@ -161,108 +163,6 @@ def _simulate(ep: Episode) -> tuple[EpisodeData, float, dict[str, Any]]:
     return data, sim_time, timing
 
 
-class _NodeController:
-    """Node classes (our executables' and users'), placed in the world by its adapter."""
-
-    def __init__(self, ep: Episode, cls: type, params: dict[str, Any], context: Any) -> None:
-        self.ep, self.cls, self.params, self.context = ep, cls, params, context
-        self.nodes: list[Any] = []
-
-    def start(self, world: Any) -> list[Any]:
-        def make(cls: type, **extra: str) -> Any:
-            return _controller_node(self.ep, cls, self.params, self.context, **extra)
-
-        part = world_part(self.ep.simulator)
-        self.nodes = part.controller_nodes(self.cls, world, self.ep.world, make, context=self.context, **LEAN_NODE)
-        return self.nodes
-
-    def auto_transport(self) -> str:
-        """Ours take the direct bus; a user's node class DDS, unless the world placed none."""
-        return "direct" if self.ep.controller["kind"] == "ours" or not self.nodes else "ros"
-
-    def before_step(self, world: Any) -> None:
-        """Nodes act on the messages they receive."""
-
-    def after_step(self, run: _EpisodeRun) -> None:
-        """Nodes act on the messages they receive."""
-
-    def stop(self) -> None:
-        """The episode's executor destroys the nodes."""
-
-
-class _MainController:
-    """A user's ``main()``, in a thread of its own, in turns with the stepping (:class:`MainRunner`)."""
-
-    def __init__(self, main: Any, target: str) -> None:
-        self.main, self.target = main, target
-        self.runner: Any = None
-
-    def start(self, world: Any) -> list[Any]:
-        from sim_tools.batch.forms import MainRunner
-
-        self.runner = MainRunner(self.main, self.target)
-        return self.runner.start(MATCH_TIMEOUT)
-
-    def auto_transport(self) -> str:
-        return "ros"
-
-    def before_step(self, world: Any) -> None:
-        """``main`` takes its turn after the step."""
-
-    def after_step(self, run: _EpisodeRun) -> None:
-        """``main``'s turn: nodes it spun for the first time join the executor, and what it
-        published is delivered."""
-        if self.runner.after_step(run.world.sim_time):
-            for node in self.runner.new_nodes():
-                run.executor.add_node(node)
-            run.deliver()
-
-    def stop(self) -> None:
-        if self.runner is not None:
-            self.runner.stop()  # before shutdown: its thread may still destroy its nodes
-
-
-class _ModelController:
-    """A model function: ``make(model, params, seed)`` returns ``control(model, t)``, called
-    before every step."""
-
-    def __init__(self, ep: Episode, make: Any, params: dict[str, Any]) -> None:
-        self.ep, self.make, self.params = ep, make, params
-        self.control: Any = None
-
-    def start(self, world: Any) -> list[Any]:
-        self.control = self.make(world.model, dict(self.params), self.ep.seed)
-        if not callable(self.control):
-            raise InputError(
-                f"controller {self.ep.controller['target']}: must return a per-step callable control(model, t)"
-            )
-        return []
-
-    def auto_transport(self) -> str:
-        return "direct"
-
-    def before_step(self, world: Any) -> None:
-        self.control(world.model, world.sim_time)
-
-    def after_step(self, run: _EpisodeRun) -> None:
-        """Nothing runs between steps."""
-
-    def stop(self) -> None:
-        """Nothing to stop."""
-
-
-_Controller = _NodeController | _MainController | _ModelController
-
-
-def _controller(form: str, ep: Episode, obj: Any, params: dict[str, Any], context: Any) -> _Controller:
-    """The controller of ``form`` (:func:`controller_form`)."""
-    if form == "main":
-        return _MainController(obj, ep.controller["target"])
-    if form == "node":
-        return _NodeController(ep, obj, params, context)
-    return _ModelController(ep, obj, params)
-
-
 class _EpisodeRun:
     """One episode's context, executor and nodes: :meth:`set_up`, :meth:`run`, :meth:`tear_down`."""
 
@@ -277,7 +177,7 @@ class _EpisodeRun:
         seed_globals(ep.seed)
         self.episode_context = EpisodeContext(controller_args(ep, self.params), _domain_id)
         self.context = self.episode_context.context
-        self.controller = _controller(form, ep, obj, self.params, self.context)
+        self.controller = make_controller(form, ep, obj, self.params, self.context)
         self.executor = make_executor(self.context)
         self.recorder: Any = None
         self.transport = ""
@@ -349,40 +249,6 @@ class _EpisodeRun:
             raise RuntimeError(f"recording the bag failed: {self.recorder.error}")
 
 
-def controller_form(ep: Episode, obj: Any) -> str:
-    """``node``, ``main`` or ``model`` (:func:`sim_tools.batch.forms.classify`); ours are nodes."""
-    from sim_tools.batch.forms import classify, node_kwargs
-
-    form = "node" if ep.controller["kind"] == "ours" else classify(obj, ep.controller["target"])
-    part = world_part(ep.simulator)
-    if form == "node" and part.ROBOT_NAMESPACES and "namespace" not in node_kwargs(obj, {"namespace": ""}):
-        raise InputError(
-            f"{ep.controller['target']}: a {part.LABEL} controller class runs once per robot, each in its "
-            "robot's namespace: give its __init__ **kwargs and pass them to super().__init__"
-        )
-    return form
-
-
-def controller_parameters(ep: Episode, params: dict[str, Any]) -> dict[str, Any]:
-    """What every controller node of ``ep`` gets: sim time, the episode's seed, the sweep's values.
-
-    Our controllers read the messages' stamps, never a clock, and run on sim time only if they
-    have timers (:func:`_controller_node`): the world's ``/clock`` delivered to a node every step
-    made a bump-and-turn episode's run 37 % longer on the direct bus (median 0.244 -> 0.334 s per
-    20 s episode, alternating, 8 each)."""
-    sim_time = {} if ep.controller["kind"] == "ours" else {"use_sim_time": True}
-    return {**sim_time, "seed": ep.seed, **params}
-
-
-def controller_args(ep: Episode, params: dict[str, Any]) -> list[str]:
-    """The episode context's command line: the controller parameters for every node that reads
-    them from there (a class without ``**kwargs``, the nodes of a ``main``); ours take them as
-    ``parameter_overrides``."""
-    from sim_tools.batch.forms import ros_args
-
-    return ros_args(controller_parameters(ep, params) if ep.controller["kind"] == "user" else {})
-
-
 def seed_globals(seed: int) -> None:
     """Seed Python's and numpy's global generators for the controller (before it is built)."""
     random.seed(seed)
@@ -448,7 +314,7 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
             except NotSpinning:
                 return None
         else:
-            nodes = [_controller_node(ep, obj, params, episode_context.context, **extra)]
+            nodes = [controller_node(ep, obj, params, episode_context.context, **extra)]
         return declared(nodes)
     finally:
         if runner is not None:
@@ -519,33 +385,3 @@ def _make_world(ep: Episode, context: Any, params: dict[str, Any]) -> Any:
     overrides = [Parameter(k, value=v) for k, v in params.items()]
     overrides += [Parameter("real_time_factor", value=0.0), Parameter("seed", value=ep.seed)]
     return world_part(ep.simulator).make_world(ep.world, ep.pose, overrides, context=context, **WORLD_NODE)
-
-
-def _controller_node(ep: Episode, cls: type, params: dict[str, Any], context: Any, **extra: str) -> Any:
-    """One node of class ``cls``, given what its ``__init__`` accepts; what it does not (a class
-    without ``**kwargs``) it finds in the episode context's arguments, rclpy's default context.
-    ``extra`` is what the world's adapter places the node with (``namespace``, ``sensor``)."""
-    from rclpy.node import Node
-    from rclpy.parameter import Parameter
-
-    from sim_tools.batch.forms import node_kwargs
-
-    overrides = [Parameter(k, value=v) for k, v in controller_parameters(ep, params).items()]
-    kwargs = node_kwargs(cls, {"parameter_overrides": overrides, "context": context, **extra})
-    for key in set(extra) - _init_args(cls) - _init_args(Node):
-        kwargs.pop(key, None)  # **kwargs go on to Node, which takes no such argument
-    if ep.controller["kind"] != "ours":
-        return cls(**kwargs)
-    node = cls(**kwargs, **LEAN_NODE)
-    if list(node.timers):
-        node.set_parameters([Parameter("use_sim_time", value=True)])
-    return node
-
-
-def _init_args(cls: type) -> set[str]:
-    import inspect
-
-    try:
-        return set(inspect.signature(cls).parameters)
-    except (TypeError, ValueError):
-        return set()
