@@ -170,13 +170,14 @@ def hub() -> Iterator[Hub]:
     remove_users()  # a previous run killed before its teardown
     course = Path(tempfile.mkdtemp(prefix="rstest_course_"))
     port = free_port()
+    python = student_python()
     init = subprocess.run(
         executable_command(
             "classroom",
             [
                 "init", str(course), "--admin", ADMIN, "--bind-url", f"http://127.0.0.1:{port}/",
                 "--hub-port", str(free_port()), "--proxy-api-port", str(free_port()),
-                "--python", student_python(), "--domains", DOMAINS, "--group", GROUP,
+                "--python", python, "--domains", DOMAINS, "--group", GROUP,
             ],
         ),
         capture_output=True, text=True, timeout=600,
@@ -211,6 +212,8 @@ def hub() -> Iterator[Hub]:
         remove_users()
         shutil.copy(log, Path(tempfile.gettempdir()) / "rstest_classroom_hub_last.log")  # for a failure's reader
         shutil.rmtree(course, ignore_errors=True)
+        if python != sys.executable:  # the students' venv made for this run
+            shutil.rmtree(Path(python).parent.parent, ignore_errors=True)
 
 
 @pytest.fixture(scope="module")
