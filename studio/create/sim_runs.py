@@ -215,10 +215,12 @@ async def stop_controller(studio: Studio, ns: str, stop_robot: Callable[[], None
         return None
     stopping = create_family(studio).stopping
     stopping[ns] = child
+    print(f"studio: stopping {child.label} for {ns or '/'}", flush=True)
     try:
         await asyncio.to_thread(child.stop)
     finally:
         del stopping[ns]
+    print(f"studio: {child.label} for {ns or '/'} has ended", flush=True)
     stop_robot()  # again: a command it sent while stopping must not keep the robot moving
     return child
 
