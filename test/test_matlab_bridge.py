@@ -35,7 +35,7 @@ from sim_runtime.msgs import yaw_from_quaternion
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
 from sim_runtime.testing import Collector, spin_until
 from sim_tools.cli import executable_command
-from sim_tools.matlab.bridge import HELLO, PROTOCOL_VERSION, MatlabBridge, spawn_bridge
+from sim_tools.matlab.bridge import HELLO, KEY_ENV, LISTENING, PROTOCOL_VERSION, MatlabBridge, new_key, spawn_bridge
 from sim_tools.matlab.calls import CALLS
 from sim_tools.matlab.paths import matlab_dir
 
@@ -580,6 +580,113 @@ def test_a_cancel_ends_a_blocking_call_with_the_robot_stopped_and_every_request_
         sock.sendall(b"@3 cancel\n@4 ReadSonar 4\n")  # a cancel for a call answered: ignored, no reply
         assert reply.readline() == "@4 ok\t[]\n"
     assert spin_until(robot.executor, robot.standing, timeout=5)
+
+
+def closed_unanswered(sock: socket.socket) -> bytes:
+    """Everything the bridge sent before closing the connection (a reset is a close too)."""
+    said = b""
+    try:
+        while chunk := sock.recv(65536):
+            said += chunk
+    except ConnectionResetError:
+        pass
+    return said
+
+
+def test_a_keyed_bridge_closes_connections_without_its_key_unanswered_and_serves_the_one_with_it(robot, capfd):
+    robot.reset()
+    key = new_key()
+    process, port = spawn_bridge(NAMESPACE, env=ENV, key=key)
+    try:
+        assert key not in Path(f"/proc/{process.pid}/cmdline").read_text()  # what ps shows every user
+        # Another local user: no key, or a wrong one, then a command. Closed, nothing said.
+        for first in ("", f"key {new_key()}\n", f"key {key[:-1]}\n", "key\n"):
+            with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+                sock.sendall(f"{first}@1 SetFwdVelAngVelCreate 0.3 0\n".encode())
+                assert closed_unanswered(sock) == b""
+        # ... and the robot stood through a second of sim time after it.
+        after = len(robot.odom.msgs)
+        assert spin_until(robot.executor, lambda: len(robot.odom.msgs) >= after + 50, 30), "the world stopped"
+        assert all(abs(m.twist.twist.linear.x) < 1e-9 for m in robot.odom.msgs), "a refused command drove it"
+        # The program with the key (and its first request in the same packet) is served.
+        with socket.create_connection(("127.0.0.1", port), timeout=30) as sock:
+            sock.sendall(f"key {key}\n@1 SetFwdVelAngVelCreate 0.2 0\n".encode())
+            lines = sock.makefile("r")
+            assert lines.readline() == f"{HELLO} {PROTOCOL_VERSION} create {NAMESPACE}\n"
+            assert lines.readline() == "@1 ok\n"
+            assert spin_until(robot.executor, robot.moving, timeout=10), "the keyed program's command never drove"
+            sock.sendall(b"bye\n")
+            assert closed_unanswered(sock) == b""
+        assert spin_until(robot.executor, robot.standing, timeout=10), "the robot drove on after its program"
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.wait(timeout=30)
+    log = capfd.readouterr().err
+    assert log.count(f"matlab_bridge: refused a connection to {NAMESPACE}: its first line was not this run's key") == 4
+    assert "any local user's connection may drive the robot" not in log
+
+
+def test_a_bridge_without_a_key_says_it_accepts_any_local_connection_and_ignores_a_key_line(robot, bridge_port):
+    robot.reset()
+    sock, hello = connect(bridge_port)  # (the module's bridge: started without a key)
+    with sock:
+        assert hello.startswith(HELLO)
+        sock.sendall(f"key {new_key()}\n".encode())  # a toolbox given a key: no reply of its own
+        assert ask(sock, "@1 ReadSonar 4") == "@1 ok\t[]"
+    done = subprocess.run(
+        executable_command("matlab_bridge", ["--port", "0", "--key-file", "/nonexistent/key"]),
+        env=ENV,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert "matlab_bridge: error: --key-file '/nonexistent/key': cannot read it" in done.stderr
+
+
+@needs_octave
+def test_an_octave_program_given_the_runs_key_drives_a_keyed_bridges_robot_and_one_without_is_refused(robot, tmp_path):
+    robot.reset()
+    key = new_key()
+    key_file = tmp_path / "key"
+    key_file.write_text(key + "\n")
+    key_file.chmod(0o600)
+    process = subprocess.Popen(
+        executable_command("matlab_bridge", ["--namespace", NAMESPACE, "--port", "0", "--key-file", str(key_file)]),
+        env={k: v for k, v in ENV.items() if k != KEY_ENV},
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        listening = None  # Fast DDS may write its own errors (a stale shared-memory port) first
+        while listening is None and (line := process.stdout.readline()):
+            listening = LISTENING.search(line)
+        assert listening, "the bridge did not start"
+        port = int(listening[2])
+        script = [
+            OCTAVE or "octave-cli",
+            "--no-gui",
+            "--quiet",
+            "--eval",
+            f"{NO_CORE}addpath('{matlab_dir('create')}'); s = CreateRobot({port}); "
+            "SetFwdVelAngVelCreate(s, 0.2, 0); pause(1); [x, y, t] = OverheadLocalizationCreate(s); "
+            "printf('x=%g\\n', x); clear s",
+        ]
+        keyed_env = dict(os.environ, **{KEY_ENV: key})
+        keyed = subprocess.run(script, env=keyed_env, capture_output=True, text=True, timeout=120)
+        assert keyed.returncode == 0, keyed.stdout + keyed.stderr
+        assert float(keyed.stdout.split("x=")[1].split()[0]) > 0.05
+        unkeyed = subprocess.run(script, env=os.environ, capture_output=True, text=True, timeout=120)
+        assert unkeyed.returncode != 0
+        assert "closed the connection: it may want its key (set ROBOT_SIMS_BRIDGE_KEY)" in unkeyed.stderr
+    finally:
+        process.send_signal(signal.SIGINT)
+        _out, err = process.communicate(timeout=30)
+    assert f"refused a connection to {NAMESPACE}" in err
 
 
 def test_the_bridge_refuses_to_listen_beyond_loopback():

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +28,7 @@ from studio_browser_support import click, click_text, find, listener_node, open_
 
 from sim_runtime.qos import ANY_PUBLISHER_QOS
 from sim_runtime.testing import Collector, spin_until
+from sim_tools.matlab.bridge import KEY_ENV
 
 NS = "/mlab"
 STUDIO_DOMAIN = studio_domain(55)  # the other studio modules use 50-54
@@ -162,6 +164,11 @@ def test_an_m_file_program_started_from_autonomous_drives_the_robot_and_stop_sto
     wait(browser, lambda d: "circles.m (Octave) running" in controller_state(d))
 
     assert running_in(STUDIO_DOMAIN, b"octave-cli") and running_in(STUDIO_DOMAIN, b"matlab_bridge")
+    # The run's key: one, fresh, in the environment of both (not their command lines, which ps shows).
+    pids = running_in(STUDIO_DOMAIN, b"octave-cli") + running_in(STUDIO_DOMAIN, b"matlab_bridge")
+    (key,) = {run_key(pid) for pid in pids}
+    assert re.fullmatch(r"[0-9a-f]{64}", key)
+    assert not any(key.encode() in Path(f"/proc/{pid}/cmdline").read_bytes() for pid in pids)
 
     click_until_it_takes(browser, ".studio-controller-stop", lambda d: "running" not in controller_state(d))
     assert spin_until(executor, lambda: odometry.last.twist.twist.linear.x == 0.0, timeout=30.0)
@@ -195,6 +202,14 @@ def running_in(domain: int, name: bytes) -> list[int]:
         if f"ROS_DOMAIN_ID={domain}".encode() in env and name in cmdline:
             found.append(int(proc.name))
     return found
+
+
+def run_key(pid: int) -> str:
+    """The bridge key in process ``pid``'s environment ("" without one)."""
+    for entry in Path(f"/proc/{pid}/environ").read_bytes().split(b"\0"):
+        if entry.startswith(f"{KEY_ENV}=".encode()):
+            return entry.split(b"=", 1)[1].decode()
+    return ""
 
 
 def robots_drawn(driver) -> dict[str, tuple[float, float]]:

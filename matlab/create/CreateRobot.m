@@ -67,7 +67,22 @@ classdef CreateRobot < handle
       elseif ~exist('OCTAVE_VERSION', 'builtin')
         obj.Socket.Timeout = 1e6;  % travelDist and turnAngle block until the robot is there
       end
-      hello = strsplit(readLine(obj), ' ');
+      key = strtrim(getenv('ROBOT_SIMS_BRIDGE_KEY'));
+      if ~isempty(key)
+        % A bridge started with a key (the studio makes one per run, in this process's
+        % environment) serves only connections that send it first: no other local user can.
+        send(obj, ['key ', key, char(10)]);
+      end
+      try
+        hello = strsplit(readLine(obj), ' ');
+      catch err
+        if isempty(key)
+          error('CreateRobot:connect', ...
+                'the robot_sims MATLAB bridge at %s:%d closed the connection: it may want its key (set ROBOT_SIMS_BRIDGE_KEY)', ...
+                host, port);
+        end
+        rethrow(err);
+      end
       if strcmp(hello{1}, 'busy')
         error('CreateRobot:busy', '%s', strjoin(hello(2:end), ' '));
       end

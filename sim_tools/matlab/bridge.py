@@ -5,11 +5,20 @@ bridge makes it on a :class:`create_sim.client.CreateRobot` in the robot's names
 outputs back. It listens on loopback only (a program on the same machine; nothing else can drive
 the robot) and serves one program at a time.
 
+On a shared host (a classroom) loopback is not private: any local user can connect. With a key
+(environment ``ROBOT_SIMS_BRIDGE_KEY``, or ``--key-file``; never an argument, which ``ps`` shows
+to everyone) a connection's first line must be ``key <the key>``, sent before the bridge says
+anything; anything else is closed unanswered, no call made. The studio makes a fresh key for each
+run and hands it to the bridge and to Octave in their environment; ``CreateRobot`` sends it.
+
 Protocol, version 2 (UTF-8 text, one line each way, ``\\n``-terminated):
 
-- On connect the bridge sends ``robot_sims-matlab 2 create <namespace>`` (name, protocol version,
-  toolbox, robot namespace). While another program is connected it sends ``busy <message>``
-  instead and closes the connection: one program at a time, a second is refused, not queued.
+- With a key, the program first sends ``key <the key>`` (the bridge waits up to :data:`KEY_WAIT`
+  s for it, then closes; a bridge without a key ignores the line).
+- On connect (keyed: once the key is right) the bridge sends ``robot_sims-matlab 2 create
+  <namespace>`` (name, protocol version, toolbox, robot namespace). While another program is
+  connected it sends ``busy <message>`` instead and closes the connection: one program at a
+  time, a second is refused, not queued.
 - The program sends a request: ``@<id>`` (a number it has not used before), the toolbox
   function's name and its numeric arguments after ``serPort``, separated by spaces
   (``@7 SetFwdVelAngVelCreate 0.2 0.5``; ``Inf``/``NaN`` allowed).
@@ -52,10 +61,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import hmac
 import ipaddress
 import json
 import math
+import os
 import re
+import secrets
 import signal
 import socket
 import subprocess
@@ -63,6 +75,7 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -95,6 +108,9 @@ WORLD_ANSWER = 0.5
 # s, wall: how long a program's first command is sent again until the odometry shows it (a world
 # on a loaded machine took 1.5 s to match a new bridge's writer, at load 30 on 2 cores).
 FIRST_COMMAND_CONFIRM = 5.0
+KEY_ENV = "ROBOT_SIMS_BRIDGE_KEY"
+KEY_WAIT = 10.0  # s, wall: for a keyed connection's first line (Octave sends it as it connects)
+KEY_LINE_MAX = 4096  # bytes: a longer first line is not the key (nor is it buffered without end)
 
 
 class ProgramLost(Exception):
@@ -165,10 +181,10 @@ def parse_request(line: str) -> tuple[str, list[float]]:
 class Session:
     """One program's connection: requests in, one reply each out, the robot stopped at the end."""
 
-    def __init__(self, conn: socket.socket, bridge: MatlabBridge) -> None:
+    def __init__(self, conn: socket.socket, bridge: MatlabBridge, buffered: bytes = b"") -> None:
         self.conn = conn
         self.bridge = bridge
-        self._buffer = b""
+        self._buffer = buffered  # what the program sent after its key
         self.armed = False  # while True (a call runs), a line from the program interrupts it
 
     def serve(self, namespace: str) -> None:
@@ -188,6 +204,8 @@ class Session:
             prefix, request = split_id(line)
             if request == "cancel":
                 continue  # the call it cancels was answered already
+            if not prefix and request.startswith("key "):
+                continue  # a toolbox given a key, and this bridge none: nothing to check
             self._send(prefix + self.answer(request))
 
     def answer(self, request: str) -> str:
@@ -252,9 +270,15 @@ class MatlabBridge:
     """
 
     def __init__(
-        self, namespace: str = "", host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, node: Node | None = None
+        self,
+        namespace: str = "",
+        host: str = DEFAULT_HOST,
+        port: int = DEFAULT_PORT,
+        node: Node | None = None,
+        key: str | None = None,
     ) -> None:
         check_loopback(host)
+        self._key = f"key {key}".encode() if key else None  # a connection's first line, when set
         self._server = socket.create_server((host, port), family=_family(host))
         self._executor: SingleThreadedExecutor | None = None
         self._spinning = threading.Event()  # cleared to end the spinner thread
@@ -400,17 +424,39 @@ class MatlabBridge:
             except OSError:
                 return  # closed
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            if self._busy.acquire(blocking=False):
-                threading.Thread(target=self._serve, args=(conn,), daemon=True, name="matlab_session").start()
-            else:
-                _refuse(conn, self.node.get_namespace())
+            if self._key is None:
+                self._admit(conn, b"")
+            else:  # in its own thread: a connection that sends nothing holds up no other
+                threading.Thread(target=self._check_key, args=(conn,), daemon=True, name="matlab_key").start()
 
-    def _serve(self, conn: socket.socket) -> None:
+    def _admit(self, conn: socket.socket, buffered: bytes) -> None:
+        if self._busy.acquire(blocking=False):
+            threading.Thread(target=self._serve, args=(conn, buffered), daemon=True, name="matlab_session").start()
+        else:
+            _refuse(conn, self.node.get_namespace())
+
+    def _check_key(self, conn: socket.socket) -> None:
+        """Admit a connection whose first line is the key; close any other unanswered."""
+        assert self._key is not None
+        line, rest = _first_line(conn)
+        if line is None or not hmac.compare_digest(line.rstrip(b"\r"), self._key):
+            _log(
+                f"refused a connection to {self.node.get_namespace()}: its first line was not this run's key "
+                "(another local user, or a program started without ROBOT_SIMS_BRIDGE_KEY)"
+            )
+            conn.close()
+            return
+        if self._closed.is_set():  # closed while it sent the key: no session to start
+            conn.close()
+            return
+        self._admit(conn, rest)
+
+    def _serve(self, conn: socket.socket, buffered: bytes = b"") -> None:
         try:
             _log(f"a program connected to {self.node.get_namespace()}")
             if self._odom is not None:  # (without a robot yet, the program's first call will say so)
                 self.robot.distance_sensor(), self.robot.angle_sensor()  # count from here, as after RoombaInit
-            self._session = Session(conn, self)
+            self._session = Session(conn, self, buffered)
             self._session.serve(self.node.get_namespace())
             _log("the program ended: robot stopped")
         finally:
@@ -438,6 +484,41 @@ class MatlabBridge:
                 self.node.destroy_node()
 
 
+def _first_line(conn: socket.socket) -> tuple[bytes | None, bytes]:
+    """A new connection's first line and what came after it; None if none came within KEY_WAIT
+    s, the connection closed first, or the line is longer than any key."""
+    data = b""
+    conn.settimeout(KEY_WAIT)
+    try:
+        while b"\n" not in data:
+            chunk = conn.recv(KEY_LINE_MAX)
+            if not chunk or len(data) + len(chunk) > KEY_LINE_MAX:
+                return None, b""
+            data += chunk
+    except OSError:  # (socket.timeout is one)
+        return None, b""
+    finally:
+        with contextlib.suppress(OSError):
+            conn.settimeout(None)
+    line, _, rest = data.partition(b"\n")
+    return line, rest
+
+
+def read_key(key_file: str | None) -> str | None:
+    """The bridge's key: the file's first line (read once), else ``ROBOT_SIMS_BRIDGE_KEY``; None
+    without either. InputError for a file that cannot be read or holds no key."""
+    if key_file is None:
+        return os.environ.get(KEY_ENV, "").strip() or None
+    try:
+        text = Path(key_file).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"--key-file {key_file!r}: cannot read it ({error})") from None
+    key = text.strip().split("\n")[0].strip()
+    if not key:
+        raise InputError(f"--key-file {key_file!r}: empty (write the key on its first line)")
+    return key
+
+
 def _family(host: str) -> socket.AddressFamily:
     return socket.AF_INET6 if ":" in host else socket.AF_INET
 
@@ -454,10 +535,20 @@ def _log(text: str) -> None:
     print(f"matlab_bridge: {text}", file=sys.stderr, flush=True)
 
 
-def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = None) -> tuple[subprocess.Popen, int]:
+def spawn_bridge(
+    namespace: str, port: int = 0, env: dict[str, str] | None = None, key: str | None = None
+) -> tuple[subprocess.Popen, int]:
     """``robot_sims matlab_bridge`` for ``namespace`` in its own process; returns it and its port
-    once it listens (port 0: any free port). Stop it with SIGINT or SIGTERM: the robot stops."""
+    once it listens (port 0: any free port). Stop it with SIGINT or SIGTERM: the robot stops.
+    With ``key`` (a fresh :func:`new_key` for each run) it serves only connections that send it
+    first; the key goes in the bridge's environment, never its arguments (``ps`` shows those)."""
     from sim_tools.cli import executable_command  # the CLI imports every executable's table
+
+    env = dict(os.environ if env is None else env)
+    if key:
+        env[KEY_ENV] = key
+    else:
+        env.pop(KEY_ENV, None)  # (the caller's own key is not this bridge's)
 
     process = subprocess.Popen(
         executable_command("matlab_bridge", ["--namespace", namespace, "--port", str(port)]),
@@ -476,6 +567,11 @@ def spawn_bridge(namespace: str, port: int = 0, env: dict[str, str] | None = Non
     return process, int(match.group(2))
 
 
+def new_key() -> str:
+    """A fresh random key for one run (256 bits, hex: a plain line for the m-file to send)."""
+    return secrets.token_hex(32)
+
+
 def _interrupt(_signum: int, _frame: object) -> None:
     """The first SIGINT or SIGTERM ends the bridge (through close(), which stops the robot); any
     later one is ignored, so that it cannot cut the stop short (nor print a traceback)."""
@@ -492,12 +588,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--namespace", default="", help="the robot's namespace, e.g. /robot1 (default: none)")
     parser.add_argument("--host", default=DEFAULT_HOST, help="loopback address to listen on (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; 0 = any free)")
+    parser.add_argument(
+        "--key-file",
+        help=f"serve only programs that send the key on this file's first line (default: ${KEY_ENV}, if set)",
+    )
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     # SIGTERM ends like Ctrl-C: through close(), which stops the robot; a second is ignored.
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     try:
-        bridge = MatlabBridge(args.namespace, args.host, args.port)
+        key = read_key(args.key_file)
+        bridge = MatlabBridge(args.namespace, args.host, args.port, key=key)
     except InputError as error:
         print(f"matlab_bridge: error: {error}", file=sys.stderr)
         return 2
@@ -506,6 +607,8 @@ def main(argv: list[str] | None = None) -> int:
     # A program waits on each reply: hand the interpreter to the session thread sooner than the
     # default 5 ms when the spinner thread is busy with the robot's messages (p99 latency).
     sys.setswitchinterval(0.0005)
+    if key is None:
+        _log(f"no key ({KEY_ENV} or --key-file): any local user's connection may drive the robot")
     print(f"matlab_bridge: listening on {bridge.host}:{bridge.port} for {bridge.node.get_namespace()}", flush=True)
     try:
         bridge.serve_forever()

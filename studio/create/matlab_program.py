@@ -8,6 +8,10 @@ Both are child processes of the studio; the program's output (``disp``, Octave's
 is shown like a Python controller's. Stop kills Octave at once (a program may be blocked in a
 toolbox call); the bridge sees its program gone and stops the robot, and then ends.
 
+Each run has a fresh key, in the bridge's and Octave's environment (never their arguments, which
+any local user sees in ``ps``): the bridge serves only the connection that sends it, so on a
+shared host no other user can drive the robot through the bridge's loopback port.
+
 Only ``.m`` files already in the workspace are offered (the user's own files): the studio never
 runs a file that came from the browser.
 """
@@ -27,7 +31,7 @@ from pathlib import Path
 from nicegui import ui
 
 from sim_runtime.errors import InputError
-from sim_tools.matlab.bridge import LISTENING
+from sim_tools.matlab.bridge import KEY_ENV, LISTENING, new_key
 from sim_tools.matlab.paths import matlab_dir
 from studio.shell.app import Studio
 from studio.shell.processes import Child, executable_command
@@ -118,10 +122,12 @@ class MatlabRun(Child):
     ``running`` and output are Octave's), stopped together. When Octave ends by itself (the
     program returned or failed) the bridge, which has stopped the robot, is ended too."""
 
-    def __init__(self, label: str, argv: list[str], cwd: Path, bridge: Child) -> None:
+    def __init__(
+        self, label: str, argv: list[str], cwd: Path, bridge: Child, env: dict[str, str] | None = None
+    ) -> None:
         self.bridge = bridge  # before the reader thread starts: it ends the bridge at Octave's end
         self._bridge_told = threading.Lock()  # held once the bridge has had its one SIGINT
-        super().__init__(label, argv, cwd=cwd)
+        super().__init__(label, argv, cwd=cwd, env=env)
 
     def _read(self) -> None:
         super()._read()  # until Octave closes its output: it has ended
@@ -206,7 +212,8 @@ async def start_program(studio: Studio, ns: str, name: str) -> MatlabRun | None:
     if missing:
         raise InputError(missing)
     path = program_path(studio.workspace, name)
-    bridge = Child(f"matlab_bridge {ns or '/'}", bridge_command(ns), cwd=studio.workspace.root)
+    keyed = {KEY_ENV: new_key()}  # this run's: the bridge serves only the Octave that has it
+    bridge = Child(f"matlab_bridge {ns or '/'}", bridge_command(ns), cwd=studio.workspace.root, env=keyed)
     studio.running_controllers[ns] = bridge
     try:
         port = await bridge_ready(bridge)
@@ -215,7 +222,7 @@ async def start_program(studio: Studio, ns: str, name: str) -> MatlabRun | None:
         raise
     if studio.running_controllers.get(ns) is not bridge:
         return None  # Stop was pressed while the bridge started
-    run = MatlabRun(f"{path.name} (Octave)", octave_command(path, port), cwd=path.parent, bridge=bridge)
+    run = MatlabRun(f"{path.name} (Octave)", octave_command(path, port), cwd=path.parent, bridge=bridge, env=keyed)
     studio.running_controllers[ns] = run
     return run
 

@@ -215,7 +215,9 @@ class Child:
     file (in :data:`PROCESSES`' folder) and echoed, prefixed with its label, to the studio's own
     output. It is SIGKILLed by the kernel if the studio dies without stopping it."""
 
-    def __init__(self, label: str, argv: list[str], cwd: Path | None = None, clock: str = "") -> None:
+    def __init__(
+        self, label: str, argv: list[str], cwd: Path | None = None, clock: str = "", env: dict[str, str] | None = None
+    ) -> None:
         self.label = label
         self.argv = argv
         self.clock = clock  # the clock topic of a world ('' for controllers and recorders)
@@ -230,7 +232,7 @@ class Child:
             stderr=subprocess.STDOUT,
             text=True,
             start_new_session=True,  # Ctrl-C in the studio's terminal reaches the studio only
-            env=os.environ.copy(),
+            env={**os.environ, **(env or {})},  # (env: what it gets beside the studio's own)
         )
         self.line_count = 0  # lines read so far (the Output page redraws when it grows)
         PROCESSES.add(self)
