@@ -545,3 +545,36 @@ def test_stopping_a_controller_waits_off_the_event_loop_showing_it_stopping_unti
     assert not child.running and child.process.returncode == 0 and create.stopping == {}
     assert stops == [True, False]  # the robot stopped at once and again once its controller had ended
     assert "stopped" in " ".join(child.output)
+
+
+def test_stopping_a_world_waits_off_the_event_loop_and_keeps_its_namespace_until_it_has_ended(tmp_path, monkeypatch):
+    """Stop world waits up to 5 s (then SIGKILL) for the world to end: the event loop every tab is
+    served from runs on meanwhile, the namespace stays taken until the world is gone, and a
+    second click while it stops starts no second stop."""
+    import asyncio
+
+    from nicegui import ui
+
+    from studio.shell.kit import stop_started_world
+
+    notes: list[str] = []
+    monkeypatch.setattr(ui, "notify", lambda text, **_kw: notes.append(text))
+    child = sleeper(tmp_path, "slow_world", 1.0, clock="/r1/clock")
+    worlds = {"/r1": child}
+
+    async def run() -> list[bool]:
+        seen = []
+        stopping = asyncio.create_task(stop_started_world(worlds, "/r1"))
+        await asyncio.sleep(0)  # the task runs up to its wait
+        await stop_started_world(worlds, "/r1")  # a second click meanwhile
+        while not stopping.done():
+            if child.running:
+                seen.append("/r1" in worlds)
+            await asyncio.sleep(0.01)
+        await stopping
+        return seen
+
+    seen = asyncio.run(run())
+    assert seen and set(seen) == {True}  # still its namespace's world while it ends
+    assert worlds == {} and not child.running and child.process.returncode == 0
+    assert notes == ["stopping slow_world…", "slow_world is stopping", "slow_world stopped"]

@@ -106,10 +106,10 @@ class ArmWorlds(ArmPageBase):
         self.world_ns.set_value(studio.free_namespace("arm"))
         ui.notify(f"arm world started in {ns or '/'} (its clock: {child.clock})")
 
-    def stop_world(self) -> None:
+    async def stop_world(self) -> None:
         ns = self.selected or ""
         ros = self.ros()
         if ros is not None and ns in ros.arms:
             # The world node's namespace: a scene arm (/csa) belongs to the world in /.
             ns = ros.arms[ns].world_ns
-        stop_started_world(arm_worlds(self.studio), ns)
+        await stop_started_world(arm_worlds(self.studio), ns)

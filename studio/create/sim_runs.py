@@ -134,8 +134,8 @@ class WorldPanel:
                 return True
         return False
 
-    def stop_world(self) -> None:
-        stop_started_world(self.tab.worlds, self.tab.selected or "")
+    async def stop_world(self) -> None:
+        await stop_started_world(self.tab.worlds, self.tab.selected or "")
 
 
 class ControllerPanel:

@@ -4,22 +4,40 @@ where a widget is made, so the logic here is tested without it."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from studio.shell.processes import Child
 
 WHEEL_JS = "(e) => emit({dy: e.deltaY, x: e.offsetX, y: e.offsetY, w: e.target.clientWidth, h: e.target.clientHeight})"
 """A view's wheel events, reduced to what zooming needs (pixel position, scroll direction)."""
 
 
-def stop_started_world(worlds: dict, key: str) -> None:
+async def stop_started_world(worlds: dict[str, Child], key: str) -> None:
     """Stop the world the studio started under ``key`` in ``worlds``, or say it cannot (a world
-    started in another terminal is stopped there)."""
+    started in another terminal is stopped there).
+
+    The wait for the world to end (up to 5 s, then SIGKILL) runs off the event loop, so every
+    other tab goes on meanwhile; the world stays in its table until it has ended, so no new
+    world starts in its namespace while it still publishes there."""
+    import asyncio
+
     from nicegui import ui
 
-    child = worlds.pop(key, None)
+    child = worlds.get(key)
     if child is None:
         ui.notify("this world was not started by the studio (stop it where it runs)", type="warning")
         return
-    child.stop()
+    if child.stopping:
+        ui.notify(f"{child.label} is stopping")
+        return
+    child.stopping = True
+    ui.notify(f"stopping {child.label}…")
+    try:
+        await asyncio.to_thread(child.stop)
+    finally:
+        if worlds.get(key) is child:
+            del worlds[key]
     ui.notify(f"{child.label} stopped")
 
 
@@ -136,6 +154,7 @@ PAGES = (
     ("/simrobot/editor", "SIMROBOT editor", "SIMROBOT worlds: the map bitmap, robots, sensors, algorithms"),
     ("/arm", "Arm", "arm worlds (IRB120, CSA7, scenes): joints, target poses, trajectories"),
     ("/replay", "Replay", "a recorded bag of any world, played or stepped (ReplayGUI)"),
+    ("/submit", "Submit", "hand in a workspace file as a controller for a course's assignment"),
     ("/output", "Output", "what the worlds, controllers, recorders and Octave programs started here printed"),
 )
 """Every page: its address, its link text and what it is (the original window it stands for)."""

@@ -223,6 +223,7 @@ class Child:
         self.clock = clock  # the clock topic of a world ('' for controllers and recorders)
         self.output: collections.deque[str] = collections.deque(maxlen=OUTPUT_LINES)
         self.started = time.time()
+        self.stopping = False  # a Stop button is waiting for it to end (studio.shell.kit.stop_started_world)
         self.log_file = self._open_log()
         self.process = SPAWNER.popen(
             argv,

@@ -230,8 +230,8 @@ class SimrobotPage(SimrobotView):
         step_time = loaded[1].replay_step_time if loaded is not None else 0.0
         self.replay_label.set_text(f"step time {step_time:g} s (the world file's replay_step_time)")
 
-    def stop_world(self) -> None:
-        stop_started_world(self.side.worlds, self.ns or "")
+    async def stop_world(self) -> None:
+        await stop_started_world(self.side.worlds, self.ns or "")
 
     def clear_tracks(self) -> None:
         st = self.world()
