@@ -291,6 +291,12 @@ def test_dragging_in_set_position_mode_sets_the_pose(browser, listener):
     assert spin_until(executor, moved, timeout=15.0), "set_pose was not applied"
     p = pose.last.pose.position
     assert (p.x, p.y) == (pytest.approx(-1.0, abs=1.5 / scale), pytest.approx(-0.5, abs=1.5 / scale))
+    # A click on the box's right wall (x = 2 m): the world's set_pose service refuses, and says why.
+    dx, dy = round((1.95 - cx) * scale), round(-(0.0 - cy) * scale)
+    ActionChains(browser).move_to_element_with_offset(image, dx, dy).click_and_hold().release().perform()
+    wait(browser, lambda d: "set_pose refused" in find(d, "body").text)
+    assert "wall" in find(browser, "body").text.split("set_pose refused", 1)[1].split("\n", 1)[0]
+    assert pose.last.pose.position.x == pytest.approx(-1.0, abs=1.5 / scale)  # it stayed where it was
     click_text(browser, "Pan", ".studio-mouse-mode")
 
 

@@ -41,6 +41,11 @@ from sim_runtime.msgs import pose_msg, time_from_msg, yaw_from_quaternion
 from sim_runtime.qos import ANY_PUBLISHER_QOS, COMMAND_PUBLISHER_QOS, COMMAND_SUBSCRIBER_QOS, LATCHED_QOS
 from studio.shell.ros import StudioRos, new_worlds, node_full_name, parameter
 
+try:  # built with the venv (interfaces/build_interfaces.py); without it Set position uses the topic
+    from robot_sims_interfaces.srv import SetPose
+except ImportError:  # pragma: no cover - only where no compiler built the package
+    SetPose = None
+
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
 TRACK_POINTS = 2000
 TRACK_MIN_STEP_M = 0.01
@@ -150,6 +155,8 @@ class _Robot:
         self.subs.append(sub(Twist, s.topic(spec.CMD_VEL_TOPIC), self._on_command, COMMAND_SUBSCRIBER_QOS))
         self.cmd_vel = node.create_publisher(Twist, s.topic(spec.CMD_VEL_TOPIC), COMMAND_PUBLISHER_QOS)
         self.set_pose = node.create_publisher(PoseStamped, s.topic(spec.SET_POSE_TOPIC), COMMAND_PUBLISHER_QOS)
+        # The service answers with the reason a pose is refused (in a wall, ...); the topic cannot.
+        self.set_pose_service = None if SetPose is None else node.create_client(SetPose, s.topic(spec.SET_POSE_SERVICE))
         self.reset = node.create_client(Trigger, s.topic("reset"))
         self.step = node.create_client(Trigger, s.topic("step"))
         self.buttons = [node.create_client(SetBool, s.topic(b)) for b in ("press_play", "press_advance")]
@@ -161,8 +168,9 @@ class _Robot:
             node.destroy_subscription(sub)
         for pub in (self.cmd_vel, self.set_pose):
             node.destroy_publisher(pub)
-        for client in (self.reset, *self.buttons, self.set_params, self.get_params):
-            node.destroy_client(client)
+        for client in (self.reset, *self.buttons, self.set_params, self.get_params, self.set_pose_service):
+            if client is not None:
+                node.destroy_client(client)
 
     def _on_pose(self, msg: PoseStamped) -> None:
         s = self.state
@@ -256,12 +264,20 @@ class CreateRos:
         robot.state.command = (msg.linear.x, msg.angular.z)  # at once: the next key press builds on it
         robot.cmd_vel.publish(msg)
 
-    def set_pose(self, ns: str, x: float, y: float, theta: float) -> None:
-        """Publish ``set_pose`` (map frame) to the Create in ``ns``."""
+    async def set_pose(self, ns: str, x: float, y: float, theta: float) -> tuple[bool, str]:
+        """Put the Create in ``ns`` at (x, y, theta) in the map: through its ``set_pose`` service,
+        which says whether it did and why not; on the topic (no answer) where the world offers
+        no service. Returns (accepted, what to tell the user)."""
         msg = PoseStamped()
         msg.header.frame_id = "map"
         msg.pose = pose_msg(x, y, theta)
-        self._robots[ns].set_pose.publish(msg)
+        robot = self._robots[ns]
+        service = robot.set_pose_service
+        if service is not None and service.service_is_ready():
+            response = await self.ros.call(service, SetPose.Request(pose=msg), timeout=5.0)
+            return bool(response.success), str(response.message)
+        robot.set_pose.publish(msg)
+        return True, f"set_pose x={x:.2f} y={y:.2f} θ={theta:.2f} (on the topic: a refusal shows in the world's log)"
 
     async def reset(self, ns: str) -> str:
         response = await self.ros.call(self._robots[ns].reset, Trigger.Request())

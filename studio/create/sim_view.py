@@ -195,7 +195,7 @@ class SimView(ZoomableView):
         self.mouse_mode = e.value
         self.overlay.set_content("")
 
-    def on_mouse(self, e: events.MouseEventArguments) -> None:
+    async def on_mouse(self, e: events.MouseEventArguments) -> None:
         if e.type == "mousedown":
             self.mouse_down = (e.image_x, e.image_y)
             self.view_at_press = (self.view.centre_x, self.view.centre_y)
@@ -218,9 +218,9 @@ class SimView(ZoomableView):
         elif e.type == "mouseup":
             self.mouse_down = None
             self.overlay.set_content("")
-            self.set_pose(px, py, e.image_x, e.image_y)
+            await self.set_pose(px, py, e.image_x, e.image_y)
 
-    def set_pose(self, px: float, py: float, to_px: float, to_py: float) -> None:
+    async def set_pose(self, px: float, py: float, to_px: float, to_py: float) -> None:
         """Put the selected robot at pixel (px, py), heading towards (to_px, to_py) when the drag
         was long enough (else keeping its heading)."""
         st, ns = self.tab.robot(), self.tab.selected
@@ -231,6 +231,11 @@ class SimView(ZoomableView):
             theta = math.atan2(-(to_py - py), to_px - px)
         else:
             theta = st.pose[2] if st.pose else 0.0
-        self.tab.ros.set_pose(ns, x, y, theta)
-        st.track.clear()  # no line across the jump
-        ui.notify(f"set_pose x={x:.2f} y={y:.2f} θ={theta:.2f}")
+        try:
+            accepted, message = await self.tab.ros.set_pose(ns, x, y, theta)
+        except TimeoutError as error:
+            ui.notify(str(error), type="warning")
+            return
+        if accepted:
+            st.track.clear()  # no line across the jump
+        ui.notify(message, type=None if accepted else "warning")
