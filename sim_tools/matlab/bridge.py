@@ -82,6 +82,7 @@ import rclpy
 from nav_msgs.msg import Odometry
 from rcl_interfaces.srv import GetParameters
 from rclpy.client import Client
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -108,6 +109,8 @@ WORLD_ANSWER = 0.5
 # s, wall: how long a program's first command is sent again until the odometry shows it (a world
 # on a loaded machine took 1.5 s to match a new bridge's writer, at load 30 on 2 cores).
 FIRST_COMMAND_CONFIRM = 5.0
+# s, wall: how long the first call published on matlab_calls waits for its subscribers' acknowledgement.
+FIRST_CALL_ACK = 2.0
 KEY_ENV = "ROBOT_SIMS_BRIDGE_KEY"
 KEY_WAIT = 10.0  # s, wall: for a keyed connection's first line (Octave sends it as it connects)
 KEY_LINE_MAX = 4096  # bytes: a longer first line is not the key (nor is it buffered without end)
@@ -292,6 +295,7 @@ class MatlabBridge:
         self._probes: dict[str, Client] = {}
         node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self._calls = node.create_publisher(String, "matlab_calls", 100)
+        self._calls_delivered = False  # a subscriber has acknowledged a call (publish_call)
         # Its first command repeated until the odometry shows it (at most FIRST_COMMAND_CONFIRM s):
         # a new bridge's writer may have matched only the studio's cmd_vel display, or the world's
         # reader before the world matched the writer; either way the world would not get it.
@@ -381,6 +385,12 @@ class MatlabBridge:
             _log(f"cannot write {name}'s call for matlab_calls: {error}")
             return
         self._calls.publish(String(data=text))
+        if not self._calls_delivered and self._calls.get_subscription_count():
+            # A recorder files each call by when it arrives (bag_to_mat's datahistory rows): it
+            # may not have matched this new publisher yet and then gets the first call only on
+            # the reliable repair, after the robot has moved. Once acknowledged, the later calls
+            # arrive as they are made.
+            self._calls_delivered = self._calls.wait_for_all_acked(Duration(seconds=FIRST_CALL_ACK))
 
     def stop_robot(self) -> None:
         """Zero velocity, repeated until the robot's odometry reports it standing (at most 1 s)."""
