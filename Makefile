@@ -28,11 +28,13 @@ lint: venv
 	$(PY) -m ruff check . && $(PY) -m ruff format --check . && $(PY) -m mypy && $(VENV)/bin/lint-imports
 
 # The suite on $(TEST_WORKERS) pytest-xdist workers, each in a ROS domain of its own (test/conftest.py:
-# the caller's ROS_DOMAIN_ID plus the worker's number). More workers than the 2 cores: most tests
-# wait on real-time worlds, browsers and subprocesses rather than compute. `--dist loadfile` keeps
-# each file on one worker: a module's expensive fixtures (worlds, a studio, a browser) start once,
-# and each studio module keeps its own domain. The `long` tests (minutes each) run in `make test-long`.
-TEST_WORKERS ?= 4
+# the caller's ROS_DOMAIN_ID plus the worker's number). One worker per core: with 4 on 2 cores a
+# fresh clone's run held the load at 8-20 by itself and 22 real-time comparisons (MATLAB twins,
+# browser waits, Ray's start-up) failed; the suite is CPU-bound (numba, Chromium, worlds) more than
+# it waits. `--dist loadfile` keeps each file on one worker: a module's expensive fixtures (worlds,
+# a studio, a browser) start once, and each studio module keeps its own domain. The `long` tests
+# (minutes each) run in `make test-long`.
+TEST_WORKERS ?= 2
 PYTEST_PARALLEL := $(PY) -m pytest -q -p no:randomly -n $(TEST_WORKERS) --dist loadfile
 test: venv lint
 	$(PYTEST_PARALLEL) -m "not long"
