@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from sim_tools.classroom import contain
 from sim_tools.classroom.contain import Jail, processes_of, run_contained
 from sim_tools.classroom.grade import UID_BASE
 from studio.create.submit_page import submit_file
@@ -65,7 +66,7 @@ def test_a_run_sees_no_other_users_files_no_host_network_and_its_own_domain(fold
     code = f"""
 import os, socket
 print("uid", os.getuid(), "cwd", os.getcwd(), "home", os.environ["HOME"], "domain", os.environ["ROS_DOMAIN_ID"])
-print("tmp", os.listdir("/tmp"))
+print("tmp", sorted(os.listdir("/tmp")))
 for path in ({str(private / "secret.txt")!r}, "/root/.bashrc"):
     try:
         print("READ", open(path).read())
@@ -80,7 +81,10 @@ except OSError as exc:
     out = jailed(folder, code)
     server.close()
     assert out.splitlines()[:2] == ["exit 0", f"uid {UID} cwd /tmp/run home /tmp/run domain {DOMAIN}"]
-    assert "tmp ['run']" in out  # the host's /tmp (other users' scratch) is not there
+    # the host's /tmp (other users' scratch) is not there; only the run's folder, and this
+    # checkout's or venv's folder where they lie in /tmp (the run's Python is there)
+    shown = sorted(["run", *{p.relative_to("/tmp").parts[0] for p in contain.interpreter_in_tmp()}])
+    assert f"tmp {shown}" in out
     assert "READ" not in out and out.count("refused") == 2
     assert "CONNECTED" not in out and "no host network ConnectionRefusedError" in out
 

@@ -192,6 +192,7 @@ def _limit_only(jail: Jail) -> Callable[[], None]:
 def _enter(folder: Path, jail: Jail) -> Callable[[], None]:
     """The child's set-up, as root before the exec: namespaces, mounts, limits, then the uid."""
     keep = interpreter_blocks()
+    in_tmp = interpreter_in_tmp()
     uid, gid = jail.uid, jail.gid if jail.gid is not None else jail.uid
 
     def setup() -> None:
@@ -206,7 +207,11 @@ def _enter(folder: Path, jail: Jail) -> Callable[[], None]:
             _tmpfs(libc, str(blocked), "0711")
             (blocked / child).mkdir()
             _bind(libc, fd, str(blocked / child))
+        tmp_fds = [(path, os.open(path, os.O_PATH | os.O_DIRECTORY)) for path in in_tmp]
         _tmpfs(libc, "/tmp", "1777")
+        for path, fd in tmp_fds:  # a checkout or venv in /tmp: the run needs its Python there
+            path.mkdir(parents=True)
+            _bind(libc, fd, str(path))
         _tmpfs(libc, "/dev/shm", "1777")
         os.mkdir(INSIDE, 0o700)
         _bind(libc, run_fd, INSIDE)
@@ -235,6 +240,22 @@ def interpreter_blocks() -> list[tuple[Path, str]]:
                 found.append((parent, path.relative_to(parent).parts[0]))
                 break
     return found
+
+
+def interpreter_in_tmp() -> list[Path]:
+    """The interpreter's and this package's folders that lie in /tmp (a clone or a venv made
+    there), outermost only: the run's private /tmp would hide them, so they are bound back in
+    at the same paths. Nothing else of the host's /tmp is visible to the run."""
+    package = Path(__file__).resolve().parent.parent.parent
+    tmp = Path("/tmp").resolve()
+    paths = sorted(
+        {p for p in (Path(sys.base_prefix).resolve(), Path(sys.prefix).resolve(), package) if tmp in p.parents}
+    )
+    outermost: list[Path] = []
+    for path in paths:  # sorted: a folder comes before what is inside it
+        if not any(kept == path or kept in path.parents for kept in outermost):
+            outermost.append(path)
+    return outermost
 
 
 def _check(result: int, what: str) -> None:
