@@ -182,7 +182,7 @@ class CreateRobot:
             node = Node("create_client", namespace=namespace)
             self._executor = SingleThreadedExecutor()
             self._executor.add_node(node)
-            self._thread = threading.Thread(target=self._executor.spin, daemon=True, name="create_client")
+            self._thread = threading.Thread(target=self._spin_thread, daemon=True, name="create_client")
             self._owned_node = True
         else:
             self._owned_node = False
@@ -423,6 +423,18 @@ class CreateRobot:
         if first:
             self._confirm_first_command(v, w)
         return v, w
+
+    def _spin_thread(self) -> None:
+        """The standalone client's executor thread. A program ending (SIGTERM, Ctrl-C, exit) shuts
+        the executor down while a callback may still be waking it: rclpy then raises on the
+        already-destroyed guard condition, a race of its shutdown and no fault of the program, so
+        it ends the thread quietly instead of printing a traceback over the program's own exit."""
+        assert self._executor is not None
+        try:
+            self._executor.spin()
+        except Exception:  # InvalidHandle, ExternalShutdownException, RCLError at shutdown
+            if not (self._closed or not rclpy.ok()):
+                raise
 
     def _world_subscribed(self) -> bool:
         """Whether a node publishing this robot's odometry (the world) subscribes to our cmd_vel."""
