@@ -119,8 +119,12 @@ def test_a_bag_whose_metadata_is_an_alias_bomb_is_read_from_its_splits_with_a_sh
     (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: " + alias_bomb() + "\n")
     with pytest.warns(BagWarning, match="alias") as warned, pytest.raises(InputError) as info:
         open_bag(bag)
-    assert any("alias" in str(w.message) and len(str(w.message)) < MESSAGE_CHARS for w in warned)
-    assert len(str(info.value)) < MESSAGE_CHARS
+
+    def ours(text: str) -> str:  # the message without the file's path, which is the caller's length
+        return text.replace(str(bag / "metadata.yaml"), "<file>").replace(str(bag), "<bag>")
+
+    assert any("alias" in str(w.message) and len(ours(str(w.message))) < MESSAGE_CHARS for w in warned)
+    assert len(ours(str(info.value))) < MESSAGE_CHARS
 
 
 @pytest.mark.parametrize(
