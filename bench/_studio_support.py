@@ -11,6 +11,19 @@ CHROMIUM = "/usr/lib/chromium/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 
 
+def new_driver(height: int = 1600):  # selenium's WebDriver (imported here only)
+    """Headless Chromium, 1400 px wide and ``height`` tall (the whole page of the bench's studio)."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", f"--window-size=1400,{height}"):
+        options.add_argument(arg)
+    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
+    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+
+
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time of process ``pid`` so far (from /proc)."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()

@@ -40,7 +40,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, use_local_ros  # noqa: E402
+from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, new_driver, use_local_ros  # noqa: E402
 
 use_local_ros()
 
@@ -178,19 +178,6 @@ def start_student(domain: int, tree: Path) -> Student:
         cwd=tree,
     )
     return Student(domain, world, studio, port, Listener(domain))
-
-
-def new_driver():
-    """Headless Chromium, tall enough for the whole Simulator page."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
 
 
 def browser_cpu(drivers: list) -> float:

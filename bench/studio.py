@@ -26,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, use_local_ros  # noqa: E402
+from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, new_driver, use_local_ros  # noqa: E402
 
 use_local_ros()
 
@@ -60,19 +60,6 @@ def start_children(port: int) -> tuple[subprocess.Popen, subprocess.Popen]:
         cwd=ROOT,
     )
     return world, studio
-
-
-def new_driver():
-    """Headless Chromium, tall enough for the whole Simulator page."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1600"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
 
 
 class Listener:

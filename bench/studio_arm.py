@@ -40,6 +40,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from _studio_support import CHROMEDRIVER, CHROMIUM, free_port, use_local_ros  # noqa: E402
+from _studio_support import new_driver as shared_driver  # noqa: E402
 
 use_local_ros()
 
@@ -147,15 +148,7 @@ def open_arm_page(driver, url: str, faces: int) -> dict:
 
 def new_driver():
     """Headless Chromium with its cache off (every load is the studio's work) and the page probe."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1000"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-    driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+    driver = shared_driver(1000)
     driver.execute_cdp_cmd("Network.enable", {})
     driver.execute_cdp_cmd("Network.setCacheDisabled", {"cacheDisabled": True})
     driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": PROBE_JS})

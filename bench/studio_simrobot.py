@@ -29,6 +29,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from _studio_support import CHROMEDRIVER, CHROMIUM, cpu_seconds, free_port, use_local_ros  # noqa: E402
+from _studio_support import new_driver as shared_driver  # noqa: E402
 
 use_local_ros()
 
@@ -78,15 +79,7 @@ def start_children(folder: Path, robots: int) -> tuple[subprocess.Popen, subproc
 
 
 def new_driver():
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1200"):
-        options.add_argument(arg)
-    os.environ["SE_CHROMEDRIVER"] = CHROMEDRIVER
-    return webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
+    return shared_driver(1200)
 
 
 COUNT_JS = "return document.querySelectorAll('.simrobot-view .robot').length"
