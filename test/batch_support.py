@@ -19,7 +19,23 @@ T = TypeVar("T")
 def start_batch(args: Sequence[str], cwd: Path, env: dict[str, str]) -> subprocess.Popen:
     """``robot_sims batch ARGS`` in ``cwd``, its own session (so its group can be Ctrl-C'd alone)."""
     command = [sys.executable, "-m", "sim_tools.batch.cli", *args]
-    return subprocess.Popen(command, cwd=cwd, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    return subprocess.Popen(
+        command,
+        cwd=cwd,
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=_as_in_a_terminal,
+    )
+
+
+def _as_in_a_terminal() -> None:
+    """Ctrl-C as a terminal's foreground job has it: an ignored or blocked SIGINT survives exec,
+    and a pytest worker that ran other modules first may have either (a run that ignored the
+    Ctrl-C went on to its end: exit status 0, not 130, in a full suite, never alone)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
 
 
 def wait_while_running(run: subprocess.Popen, ready: Callable[[], T | None], within: float) -> T:
