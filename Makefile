@@ -35,7 +35,8 @@ lint: venv
 # a studio, a browser) start once, and each studio module keeps its own domain. The `long` tests
 # (minutes each) run in `make test-long`.
 TEST_WORKERS ?= 2
-PYTEST_PARALLEL := $(PY) -m pytest -q -p no:randomly -n $(TEST_WORKERS) --dist loadfile
+# The slowest tests are listed at the end of each run, so a slow newcomer is seen in CI's log.
+PYTEST_PARALLEL := $(PY) -m pytest -q -p no:randomly -n $(TEST_WORKERS) --dist loadfile --durations=30
 test: venv lint
 	$(PYTEST_PARALLEL) -m "not long"
 
