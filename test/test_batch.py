@@ -132,7 +132,9 @@ def test_two_workers_over_dds_give_the_table_of_one_worker_over_the_direct_bus(
     assert (tmp_path / "out" / "episodes.csv").read_text() == (bump_turn_local / "episodes.csv").read_text()
     transports = {r["transport"] for r in rows(tmp_path / "out" / "timings.csv")}
     assert transports == {"ros"}
-    assert len({r["pid"] for r in rows(tmp_path / "out" / "timings.csv")}) == 2
+    # Both workers start, but on a busy machine one can finish all four episodes while the other is
+    # still warming up: the claim is the table, whichever of the two ran each episode.
+    assert 1 <= len({r["pid"] for r in rows(tmp_path / "out" / "timings.csv")}) <= 2
 
 
 def test_a_rerun_skips_finished_episodes_and_runs_new_ones(tmp_path: Path) -> None:

@@ -135,7 +135,9 @@ def test_quarter_speed_plays_forwards_pause_holds_and_stop_goes_back_to_the_star
     wait(browser, lambda d: time.monotonic() - started > 0.3)
     assert shown(browser)[0] == held
     # Whatever instant it stopped at (exact in the drawing's data-t, ns), the pose shown is the bag's
-    # latest pose at or before it.
+    # latest pose at or before it. The drawing and the label are two updates to the page, which a
+    # busy browser may apply a frame apart: wait until both show the paused instant.
+    wait(browser, lambda d: abs(exact_time(d) - shown(d)[0]) < 5e-4)
     exact = exact_time(browser)
     assert exact == pytest.approx(held, abs=5e-4)
     latest = max((p for p in poses if p[0] <= exact), key=lambda p: p[0])
