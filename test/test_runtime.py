@@ -189,3 +189,15 @@ def test_checked_parameters_accept_whole_numbers_for_floats_and_name_bad_types(r
         CounterWorld(parameter_overrides=[Parameter("real_time_factor", value="fast")])
     with pytest.raises(InputError, match=r"parameter 'seed' = 1.5"):
         CounterWorld(parameter_overrides=[Parameter("seed", value=1.5)])
+
+
+def test_pid_alive_is_true_for_a_running_process_and_false_once_it_is_reaped() -> None:
+    import subprocess
+
+    from sim_runtime.processes import pid_alive
+
+    child = subprocess.Popen(["sleep", "30"])
+    assert pid_alive(child.pid)
+    child.kill()
+    child.wait()
+    assert not pid_alive(child.pid)

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from sim_runtime.processes import pid_alive
 from sim_tools.batch.row import OK, Result
 from sim_tools.batch.supervisor import START_TIMEOUT_S, Limits, OnResult, Supervisor, error_result
 from sim_tools.batch.sweep import Episode
@@ -246,7 +247,7 @@ def _remove_scratch(folders: set[Path], wait_s: float) -> None:
     deadline = time.monotonic() + wait_s
     left = {f for f in folders if f.name.isdigit()}
     while left:
-        for folder in [f for f in left if not _alive(int(f.name))]:
+        for folder in [f for f in left if not pid_alive(int(f.name))]:
             shutil.rmtree(folder, ignore_errors=True)
             left.discard(folder)
         if not left or time.monotonic() > deadline:
@@ -254,16 +255,6 @@ def _remove_scratch(folders: set[Path], wait_s: float) -> None:
         time.sleep(0.1)
     with contextlib.suppress(OSError):
         _scratch_root().rmdir()  # only when empty
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def _localize(ep: Episode, sweep_dir: str, config_root: str) -> Episode:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sim_runtime.errors import InputError
+from sim_runtime.processes import pid_alive
 
 ROS_DOMAIN_MAX = 232  # rmw's limit with the default port mapping (7400 + 250 * id + ... < 65536)
 
@@ -41,15 +42,7 @@ def parse_range(text: str) -> range:
 
 
 def _alive(pid: int | None) -> bool:
-    if not pid:
-        return True  # allocated, its server not started yet: held
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    return not pid or pid_alive(pid)  # no pid: allocated, its server not started yet: held
 
 
 @dataclass(frozen=True)
