@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -342,3 +343,92 @@ def test_checking_a_sweep_in_this_process_leaves_its_discovery_settings_as_they_
     before = {k: os.environ.get(k) for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS")}
     load_sweep(sweep_in(tmp_path, CREATE + "controllers: [students:Arc]\n"))
     assert {k: os.environ.get(k) for k in before} == before  # later child processes still find each other
+
+
+M_FILES = {
+    "drive.m": "function drive(serPort)\n% forward at 0.2 m/s for 1 s, then stop\n"
+    "SetFwdVelAngVelCreate(serPort, 0.2, 0);\npause(1);\nSetFwdVelAngVelCreate(serPort, 0, 0);\nend\n",
+    "sonar.m": "function sonar(serPort)\nSetFwdVelAngVelCreate(serPort, 0.2, 0);\npause(0.2);\n"
+    "d = ReadSonar(serPort, 9);\nend\n",
+    "quits.m": "function quits(serPort)\nSetFwdVelAngVelCreate(serPort, 0.1, 0);\nexit(0);\nend\n",
+}
+needs_octave = pytest.mark.skipif(
+    shutil.which("octave-cli") is None, reason="octave-cli not installed (CI installs it: .ci/run)"
+)
+
+
+@needs_octave
+def test_m_file_controllers_run_in_octave_at_real_time_and_a_failing_or_exiting_one_is_an_error_row(
+    tmp_path: Path,
+) -> None:
+    for name, text in M_FILES.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    body = CREATE.replace("duration_s: 1", "duration_s: 2") + "keep_bags: all\n"
+    sweep = sweep_in(tmp_path, body + "controllers: [drive.m, sonar.m, quits.m]\n")
+    done = batch(str(sweep), "--workers", "1", "--out", "out", "--broken-as-rows", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    drive, sonar, quits = table(tmp_path / "out")
+    assert drive["status"] == "ok" and float(drive["sim_time_s"]) == 2.0, drive["error"]
+    # 0.2 m/s between its two calls (stamped with sim time in the bag): about Octave's 1 s pause,
+    # never more (the world keeps pace with the wall clock, never ahead), less on a busy machine
+    calls = toolbox_calls(tmp_path / "out" / "bags" / "episode_00000")
+    assert [c for _, c in calls] == ["SetFwdVelAngVelCreate(0.200,0.000)", "SetFwdVelAngVelCreate(0.000,0.000)"]
+    driven = calls[1][0] - calls[0][0]
+    assert 0.2 < driven < 1.1, calls
+    assert abs(float(drive["distance_m"]) - 0.2 * driven) < 0.015, (drive["distance_m"], calls)
+    assert sonar["status"] == "error"
+    assert (
+        "OctaveError: ReadSonar: sonar_num must be 1 (right), 2 (front), 3 (left) or 4 (back), got 9" in sonar["error"]
+    )
+    assert "(at sonar.m:4, in sonar)" in sonar["error"]
+    assert quits["status"] == "error"
+    assert "quits.m called exit(0) before returning" in quits["error"]
+
+
+def test_an_m_file_controller_is_refused_before_the_sweep_for_another_simulator_or_a_bad_file_name(
+    tmp_path: Path,
+) -> None:
+    from sim_runtime.errors import InputError
+    from sim_tools.batch.sweep import load_sweep
+
+    (tmp_path / "lab-1.m").write_text("function lab1(serPort)\nend\n", encoding="utf-8")
+    (tmp_path / "lab1.m").write_text("function lab1(serPort)\nend\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"field 'controllers\[0\].use': 'lab-1.m': not a MATLAB function's file name"):
+        load_sweep(sweep_in(tmp_path, CREATE + "controllers: [lab-1.m]\n"))
+    simrobot = SIMROBOT_ARC.replace("students:Arc", "lab1.m")
+    with pytest.raises(InputError, match=r"'lab1.m': an m-file controller drives Create worlds"):
+        load_sweep(sweep_in(tmp_path, simrobot))
+    with pytest.raises(InputError, match=r"field 'controllers\[0\].transport': 'direct': expected one of auto, ros"):
+        load_sweep(sweep_in(tmp_path, CREATE + "controllers: [{use: lab1.m, transport: direct}]\n"))
+
+
+def toolbox_calls(bag_path: Path) -> list[tuple[float, str]]:
+    """The toolbox calls an m-file's bridge published (``matlab_calls``), each at its sim time (s)."""
+    from sim_runtime.bag.reader import open_bag
+
+    bag = open_bag(bag_path)
+    return [(m.log_time_ns / 1e9, m.msg.data) for m in bag.messages(topics=["/matlab_calls"])]
+
+
+@needs_octave
+def test_an_m_file_that_outlives_its_time_limit_is_stopped_with_its_octave(tmp_path: Path) -> None:
+    (tmp_path / "crawls_on.m").write_text(
+        "function crawls_on(serPort)\nwhile true\n  SetFwdVelAngVelCreate(serPort, 0.1, 0);\n"
+        "  pause(0.05);\nend\nend\n",
+        encoding="utf-8",
+    )
+    body = CREATE.replace("duration_s: 1", "duration_s: 30\ntime_limit_s: 4")
+    sweep = sweep_in(tmp_path, body + "controllers: [crawls_on.m]\n")
+    done = batch(str(sweep), "--workers", "1", "--out", "out", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (row,) = table(tmp_path / "out")
+    assert row["status"] == "error" and "time limit 4.0 s: the episode was stopped at sim time" in row["error"]
+    # its worker was killed, and Octave with it (its own process group dies with its parent)
+    assert [p for p in Path("/proc").glob("[0-9]*/cmdline") if b"crawls_on(serPort)" in _read(p)] == []
+
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError:  # the process ended meanwhile
+        return b""

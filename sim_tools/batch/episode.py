@@ -39,12 +39,12 @@ from sim_tools.batch.forms import (
     LEAN_NODE,
     MATCH_TIMEOUT,
     controller_args,
-    controller_form,
     controller_node,
     is_user_file,
+    load_controller,
     make_controller,
 )
-from sim_tools.batch.metrics import compute, load_callable
+from sim_tools.batch.metrics import compute
 from sim_tools.batch.plan import Episode
 from sim_tools.batch.row import ERROR, OK, Result, Row
 
@@ -171,8 +171,7 @@ class _EpisodeRun:
         from sim_tools.batch.forms import EpisodeContext
 
         self.ep = ep
-        obj = load_callable(ep.controller["target"], ep.search_path)
-        form = controller_form(ep, obj)
+        form, obj = load_controller(ep)
         self.params = {**ep.controller["parameters"], **ep.params}
         seed_globals(ep.seed)
         self.episode_context = EpisodeContext(controller_args(ep, self.params), _domain_id)
@@ -294,10 +293,11 @@ def probe_controller(ep: Episode) -> dict[str, Any] | None:
 
     if _domain_id is None:
         isolate_process()
-    obj = load_callable(ep.controller["target"], ep.search_path)
-    form = controller_form(ep, obj)
+    form, obj = load_controller(ep)
     if form == "model":
         return None
+    if form == "mfile":
+        return {}  # an m-file program takes no parameters: those a sweep sets must be the world's
     extra = world_part(ep.simulator).probe_kwargs(obj) if form == "node" else {}
     if extra is None:
         return {}  # the adapter builds it from the world: it declares nothing a sweep sets
@@ -384,4 +384,9 @@ def _make_world(ep: Episode, context: Any, params: dict[str, Any]) -> Any:
 
     overrides = [Parameter(k, value=v) for k, v in params.items()]
     overrides += [Parameter("real_time_factor", value=0.0), Parameter("seed", value=ep.seed)]
-    return world_part(ep.simulator).make_world(ep.world, ep.pose, overrides, context=context, **WORLD_NODE)
+    node = WORLD_NODE
+    if ep.controller["kind"] == "mfile":
+        # the MATLAB bridge asks the world for a parameter when its odometry is late (a stepping
+        # thread held up on a busy machine) before it fails the program's call
+        node = {**WORLD_NODE, "start_parameter_services": True}
+    return world_part(ep.simulator).make_world(ep.world, ep.pose, overrides, context=context, **node)

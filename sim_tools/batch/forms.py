@@ -1,12 +1,16 @@
 """The forms a user's controller takes in a sweep, and how an episode runs each one: one small
 class per form (:class:`_NodeController`, :class:`_MainController`, :class:`_ModelController`,
-made by :func:`make_controller`), which :mod:`sim_tools.batch.episode` sets up, steps and tears down.
+:class:`_MfileController`, made by :func:`make_controller`), which :mod:`sim_tools.batch.episode`
+sets up, steps and tears down.
 
 - ``node``: an rclpy ``Node`` subclass, with or without ``**kwargs`` in its ``__init__``;
 - ``main``: a function callable without arguments (``main()``, ``main(args=None)``) that builds its
   node(s) and spins them: ``rclpy.spin``, a ``rclpy.spin_once`` loop, ``spin_until_future_complete``,
   an executor of its own, or a ``Rate.sleep()`` loop;
-- ``model``: ``function(model, params, seed)`` returning ``control(model, t)``.
+- ``model``: ``function(model, params, seed)`` returning ``control(model, t)``;
+- ``mfile`` (a Create world's ``use: lab1.m``): ``function lab1(serPort)`` calling the Create
+  toolbox, run in GNU Octave against a MATLAB bridge in the episode, the world stepped at real
+  time (Octave's ``pause`` is wall-clock), so its episodes are not bit-reproducible.
 
 Every episode runs in its own rclpy context, made rclpy's default for the episode
 (:class:`EpisodeContext`), whose command-line arguments carry the controller's parameters
@@ -26,8 +30,10 @@ from __future__ import annotations
 import inspect
 import json
 import os
+import re
 import sysconfig
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
@@ -445,6 +451,196 @@ class MainRunner:
             setattr(owner, name, function)
 
 
+# ---------------------------------------------------------------------------------- an m-file
+#: The simulator whose toolbox m-file controllers call (through its MATLAB bridge).
+MFILE_SIMULATOR = "create"
+OCTAVE = "octave-cli"
+NO_OCTAVE = f"m-file controllers need GNU Octave: {OCTAVE} not found (apt install octave octave-instrument-control)"
+#: Wall seconds Octave may take to start, load the toolbox and connect to the episode's bridge:
+#: a cold start took 1-3 s here, many more on a machine loaded with other runs.
+OCTAVE_START_TIMEOUT = 60.0
+#: Wall seconds an m-file episode's world may fall behind real time and still catch up; held up
+#: longer, it goes on at real time from there (:meth:`_MfileController.after_step`).
+REAL_TIME_SLACK_S = 0.05
+#: Wall seconds a killed Octave may take to be reaped.
+OCTAVE_REAP_TIMEOUT = 10.0
+#: What the episode's script prints once the program has its serPort, and once the program returned
+#: (an Octave that ends without it exited: ``exit`` in the program, or a crash).
+CONNECTED = "robot_sims: the program starts"
+RETURNED = "robot_sims: the program returned"
+#: Octave's lines that start with ``error:`` but are not the error: the call stack's heading, and
+#: Octave 7's complaint on exiting from ``--eval``.
+OCTAVE_NOISE = ("error: called from", "error: ignoring const execution_exception")
+#: A killed Octave would otherwise write an octave-workspace file into the program's folder.
+NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false);"
+#: Octave's lines kept for the error message (the rest of a flood of output is only in the log).
+OCTAVE_LINES_KEPT = 200
+_PR_SET_PDEATHSIG = 1
+_FRAME = re.compile(r"^\s+(\S+) at line (\d+)")
+_DEFINES = re.compile(r"^\s*function\s+(?:[^=\n]*=\s*)?(\w+)", re.MULTILINE)
+
+
+class OctaveError(RuntimeError):
+    """The m-file failed (Octave's message), exited, or Octave did not start."""
+
+    located = True  # the message names the program's line when Octave does
+
+
+def mfile_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be an m-file controller (None: it can): Octave calls a function file by
+    its name, so the name must be one MATLAB can call."""
+    name = path.stem
+    if path.suffix != ".m" or not (name.isascii() and name.isidentifier()) or len(name) > 63:
+        return "not a MATLAB function's file name (letters, digits, _; e.g. lab1.m)"
+    return None
+
+
+def octave_string(text: str) -> str:
+    """``text`` as an Octave single-quoted string literal."""
+    return "'" + text.replace("'", "''") + "'"
+
+
+def octave_script(program: Path, port: int) -> str:
+    """Octave's ``--eval``: the Create toolbox and the program's folder on the path, the handle
+    connected to the bridge on ``port``, ``prog(serPort)``, and the markers around it."""
+    from sim_tools.matlab.paths import matlab_dir
+
+    def say(text: str) -> str:
+        return f"disp({octave_string(text)}); fflush(stdout);"
+
+    return (
+        f"{NO_CORE} more off; addpath({octave_string(str(matlab_dir()))}); "
+        f"addpath({octave_string(str(program.parent))}); serPort = CreateRobot({port}); {say(CONNECTED)} "
+        f"{program.stem}(serPort); {say(RETURNED)} clear serPort;"
+    )
+
+
+def octave_error(lines: list[str], program: Path) -> str:
+    """Octave's error message from its output ('' if none): the first ``error:`` line (a parse
+    error's reason after it), the program's file for its path, and the innermost line of the
+    program (not the toolbox's) that the call stack names."""
+    for k, line in enumerate(lines):
+        if line.startswith("error:") and not line.startswith(OCTAVE_NOISE):
+            message = line.removeprefix("error:").strip().replace(str(program), program.name)
+            rest = [x.strip() for x in lines[k + 1 : k + 4] if x.strip()]
+            if message.startswith("parse error") and rest:
+                message += f": {rest[0]}"
+            return message + _program_frame(lines[k + 1 :], program)
+    return ""
+
+
+def _program_frame(lines: list[str], program: Path) -> str:
+    """`` (at lab1.m:5, in lab1)``: the innermost frame of Octave's call stack in the program's
+    file (its functions, or its name: Octave calls a function file by its name)."""
+    try:
+        own = set(_DEFINES.findall(program.read_text(errors="replace"))) | {program.stem}
+    except OSError:
+        own = {program.stem}
+    for line in lines:
+        match = _FRAME.match(line)
+        if match and match.group(1).split(">")[0] in own:
+            return f" (at {program.name}:{match.group(2)}, in {match.group(1)})"
+    return ""
+
+
+def _die_with_parent() -> None:
+    """In the child before it runs Octave: SIGKILL when its parent (the worker) dies."""
+    import ctypes
+    import signal
+
+    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+class OctaveProgram:
+    """``octave-cli`` running one m-file program against the bridge on ``port`` (the key in its
+    environment, never its arguments), in a session of its own; its output goes to the episode's
+    log (stderr) as it comes."""
+
+    def __init__(self, program: Path, port: int, key: str) -> None:
+        import collections
+        import shutil
+        import subprocess
+
+        from sim_tools.matlab.bridge import KEY_ENV
+
+        if shutil.which(OCTAVE) is None:
+            raise InputError(NO_OCTAVE)
+        self.program = program
+        self.lines: collections.deque[str] = collections.deque(maxlen=OCTAVE_LINES_KEPT)
+        self.cond = threading.Condition()
+        self.connected = self.ended = self.checked = False
+        self.process = subprocess.Popen(
+            [OCTAVE, "--no-gui", "--quiet", "--no-history", "--eval", octave_script(program, port)],
+            cwd=program.parent,
+            env={**os.environ, KEY_ENV: key},
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            # a group of its own (killed whole: what the program started with system() too), in
+            # the worker's session; and it dies with the worker (batch kills a worker's group at
+            # an episode's time limit, which Octave's group is not)
+            process_group=0,
+            preexec_fn=_die_with_parent,
+        )
+        self.reader = threading.Thread(target=self._read, name="octave output", daemon=True)
+        self.reader.start()
+
+    def _read(self) -> None:
+        import sys
+
+        assert self.process.stdout is not None
+        for raw in self.process.stdout:
+            line = raw.decode(errors="replace").rstrip("\n")
+            print(f"octave: {line}", file=sys.stderr, flush=True)
+            with self.cond:
+                self.lines.append(line)
+                self.connected = self.connected or line == CONNECTED
+                self.cond.notify_all()
+        with self.cond:
+            self.ended = True
+            self.cond.notify_all()
+
+    def wait_connected(self, sim_time: float) -> None:
+        """Return once the program has its serPort; OctaveError if Octave ended or is slow."""
+        with self.cond:
+            self.cond.wait_for(lambda: self.connected or self.ended, timeout=OCTAVE_START_TIMEOUT)
+        if self.connected:
+            return
+        if self.process.poll() is None:
+            raise OctaveError(f"Octave did not start {self.program.name} within {OCTAVE_START_TIMEOUT:g} s")
+        self.check(sim_time)
+
+    def check(self, sim_time: float) -> None:
+        """OctaveError once Octave has ended without the program returning (at most once)."""
+        if self.checked or self.process.poll() is None:
+            return
+        self.checked = True
+        self.reader.join(timeout=JOIN_TIMEOUT)  # its last lines
+        lines = list(self.lines)
+        if RETURNED in lines:
+            return  # it returned: the bridge has stopped the robot, the episode goes on
+        raise OctaveError(f"{octave_error(lines, self.program) or self._ended()}, at sim time {sim_time:g} s")
+
+    def _ended(self) -> str:
+        status = self.process.returncode
+        if status < 0:
+            return f"Octave was killed by signal {-status} before {self.program.name} returned"
+        return f"{self.program.name} called exit({status}) before returning (Octave ended)"
+
+    def kill(self) -> None:
+        """Octave and what it started, at once (a program blocked in a toolbox call ignores SIGINT)."""
+        import contextlib
+        import signal
+        import subprocess
+
+        if self.process.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.process.wait(timeout=OCTAVE_REAP_TIMEOUT)
+        self.reader.join(timeout=JOIN_TIMEOUT)
+
+
 # ------------------------------------------------------------------------ an episode's controller
 class EpisodeTurn(Protocol):
     """What a controller sees of the running episode between two steps (batch.episode's run)."""
@@ -542,16 +738,90 @@ class _ModelController:
         """Nothing to stop."""
 
 
-Controller = _NodeController | _MainController | _ModelController
+class _MfileController:
+    """An m-file program ``function prog(serPort)`` in GNU Octave (:class:`OctaveProgram`), driving
+    the robot through a MATLAB bridge (:class:`sim_tools.matlab.bridge.MatlabBridge`) whose node
+    joins the episode: the world steps at real time, as Octave's ``pause`` counts wall seconds."""
+
+    def __init__(self, ep: Episode, program: Path, context: Any) -> None:
+        self.ep, self.program, self.context = ep, program, context
+        self.bridge: Any = None
+        self.octave: OctaveProgram | None = None
+        self.started: float | None = None  # monotonic, at sim time 0: when each later step is due
+        self.held_up = 0.0  # wall seconds the world fell behind the wall clock and did not make up
+
+    def start(self, world: Any) -> list[Any]:
+        from rclpy.node import Node
+
+        from sim_tools.matlab.bridge import MatlabBridge, new_key
+
+        key = new_key()  # the bridge serves only this episode's Octave, though any local user can connect
+        node = Node("matlab_bridge", context=self.context, **LEAN_NODE)
+        self.bridge = MatlabBridge(node=node, port=0, key=key).start()
+        self.octave = OctaveProgram(self.program, self.bridge.port, key)
+        return [node]
+
+    def auto_transport(self) -> str:
+        return "ros"  # the bridge's calls publish from its session's thread: never the direct bus
+
+    def before_step(self, world: Any) -> None:
+        """Before the first step: wait for Octave to start and connect (seconds), so that the
+        program's time and the sim's start together."""
+        if self.started is None and self.octave is not None:
+            self.octave.wait_connected(world.sim_time)
+            self.started = time.monotonic() - world.sim_time
+
+    def after_step(self, run: EpisodeTurn) -> None:
+        """Wait for the wall clock to reach the sim's time, take in what the program sent meanwhile,
+        and fail if Octave failed or exited. A world held up (a busy machine, a recorder catching
+        up) goes on at real time from where it is, as a paused one would, never in a burst: a
+        burst would run the sim on under a command the program meant for a shorter wall time."""
+        started = time.monotonic() if self.started is None else self.started
+        behind = time.monotonic() - started - run.world.sim_time
+        if behind > REAL_TIME_SLACK_S:
+            self.started = started + behind
+            self.held_up += behind
+        elif behind < 0:
+            time.sleep(-behind)
+            run.deliver()
+        if self.octave is not None:
+            self.octave.check(run.world.sim_time)
+
+    def stop(self) -> None:
+        """Octave killed (a program may loop for ever, or block in a toolbox call), then the bridge
+        closed: it stops the robot."""
+        if self.octave is not None:
+            self.octave.kill()
+        if self.bridge is not None:
+            self.bridge.close()
+        if self.held_up > REAL_TIME_SLACK_S:
+            import sys
+
+            print(f"m-file: the world was held up {self.held_up:.2f} s of wall time behind real time", file=sys.stderr)
+
+
+Controller = _NodeController | _MainController | _ModelController | _MfileController
 
 
 def make_controller(form: str, ep: Episode, obj: Any, params: dict[str, Any], context: Any) -> Controller:
     """The controller of ``form`` (:func:`controller_form`)."""
+    if form == "mfile":
+        return _MfileController(ep, obj, context)
     if form == "main":
         return _MainController(obj, ep.controller["target"])
     if form == "node":
         return _NodeController(ep, obj, params, context)
     return _ModelController(ep, obj, params)
+
+
+def load_controller(ep: Episode) -> tuple[str, Any]:
+    """The form of ``ep``'s controller and what it runs: the imported object, or an m-file's path."""
+    from sim_tools.batch.metrics import load_callable
+
+    if ep.controller["kind"] == "mfile":
+        return "mfile", Path(ep.controller["target"])
+    obj = load_callable(ep.controller["target"], ep.search_path)
+    return controller_form(ep, obj), obj
 
 
 def controller_form(ep: Episode, obj: Any) -> str:

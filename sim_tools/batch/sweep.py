@@ -11,6 +11,7 @@ controllers:                 # one or more
   - create_bump_turn                            # an executable of ours
   # - my_pkg.my_node:MyNode                     # a user's rclpy node class (or module:main)
   # - my_pkg.policies:make_controller           # an in-process model controller
+  # - lab1.m                                    # an m-file function lab1(serPort), in Octave (Create)
   # - {name: cautious, use: create_bump_turn, parameters: {...}, transport: ros}
 grid: {threshold: [0.1, 0.2]}   # controller parameters, every combination
 poses: {random: 1000, seed: 1, margin_m: 0.05}  # or a list of [x, y, theta] (a simulator with random_poses)
@@ -175,13 +176,16 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         if needs != simulator:
             raise r.fail(where, f"{use} drives {needs} worlds, not {simulator} ones")
         kind = "ours"
+    elif use.endswith(".m"):
+        target, kind = _mfile(r, use, f"{where}.use", simulator), "mfile"
     elif ":" in use:
         target, kind = use, "user"
     else:
-        raise r.fail(where, f"{short(use)}: not one of our controllers ({', '.join(ours)}) nor module:name")
+        raise r.fail(where, f"{short(use)}: not one of our controllers ({', '.join(ours)}), module:name nor an m-file")
     transport = entry.get("transport", "auto")
-    if transport not in TRANSPORTS:
-        raise r.fail(f"{where}.transport", f"{short(transport)}: expected one of {', '.join(TRANSPORTS)}")
+    if transport not in TRANSPORTS or (kind == "mfile" and transport == "direct"):
+        allowed = ("auto", "ros") if kind == "mfile" else TRANSPORTS
+        raise r.fail(f"{where}.transport", f"{short(transport)}: expected one of {', '.join(allowed)}")
     parameters = r.mapping(entry.get("parameters", {}), f"{where}.parameters")
     if "name" in entry and (not isinstance(entry["name"], str) or not entry["name"].strip()):
         raise r.fail(f"{where}.name", f"{short(entry['name'])}: expected a name (text)")
@@ -192,6 +196,20 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
         "parameters": {str(k): v for k, v in parameters.items()},
         "transport": transport,
     }
+
+
+def _mfile(r: _Reader, use: str, where: str, simulator: str) -> str:
+    """An m-file controller's path (it runs on the Create toolbox: Create worlds only)."""
+    from sim_tools.batch.forms import MFILE_SIMULATOR, mfile_problem
+
+    if simulator != MFILE_SIMULATOR:
+        label = world_part(MFILE_SIMULATOR).LABEL
+        raise r.fail(where, f"{short(use)}: an m-file controller drives {label} worlds (the {label} toolbox)")
+    path = r.file(use, where)
+    problem = mfile_problem(Path(path))
+    if problem:
+        raise r.fail(where, f"{short(use)}: {problem}")
+    return path
 
 
 def _importable(r: _Reader, target: str, where: str) -> None:

@@ -2,10 +2,12 @@
 
 ``--open`` first makes the drop folders (:func:`open_assignment`); then ``grade`` gives each
 student's submission a run folder of its own (``grading/<assignment>/runs/<student>/``: the
-submission as ``submission.py``, copies of the visible and hidden worlds' files — the hidden ones
+submission as ``submission.py`` or ``submission.m``, copies of the visible and hidden worlds' files — the hidden ones
 renamed ``hidden_N`` — and the sweep), runs ``robot_sims batch`` there contained
 (:mod:`.contain`), reads its table, and writes the gradebook (``grading/<assignment>/gradebook.csv``,
-0600) and each student's feedback (:mod:`.feedback`). One student's run that fails in any way
+0600) and each student's feedback (:mod:`.feedback`). An m-file (``controller: {form: mfile}``) is
+batch's m-file controller: GNU Octave against the episode's MATLAB bridge, the world at real time
+(so its rows are not bit-reproducible). One student's run that fails in any way
 (a crash of batch itself included) is that student's error row; the others are graded normally.
 """
 
@@ -43,6 +45,9 @@ RUN_MARGIN_S = 240.0
 CACHED_BASE = ("sim_runtime",)
 CACHED_BY_WORLD_KEY = {"map": "create_sim", "world_file": "simrobot_sim", "robot_config": "arm_sim"}
 NUMBA_FOLDER = ".numba"
+#: The submission's name in its run folder (``.py`` or ``.m``: :data:`SUFFIXES`); an m-file is
+#: called by its file's name, whatever its ``function`` line says.
+SUBMISSION = "submission"
 #: The world files batch reads (copied into each run folder).
 WORLD_FILE_KEYS = ("map", "config", "world_file", "robot_config")
 
@@ -155,9 +160,6 @@ def _grade_one(a: Assignment, s: Student, domain: int, ray: str | None) -> Grade
     if late and a.late == "refuse":
         g.error = f"submitted after the deadline ({when.isoformat(timespec='seconds')} > {a.deadline.isoformat()})"
         return g
-    if a.form == "mfile":
-        g.error = "m-file controllers are taken but not graded yet: robot_sims batch runs Python controllers only"
-        return g
     try:
         g.run, g.rows, g.error = _run(a, s, path, domain, ray)
     except OSError as exc:
@@ -170,7 +172,7 @@ def _run(a: Assignment, s: Student, path: Path, domain: int, ray: str | None) ->
     if run.exists():
         shutil.rmtree(run)
     run.mkdir(mode=0o700)
-    shutil.copyfile(path, run / "submission.py")
+    shutil.copyfile(path, run / f"{SUBMISSION}{SUFFIXES[a.form]}")
     names = _write_sweep(a, s, run)
     from sim_tools.batch.supervisor import worker_environment
 
@@ -264,12 +266,17 @@ def _write_sweep(a: Assignment, s: Student, run: Path) -> dict[str, str]:
         names[label] = shown
     sweep = {
         "worlds": worlds,
-        "controllers": [{"name": s.name, "use": f"submission:{a.entry}"}],
+        "controllers": [{"name": s.name, "use": _use(a)}],
         **a.sweep,
         "keep_bags": "all",
     }
     (run / "sweep.yaml").write_text(yaml.safe_dump(sweep, sort_keys=False))
     return names
+
+
+def _use(a: Assignment) -> str:
+    """The sweep's ``use`` of the submission: ``submission:<entry>``, or the m-file itself."""
+    return f"{SUBMISSION}.m" if a.form == "mfile" else f"{SUBMISSION}:{a.entry}"
 
 
 def _chown_tree(root: Path, uid: int, gid: int) -> None:
