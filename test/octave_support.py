@@ -24,10 +24,15 @@ NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sig
 TERMINAL_CODES = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")  # the prompt's cursor moves and modes
 
 
+def octave_command(script: str) -> list[str]:
+    """The command line of ``octave-cli --eval script``, with no core file should it be killed."""
+    return [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", f"{NO_CORE}{script}"]
+
+
 def octave_eval(script: str, env: dict[str, str], **popen: Any) -> subprocess.Popen:
     """``octave-cli --eval script`` in ROOT (unless ``cwd`` says otherwise), started, not waited for."""
     popen.setdefault("cwd", ROOT)
-    return subprocess.Popen([OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", script], env=env, **popen)
+    return subprocess.Popen(octave_command(script), env=env, **popen)
 
 
 class OctavePrompt:

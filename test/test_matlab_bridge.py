@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import shutil
 import signal
 import socket
 import subprocess
@@ -25,6 +24,7 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
+from octave_support import OCTAVE, octave_command
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
@@ -44,7 +44,6 @@ PROGRAMS = ROOT / "test" / "matlab_programs"
 NAMESPACE = "/matlab"
 TRACK_TOLERANCE = 0.03  # m: the furthest a point of one track may be from the other track
 HEADING_TOLERANCE = math.radians(3)
-OCTAVE = shutil.which("octave-cli")
 needs_octave = pytest.mark.skipif(OCTAVE is None, reason="octave-cli not installed (CI installs it: .ci/run)")
 ENV = dict(os.environ, PYTHONPATH=str(ROOT))
 # Every public function of the original toolbox at its latest version (37): a program may call any.
@@ -178,15 +177,10 @@ def robot(world, executor, make_node):
     return Robot(executor, make_node("matlab_probe"))
 
 
-# A killed Octave would otherwise leave an octave-workspace file in its working directory.
-NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false); "
-
-
 def octave(port: int, program: str, *paths: Path) -> list[str]:
     """octave-cli running ``program(serPort)`` with our toolbox (and ``paths``) on the path."""
     adds = "".join(f"addpath('{p}'); " for p in (matlab_dir("create"), PROGRAMS, *paths))
-    script = f"{NO_CORE}{adds}serPort = CreateRobot({port}); {program}"
-    return [OCTAVE or "octave-cli", "--no-gui", "--quiet", "--eval", script]
+    return octave_command(f"{adds}serPort = CreateRobot({port}); {program}")
 
 
 def python_twin(name: str) -> list[str]:
@@ -383,7 +377,7 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
     assert len(ORIGINAL_FUNCTIONS) == 37 and set(ORIGINAL_FUNCTIONS) - {"RoombaInit"} <= set(CALLS)
     names = " ".join(sorted(set(CALLS) | set(ORIGINAL_FUNCTIONS)))
     script = (
-        f"{NO_CORE}addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
+        f"addpath('{matlab_dir('create')}'); names = strsplit('{names}'); "
         "for k = 1:numel(names), h = evalc(['help CreateRobot.' names{k}]); "
         "if isempty(strfind(h, upper(names{k}))), printf('no help: %s\\n', names{k}); end, end; "
         "m = methods('CreateRobot'); missing = setdiff(names, m); printf('missing: %s\\n', strjoin(missing, ' ')); "
@@ -399,7 +393,7 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
         "r = RoombaInit(s); OverheadLocalizationCreate(r); "
         "printf('RoombaInit gives serPort back: %d\\n', r.Port == s.Port);"
     )
-    done = subprocess.run([OCTAVE, "--no-gui", "--quiet", "--eval", script], capture_output=True, text=True, timeout=60)
+    done = subprocess.run(octave_command(script), capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert "no help" not in done.stdout and "missing: \n" in done.stdout, done.stdout + done.stderr
     assert "cannot reach the robot_sims MATLAB bridge at 127.0.0.1:1" in done.stdout
@@ -417,13 +411,7 @@ def test_every_toolbox_function_is_a_method_with_help_and_readings_come_in_the_t
 def octave_eval(port: int, script: str, timeout: float = 120) -> str:
     """What octave-cli prints running ``script`` with ``s`` connected to the bridge."""
     done = subprocess.run(
-        [
-            OCTAVE or "octave-cli",
-            "--no-gui",
-            "--quiet",
-            "--eval",
-            f"{NO_CORE}addpath('{matlab_dir('create')}'); s = CreateRobot({port}); {script}",
-        ],
+        octave_command(f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); {script}"),
         capture_output=True,
         text=True,
         timeout=timeout,
@@ -667,15 +655,11 @@ def test_an_octave_program_given_the_runs_key_drives_a_keyed_bridges_robot_and_o
             listening = LISTENING.search(line)
         assert listening, "the bridge did not start"
         port = int(listening[2])
-        script = [
-            OCTAVE or "octave-cli",
-            "--no-gui",
-            "--quiet",
-            "--eval",
-            f"{NO_CORE}addpath('{matlab_dir('create')}'); s = CreateRobot({port}); "
+        script = octave_command(
+            f"addpath('{matlab_dir('create')}'); s = CreateRobot({port}); "
             "SetFwdVelAngVelCreate(s, 0.2, 0); pause(1); [x, y, t] = OverheadLocalizationCreate(s); "
-            "printf('x=%g\\n', x); clear s",
-        ]
+            "printf('x=%g\\n', x); clear s"
+        )
         keyed_env = dict(os.environ, **{KEY_ENV: key})
         keyed = subprocess.run(script, env=keyed_env, capture_output=True, text=True, timeout=120)
         assert keyed.returncode == 0, keyed.stdout + keyed.stderr
