@@ -765,27 +765,28 @@ class _MfileController:
         return "ros"  # the bridge's calls publish from its session's thread: never the direct bus
 
     def before_step(self, world: Any) -> None:
-        """Before the first step: wait for Octave to start and connect (seconds), so that the
-        program's time and the sim's start together."""
-        if self.started is None and self.octave is not None:
-            self.octave.wait_connected(world.sim_time)
-            self.started = time.monotonic() - world.sim_time
+        """The program acts from Octave's own thread of time (see :meth:`after_step`)."""
 
     def after_step(self, run: EpisodeTurn) -> None:
-        """Wait for the wall clock to reach the sim's time, take in what the program sent meanwhile,
-        and fail if Octave failed or exited. A world held up (a busy machine, a recorder catching
-        up) goes on at real time from where it is, as a paused one would, never in a burst: a
-        burst would run the sim on under a command the program meant for a shorter wall time."""
-        started = time.monotonic() if self.started is None else self.started
-        behind = time.monotonic() - started - run.world.sim_time
+        """After the first step (which may wait seconds for a recorder to attach, while Octave starts
+        meanwhile): wait for the program to start, so that its time and the sim's run together.
+        After every step: wait for the wall clock to reach the sim's time, take in what the program
+        sent meanwhile, and fail if Octave failed or exited. A world held up (a busy machine) goes
+        on at real time from where it is, as a paused one would, never in a burst: a burst would
+        run the sim on under a command the program meant for a shorter wall time."""
+        if self.octave is None:
+            return
+        if self.started is None:
+            self.octave.wait_connected(run.world.sim_time)
+            self.started = time.monotonic() - run.world.sim_time
+        behind = time.monotonic() - self.started - run.world.sim_time
         if behind > REAL_TIME_SLACK_S:
-            self.started = started + behind
+            self.started += behind
             self.held_up += behind
         elif behind < 0:
             time.sleep(-behind)
             run.deliver()
-        if self.octave is not None:
-            self.octave.check(run.world.sim_time)
+        self.octave.check(run.world.sim_time)
 
     def stop(self) -> None:
         """Octave killed (a program may loop for ever, or block in a toolbox call), then the bridge
