@@ -355,7 +355,10 @@ def test_stopping_a_server_leaves_no_process_of_the_student(hub, classroom, runn
     uid = pwd.getpwnam(CAROL).pw_uid
     # A process of Carol's outside her server's tree (as a world is: its own session).
     stray = subprocess.Popen(["setpriv", "--reuid", CAROL, "--regid", GROUP, "--init-groups", "setsid", "sleep", "600"])
-    assert len(processes_of(uid)) >= 2
+    deadline = time.monotonic() + 30  # setpriv becomes Carol only once it has started
+    while stray.pid not in processes_of(uid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert stray.pid in processes_of(uid) and len(processes_of(uid)) >= 2
     done = hub.api(classroom[CAROL], "DELETE", f"users/{CAROL}/server")
     assert done.status_code in (202, 204), hub.what(done)
     hub.wait_stopped(classroom[CAROL], CAROL)
