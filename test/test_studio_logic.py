@@ -526,7 +526,7 @@ def test_stopping_a_controller_waits_off_the_event_loop_showing_it_stopping_unti
 
     create = CreateFamily()
     studio = Studio(workspace=Workspace(tmp_path), controllers={}, families=(create,))
-    child = studio.running_controllers["/r1"] = sleeper(tmp_path, "slow_controller", 1.0)
+    child = create.controllers["/r1"] = sleeper(tmp_path, "slow_controller", 1.0)
     stops: list[bool] = []  # per robot stop: was the controller still running then?
 
     async def run() -> list[str]:
@@ -535,7 +535,7 @@ def test_stopping_a_controller_waits_off_the_event_loop_showing_it_stopping_unti
         await asyncio.sleep(0)  # the task runs up to its wait
         while not stopping.done():  # the loop runs on while the controller ends
             if child.running:
-                seen.append(f"{'/r1' in create.stopping} {'/r1' in studio.running_controllers}")
+                seen.append(f"{'/r1' in create.stopping} {'/r1' in create.controllers}")
             await asyncio.sleep(0.01)
         assert await stopping is child
         return seen

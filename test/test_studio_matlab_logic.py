@@ -22,6 +22,7 @@ import yaml
 from sim_runtime.errors import InputError
 from sim_tools.matlab.paths import matlab_dir
 from simrobot_sim.world_file import load_world
+from studio.create.family import CreateFamily, create_family
 from studio.create.matlab_program import (
     NO_OCTAVE,
     MatlabRun,
@@ -111,11 +112,11 @@ def test_the_workspaces_m_files_are_offered_beside_the_controllers_and_named_bac
 def test_without_octave_starting_a_program_says_so_in_one_line_and_starts_nothing(tmp_path, monkeypatch):
     (tmp_path / "lab.m").write_text("function lab(serPort)\nend\n")
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))
-    studio = Studio(workspace=Workspace(tmp_path), controllers={})
+    studio = Studio(workspace=Workspace(tmp_path), controllers={}, families=(CreateFamily(),))
     with pytest.raises(InputError) as error:
         asyncio.run(start_program(studio, "/r1", "lab.m"))
     assert str(error.value) == NO_OCTAVE and "\n" not in NO_OCTAVE
-    assert studio.running_controllers == {}
+    assert create_family(studio).controllers == {}
 
 
 def test_a_bridge_that_ends_before_listening_gives_its_error_line():

@@ -16,10 +16,19 @@ class CreateFamily(Family[CreateRos]):
 
     def __init__(self, pages: Sequence[Register] = ()) -> None:
         super().__init__(pages)
+        self.controllers: dict[str, Child] = {}  # namespace → its controller (a node, or a bridge and Octave)
         self.stopping: dict[str, Child] = {}  # namespace → controller Stop was pressed for, until it has ended
+        self.selected: str | None = None  # the Create last picked or started: every page's default
 
     def children(self) -> list[Child]:
-        return [*self.worlds.values(), *self.stopping.values()]
+        return [*self.controllers.values(), *self.worlds.values(), *self.stopping.values()]
+
+    def default_robot(self, names: list[str], current: str | None) -> str | None:
+        """What a robot selector shows: its current choice, else the studio's, else the first."""
+        for choice in (current, self.selected):
+            if choice in names:
+                return choice
+        return names[0] if names else None
 
     def make_client(self, ros: StudioRos) -> CreateRos:
         return CreateRos(ros)

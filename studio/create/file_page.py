@@ -7,7 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 from sim_runtime.errors import InputError
-from studio.create.family import create_ros
+from studio.create.family import create_family, create_ros
 from studio.shell.app import Studio
 from studio.shell.kit import DraftGuard
 
@@ -110,5 +110,5 @@ class FilePage(DraftGuard):
         ros = create_ros(self.studio)
         names = ros.namespaces() if ros is not None else []
         if names != list(self.world_select.options):
-            value = self.studio.default_robot(names, self.world_select.value)
+            value = create_family(self.studio).default_robot(names, self.world_select.value)
             self.world_select.set_options({ns: ns or "/" for ns in names}, value=value)

@@ -33,6 +33,7 @@ from nicegui import ui
 from sim_runtime.errors import InputError
 from sim_tools.matlab.bridge import KEY_ENV, LISTENING, new_key
 from sim_tools.matlab.paths import matlab_dir
+from studio.create.family import create_family
 from studio.shell.app import Studio
 from studio.shell.processes import Child, executable_command
 from studio.shell.workspace import Workspace
@@ -214,16 +215,17 @@ async def start_program(studio: Studio, ns: str, name: str) -> MatlabRun | None:
     path = program_path(studio.workspace, name)
     keyed = {KEY_ENV: new_key()}  # this run's: the bridge serves only the Octave that has it
     bridge = Child(f"matlab_bridge {ns or '/'}", bridge_command(ns), cwd=studio.workspace.root, env=keyed)
-    studio.running_controllers[ns] = bridge
+    controllers = create_family(studio).controllers
+    controllers[ns] = bridge
     try:
         port = await bridge_ready(bridge)
     except InputError:
         bridge.stop()  # it stays the controller shown: its last line says why it ended
         raise
-    if studio.running_controllers.get(ns) is not bridge:
+    if controllers.get(ns) is not bridge:
         return None  # Stop was pressed while the bridge started
     run = MatlabRun(f"{path.name} (Octave)", octave_command(path, port), cwd=path.parent, bridge=bridge, env=keyed)
-    studio.running_controllers[ns] = run
+    controllers[ns] = run
     return run
 
 

@@ -8,6 +8,7 @@ import json
 from nicegui import events, ui
 
 from create_sim.teleop import ANGULAR_STEP, LINEAR_STEP, MAX_ANGULAR_STEPS, MAX_LINEAR_STEPS
+from studio.create.family import create_family
 from studio.create.sim_tab import SimTab
 
 RTF_OPTIONS = {0.25: "0.25×", 0.5: "0.5×", 1.0: "1× (real time)", 2.0: "2×", 4.0: "4×", 0.0: "as fast as possible"}
@@ -149,7 +150,7 @@ class DrivePanel:
         self.show_command((v, w))
 
     def controller_running(self) -> bool:
-        child = self.tab.studio.running_controllers.get(self.tab.selected or "")
+        child = create_family(self.tab.studio).controllers.get(self.tab.selected or "")
         return child is not None and child.running
 
     def change(self, linear: int, angular: int) -> None:

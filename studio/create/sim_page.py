@@ -15,7 +15,7 @@ import numpy as np
 from nicegui import events, ui
 
 from create_sim.spec import CLIFF_NAMES, SONAR_NAMES
-from studio.create.family import create_ros
+from studio.create.family import create_family, create_ros
 from studio.create.lidar_plot import lidar_plot_svg
 from studio.create.ros_client import RobotState
 from studio.create.sim_drive import DrivePanel
@@ -139,7 +139,7 @@ class SimulatorPage:
         """Make ``ns`` this tab's robot (and the studio's last picked, a new tab's default)."""
         self.tab.selected = ns
         if ns is not None:
-            self.studio.selected = ns
+            create_family(self.studio).selected = ns
             ui.run_javascript(f"sessionStorage.setItem({json.dumps(TAB_ROBOT_KEY)}, {json.dumps(json.dumps(ns))})")
 
     async def on_select(self, e: events.ValueChangeEventArguments) -> None:
@@ -160,7 +160,7 @@ class SimulatorPage:
             return
         names = ros.namespaces() if self.restored else []
         if names != list(self.robot_select.options):
-            value = self.studio.default_robot(names, self.tab.selected)
+            value = create_family(self.studio).default_robot(names, self.tab.selected)
             self.robot_select.set_options({ns: ns or "/" for ns in names}, value=value)
         self.no_world.set_visibility(not names)
         st = self.tab.robot()

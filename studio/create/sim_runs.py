@@ -161,7 +161,7 @@ class ControllerPanel:
     def show_state(self) -> None:
         ns = self.tab.selected or ""
         stopping = create_family(self.tab.studio).stopping.get(ns)
-        child = self.tab.studio.running_controllers.get(ns)
+        child = create_family(self.tab.studio).controllers.get(ns)
         self.controller_label.set_text(
             f"stopping {stopping.label}…"
             if stopping is not None
@@ -175,7 +175,7 @@ class ControllerPanel:
         if ns is None:
             ui.notify("no robot selected", type="warning")
             return
-        running = studio.running_controllers.get(ns)
+        running = create_family(studio).controllers.get(ns)
         if running and running.running:
             ui.notify(f"{running.label} already runs for {ns or '/'}", type="warning")
             return
@@ -191,7 +191,8 @@ class ControllerPanel:
         target = studio.controllers[name]
         # The controller follows its world's clock (a world that does not own /clock publishes <ns>/clock).
         ros_args = namespace_args(ns, owns_clock=studio.clock_of(ns) == "/clock")
-        studio.running_controllers[ns] = Child(name, controller_command(target, ros_args), cwd=studio.workspace.root)
+        command = controller_command(target, ros_args)
+        create_family(studio).controllers[ns] = Child(name, command, cwd=studio.workspace.root)
         ui.notify(f"{name} started for {ns or '/'}")
 
     async def stop_controller(self) -> None:
@@ -205,15 +206,16 @@ class ControllerPanel:
 
 
 async def stop_controller(studio: Studio, ns: str, stop_robot: Callable[[], None]) -> Child | None:
-    """Stop the controller of the Create in ``ns`` (it is gone from ``running_controllers`` at
+    """Stop the controller of the Create in ``ns`` (it is gone from the family's ``controllers`` at
     once: a bridge still starting sees it was stopped) and leave the robot standing. The wait for
     it to end (up to 7 s: SIGINT, then SIGKILL) runs off NiceGUI's event loop, which keeps serving
     every tab meanwhile; the family's ``stopping`` table holds it until it has ended."""
     stop_robot()
-    child = studio.running_controllers.pop(ns, None)
+    family = create_family(studio)
+    child = family.controllers.pop(ns, None)
     if child is None:
         return None
-    stopping = create_family(studio).stopping
+    stopping = family.stopping
     stopping[ns] = child
     print(f"studio: stopping {child.label} for {ns or '/'}", flush=True)
     try:

@@ -17,7 +17,7 @@ import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, Protocol, TypeVar
 
@@ -92,18 +92,9 @@ class Studio:
     controllers: dict[str, str]
     families: tuple[Family[Any], ...] = ()  # what the entry point lists, each in its one shape
     ros: StudioRos | None = None  # the studio's one node, shared by every family, once the app has started
-    running_controllers: dict[str, Child] = field(default_factory=dict)  # namespace → controller
-    selected: str | None = None  # the Create last picked or started: every page's default
     recorder: Child | None = None
     recording_to: str = ""
     recording_status: str = ""  # the Save Data line every tab shows: starting, recording to, saved
-
-    def default_robot(self, names: list[str], current: str | None) -> str | None:
-        """What a robot selector shows: its current choice, else the studio's, else the first."""
-        for choice in (current, self.selected):
-            if choice in names:
-                return choice
-        return names[0] if names else None
 
     def family(self, kind: type[FamilyT]) -> FamilyT:
         """The studio's family of class ``kind`` (how a page finds its client and its worlds)."""
@@ -165,12 +156,8 @@ class Studio:
         return f"/{stem}{n}"
 
     def stop_children(self) -> None:
-        """Stop the recorder, controllers and worlds together (Ctrl-C must not wait for each in turn)."""
-        children = [
-            self.recorder,
-            *self.running_controllers.values(),
-            *(child for family in self.families for child in family.children()),
-        ]
+        """Stop the recorder and every family's processes together (Ctrl-C must not wait for each in turn)."""
+        children = [self.recorder, *(child for family in self.families for child in family.children())]
         stop_all([child for child in children if child is not None], patient=self.recorder)
 
     def start(self) -> None:
