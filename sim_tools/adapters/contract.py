@@ -117,6 +117,10 @@ class WorldAdapter(Protocol):
     #: Whether a controller class runs once per robot in the robot's namespace (and must take **kwargs).
     @property
     def ROBOT_NAMESPACES(self) -> bool: ...
+    #: Whether a sweep may give its worlds an m-file controller: a program of this simulator's
+    #: MATLAB toolbox (matlab/), run in Octave over the MATLAB bridge.
+    @property
+    def MFILE_CONTROLLERS(self) -> bool: ...
     #: Built-in metrics: name → ``function(data: EpisodeData, **options)``; those without a
     #: required option are the default set.
     @property

@@ -452,8 +452,6 @@ class MainRunner:
 
 
 # ---------------------------------------------------------------------------------- an m-file
-#: The simulator whose toolbox m-file controllers call (through its MATLAB bridge).
-MFILE_SIMULATOR = "create"
 OCTAVE = "octave-cli"
 NO_OCTAVE = f"m-file controllers need GNU Octave: {OCTAVE} not found (apt install octave octave-instrument-control)"
 #: Wall seconds Octave may take to start, load the toolbox and connect to the episode's bridge:

@@ -200,11 +200,11 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
 
 def _mfile(r: _Reader, use: str, where: str, simulator: str) -> str:
     """An m-file controller's path (it runs on the Create toolbox: Create worlds only)."""
-    from sim_tools.batch.forms import MFILE_SIMULATOR, mfile_problem
+    from sim_tools.batch.forms import mfile_problem
 
-    if simulator != MFILE_SIMULATOR:
-        label = world_part(MFILE_SIMULATOR).LABEL
-        raise r.fail(where, f"{short(use)}: an m-file controller drives {label} worlds (the {label} toolbox)")
+    if not world_part(simulator).MFILE_CONTROLLERS:
+        labels = " or ".join(part.LABEL for part in world_parts().values() if part.MFILE_CONTROLLERS)
+        raise r.fail(where, f"{short(use)}: an m-file controller drives {labels} worlds (their MATLAB toolbox)")
     path = r.file(use, where)
     problem = mfile_problem(Path(path))
     if problem:

@@ -25,6 +25,7 @@ CONTROLLERS = {"arm_targets": "sim_tools.batch.arm_targets:ArmTargetsNode"}
 WORLD_NODE_NAME = "arm"
 NODE_EXECUTABLES = {"arm": ("arm_sim.arm_node:ArmNode", "[--ros-args -p NAME:=VALUE ...]")}
 ROBOT_NAMESPACES = False
+MFILE_CONTROLLERS = False
 random_poses = None
 #: Seconds each target is held unless the world entry says.
 DEFAULT_HOLD_S = 2.0

@@ -40,6 +40,7 @@ NODE_EXECUTABLES = {
     ),
 }
 ROBOT_NAMESPACES = False
+MFILE_CONTROLLERS = True  # its toolbox's programs over the MATLAB bridge
 #: Side of the floor squares counted by ``area_covered_m2`` (m).
 COVERAGE_CELL_M = 0.05
 #: A coverage cell (i, j) is the int64 key i·COVERAGE_KEY_SPAN + j: unique while |j| < 2^23 cells (400 km).

@@ -26,6 +26,7 @@ NODE_EXECUTABLES = {
     "simrobot_avoid": ("simrobot_sim.avoid:AvoidNode", "--ros-args -r __ns:=/ROBOT [-p NAME:=VALUE ...]"),
 }
 ROBOT_NAMESPACES = True
+MFILE_CONTROLLERS = False
 random_poses = None
 
 

@@ -23,6 +23,7 @@ CONTROLLERS = {"toy_circle": "toy_sim.driver:CircleNode"}
 WORLD_NODE_NAME = "toy_world"
 NODE_EXECUTABLES: dict[str, tuple[str, str]] = {}  # the toy has no executable of robot_sims
 ROBOT_NAMESPACES = False
+MFILE_CONTROLLERS = False
 #: Random start poses lie in the square of this half side around the origin (m).
 RANDOM_HALF_SIDE_M = 2.0
 demo = None
