@@ -241,6 +241,10 @@ def test_replay_cli_republishes_a_bag(executor, make_node, tmp_path):
             "sim_runtime.bag.replay",
             str(tmp_path / "bag"),
             "--start-paused",
+            # our subscription may see the player's publisher before the publisher sees it: until
+            # then what it publishes reaches no one
+            "--wait-for-subscribers",
+            "1",
             "--remap",
             "/cli_test/data:=/cli_test/renamed",
             "--ros-args",

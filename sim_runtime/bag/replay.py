@@ -391,7 +391,7 @@ def play_bag(
     try:
         if wait_for_subscribers:
             deadline = time.monotonic() + match_timeout
-            while any(p.get_subscription_count() < wait_for_subscribers for p in player.topic_publishers.values()):
+            while not subscribed(player, wait_for_subscribers):
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"replay: subscribers did not match within {match_timeout} s")
                 executor.spin_once(timeout_sec=0.01)
@@ -424,6 +424,13 @@ def _parse_remaps(items: Sequence[str]) -> dict[str, str]:
     return remap
 
 
+def subscribed(player: Player, count: int) -> bool:
+    """Whether each of the player's topics has ``count`` subscriptions matched by its publisher
+    (the publisher's own view: a subscriber that already sees the publisher may not yet be seen
+    by it, and what it publishes meanwhile reaches no one)."""
+    return all(p.get_subscription_count() >= count for p in player.topic_publishers.values())
+
+
 def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="robot_sims replay", description="Play back a bag.")
     parser.add_argument("bag", help="bag folder or .mcap file")
@@ -436,6 +443,13 @@ def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--remap", nargs="+", default=[], metavar="OLD:=NEW", help="publish topic OLD as NEW")
     parser.add_argument(
         "--start-paused", action="store_true", help="start paused (use the ~/resume or ~/step services)"
+    )
+    parser.add_argument(
+        "--wait-for-subscribers",
+        type=int,
+        default=0,
+        metavar="N",
+        help="before playing, wait (Ctrl-C stops it) until every topic's publisher has matched N subscribers",
     )
     return parser.parse_args(list(argv))
 
@@ -467,6 +481,10 @@ def main(args: Sequence[str] | None = None) -> int:
         )
         executor = make_executor()
         executor.add_node(player)
+        if opts.wait_for_subscribers > 0:
+            print(f"waiting for {opts.wait_for_subscribers} subscriber(s) on every topic", file=sys.stderr)
+            while stop.running and not subscribed(player, opts.wait_for_subscribers):
+                executor.spin_once(timeout_sec=0.05)
         print(f"playing {bag}", file=sys.stderr)
         player.start()
         # A timeout lets the events executor return to Python so Ctrl-C is seen.
