@@ -452,6 +452,10 @@ def run(argv: list[str] | None, load_families: Callable[[], Sequence[Family[Any]
             show_welcome_message=False,
             favicon="🤖",
             timeout_graceful_shutdown=1,
+            # Each page update is a small JSON message: compressing it cost the studio more CPU
+            # than the open page's drawing (wsproto's per-message deflate), to save a few bytes on
+            # loopback or a Unix socket to the proxy.
+            ws_per_message_deflate=False,
         )
     except KeyboardInterrupt:
         # Ctrl-C is how a studio ends: uvicorn has shut down, asyncio re-raises the signal.
