@@ -269,3 +269,23 @@ def test_a_bad_assignment_file_names_its_line_and_field(course: Path) -> None:
         "score: distance_m - 0.5 * bumps", "score: distance_m - 0.5 * bumpz"))  # fmt: skip
     with pytest.raises(InputError, match=r"bump_turn.yaml:13: field 'score': 'bumpz' is not one of the metrics"):
         load_assignment(path)
+
+
+def test_grading_on_ray_gives_the_gradebook_of_grading_here(course: Path) -> None:
+    """``classroom grade --ray``: the contained run starts a Ray of its own (``--ray`` without an
+    address; with one, the course's cluster) and its episodes give the scores of a local grading."""
+    path = write_assignment(course)
+    a = load_assignment(path)
+    alice = make_student(course, 0, "alice")
+    drop = open_assignment(a, [alice])
+    assert as_student(alice, GOOD, ".py", drop).startswith("submitted")
+    here, _ = grade(a, [alice], domains=[222], feedback=False)
+    local = read_csv(here)
+    on_ray, grades = grade(a, [alice], domains=[223], ray="", feedback=False)
+    rows = read_csv(on_ray)
+    assert "episodes (0 already done) -> out [ray (local)]" in (a.grading / "runs" / "alice.log").read_text()
+    assert grades[0].error == "", grades[0].error
+    assert rows[0]["errors"] == "" and rows[0]["episodes"] == "2"
+    same = ("raw_score", "score", "distance_m", "bumps", "episodes", "failed")
+    assert {k: rows[0][k] for k in same} == {k: local[0][k] for k in same}
+    assert all(processes_of(UID_BASE + d) == [] for d in (222, 223))
