@@ -199,7 +199,7 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
 
 
 def _mfile(r: _Reader, use: str, where: str, simulator: str) -> str:
-    """An m-file controller's path (it runs on the Create toolbox: Create worlds only)."""
+    """An m-file controller's path (for the worlds whose adapter takes them: ``MFILE_CONTROLLERS``)."""
     from sim_tools.batch.forms import mfile_problem
 
     if not world_part(simulator).MFILE_CONTROLLERS:
