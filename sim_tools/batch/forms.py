@@ -41,6 +41,7 @@ from typing import Any, Protocol
 from sim_runtime.errors import InputError
 from sim_tools.adapters.contract import world_part
 from sim_tools.batch.plan import Episode
+from sim_tools.matlab.octave import OCTAVE, OCTAVE_NOISE, octave_string
 
 #: What a sweep's ``module:name`` may be, said in every error about one that is none of them.
 EXPECTED = (
@@ -452,7 +453,6 @@ class MainRunner:
 
 
 # ---------------------------------------------------------------------------------- an m-file
-OCTAVE = "octave-cli"
 NO_OCTAVE = f"m-file controllers need GNU Octave: {OCTAVE} not found (apt install octave octave-instrument-control)"
 #: Wall seconds Octave may take to start, load the toolbox and connect to the episode's bridge:
 #: a cold start took 1-3 s here, many more on a machine loaded with other runs.
@@ -466,9 +466,6 @@ OCTAVE_REAP_TIMEOUT = 10.0
 #: (an Octave that ends without it exited: ``exit`` in the program, or a crash).
 CONNECTED = "robot_sims: the program starts"
 RETURNED = "robot_sims: the program returned"
-#: Octave's lines that start with ``error:`` but are not the error: the call stack's heading, and
-#: Octave 7's complaint on exiting from ``--eval``.
-OCTAVE_NOISE = ("error: called from", "error: ignoring const execution_exception")
 #: A killed Octave would otherwise write an octave-workspace file into the program's folder.
 NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false);"
 #: Octave's lines kept for the error message (the rest of a flood of output is only in the log).
@@ -482,20 +479,6 @@ class OctaveError(RuntimeError):
     """The m-file failed (Octave's message), exited, or Octave did not start."""
 
     located = True  # the message names the program's line when Octave does
-
-
-def mfile_problem(path: Path) -> str | None:
-    """Why ``path`` cannot be an m-file controller (None: it can): Octave calls a function file by
-    its name, so the name must be one MATLAB can call."""
-    name = path.stem
-    if path.suffix != ".m" or not (name.isascii() and name.isidentifier()) or len(name) > 63:
-        return "not a MATLAB function's file name (letters, digits, _; e.g. lab1.m)"
-    return None
-
-
-def octave_string(text: str) -> str:
-    """``text`` as an Octave single-quoted string literal."""
-    return "'" + text.replace("'", "''") + "'"
 
 
 def octave_script(program: Path, port: int) -> str:

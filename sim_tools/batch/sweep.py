@@ -200,13 +200,13 @@ def _controller(r: _Reader, entry: Any, where: str, simulator: str) -> dict[str,
 
 def _mfile(r: _Reader, use: str, where: str, simulator: str) -> str:
     """An m-file controller's path (for the worlds whose adapter takes them: ``MFILE_CONTROLLERS``)."""
-    from sim_tools.batch.forms import mfile_problem
+    from sim_tools.matlab.octave import program_name_problem
 
     if not world_part(simulator).MFILE_CONTROLLERS:
         labels = " or ".join(part.LABEL for part in world_parts().values() if part.MFILE_CONTROLLERS)
         raise r.fail(where, f"{short(use)}: an m-file controller drives {labels} worlds (their MATLAB toolbox)")
     path = r.file(use, where)
-    problem = mfile_problem(Path(path))
+    problem = program_name_problem(Path(path))
     if problem:
         raise r.fail(where, f"{short(use)}: {problem}")
     return path

@@ -32,6 +32,7 @@ from nicegui import ui
 
 from sim_runtime.errors import InputError
 from sim_tools.matlab.bridge import KEY_ENV, LISTENING, new_key
+from sim_tools.matlab.octave import OCTAVE, OCTAVE_NOISE, octave_string, program_name_problem
 from sim_tools.matlab.paths import matlab_dir
 from studio.create.family import create_family
 from studio.shell.app import Studio
@@ -41,15 +42,11 @@ from studio.shell.workspace import Workspace
 PROGRAM_PREFIX = "m:"
 """The controller choice of an m-file program is ``m:<workspace path>`` (a registered controller's
 name is never that: names come from ``--controller NAME=…`` and the defaults)."""
-OCTAVE = "octave-cli"
 NO_OCTAVE = f"m-file programs need GNU Octave: {OCTAVE} not found (apt install octave octave-instrument-control)"
 BRIDGE_START_S = 30.0
 """How long Start waits for the bridge to listen (it imports rclpy: seconds on a loaded machine)."""
 BRIDGE_STOP_S = 5.0
 """The bridge's grace after SIGINT: it stops the robot (confirmed by odometry, at most 1 s) first."""
-OCTAVE_NOISE = ("error: called from", "error: ignoring const execution_exception")
-"""Octave's lines that start with ``error:`` but are not the error: the call stack's heading, and
-Octave 7's complaint on exiting from ``--eval``."""
 
 
 def octave_missing() -> str | None:
@@ -69,15 +66,10 @@ def program_of(choice: str | None) -> str | None:
 
 def function_name(program: Path) -> str:
     """The function a program file defines, as MATLAB calls it: its file name without ``.m``."""
-    name = program.stem
-    if program.suffix != ".m" or not (name.isascii() and name.isidentifier()) or len(name) > 63:
-        raise InputError.at(program.name, None, "not a MATLAB function's file name (letters, digits, _; e.g. lab1.m)")
-    return name
-
-
-def octave_string(text: str) -> str:
-    """``text`` as an Octave/MATLAB single-quoted string literal."""
-    return "'" + text.replace("'", "''") + "'"
+    problem = program_name_problem(program)
+    if problem:
+        raise InputError.at(program.name, None, problem)
+    return program.stem
 
 
 def octave_command(program: Path, port: int, toolbox: Path | None = None) -> list[str]:
