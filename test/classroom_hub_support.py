@@ -12,7 +12,6 @@ import os
 import pwd
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
@@ -33,12 +32,6 @@ PASSWORD = "a long classroom password 1"
 SPAWN_SECONDS = 240.0  # ceilings: a busy 2-core machine starts several servers at once slowly
 STUDIO_SECONDS = 300.0  # the proxy starts the studio on first use (its own ceiling: 120 s)
 WORLD_SECONDS = 400.0  # three first worlds at once on a busy machine (a cold numba cache compiles)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def student_python() -> str:

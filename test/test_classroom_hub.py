@@ -48,7 +48,6 @@ from classroom_hub_support import (  # noqa: E402 (after the skips: Chromium and
     body_text,
     commands_of,
     environment,
-    free_port,
     in_lab,
     is_refusal,
     open_studio_from_lab,
@@ -63,7 +62,7 @@ from classroom_hub_support import (  # noqa: E402 (after the skips: Chromium and
     student_python,
     studio_page_shown,
 )
-from studio_browser_support import new_browser, wait  # noqa: E402
+from studio_browser_support import free_port, new_browser, wait  # noqa: E402
 
 from sim_tools.classroom.domains import DomainPool, NoDomainLeft, parse_range  # noqa: E402
 from sim_tools.classroom.limits import cgroup_of, parse_bytes  # noqa: E402
