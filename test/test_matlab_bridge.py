@@ -17,6 +17,7 @@ import signal
 import socket
 import subprocess
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from std_srvs.srv import Trigger
 
+from sim_runtime.bag.reader import BagWarning, open_bag
 from sim_runtime.errors import InputError
 from sim_runtime.msgs import yaw_from_quaternion
 from sim_runtime.qos import SENSOR_SUBSCRIBER_QOS
@@ -462,16 +464,20 @@ def test_a_recorded_programs_calls_land_in_datahistory_as_the_originals_saved_da
 
     robot.reset()
     bag = tmp_path / "run"
+    log = (tmp_path / "record.log").open("w")
     recorder = subprocess.Popen(
         executable_command("record", [f"{NAMESPACE}/overhead_pose", f"{NAMESPACE}/matlab_calls", "-o", str(bag)]),
         env=ENV,
         cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+        stdout=log,
+        stderr=subprocess.STDOUT,
     )
     try:
+        # Recording as a user would see it begin: the subscription in the graph and poses in sim
+        # time in the bag (its chunks are written every 0.7 s), so the recorder's clock runs.
         recording = lambda: len(robot.node.get_subscriptions_info_by_topic(f"{NAMESPACE}/matlab_calls")) > 0  # noqa: E731
         assert spin_until(robot.executor, recording, timeout=60), "the recorder never subscribed"
+        assert spin_until(robot.executor, lambda: poses_in(bag) > 0, timeout=60), (tmp_path / "record.log").read_text()
         octave_eval(
             bridge_port,
             "travelDist(s, 0.2, 0.1); [x, y, a] = OverheadLocalizationCreate(s); ReadSonar(s, 4); "
@@ -481,6 +487,7 @@ def test_a_recorded_programs_calls_land_in_datahistory_as_the_originals_saved_da
     finally:
         recorder.send_signal(signal.SIGINT)
         recorder.wait(timeout=30)
+        log.close()
     done = subprocess.run(
         executable_command("bag_to_mat", [str(bag), "-o", str(tmp_path / "run.mat")]),
         env=ENV,
@@ -500,7 +507,18 @@ def test_a_recorded_programs_calls_land_in_datahistory_as_the_originals_saved_da
     # each in the row of the pose recorded just before it: the travelDist's row is before the
     # robot moved, the pose's row where the robot is 0.1 m on
     rows = [i for i, row in enumerate(history) if np.size(row[4])]
-    assert history[rows[0]][1] < 0.02 and history[rows[1]][1] == pytest.approx(0.1, abs=0.02)
+    shown = f"rows {[(i, *history[i][:2]) for i in rows]}; the recorder said: {(tmp_path / 'record.log').read_text()}"
+    assert history[rows[0]][1] < 0.02 and history[rows[1]][1] == pytest.approx(0.1, abs=0.02), shown
+
+
+def poses_in(bag: Path) -> int:
+    """The poses a running recorder has written to ``bag`` so far (0 before its first chunk)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", BagWarning)  # an unfinished file: read what is intact
+        try:
+            return sum(1 for m in open_bag(bag).messages() if m.topic.endswith("/overhead_pose"))
+        except InputError:
+            return 0  # no .mcap file yet
 
 
 def connect(port: int) -> tuple[socket.socket, str]:

@@ -109,8 +109,9 @@ WORLD_ANSWER = 0.5
 # s, wall: how long a program's first command is sent again until the odometry shows it (a world
 # on a loaded machine took 1.5 s to match a new bridge's writer, at load 30 on 2 cores).
 FIRST_COMMAND_CONFIRM = 5.0
-# s, wall: how long the first call published on matlab_calls waits for its subscribers' acknowledgement.
-FIRST_CALL_ACK = 2.0
+# s, wall: how long a call on matlab_calls waits for a new subscriber to be matched, and then to
+# acknowledge it (a recorder started just before the program).
+FIRST_CALL_ACK = 5.0
 KEY_ENV = "ROBOT_SIMS_BRIDGE_KEY"
 KEY_WAIT = 10.0  # s, wall: for a keyed connection's first line (Octave sends it as it connects)
 KEY_LINE_MAX = 4096  # bytes: a longer first line is not the key (nor is it buffered without end)
@@ -295,7 +296,8 @@ class MatlabBridge:
         self._probes: dict[str, Client] = {}
         node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self._calls = node.create_publisher(String, "matlab_calls", 100)
-        self._calls_delivered = False  # a subscriber has acknowledged a call (publish_call)
+        self._calls_acked = 0  # subscribers matched when a call last waited for acknowledgement (publish_call)
+        self._calls_unmatched = 0  # subscribers in the graph the last wait for them gave up on
         # Its first command repeated until the odometry shows it (at most FIRST_COMMAND_CONFIRM s):
         # a new bridge's writer may have matched only the studio's cmd_vel display, or the world's
         # reader before the world matched the writer; either way the world would not get it.
@@ -384,13 +386,28 @@ class MatlabBridge:
         except (ValueError, TypeError, IndexError) as error:  # a record, never the program's failure
             _log(f"cannot write {name}'s call for matlab_calls: {error}")
             return
+        # A recorder files each call by when it arrives (bag_to_mat's datahistory rows). One
+        # started just before the program shows in the graph before this writer has matched it;
+        # it would get the call only once matched, or on the reliable repair, after the robot
+        # has moved. So a call waits for a subscriber new to this writer (at most FIRST_CALL_ACK s
+        # each, once per subscriber count: one that can never match costs one wait), and then for
+        # its acknowledgement; the later calls arrive as they are made.
+        self._await_new_subscribers()
         self._calls.publish(String(data=text))
-        if not self._calls_delivered and self._calls.get_subscription_count():
-            # A recorder files each call by when it arrives (bag_to_mat's datahistory rows): it
-            # may not have matched this new publisher yet and then gets the first call only on
-            # the reliable repair, after the robot has moved. Once acknowledged, the later calls
-            # arrive as they are made.
-            self._calls_delivered = self._calls.wait_for_all_acked(Duration(seconds=FIRST_CALL_ACK))
+        matched = self._calls.get_subscription_count()
+        if matched != self._calls_acked:  # once per count: a subscriber that never answers costs one wait
+            self._calls.wait_for_all_acked(Duration(seconds=FIRST_CALL_ACK))
+            self._calls_acked = matched
+
+    def _await_new_subscribers(self) -> None:
+        """Until this writer has matched every subscriber of matlab_calls the graph shows."""
+        shown = self.node.count_subscribers(self._calls.topic_name)
+        if shown <= self._calls.get_subscription_count() or shown == self._calls_unmatched:
+            return
+        deadline = time.monotonic() + FIRST_CALL_ACK
+        while self._calls.get_subscription_count() < shown and time.monotonic() < deadline:
+            threading.Event().wait(POLL)
+        self._calls_unmatched = shown if self._calls.get_subscription_count() < shown else 0
 
     def stop_robot(self) -> None:
         """Zero velocity, repeated until the robot's odometry reports it standing (at most 1 s)."""
