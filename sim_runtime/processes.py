@@ -2,7 +2,33 @@
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
+from collections.abc import Callable
+
+PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def kill_me_with_parent(libc: ctypes.CDLL) -> int:
+    """In a forked child before its exec: ask the kernel to SIGKILL it when the thread that forked
+    it ends, however that ends. ``libc`` is looked up before the fork (not in the child); returns
+    prctl's result (0, or -1 with errno set)."""
+    return int(libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0))
+
+
+def die_with_parent(parent: int | None = None) -> Callable[[], None]:
+    """A ``preexec_fn`` for :func:`kill_me_with_parent`. With ``parent`` (the forking process's
+    pid, taken before the fork), a child whose parent died before the request exits at once
+    instead of living on as a child of init."""
+    libc = ctypes.CDLL(None, use_errno=True)
+
+    def preexec() -> None:
+        kill_me_with_parent(libc)
+        if parent is not None and os.getppid() != parent:
+            os._exit(1)
+
+    return preexec
 
 
 def pid_alive(pid: int) -> bool:

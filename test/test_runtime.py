@@ -201,3 +201,44 @@ def test_pid_alive_is_true_for_a_running_process_and_false_once_it_is_reaped() -
     child.kill()
     child.wait()
     assert not pid_alive(child.pid)
+
+
+def test_a_child_started_with_die_with_parent_is_killed_when_its_parent_is_killed() -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from sim_runtime.processes import pid_alive
+
+    # The parent: starts `sleep` with the preexec, prints its pid, then waits to be killed.
+    parent_code = (
+        "import os, subprocess, sys, time; from sim_runtime.processes import die_with_parent; "
+        "child = subprocess.Popen(['sleep', '120'], preexec_fn=die_with_parent(os.getpid())); "
+        "print(child.pid, flush=True); time.sleep(120)"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", parent_code], stdout=subprocess.PIPE, text=True)
+    try:
+        child = int(parent.stdout.readline())
+        assert pid_alive(child)
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=30)
+        # killed by the kernel: gone once reaped, a zombie until then (a generous ceiling for a busy machine)
+        deadline = time.monotonic() + 30
+        while running(child) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not running(child), "the child outlived its killed parent"
+    finally:
+        parent.kill()
+        parent.wait(timeout=30)
+
+
+def running(pid: int) -> bool:
+    """Whether ``pid`` exists and is not a zombie (dead, its parent not having reaped it yet)."""
+    from pathlib import Path
+
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return stat.rpartition(")")[2].split()[0] != "Z"

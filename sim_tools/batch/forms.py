@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from sim_runtime.errors import InputError
+from sim_runtime.processes import die_with_parent
 from sim_tools.adapters.contract import world_part
 from sim_tools.batch.plan import Episode
 from sim_tools.matlab.octave import OCTAVE, OCTAVE_NOISE, octave_string
@@ -470,7 +471,6 @@ RETURNED = "robot_sims: the program returned"
 NO_CORE = "crash_dumps_octave_core(false); sigterm_dumps_octave_core(false); sighup_dumps_octave_core(false);"
 #: Octave's lines kept for the error message (the rest of a flood of output is only in the log).
 OCTAVE_LINES_KEPT = 200
-_PR_SET_PDEATHSIG = 1
 _FRAME = re.compile(r"^\s+(\S+) at line (\d+)")
 _DEFINES = re.compile(r"^\s*function\s+(?:[^=\n]*=\s*)?(\w+)", re.MULTILINE)
 
@@ -524,14 +524,6 @@ def _program_frame(lines: list[str], program: Path) -> str:
     return ""
 
 
-def _die_with_parent() -> None:
-    """In the child before it runs Octave: SIGKILL when its parent (the worker) dies."""
-    import ctypes
-    import signal
-
-    ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-
-
 class OctaveProgram:
     """``octave-cli`` running one m-file program against the bridge on ``port`` (the key in its
     environment, never its arguments), in a session of its own; its output goes to the episode's
@@ -561,7 +553,7 @@ class OctaveProgram:
             # the worker's session; and it dies with the worker (batch kills a worker's group at
             # an episode's time limit, which Octave's group is not)
             process_group=0,
-            preexec_fn=_die_with_parent,
+            preexec_fn=die_with_parent(os.getpid()),
         )
         self.reader = threading.Thread(target=self._read, name="octave output", daemon=True)
         self.reader.start()

@@ -41,6 +41,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from sim_runtime.processes import kill_me_with_parent
+
 #: Where the run folder appears inside the mount namespace (its cwd and HOME).
 INSIDE = "/tmp/run"
 _CLONE_NEWNS = 0x00020000
@@ -48,7 +50,6 @@ _CLONE_NEWNET = 0x40000000
 _MS_BIND = 4096
 _MS_REC = 16384
 _MS_PRIVATE = 1 << 18
-_PR_SET_PDEATHSIG = 1
 _PR_SET_NO_NEW_PRIVS = 38
 _SIOCGIFFLAGS = 0x8913
 _SIOCSIFFLAGS = 0x8914
@@ -197,7 +198,7 @@ def _enter(folder: Path, jail: Jail) -> Callable[[], None]:
 
     def setup() -> None:
         libc = ctypes.CDLL(None, use_errno=True)
-        _check(libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0), "prctl")
+        _check(kill_me_with_parent(libc), "prctl")
         _check(libc.unshare(_CLONE_NEWNS | (0 if jail.network else _CLONE_NEWNET)), "unshare")
         _check(libc.mount(None, b"/", None, _MS_REC | _MS_PRIVATE, None), "mount --make-rprivate /")
         # opened in the new namespace (a bind's source must be in it), before the tmpfs hide them

@@ -19,7 +19,6 @@ from __future__ import annotations
 import collections
 import concurrent.futures
 import contextlib
-import ctypes
 import itertools
 import os
 import queue
@@ -30,12 +29,12 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from sim_runtime.errors import InputError
+from sim_runtime.processes import die_with_parent
 from sim_tools.cli import executable_command
 
 RUN_FUNCTION = (
@@ -58,7 +57,6 @@ __all__ = [
     "yaml_string",
 ]
 CLOCK = "/clock"
-PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 OUTPUT_LINES = 2000  # lines of each child kept for the Output view (the log file keeps them all)
 ENDED_KEPT = 100  # ended children the Output view still lists (the oldest are forgotten)
 OUTPUT_FOLDER = ".robot_sims/output"  # in the workspace: each child's log file
@@ -103,20 +101,6 @@ class Processes:
 
 PROCESSES = Processes()
 """The studio's children (one studio per process: its shell configures this at start)."""
-
-
-def die_with_parent(parent: int) -> Callable[[], None]:
-    """A ``preexec_fn`` asking the kernel to SIGKILL the child when ``parent`` ends, however it
-    ends. The parent's death is the death of the *thread* that forked, hence :class:`Spawner`. A
-    parent that died before the request leaves a child of init: it ends at once."""
-    prctl = ctypes.CDLL(None, use_errno=True).prctl  # looked up before the fork, not in the child
-
-    def preexec() -> None:
-        prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        if os.getppid() != parent:
-            os._exit(1)
-
-    return preexec
 
 
 class Spawner:
