@@ -29,6 +29,8 @@ from octave_support import OCTAVE, octave_command
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from sim_runtime.bag.reader import BagWarning, open_bag
@@ -713,3 +715,35 @@ def test_matlab_path_prints_the_toolbox_folder():
     )
     assert Path(done.stdout.strip()) == ROOT / "matlab" / "create"
     assert (Path(done.stdout.strip()) / "CreateRobot.m").is_file()
+
+
+def test_a_calls_subscriber_that_never_matches_costs_one_wait_and_a_program_line_ends_it(
+    executor, make_node, monkeypatch
+):
+    import sim_tools.matlab.bridge as bridge_module
+
+    monkeypatch.setattr(bridge_module, "FIRST_CALL_ACK", 0.5)
+    topic = "/never_matched/matlab_calls"
+    # the calls' writer is volatile: a transient-local reader is shown in the graph, never matched
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    make_node("calls_listener").create_subscription(String, topic, lambda _msg: None, latched)
+    bridge = MatlabBridge("/never_matched", port=0)
+    try:
+        assert spin_until(executor, lambda: bridge.node.count_subscribers(topic) == 1, timeout=60)
+        looks: list[str] = []
+
+        def line(sent: bool, label: str):
+            return lambda: looks.append(label) or sent
+
+        # Ctrl-C while the call waits for the subscriber: the wait ends at its first look
+        bridge.publish_call("travelDist", [0.2, 0.1], [], interrupted=line(True, "interrupted"))
+        assert looks == ["interrupted"]
+        # no line: it waits its ceiling out once, looking for one all along ...
+        bridge.publish_call("travelDist", [0.2, 0.1], [], interrupted=line(False, "waiting"))
+        assert len(looks) > 2 and set(looks[1:]) == {"waiting"}
+        # ... and never again for the same subscribers
+        looks.clear()
+        bridge.publish_call("travelDist", [0.2, 0.1], [], interrupted=line(False, "again"))
+        assert looks == []
+    finally:
+        bridge.close()

@@ -74,7 +74,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -112,6 +112,7 @@ FIRST_COMMAND_CONFIRM = 5.0
 # s, wall: how long a call on matlab_calls waits for a new subscriber to be matched, and then to
 # acknowledge it (a recorder started just before the program).
 FIRST_CALL_ACK = 5.0
+ACK_SLICE = 0.02  # s, wall: that wait in slices, each ending early if the program interrupts
 KEY_ENV = "ROBOT_SIMS_BRIDGE_KEY"
 KEY_WAIT = 10.0  # s, wall: for a keyed connection's first line (Octave sends it as it connects)
 KEY_LINE_MAX = 4096  # bytes: a longer first line is not the key (nor is it buffered without end)
@@ -218,7 +219,7 @@ class Session:
             name, args = parse_request(request)
             self.bridge.check_world()
             if name in COMMANDS:  # a command is written as it begins (a travelDist lasts), as the original
-                self.bridge.publish_call(name, args, [])
+                self.bridge.publish_call(name, args, [], interrupted=self.line_waiting)
             self.armed = True
             try:
                 outputs = run_call(self.bridge.robot, name, args)
@@ -232,7 +233,7 @@ class Session:
         except Exception as error:  # the program's mistake or the robot's: the program's error()
             return reply_error(error)
         if name not in COMMANDS:  # a reading: with its outputs
-            self.bridge.publish_call(name, args, outputs)
+            self.bridge.publish_call(name, args, outputs, interrupted=self.line_waiting)
         return reply_ok(outputs)
 
     def _read_line(self) -> str:
@@ -246,6 +247,20 @@ class Session:
 
     def _send(self, line: str) -> None:
         self.conn.sendall(line.encode() + b"\n")
+
+    def line_waiting(self) -> bool:
+        """Whether the program has sent a line (or closed the connection) that the next poll takes:
+        a wait before a call ends early for it, and the call is then interrupted at once."""
+        try:
+            chunk = self.conn.recv(65536, socket.MSG_DONTWAIT)
+        except BlockingIOError:
+            return b"\n" in self._buffer
+        except OSError:
+            return True
+        if not chunk:
+            return True  # closed: the next poll's recv sees it too
+        self._buffer += chunk
+        return b"\n" in self._buffer
 
     def poll(self) -> None:
         """During a call: ProgramLost if the connection has closed, Interrupted if a line came."""
@@ -379,8 +394,11 @@ class MatlabBridge:
         client.remove_pending_request(future)
         return False
 
-    def publish_call(self, name: str, args: Sequence[float], outputs: list[Any]) -> None:
-        """The call on ``matlab_calls``, as the original's saved data writes it."""
+    def publish_call(
+        self, name: str, args: Sequence[float], outputs: list[Any], interrupted: Callable[[], bool] = lambda: False
+    ) -> None:
+        """The call on ``matlab_calls``, as the original's saved data writes it. Its waits for a new
+        subscriber end early when ``interrupted()`` (the program's Ctrl-C: the robot stops at once)."""
         try:
             text = call_text(name, args, outputs)
         except (ValueError, TypeError, IndexError) as error:  # a record, never the program's failure
@@ -392,22 +410,30 @@ class MatlabBridge:
         # has moved. So a call waits for a subscriber new to this writer (at most FIRST_CALL_ACK s
         # each, once per subscriber count: one that can never match costs one wait), and then for
         # its acknowledgement; the later calls arrive as they are made.
-        self._await_new_subscribers()
+        self._await_new_subscribers(interrupted)
         self._calls.publish(String(data=text))
         matched = self._calls.get_subscription_count()
         if matched != self._calls_acked:  # once per count: a subscriber that never answers costs one wait
-            self._calls.wait_for_all_acked(Duration(seconds=FIRST_CALL_ACK))
             self._calls_acked = matched
+            deadline = time.monotonic() + FIRST_CALL_ACK
+            while not self._calls.wait_for_all_acked(Duration(seconds=ACK_SLICE)):
+                if interrupted() or time.monotonic() > deadline:
+                    break
 
-    def _await_new_subscribers(self) -> None:
+    def _await_new_subscribers(self, interrupted: Callable[[], bool]) -> None:
         """Until this writer has matched every subscriber of matlab_calls the graph shows."""
         shown = self.node.count_subscribers(self._calls.topic_name)
         if shown <= self._calls.get_subscription_count() or shown == self._calls_unmatched:
             return
         deadline = time.monotonic() + FIRST_CALL_ACK
-        while self._calls.get_subscription_count() < shown and time.monotonic() < deadline:
+        while self._calls.get_subscription_count() < shown:
+            if interrupted():
+                return  # the call ends at once; the next one waits again
+            if time.monotonic() > deadline:
+                self._calls_unmatched = shown  # never matched (its QoS?): no more waits for it
+                return
             threading.Event().wait(POLL)
-        self._calls_unmatched = shown if self._calls.get_subscription_count() < shown else 0
+        self._calls_unmatched = 0
 
     def stop_robot(self) -> None:
         """Zero velocity, repeated until the robot's odometry reports it standing (at most 1 s)."""
