@@ -198,7 +198,7 @@ def _enter(folder: Path, jail: Jail) -> Callable[[], None]:
 
     def setup() -> None:
         libc = ctypes.CDLL(None, use_errno=True)
-        _check(kill_me_with_parent(libc), "prctl")
+        _check(kill_me_with_parent(libc.prctl), "prctl")
         _check(libc.unshare(_CLONE_NEWNS | (0 if jail.network else _CLONE_NEWNET)), "unshare")
         _check(libc.mount(None, b"/", None, _MS_REC | _MS_PRIVATE, None), "mount --make-rprivate /")
         # opened in the new namespace (a bind's source must be in it), before the tmpfs hide them
