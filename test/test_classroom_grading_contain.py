@@ -349,3 +349,19 @@ def test_a_run_flooding_dds_reaches_no_one_in_its_domain_outside_it(folder: Path
             executor.spin_once(timeout_sec=0.1)
     assert int(log.read_text().split("published ")[1].split()[0]) > 10, log.read_text()  # it flooded
     assert got == []
+
+
+def test_after_a_ctrl_c_no_contained_run_starts_until_a_new_grading_allows_runs(tmp_path: Path) -> None:
+    # A grading thread still copying its kernels when the grader's Ctrl-C came would otherwise
+    # start its run after every run was stopped, and the grader would wait for it at exit.
+    command = [sys.executable, "-c", "print('ran')"]
+    jail = Jail(None, None, DOMAIN)
+    contain.stop_all()
+    try:
+        with pytest.raises(contain.RunsStopped, match="the grader was interrupted"):
+            run_contained(command, tmp_path, dict(os.environ), jail, 60, tmp_path / "refused.log")
+    finally:
+        contain.allow_runs()
+    assert not (tmp_path / "refused.log").exists()
+    outcome = run_contained(command, tmp_path, dict(os.environ), jail, 60, tmp_path / "ran.log")
+    assert outcome.returncode == 0 and (tmp_path / "ran.log").read_text() == "ran\n"

@@ -730,7 +730,11 @@ class _MfileController:
 
         key = new_key()  # the bridge serves only this episode's Octave, though any local user can connect
         node = Node("matlab_bridge", context=self.context, **LEAN_NODE)
-        self.bridge = MatlabBridge(node=node, port=0, key=key).start()
+        self.bridge = MatlabBridge(node=node, port=0, key=key)
+        # Octave starts now (it takes a second or more) but its calls wait for the first step: a
+        # call made while the episode's recorder is still subscribing would be lost to the bag.
+        self.bridge.hold_calls()
+        self.bridge.start()
         self.octave = OctaveProgram(self.program, self.bridge.port, key)
         return [node]
 
@@ -750,6 +754,7 @@ class _MfileController:
         if self.octave is None:
             return
         if self.started is None:
+            self.bridge.serve_calls()
             self.octave.wait_connected(run.world.sim_time)
             self.started = time.monotonic() - run.world.sim_time
         behind = time.monotonic() - self.started - run.world.sim_time

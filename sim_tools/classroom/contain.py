@@ -75,9 +75,25 @@ _RUNNING: set[subprocess.Popen[bytes]] = set()
 _RUNNING_LOCK = threading.Lock()
 
 
+#: Set by :func:`stop_all`: a grading thread that was still preparing its run (copying kernels)
+#: starts none after the Ctrl-C, and one that started in that instant is killed at once.
+_STOPPED = threading.Event()
+
+
+class RunsStopped(RuntimeError):
+    """A run asked for after :func:`stop_all` (the grader was interrupted)."""
+
+
+def allow_runs() -> None:
+    """Runs may start again (a new grading, after one that was interrupted)."""
+    _STOPPED.clear()
+
+
 def stop_all() -> None:
-    """Kill every run under way (its session; :func:`run_contained` then kills its uid's rest)."""
+    """Kill every run under way (its session; :func:`run_contained` then kills its uid's rest), and
+    refuse the runs asked for from now on."""
     with _RUNNING_LOCK:
+        _STOPPED.set()
         for process in _RUNNING:
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(process.pid, signal.SIGKILL)
@@ -100,6 +116,8 @@ def run_contained(
 ) -> Outcome:
     """Run ``command`` in ``folder`` as ``jail`` says, at most ``timeout_s`` wall seconds, its
     output to ``log``; every process it left is killed before this returns."""
+    if _STOPPED.is_set():
+        raise RunsStopped("the grader was interrupted: no run starts now")
     env = dict(env, ROS_DOMAIN_ID=str(jail.domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     env.pop("ROS_STATIC_PEERS", None)
     jailed = contained() and jail.uid is not None
@@ -118,7 +136,16 @@ def run_contained(
             preexec_fn=_enter(folder, jail) if jailed else _limit_only(jail),
         )
     with _RUNNING_LOCK:
-        _RUNNING.add(process)
+        stopped = _STOPPED.is_set()
+        if not stopped:
+            _RUNNING.add(process)
+    if stopped:  # stop_all came while this one was starting: it ends now
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+        if jailed and jail.uid is not None:
+            kill_user(jail.uid)
+        raise RunsStopped("the grader was interrupted: this run was stopped as it started")
     timed_out = False
     try:
         code = process.wait(timeout=timeout_s)

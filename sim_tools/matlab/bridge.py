@@ -215,6 +215,7 @@ class Session:
 
     def answer(self, request: str) -> str:
         """The reply (without id) to one request."""
+        self.bridge.wait_to_serve()
         try:
             name, args = parse_request(request)
             self.bridge.check_world()
@@ -312,6 +313,9 @@ class MatlabBridge:
         node.create_subscription(Odometry, spec.ODOM_TOPIC, self._on_odom, SENSOR_SUBSCRIBER_QOS)
         self._calls = node.create_publisher(String, "matlab_calls", 100)
         self._calls_acked = 0  # subscribers matched when a call last waited for acknowledgement (publish_call)
+        #: Cleared by :meth:`hold_calls`: calls wait (their program with them) until :meth:`serve_calls`.
+        self._serving = threading.Event()
+        self._serving.set()
         self._calls_unmatched = 0  # subscribers in the graph the last wait for them gave up on
         # Its first command repeated until the odometry shows it (at most FIRST_COMMAND_CONFIRM s):
         # a new bridge's writer may have matched only the studio's cmd_vel display, or the world's
@@ -393,6 +397,21 @@ class MatlabBridge:
             return True
         client.remove_pending_request(future)
         return False
+
+    def hold_calls(self) -> None:
+        """Make programs' calls wait until :meth:`serve_calls`: a batch episode holds its program's
+        first call until its recorder has subscribed to matlab_calls and the world is set up."""
+        self._serving.clear()
+
+    def serve_calls(self) -> None:
+        """Answer calls again (see :meth:`hold_calls`)."""
+        self._serving.set()
+
+    def wait_to_serve(self) -> None:
+        """Return when calls are served; ProgramLost if the bridge closes meanwhile."""
+        while not self._serving.wait(0.05):
+            if self._closed.is_set():
+                raise ProgramLost
 
     def publish_call(
         self, name: str, args: Sequence[float], outputs: list[Any], interrupted: Callable[[], bool] = lambda: False
