@@ -255,16 +255,6 @@ def test_a_late_submission_marked_late_loses_its_penalty_and_failed_episodes_sco
     }
 
 
-IDLE = """
-from rclpy.node import Node
-
-
-class Controller(Node):
-    def __init__(self, **kwargs):
-        super().__init__("idle", **kwargs)
-"""
-
-
 @root_only
 def test_ctrl_c_in_the_grader_stops_every_run_at_once_and_leaves_no_process(folder: Path) -> None:
     import signal
@@ -277,16 +267,14 @@ def test_ctrl_c_in_the_grader_stops_every_run_at_once_and_leaves_no_process(fold
     teacher.mkdir(mode=0o700)
     (teacher / "a.yaml").write_text(
         "name: lab1\ndeadline: 2099-01-01T00:00:00Z\nworlds: [{map: create/example.map, config: ''}]\n"
-        "controller: {form: python, entry: Controller}\nduration_s: 3600\ntime_limit_s: 600\n"
+        "controller: {form: python, entry: main}\nduration_s: 3600\ntime_limit_s: 600\n"
         "metrics: [distance_m]\nscore: distance_m\nstudents: [carol]\ncourse: ../course\n"
     )
     command = [str(Path(sys.executable).parent / "robot_sims"), "classroom", "grade", str(teacher / "a.yaml")]
     options = ["--homes", str(homes), "--domains", str(DOMAIN - 1)]
     subprocess.run([*command, "--open", *options], check=True, capture_output=True, timeout=60)
     mine = folder / "course" / "submissions" / "lab1" / "carol"
-    # As if submitted: a controller that runs as long as its world does (a main that never came
-    # back to spin would end as MainStuck after 2 s, racing the Ctrl-C).
-    (mine / "controller.py").write_text(IDLE)
+    (mine / "controller.py").write_text("def main():\n    while True:\n        pass\n")  # as if submitted
     os.chown(mine / "controller.py", UID + 20, UID + 20)
     grader = subprocess.Popen([*command, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     run_uid = UID_BASE + DOMAIN - 1
