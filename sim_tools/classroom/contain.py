@@ -139,15 +139,10 @@ def run_contained(
         stopped = _STOPPED.is_set()
         if not stopped:
             _RUNNING.add(process)
-    if stopped:  # stop_all came while this one was starting: it ends now
-        with contextlib.suppress(ProcessLookupError, PermissionError):
-            os.killpg(process.pid, signal.SIGKILL)
-        process.wait()
-        if jailed and jail.uid is not None:
-            kill_user(jail.uid)
-        raise RunsStopped("the grader was interrupted: this run was stopped as it started")
     timed_out = False
     try:
+        if stopped:  # stop_all came while this one was starting: it ends now, as below
+            raise RunsStopped("the grader was interrupted: this run was stopped as it started")
         code = process.wait(timeout=timeout_s)
     except subprocess.TimeoutExpired:
         timed_out = True
